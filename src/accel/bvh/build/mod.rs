@@ -1,0 +1,316 @@
+//! BVH construction: a pure function of (triangles, parameters) → tree + build report.
+//!
+//! Every strategy runs the same top-down recursion: compute the node's bounds, ask the
+//! strategy where to split (or whether to stop), partition the primitives in place, recurse.
+//! The strategies differ only in the split they choose:
+//! - object median: equal counts on both sides, along the widest axis of the centroids;
+//! - spatial median: the midpoint of the centroid bounds;
+//! - full-sweep SAH: every position between sorted centroids, on all three axes;
+//! - binned SAH: the boundaries between B equal-width buckets, on all three axes.
+//!
+//! Primitives are represented by their bounding boxes; "centroid" means the centre of a
+//! primitive's box, as in pbrt and Embree.
+
+mod median;
+mod prim;
+mod sah_binned;
+mod sah_sweep;
+
+use super::node::Node;
+use super::report::BuildReport;
+use super::{Bvh, TraversalOrder};
+use crate::geometry::{Aabb, Triangle};
+use prim::{NodeInfo, PrimRef, Split};
+use rayon::prelude::*;
+use std::time::Instant;
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Strategy {
+    ObjectMedian,
+    SpatialMedian,
+    SahSweep,
+    #[default]
+    SahBinned,
+}
+
+impl Strategy {
+    pub const ALL: [Strategy; 4] = [
+        Strategy::ObjectMedian,
+        Strategy::SpatialMedian,
+        Strategy::SahSweep,
+        Strategy::SahBinned,
+    ];
+
+    pub fn label(self) -> &'static str {
+        match self {
+            Strategy::ObjectMedian => "object median",
+            Strategy::SpatialMedian => "spatial median",
+            Strategy::SahSweep => "full-sweep SAH",
+            Strategy::SahBinned => "binned SAH",
+        }
+    }
+
+    pub fn is_sah(self) -> bool {
+        matches!(self, Strategy::SahSweep | Strategy::SahBinned)
+    }
+}
+
+/// Plain-data build parameters, shared by the app, the CLI and the tests.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BuildParams {
+    pub strategy: Strategy,
+    /// Bucket count B of the binned SAH builder.
+    pub buckets: u32,
+    /// No leaf holds more triangles than this.
+    pub max_leaf_size: u32,
+    /// Cost of one traversal step (a node visit with its box tests).
+    pub c_trav: f32,
+    /// Cost of one ray–triangle test.
+    pub c_isect: f32,
+}
+
+impl Default for BuildParams {
+    fn default() -> Self {
+        BuildParams {
+            strategy: Strategy::SahBinned,
+            buckets: 16,
+            max_leaf_size: 8,
+            c_trav: 1.0,
+            c_isect: 1.0,
+        }
+    }
+}
+
+pub const MIN_BUCKETS: u32 = 2;
+pub const MAX_BUCKETS: u32 = 256;
+pub const MAX_LEAF_SIZE: u32 = 4096;
+
+impl BuildParams {
+    pub fn with_strategy(strategy: Strategy) -> Self {
+        BuildParams {
+            strategy,
+            ..Default::default()
+        }
+    }
+
+    pub fn validate(&self) -> Result<(), BuildError> {
+        if !(MIN_BUCKETS..=MAX_BUCKETS).contains(&self.buckets) {
+            return Err(BuildError::Buckets(self.buckets));
+        }
+        if !(1..=MAX_LEAF_SIZE).contains(&self.max_leaf_size) {
+            return Err(BuildError::LeafSize(self.max_leaf_size));
+        }
+        for (name, value) in [("C_trav", self.c_trav), ("C_isect", self.c_isect)] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(BuildError::Cost { name, value });
+            }
+        }
+        if self.c_isect == 0.0 {
+            return Err(BuildError::Cost {
+                name: "C_isect",
+                value: 0.0,
+            });
+        }
+        Ok(())
+    }
+}
+
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum BuildError {
+    #[error("bucket count {0} is outside {MIN_BUCKETS}..={MAX_BUCKETS}")]
+    Buckets(u32),
+    #[error("maximum leaf size {0} is outside 1..={MAX_LEAF_SIZE}")]
+    LeafSize(u32),
+    #[error("{name} = {value} must be finite and non-negative (C_isect positive)")]
+    Cost { name: &'static str, value: f32 },
+    #[error("triangle {0} has a NaN or infinite vertex")]
+    NonFinite(usize),
+    #[error("{0} triangles is more than a BVH with 32-bit indices can hold")]
+    TooMany(usize),
+}
+
+/// Beyond this depth every strategy splits at the object median, which halves the count:
+/// the tree stays shallower than `MAX_DEPTH` whatever the input, so neither the build's
+/// recursion nor a traversal stack can overflow.
+const MEDIAN_FALLBACK_DEPTH: u32 = 64;
+/// An upper bound on the depth of any tree `build` returns.
+pub const MAX_DEPTH: usize = MEDIAN_FALLBACK_DEPTH as usize + 33;
+/// Subtrees with at least this many primitives are built in parallel.
+const PARALLEL_SUBTREE: usize = 4096;
+/// Passes over at least this many primitives are split across threads.
+pub(crate) const PARALLEL_PASS: usize = 32 * 1024;
+
+/// Builds a BVH over `triangles`. Triangle indices in hits are indices into `triangles`.
+pub fn build(
+    triangles: &[Triangle],
+    params: &BuildParams,
+) -> Result<(Bvh, BuildReport), BuildError> {
+    params.validate()?;
+    if triangles.len() >= (u32::MAX / 2) as usize {
+        return Err(BuildError::TooMany(triangles.len()));
+    }
+    if let Some(i) = triangles.par_iter().position_any(|t| !t.is_finite()) {
+        return Err(BuildError::NonFinite(i));
+    }
+    let start = Instant::now();
+    let bvh = build_tree(triangles, params);
+    let build_time = start.elapsed();
+    let report = BuildReport::new(&bvh, params, build_time);
+    Ok((bvh, report))
+}
+
+fn build_tree(triangles: &[Triangle], params: &BuildParams) -> Bvh {
+    let mut refs: Vec<PrimRef> = triangles
+        .par_iter()
+        .enumerate()
+        .map(|(i, t)| PrimRef::new(t.bounds(), i as u32))
+        .collect();
+    let n = refs.len();
+    let nodes = if n == 0 {
+        vec![Node::leaf(Aabb::EMPTY, 0, 0)]
+    } else {
+        // A subtree over n primitives has at most 2n − 2 descendants. Giving each subtree a
+        // fixed slice of that size lets both halves be built in parallel into disjoint
+        // slices of one array; `compact` then squeezes out the slots leaves did not use.
+        let mut slots = vec![Node::default(); 2 * n - 1];
+        let builder = Builder { params };
+        let info = NodeInfo::of(&refs);
+        let root = builder.subtree(&mut refs, 0, 0, info, &mut slots[1..], 1);
+        slots[0] = root;
+        compact(&slots)
+    };
+    let prim_indices: Vec<u32> = refs.iter().map(|r| r.index).collect();
+    let triangles = prim_indices
+        .par_iter()
+        .map(|&i| triangles[i as usize])
+        .collect();
+    Bvh {
+        nodes,
+        prim_indices,
+        triangles,
+        order: TraversalOrder::default(),
+    }
+}
+
+struct Builder<'a> {
+    params: &'a BuildParams,
+}
+
+impl Builder<'_> {
+    /// Builds the subtree over `refs` (which start at leaf-order index `first`) and returns
+    /// its root. Its descendants go into `slots`, whose first entry is array index
+    /// `slot_base`.
+    fn subtree(
+        &self,
+        refs: &mut [PrimRef],
+        first: usize,
+        depth: u32,
+        info: NodeInfo,
+        slots: &mut [Node],
+        slot_base: usize,
+    ) -> Node {
+        let n = refs.len();
+        let Some((m, left_info, right_info)) = self.split(refs, &info, depth) else {
+            return Node::leaf(info.bounds, first as u32, n as u32);
+        };
+        debug_assert!(0 < m && m < n);
+        let (pair, rest) = slots.split_at_mut(2);
+        let (left_slots, right_slots) = rest.split_at_mut(2 * m - 2);
+        let (left_refs, right_refs) = refs.split_at_mut(m);
+        let mut left = move || {
+            self.subtree(
+                left_refs,
+                first,
+                depth + 1,
+                left_info,
+                left_slots,
+                slot_base + 2,
+            )
+        };
+        let mut right = move || {
+            let base = slot_base + 2 * m;
+            self.subtree(
+                right_refs,
+                first + m,
+                depth + 1,
+                right_info,
+                right_slots,
+                base,
+            )
+        };
+        let (l, r) = if n >= PARALLEL_SUBTREE {
+            rayon::join(left, right)
+        } else {
+            (left(), right())
+        };
+        pair[0] = l;
+        pair[1] = r;
+        Node::interior(info.bounds, slot_base as u32)
+    }
+
+    /// Where to split `refs` (partitioning them so that `refs[..m]` is the left child), or
+    /// `None` to make a leaf.
+    fn split(&self, refs: &mut [PrimRef], info: &NodeInfo, depth: u32) -> Option<Split> {
+        let n = refs.len();
+        let p = self.params;
+        let must_split = n > p.max_leaf_size as usize;
+        if n == 1 {
+            return None;
+        }
+        if info.centroids.extent().max_element() == 0.0 {
+            // All centroids are equal: no plane separates them, and no split can make rays
+            // cheaper. Halve by count only so the leaf size limit still holds.
+            return must_split.then(|| prim::split_at(refs, n / 2));
+        }
+        if depth >= MEDIAN_FALLBACK_DEPTH {
+            return must_split.then(|| median::object_median(refs, info));
+        }
+        match p.strategy {
+            Strategy::ObjectMedian => must_split.then(|| median::object_median(refs, info)),
+            Strategy::SpatialMedian => must_split.then(|| median::spatial_median(refs, info)),
+            Strategy::SahSweep => sah_sweep::split(refs, info, p),
+            Strategy::SahBinned => sah_binned::split(refs, info, p),
+        }
+    }
+}
+
+/// The SAH decision, in costs scaled by the parent's area so that a flat parent (area 0)
+/// needs no division: split when the leaf would be too big or the split is cheaper,
+/// C_trav·S_N + C_isect·(S_A·N_A + S_B·N_B) < C_isect·S_N·N.
+fn sah_worth_splitting(n: usize, best_split_cost: f32, parent_area: f32, p: &BuildParams) -> bool {
+    n > p.max_leaf_size as usize || best_split_cost < p.c_isect * parent_area * n as f32
+}
+
+/// The unnormalised SAH cost of a candidate split (see `sah_worth_splitting`).
+fn sah_split_cost(
+    parent_area: f32,
+    area_a: f32,
+    n_a: usize,
+    area_b: f32,
+    n_b: usize,
+    p: &BuildParams,
+) -> f32 {
+    p.c_trav * parent_area + p.c_isect * (area_a * n_a as f32 + area_b * n_b as f32)
+}
+
+/// Copies the reachable nodes into depth-first order with each pair of children adjacent,
+/// dropping the unused slots. Parents keep coming before their children.
+fn compact(slots: &[Node]) -> Vec<Node> {
+    let mut out = Vec::with_capacity(slots.len());
+    out.push(slots[0]);
+    let mut stack = vec![0usize];
+    while let Some(i) = stack.pop() {
+        let node = out[i];
+        if node.is_leaf() {
+            continue;
+        }
+        let old = node.left_first as usize;
+        let new = out.len();
+        out.push(slots[old]);
+        out.push(slots[old + 1]);
+        out[i].left_first = new as u32;
+        stack.push(new + 1);
+        stack.push(new);
+    }
+    out
+}

@@ -1,0 +1,114 @@
+//! The builders' view of a triangle: its bounding box and index, 32 bytes, partitioned in
+//! place as the recursion descends so each subtree owns a contiguous slice.
+
+use super::PARALLEL_PASS;
+use crate::geometry::Aabb;
+use glam::Vec3;
+use rayon::prelude::*;
+
+#[derive(Clone, Copy, Debug)]
+#[repr(C)]
+pub struct PrimRef {
+    pub min: Vec3,
+    pub index: u32,
+    pub max: Vec3,
+    _pad: u32,
+}
+
+impl PrimRef {
+    pub fn new(bounds: Aabb, index: u32) -> Self {
+        PrimRef {
+            min: bounds.min,
+            index,
+            max: bounds.max,
+            _pad: 0,
+        }
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        Aabb::new(self.min, self.max)
+    }
+
+    /// Twice the box centre: the factor ½ changes no comparison, so it is left out.
+    #[inline(always)]
+    pub fn centroid2(&self) -> Vec3 {
+        self.min + self.max
+    }
+}
+
+/// What a node needs to know about its primitives before choosing a split: their bounds
+/// and the bounds of their (doubled) centroids.
+#[derive(Clone, Copy, Debug)]
+pub struct NodeInfo {
+    pub bounds: Aabb,
+    pub centroids: Aabb,
+}
+
+impl NodeInfo {
+    pub const EMPTY: NodeInfo = NodeInfo {
+        bounds: Aabb::EMPTY,
+        centroids: Aabb::EMPTY,
+    };
+
+    #[inline(always)]
+    pub fn add(&mut self, r: &PrimRef) {
+        self.bounds = self.bounds.union(r.bounds());
+        self.centroids = self.centroids.grow_point(r.centroid2());
+    }
+
+    pub fn merge(self, o: NodeInfo) -> NodeInfo {
+        NodeInfo {
+            bounds: self.bounds.union(o.bounds),
+            centroids: self.centroids.union(o.centroids),
+        }
+    }
+
+    pub fn of(refs: &[PrimRef]) -> NodeInfo {
+        let fold = |mut info: NodeInfo, r: &PrimRef| {
+            info.add(r);
+            info
+        };
+        if refs.len() >= PARALLEL_PASS {
+            refs.par_chunks(PARALLEL_PASS / 4)
+                .map(|chunk| chunk.iter().fold(NodeInfo::EMPTY, fold))
+                .reduce(|| NodeInfo::EMPTY, NodeInfo::merge)
+        } else {
+            refs.iter().fold(NodeInfo::EMPTY, fold)
+        }
+    }
+}
+
+/// A split: the left child's size, and both children's infos.
+pub type Split = (usize, NodeInfo, NodeInfo);
+
+/// The infos of `refs[..m]` and `refs[m..]`.
+pub fn split_at(refs: &[PrimRef], m: usize) -> Split {
+    (m, NodeInfo::of(&refs[..m]), NodeInfo::of(&refs[m..]))
+}
+
+/// Moves the primitives for which `left` holds to the front, gathering both sides' infos
+/// on the way (so no extra pass is needed), and returns the split.
+pub fn partition(refs: &mut [PrimRef], left: impl Fn(&PrimRef) -> bool) -> Split {
+    let (mut li, mut ri) = (NodeInfo::EMPTY, NodeInfo::EMPTY);
+    let mut i = 0;
+    let mut j = refs.len();
+    loop {
+        while i < j && left(&refs[i]) {
+            li.add(&refs[i]);
+            i += 1;
+        }
+        while i < j && !left(&refs[j - 1]) {
+            ri.add(&refs[j - 1]);
+            j -= 1;
+        }
+        if i >= j {
+            return (i, li, ri);
+        }
+        // refs[i] belongs right and refs[j − 1] left: swap them into place.
+        refs.swap(i, j - 1);
+        li.add(&refs[i]);
+        ri.add(&refs[j - 1]);
+        i += 1;
+        j -= 1;
+    }
+}

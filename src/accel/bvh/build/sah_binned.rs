@@ -1,0 +1,158 @@
+//! Binned SAH (Wald 2007): drop the centroids into B equal-width buckets per axis, and
+//! evaluate the SAH only at the B − 1 bucket boundaries. One linear pass instead of a sort,
+//! at the price of split planes restricted to a grid; B trades build time for tree quality.
+
+use super::prim::{NodeInfo, PrimRef, Split, partition};
+use super::{BuildParams, PARALLEL_PASS, sah_split_cost, sah_worth_splitting};
+use crate::geometry::Aabb;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::cell::RefCell;
+
+#[derive(Clone, Copy)]
+struct Bin {
+    bounds: Aabb,
+    count: u32,
+}
+
+const EMPTY_BIN: Bin = Bin {
+    bounds: Aabb::EMPTY,
+    count: 0,
+};
+
+/// Maps a (doubled) centroid to its bucket on each axis.
+#[derive(Clone, Copy)]
+struct Binning {
+    origin: Vec3,
+    scale: Vec3,
+    buckets: usize,
+}
+
+impl Binning {
+    fn new(centroids: &Aabb, buckets: usize) -> Self {
+        let extent = centroids.extent();
+        let scale = Vec3::select(
+            extent.cmpgt(Vec3::ZERO),
+            buckets as f32 / extent,
+            Vec3::ZERO,
+        );
+        Binning {
+            origin: centroids.min,
+            scale,
+            buckets,
+        }
+    }
+
+    /// The bucket of `r` on `axis`. The same expression decides binning and partitioning,
+    /// so the partition reproduces the counts the cost was computed from.
+    #[inline(always)]
+    fn bucket(&self, r: &PrimRef, axis: usize) -> usize {
+        let k = (r.centroid2()[axis] - self.origin[axis]) * self.scale[axis];
+        (k as usize).min(self.buckets - 1)
+    }
+
+    /// Adds `refs` to `bins` (`bins[axis * B + k]` for all three axes).
+    fn fill(&self, refs: &[PrimRef], bins: &mut [Bin]) {
+        let b = self.buckets;
+        for r in refs {
+            let c = (r.centroid2() - self.origin) * self.scale;
+            let k = [c.x as usize, c.y as usize, c.z as usize];
+            for (axis, &k) in k.iter().enumerate() {
+                let bin = &mut bins[axis * b + k.min(b - 1)];
+                bin.count += 1;
+                bin.bounds = bin.bounds.union(r.bounds());
+            }
+        }
+    }
+
+    fn fill_parallel(&self, refs: &[PrimRef], bins: &mut [Bin]) {
+        if refs.len() < PARALLEL_PASS {
+            return self.fill(refs, bins);
+        }
+        let partial = refs
+            .par_chunks(PARALLEL_PASS / 4)
+            .map(|chunk| {
+                let mut bins = vec![EMPTY_BIN; 3 * self.buckets];
+                self.fill(chunk, &mut bins);
+                bins
+            })
+            .collect::<Vec<_>>();
+        for p in partial {
+            for (x, y) in bins.iter_mut().zip(&p) {
+                x.count += y.count;
+                x.bounds = x.bounds.union(y.bounds);
+            }
+        }
+    }
+}
+
+/// Per-thread buffers, so the many small nodes near the leaves allocate nothing.
+#[derive(Default)]
+struct Scratch {
+    bins: Vec<Bin>,
+    right_area: Vec<f32>,
+    right_count: Vec<u32>,
+}
+
+thread_local! {
+    static SCRATCH: RefCell<Scratch> = RefCell::default();
+}
+
+pub fn split(refs: &mut [PrimRef], info: &NodeInfo, p: &BuildParams) -> Option<Split> {
+    let n = refs.len();
+    let b = p.buckets as usize;
+    let binning = Binning::new(&info.centroids, b);
+    let parent_area = info.bounds.surface_area();
+
+    // (cost, axis, first bucket of the right side)
+    let best = SCRATCH.with_borrow_mut(|s| {
+        s.bins.clear();
+        s.bins.resize(3 * b, EMPTY_BIN);
+        s.right_area.resize(b, 0.0);
+        s.right_count.resize(b, 0);
+        binning.fill_parallel(refs, &mut s.bins);
+        let mut best: Option<(f32, usize, usize)> = None;
+        for axis in 0..3 {
+            if binning.scale[axis] == 0.0 {
+                continue;
+            }
+            let bins = &s.bins[axis * b..(axis + 1) * b];
+            let (mut acc, mut count) = (Aabb::EMPTY, 0);
+            for k in (1..b).rev() {
+                acc = acc.union(bins[k].bounds);
+                count += bins[k].count;
+                s.right_area[k] = acc.surface_area();
+                s.right_count[k] = count;
+            }
+            let (mut acc, mut count) = (Aabb::EMPTY, 0);
+            for k in 1..b {
+                acc = acc.union(bins[k - 1].bounds);
+                count += bins[k - 1].count;
+                let right = s.right_count[k];
+                if count == 0 || right == 0 {
+                    continue;
+                }
+                let cost = sah_split_cost(
+                    parent_area,
+                    acc.surface_area(),
+                    count as usize,
+                    s.right_area[k],
+                    right as usize,
+                    p,
+                );
+                if best.is_none_or(|(c, _, _)| cost < c) {
+                    best = Some((cost, axis, k));
+                }
+            }
+        }
+        best
+    });
+    let Some((cost, axis, k)) = best else {
+        // Every centroid fell into one bucket (extents near the float resolution).
+        return (n > p.max_leaf_size as usize).then(|| super::median::object_median(refs, info));
+    };
+    if !sah_worth_splitting(n, cost, parent_area, p) {
+        return None;
+    }
+    Some(partition(refs, |r| binning.bucket(r, axis) < k))
+}

@@ -1,0 +1,111 @@
+//! What a build produced, in the lecture's measures: node counts, depth, leaf sizes, the SAH
+//! cost of the tree and its memory.
+
+use super::Bvh;
+use super::build::BuildParams;
+use std::time::Duration;
+
+/// Shape statistics of a tree, recomputed after a refit as well.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TreeStats {
+    pub nodes: usize,
+    pub leaves: usize,
+    pub max_leaf_depth: u32,
+    pub mean_leaf_depth: f64,
+    /// `leaf_size_histogram[k]` = number of leaves with k triangles.
+    pub leaf_size_histogram: Vec<usize>,
+    pub sah_cost: f64,
+    pub bytes: usize,
+}
+
+impl TreeStats {
+    pub fn new(bvh: &Bvh, c_trav: f32, c_isect: f32) -> Self {
+        let depths = bvh.node_depths();
+        let mut histogram = Vec::new();
+        let (mut leaves, mut max_depth, mut depth_sum) = (0usize, 0u32, 0u64);
+        for (n, &d) in bvh.nodes.iter().zip(&depths) {
+            if n.is_leaf() {
+                leaves += 1;
+                max_depth = max_depth.max(d);
+                depth_sum += d as u64;
+                let size = n.count as usize;
+                if histogram.len() <= size {
+                    histogram.resize(size + 1, 0);
+                }
+                histogram[size] += 1;
+            }
+        }
+        TreeStats {
+            nodes: bvh.nodes.len(),
+            leaves,
+            max_leaf_depth: max_depth,
+            mean_leaf_depth: depth_sum as f64 / leaves.max(1) as f64,
+            leaf_size_histogram: histogram,
+            sah_cost: bvh.sah_cost(c_trav, c_isect),
+            bytes: bvh.bytes(),
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct BuildReport {
+    pub params: BuildParams,
+    pub triangles: usize,
+    pub build_time: Duration,
+    pub tree: TreeStats,
+}
+
+impl BuildReport {
+    pub fn new(bvh: &Bvh, params: &BuildParams, build_time: Duration) -> Self {
+        BuildReport {
+            params: *params,
+            triangles: bvh.triangles.len(),
+            build_time,
+            tree: TreeStats::new(bvh, params.c_trav, params.c_isect),
+        }
+    }
+
+    pub fn build_ms(&self) -> f64 {
+        self.build_time.as_secs_f64() * 1e3
+    }
+
+    /// The report as (label, value) rows, for the CLI table and the app's stats panel.
+    pub fn rows(&self) -> Vec<(String, String)> {
+        let p = &self.params;
+        let t = &self.tree;
+        let mut rows = vec![("strategy".to_string(), p.strategy.label().to_string())];
+        if p.strategy == super::Strategy::SahBinned {
+            rows.push(("buckets B".into(), p.buckets.to_string()));
+        }
+        rows.extend([
+            ("max leaf size".into(), p.max_leaf_size.to_string()),
+            (
+                "C_trav / C_isect".into(),
+                format!("{} / {}", p.c_trav, p.c_isect),
+            ),
+            ("triangles".into(), self.triangles.to_string()),
+            ("build time".into(), format!("{:.2} ms", self.build_ms())),
+            ("nodes".into(), t.nodes.to_string()),
+            ("leaves".into(), t.leaves.to_string()),
+            ("max leaf depth".into(), t.max_leaf_depth.to_string()),
+            (
+                "mean leaf depth".into(),
+                format!("{:.2}", t.mean_leaf_depth),
+            ),
+            ("SAH cost".into(), format!("{:.3}", t.sah_cost)),
+            (
+                "memory".into(),
+                format!("{:.2} MiB", t.bytes as f64 / (1024.0 * 1024.0)),
+            ),
+        ]);
+        let hist: Vec<String> = t
+            .leaf_size_histogram
+            .iter()
+            .enumerate()
+            .filter(|&(_, &c)| c > 0)
+            .map(|(size, c)| format!("{size}:{c}"))
+            .collect();
+        rows.push(("leaf sizes (size:count)".into(), hist.join(" ")));
+        rows
+    }
+}

@@ -1,0 +1,158 @@
+//! BVH traversal: closest hit front to back (or in the naive fixed order) and any hit for
+//! shadow rays, one code path for the fast and the counting run.
+//!
+//! A stack holds the nodes still to visit together with the distance at which the ray enters
+//! them. Every box test is clipped to the best hit found so far, and a popped node whose
+//! entry lies beyond it is skipped: that is the pruning that makes front-to-back order pay.
+
+use super::Bvh;
+use super::build::MAX_DEPTH;
+use crate::accel::{Accel, Hit, Stats, TraversalOrder};
+use crate::geometry::aabb::{SlabRay, slab_entry};
+use crate::geometry::{Intersector, Ray, gamma};
+
+/// A box is entered at most this relative rounding error before its computed entry
+/// distance; boxes are compared with the best t scaled by it so no tie is lost to rounding.
+const T_SCALE: f32 = 1.0 + 2.0 * gamma(3);
+
+/// The stack never holds more than one entry per level.
+const STACK_SIZE: usize = MAX_DEPTH + 1;
+
+impl Bvh {
+    fn closest<I: Intersector, S: Stats, const ORDERED: bool>(
+        &self,
+        ray: &Ray,
+        stats: &mut S,
+    ) -> Option<Hit> {
+        let slab = SlabRay::new(ray);
+        let nodes = &self.nodes[..];
+        stats.box_tests(1);
+        let root = &nodes[0];
+        if slab_entry(root.min, root.max, &slab, ray.tmin, ray.tmax) == f32::INFINITY {
+            return None;
+        }
+        let data = I::prepare(ray);
+        let mut best_t = ray.tmax;
+        let mut box_tmax = ray.tmax * T_SCALE;
+        let mut best: Option<(usize, f32, f32)> = None;
+        let mut stack = [(0u32, 0.0f32); STACK_SIZE];
+        let mut sp = 0;
+        let mut index = 0usize;
+        loop {
+            stats.node_visit();
+            let node = &nodes[index];
+            if node.is_leaf() {
+                for i in node.prim_range() {
+                    stats.triangle_test();
+                    if let Some(h) = I::intersect(&data, ray, &self.triangles[i], ray.tmin, best_t)
+                    {
+                        best_t = h.t;
+                        box_tmax = h.t * T_SCALE;
+                        best = Some((i, h.u, h.v));
+                    }
+                }
+            } else {
+                let l = node.left_first as usize;
+                let (a, b) = (&nodes[l], &nodes[l + 1]);
+                stats.box_tests(2);
+                let mut da = slab_entry(a.min, a.max, &slab, ray.tmin, box_tmax);
+                let mut db = slab_entry(b.min, b.max, &slab, ray.tmin, box_tmax);
+                let (mut ia, mut ib) = (l, l + 1);
+                if ORDERED && db < da {
+                    std::mem::swap(&mut da, &mut db);
+                    std::mem::swap(&mut ia, &mut ib);
+                }
+                if da != f32::INFINITY {
+                    if db != f32::INFINITY {
+                        stack[sp] = (ib as u32, db);
+                        sp += 1;
+                    }
+                    index = ia;
+                    continue;
+                } else if db != f32::INFINITY {
+                    index = ib;
+                    continue;
+                }
+            }
+            // Pop the next node the ray can still reach before the best hit.
+            loop {
+                if sp == 0 {
+                    return best.map(|(i, u, v)| Hit {
+                        t: best_t,
+                        u,
+                        v,
+                        triangle: self.prim_indices[i],
+                    });
+                }
+                sp -= 1;
+                let (next, entry) = stack[sp];
+                if entry <= box_tmax {
+                    index = next as usize;
+                    break;
+                }
+            }
+        }
+    }
+
+    fn occluded<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
+        let slab = SlabRay::new(ray);
+        let nodes = &self.nodes[..];
+        stats.box_tests(1);
+        let root = &nodes[0];
+        let tmax = ray.tmax * T_SCALE;
+        if slab_entry(root.min, root.max, &slab, ray.tmin, tmax) == f32::INFINITY {
+            return false;
+        }
+        let data = I::prepare(ray);
+        let mut stack = [0u32; STACK_SIZE];
+        let mut sp = 0;
+        let mut index = 0usize;
+        loop {
+            stats.node_visit();
+            let node = &nodes[index];
+            if node.is_leaf() {
+                for i in node.prim_range() {
+                    stats.triangle_test();
+                    if I::intersect(&data, ray, &self.triangles[i], ray.tmin, ray.tmax).is_some() {
+                        return true;
+                    }
+                }
+            } else {
+                let l = node.left_first as usize;
+                let (a, b) = (&nodes[l], &nodes[l + 1]);
+                stats.box_tests(2);
+                let hit_a = slab_entry(a.min, a.max, &slab, ray.tmin, tmax) != f32::INFINITY;
+                let hit_b = slab_entry(b.min, b.max, &slab, ray.tmin, tmax) != f32::INFINITY;
+                if hit_a {
+                    if hit_b {
+                        stack[sp] = l as u32 + 1;
+                        sp += 1;
+                    }
+                    index = l;
+                    continue;
+                } else if hit_b {
+                    index = l + 1;
+                    continue;
+                }
+            }
+            if sp == 0 {
+                return false;
+            }
+            sp -= 1;
+            index = stack[sp] as usize;
+        }
+    }
+}
+
+impl Accel for Bvh {
+    fn closest_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
+        match self.order {
+            TraversalOrder::FrontToBack => self.closest::<I, S, true>(ray, stats),
+            TraversalOrder::Naive => self.closest::<I, S, false>(ray, stats),
+        }
+    }
+
+    fn any_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
+        self.occluded::<I, S>(ray, stats)
+    }
+}

@@ -1,0 +1,91 @@
+//! Statistics sinks: the same traversal code counts the work it does when given `Counters`,
+//! and compiles the counting away when given the zero-sized `NoStats`.
+
+use std::ops::AddAssign;
+
+pub trait Stats {
+    /// A node (or, for brute force, the scene) was taken from the stack and processed.
+    fn node_visit(&mut self);
+    /// `n` ray–box slab tests were done.
+    fn box_tests(&mut self, n: u32);
+    /// One ray–triangle test was done.
+    fn triangle_test(&mut self);
+}
+
+/// Counts nothing and costs nothing.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct NoStats;
+
+impl Stats for NoStats {
+    #[inline(always)]
+    fn node_visit(&mut self) {}
+    #[inline(always)]
+    fn box_tests(&mut self, _n: u32) {}
+    #[inline(always)]
+    fn triangle_test(&mut self) {}
+}
+
+/// The lecture's three measures of work for one ray (or a sum over many).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Counters {
+    pub nodes_visited: u32,
+    pub box_tests: u32,
+    pub triangle_tests: u32,
+}
+
+impl Stats for Counters {
+    #[inline(always)]
+    fn node_visit(&mut self) {
+        self.nodes_visited += 1;
+    }
+    #[inline(always)]
+    fn box_tests(&mut self, n: u32) {
+        self.box_tests += n;
+    }
+    #[inline(always)]
+    fn triangle_test(&mut self) {
+        self.triangle_tests += 1;
+    }
+}
+
+impl AddAssign for Counters {
+    fn add_assign(&mut self, o: Counters) {
+        self.nodes_visited += o.nodes_visited;
+        self.box_tests += o.box_tests;
+        self.triangle_tests += o.triangle_tests;
+    }
+}
+
+impl Counters {
+    /// One of the three counters, chosen by a heatmap mode.
+    pub fn get(&self, which: Counter) -> u32 {
+        match which {
+            Counter::NodesVisited => self.nodes_visited,
+            Counter::BoxTests => self.box_tests,
+            Counter::TriangleTests => self.triangle_tests,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Counter {
+    NodesVisited,
+    BoxTests,
+    TriangleTests,
+}
+
+impl Counter {
+    pub const ALL: [Counter; 3] = [
+        Counter::NodesVisited,
+        Counter::BoxTests,
+        Counter::TriangleTests,
+    ];
+
+    pub fn label(self) -> &'static str {
+        match self {
+            Counter::NodesVisited => "nodes visited",
+            Counter::BoxTests => "box tests",
+            Counter::TriangleTests => "triangle tests",
+        }
+    }
+}

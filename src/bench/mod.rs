@@ -1,0 +1,145 @@
+//! The benchmark behind `bvhlab bench`: best-of-several build times and SAH cost, then
+//! Mrays/s on the standard primary, shadow and diffuse ray sets of a view.
+
+pub mod rays;
+
+use crate::accel::bvh::{BuildError, BuildReport, build};
+use crate::accel::{Accel, BuildParams, Bvh, NoStats};
+use crate::geometry::{Ray, Watertight};
+use crate::scene::{Camera, Scene};
+use glam::Vec3;
+use rayon::prelude::*;
+use rays::RaySets;
+use std::time::{Duration, Instant};
+
+#[derive(Clone, Debug)]
+pub struct BenchConfig {
+    pub camera: Camera,
+    pub light: Vec3,
+    pub width: u32,
+    pub height: u32,
+    pub params: BuildParams,
+    /// Builds to time (the best counts).
+    pub builds: u32,
+    /// Runs over each ray set (the best counts).
+    pub runs: u32,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RaySetResult {
+    pub rays: usize,
+    /// Hits for closest-hit sets, occluded rays for the shadow set.
+    pub hits: usize,
+    pub best: Duration,
+}
+
+impl RaySetResult {
+    pub fn mrays_per_s(&self) -> f64 {
+        let s = self.best.as_secs_f64();
+        if s > 0.0 {
+            self.rays as f64 / s / 1e6
+        } else {
+            0.0
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct BenchResult {
+    pub scene: String,
+    pub triangles: usize,
+    pub threads: usize,
+    pub report: BuildReport,
+    pub primary: RaySetResult,
+    pub diffuse: RaySetResult,
+    pub shadow: RaySetResult,
+}
+
+/// Runs the benchmark on the current rayon thread pool.
+pub fn run(scene: &Scene, cfg: &BenchConfig) -> Result<BenchResult, BuildError> {
+    let mut best: Option<(Bvh, BuildReport)> = None;
+    for _ in 0..cfg.builds.max(1) {
+        let (bvh, report) = build(&scene.triangles, &cfg.params)?;
+        if best
+            .as_ref()
+            .is_none_or(|(_, b)| report.build_time < b.build_time)
+        {
+            best = Some((bvh, report));
+        }
+    }
+    let Some((bvh, report)) = best else {
+        unreachable!("at least one build ran")
+    };
+    let sets = RaySets::standard(&bvh, scene, &cfg.camera, cfg.light, cfg.width, cfg.height);
+    let runs = cfg.runs.max(1);
+    let primary = time_set(&sets.primary, runs, |r| {
+        bvh.closest_hit::<Watertight, _>(r, &mut NoStats).is_some()
+    });
+    let diffuse = time_set(&sets.diffuse, runs, |r| {
+        bvh.closest_hit::<Watertight, _>(r, &mut NoStats).is_some()
+    });
+    let shadow = time_set(&sets.shadow, runs, |r| {
+        bvh.any_hit::<Watertight, _>(r, &mut NoStats)
+    });
+    Ok(BenchResult {
+        scene: scene.name.clone(),
+        triangles: scene.triangles.len(),
+        threads: rayon::current_num_threads(),
+        report,
+        primary,
+        diffuse,
+        shadow,
+    })
+}
+
+/// Traces `rays` `runs` times in parallel; the best time and the hit count.
+fn time_set(rays: &[Ray], runs: u32, trace: impl Fn(&Ray) -> bool + Sync) -> RaySetResult {
+    let mut result = RaySetResult {
+        rays: rays.len(),
+        hits: 0,
+        best: Duration::MAX,
+    };
+    for _ in 0..runs {
+        let start = Instant::now();
+        let hits: usize = rays
+            .par_chunks(256)
+            .map(|chunk| chunk.iter().filter(|r| trace(r)).count())
+            .sum();
+        result.best = result.best.min(start.elapsed());
+        result.hits = hits;
+    }
+    result
+}
+
+impl BenchResult {
+    pub fn to_json(&self) -> serde_json::Value {
+        let set = |r: &RaySetResult, hits: &str| {
+            serde_json::json!({
+                "rays": r.rays,
+                hits: r.hits,
+                "mrays_per_s": round3(r.mrays_per_s()),
+            })
+        };
+        let t = &self.report.tree;
+        serde_json::json!({
+            "scene": self.scene,
+            "triangles": self.triangles,
+            "threads": self.threads,
+            "builder": self.report.params.strategy.label(),
+            "buckets": self.report.params.buckets,
+            "max_leaf_size": self.report.params.max_leaf_size,
+            "build_ms": round3(self.report.build_ms()),
+            "sah_cost": round3(t.sah_cost),
+            "nodes": t.nodes,
+            "leaves": t.leaves,
+            "max_leaf_depth": t.max_leaf_depth,
+            "primary": set(&self.primary, "hits"),
+            "diffuse": set(&self.diffuse, "hits"),
+            "shadow": set(&self.shadow, "occluded"),
+        })
+    }
+}
+
+fn round3(x: f64) -> f64 {
+    (x * 1000.0).round() / 1000.0
+}

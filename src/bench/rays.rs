@@ -1,0 +1,88 @@
+//! The standard ray sets of a benchmark view (shared/scenes/README.md): one primary ray
+//! through each pixel centre; then, for every primary hit, one shadow ray to the light
+//! (any hit, tmax = distance to the light) and one cosine-distributed diffuse ray around the
+//! geometric normal facing the ray (closest hit).
+
+use crate::accel::{Accel, NoStats};
+use crate::geometry::spawn::SurfacePoint;
+use crate::geometry::{Ray, Watertight};
+use crate::scene::{Camera, Scene};
+use glam::Vec3;
+use rayon::prelude::*;
+use std::f32::consts::PI;
+
+#[derive(Clone, Debug, Default)]
+pub struct RaySets {
+    pub primary: Vec<Ray>,
+    pub shadow: Vec<Ray>,
+    pub diffuse: Vec<Ray>,
+}
+
+impl RaySets {
+    /// Generates the sets; `accel` finds the primary hits the secondary rays start from.
+    pub fn standard<A: Accel>(
+        accel: &A,
+        scene: &Scene,
+        camera: &Camera,
+        light: Vec3,
+        width: u32,
+        height: u32,
+    ) -> Self {
+        let cam = camera.rays(width, height);
+        let primary: Vec<Ray> = (0..height)
+            .flat_map(|y| (0..width).map(move |x| (x, y)))
+            .map(|(x, y)| cam.pixel_center(x, y))
+            .collect();
+        let secondary: Vec<(Ray, Ray)> = primary
+            .par_iter()
+            .enumerate()
+            .filter_map(|(i, ray)| {
+                let hit = accel.closest_hit::<Watertight, _>(ray, &mut NoStats)?;
+                let tri = &scene.triangles[hit.triangle as usize];
+                let mut n = tri.normal().normalize_or_zero();
+                if n.dot(ray.direction) > 0.0 {
+                    n = -n;
+                }
+                let point = SurfacePoint::on_triangle(tri, hit.u, hit.v);
+                let origin = point.spawn_origin(n, light - point.p);
+                let to_light = light - origin;
+                let distance = to_light.length();
+                let shadow = Ray::segment(
+                    origin,
+                    to_light / distance.max(f32::MIN_POSITIVE),
+                    0.0,
+                    distance,
+                );
+                let dir = cosine_direction(n, i as u64);
+                let diffuse = Ray::new(point.spawn_origin(n, dir), dir);
+                Some((shadow, diffuse))
+            })
+            .collect();
+        let (shadow, diffuse) = secondary.into_iter().unzip();
+        RaySets {
+            primary,
+            shadow,
+            diffuse,
+        }
+    }
+}
+
+/// A direction on the hemisphere around the unit normal `n`, with density ∝ cos θ, from a
+/// deterministic hash of `key` (the same rays every run).
+pub fn cosine_direction(n: Vec3, key: u64) -> Vec3 {
+    let h = splitmix64(key ^ 0x9e37_79b9_7f4a_7c15);
+    let r1 = (h >> 40) as f32 / (1u64 << 24) as f32;
+    let r2 = ((h >> 16) & 0xff_ffff) as f32 / (1u64 << 24) as f32;
+    let phi = 2.0 * PI * r1;
+    let r = r2.sqrt();
+    let (t, b) = n.any_orthonormal_pair();
+    let local = Vec3::new(r * phi.cos(), r * phi.sin(), (1.0 - r2).max(0.0).sqrt());
+    (t * local.x + b * local.y + n * local.z).normalize()
+}
+
+pub fn splitmix64(mut x: u64) -> u64 {
+    x = x.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    x = (x ^ (x >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    x = (x ^ (x >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    x ^ (x >> 31)
+}

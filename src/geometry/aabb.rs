@@ -1,0 +1,192 @@
+//! Axis-aligned bounding boxes and the ray–box slab test.
+//!
+//! The slab test intersects the ray with the three pairs of planes bounding the box and keeps
+//! the overlap of the three t intervals. Two floating-point details make it robust:
+//! - rounding: each far distance is scaled by 1 + 2γ(3) (Ize 2013), so a box the exact ray
+//!   touches is never missed because (b − o) · (1/d) rounded the wrong way;
+//! - zero direction components: 1/±0 = ±∞, and a ray lying exactly in a slab plane gives
+//!   0 · ∞ = NaN. The near plane is chosen by the sign of the direction (so ±0 pick opposite
+//!   planes) and NaN is never allowed to win a comparison, which treats the ray as inside
+//!   that slab: the box is closed, so a ray in its face plane touches it.
+
+use super::{Ray, gamma};
+use glam::Vec3;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Default for Aabb {
+    fn default() -> Self {
+        Aabb::EMPTY
+    }
+}
+
+impl Aabb {
+    /// The empty box: the identity of `union`.
+    pub const EMPTY: Aabb = Aabb {
+        min: Vec3::splat(f32::INFINITY),
+        max: Vec3::splat(f32::NEG_INFINITY),
+    };
+
+    pub fn new(min: Vec3, max: Vec3) -> Self {
+        Aabb { min, max }
+    }
+
+    pub fn from_point(p: Vec3) -> Self {
+        Aabb { min: p, max: p }
+    }
+
+    pub fn from_points(points: impl IntoIterator<Item = Vec3>) -> Self {
+        points.into_iter().fold(Aabb::EMPTY, Aabb::grow_point)
+    }
+
+    pub fn grow_point(self, p: Vec3) -> Self {
+        Aabb {
+            min: self.min.min(p),
+            max: self.max.max(p),
+        }
+    }
+
+    pub fn union(self, other: Aabb) -> Self {
+        Aabb {
+            min: self.min.min(other.min),
+            max: self.max.max(other.max),
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
+    }
+
+    pub fn extent(&self) -> Vec3 {
+        if self.is_empty() {
+            Vec3::ZERO
+        } else {
+            self.max - self.min
+        }
+    }
+
+    pub fn center(&self) -> Vec3 {
+        (self.min + self.max) * 0.5
+    }
+
+    pub fn diagonal(&self) -> f32 {
+        self.extent().length()
+    }
+
+    /// Surface area: the probability of a random ray hitting a convex box is proportional to
+    /// it, which is the heart of the surface area heuristic.
+    pub fn surface_area(&self) -> f32 {
+        let e = self.extent();
+        2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
+    }
+
+    /// Axis of the largest extent (0 = x, 1 = y, 2 = z).
+    pub fn largest_axis(&self) -> usize {
+        let e = self.extent();
+        if e.x >= e.y && e.x >= e.z {
+            0
+        } else if e.y >= e.z {
+            1
+        } else {
+            2
+        }
+    }
+
+    pub fn contains_point(&self, p: Vec3) -> bool {
+        p.cmpge(self.min).all() && p.cmple(self.max).all()
+    }
+
+    pub fn contains(&self, other: &Aabb) -> bool {
+        other.is_empty() || (self.contains_point(other.min) && self.contains_point(other.max))
+    }
+
+    /// Distance along the ray at which it enters the box, or +∞ if it misses the box within
+    /// [tmin, tmax].
+    #[inline(always)]
+    pub fn slab_test(&self, ray: &SlabRay, tmin: f32, tmax: f32) -> f32 {
+        slab_entry(self.min, self.max, ray, tmin, tmax)
+    }
+}
+
+/// Per-ray values of the slab test, computed once per ray rather than once per box.
+#[derive(Clone, Copy, Debug)]
+pub struct SlabRay {
+    pub origin: Vec3,
+    pub inv_dir: Vec3,
+    /// Whether each direction component is negative, −0.0 included.
+    pub negative: [bool; 3],
+}
+
+impl SlabRay {
+    pub fn new(ray: &Ray) -> Self {
+        let d = ray.direction;
+        SlabRay {
+            origin: ray.origin,
+            inv_dir: Vec3::new(1.0 / d.x, 1.0 / d.y, 1.0 / d.z),
+            negative: [
+                d.x.is_sign_negative(),
+                d.y.is_sign_negative(),
+                d.z.is_sign_negative(),
+            ],
+        }
+    }
+}
+
+/// Rounding makes each far-plane distance at most 3 operations' worth too small (Ize 2013).
+const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
+
+/// `x > acc ? x : acc`: a NaN `x` never wins, so a ray lying in a slab plane stays inside.
+#[inline(always)]
+fn max_keep(acc: f32, x: f32) -> f32 {
+    if x > acc { x } else { acc }
+}
+
+#[inline(always)]
+fn min_keep(acc: f32, x: f32) -> f32 {
+    if x < acc { x } else { acc }
+}
+
+/// The slab test on raw bounds, shared by `Aabb` and the BVH node layouts.
+#[inline(always)]
+pub fn slab_entry(min: Vec3, max: Vec3, ray: &SlabRay, tmin: f32, tmax: f32) -> f32 {
+    let (near_x, far_x) = if ray.negative[0] {
+        (max.x, min.x)
+    } else {
+        (min.x, max.x)
+    };
+    let (near_y, far_y) = if ray.negative[1] {
+        (max.y, min.y)
+    } else {
+        (min.y, max.y)
+    };
+    let (near_z, far_z) = if ray.negative[2] {
+        (max.z, min.z)
+    } else {
+        (min.z, max.z)
+    };
+    let o = ray.origin;
+    let inv = ray.inv_dir;
+    let t_near = max_keep(
+        max_keep(
+            max_keep(tmin, (near_x - o.x) * inv.x),
+            (near_y - o.y) * inv.y,
+        ),
+        (near_z - o.z) * inv.z,
+    );
+    let t_far = min_keep(
+        min_keep(
+            min_keep(tmax, (far_x - o.x) * inv.x * FAR_SCALE),
+            (far_y - o.y) * inv.y * FAR_SCALE,
+        ),
+        (far_z - o.z) * inv.z * FAR_SCALE,
+    );
+    if t_near <= t_far {
+        t_near
+    } else {
+        f32::INFINITY
+    }
+}

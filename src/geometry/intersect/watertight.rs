@@ -1,0 +1,111 @@
+//! The watertight ray–triangle test of Woop, Benthin and Wald (2013).
+//!
+//! The ray is made the +z axis of a sheared coordinate system, so the test reduces to the
+//! signs of three 2D edge functions of the projected vertices. Two triangles sharing an edge
+//! compute that edge's function from the same two vertices, in the same order up to sign, so
+//! they disagree on no ray: nothing slips through. An edge function that rounds to exactly
+//! zero is recomputed in f64, where the f32 inputs multiply exactly.
+
+use super::{Intersector, TriangleHit};
+use crate::geometry::{Ray, Triangle, gamma};
+use glam::Vec3;
+
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Watertight;
+
+/// The ray's shear: axis permutation (kx, ky, kz), kz the largest direction component.
+#[derive(Clone, Copy, Debug)]
+pub struct Shear {
+    k: [usize; 3],
+    s: Vec3,
+}
+
+impl Intersector for Watertight {
+    type RayData = Shear;
+    const NAME: &'static str = "watertight";
+
+    #[inline(always)]
+    fn prepare(ray: &Ray) -> Shear {
+        let a = ray.direction.abs();
+        let kz = if a.x >= a.y && a.x >= a.z {
+            0
+        } else if a.y >= a.z {
+            1
+        } else {
+            2
+        };
+        let kx = (kz + 1) % 3;
+        let ky = (kx + 1) % 3;
+        let d = ray.direction;
+        Shear {
+            k: [kx, ky, kz],
+            s: Vec3::new(-d[kx] / d[kz], -d[ky] / d[kz], 1.0 / d[kz]),
+        }
+    }
+
+    #[inline(always)]
+    fn intersect(
+        shear: &Shear,
+        ray: &Ray,
+        tri: &Triangle,
+        tmin: f32,
+        tmax: f32,
+    ) -> Option<TriangleHit> {
+        let [kx, ky, kz] = shear.k;
+        let s = shear.s;
+        // Vertices relative to the origin, permuted so the ray runs along +z, then sheared.
+        let rel = |p: Vec3| {
+            let q = p - ray.origin;
+            Vec3::new(q[kx], q[ky], q[kz])
+        };
+        let (a, b, c) = (rel(tri.v[0]), rel(tri.v[1]), rel(tri.v[2]));
+        let (ax, ay) = (a.x + s.x * a.z, a.y + s.y * a.z);
+        let (bx, by) = (b.x + s.x * b.z, b.y + s.y * b.z);
+        let (cx, cy) = (c.x + s.x * c.z, c.y + s.y * c.z);
+
+        let mut e0 = bx * cy - by * cx;
+        let mut e1 = cx * ay - cy * ax;
+        let mut e2 = ax * by - ay * bx;
+        if e0 == 0.0 || e1 == 0.0 || e2 == 0.0 {
+            let f = |px: f32, py: f32, qx: f32, qy: f32| {
+                (px as f64 * qy as f64 - py as f64 * qx as f64) as f32
+            };
+            e0 = f(bx, by, cx, cy);
+            e1 = f(cx, cy, ax, ay);
+            e2 = f(ax, ay, bx, by);
+        }
+        if (e0 < 0.0 || e1 < 0.0 || e2 < 0.0) && (e0 > 0.0 || e1 > 0.0 || e2 > 0.0) {
+            return None;
+        }
+        let det = e0 + e1 + e2;
+        if det == 0.0 {
+            return None;
+        }
+        let (az, bz, cz) = (s.z * a.z, s.z * b.z, s.z * c.z);
+        let inv_det = 1.0 / det;
+        let t = (e0 * az + e1 * bz + e2 * cz) * inv_det;
+        if !(t > tmin && t < tmax) {
+            return None;
+        }
+        // Reject hits closer to the origin than the rounding error of t itself (pbrt §6.8.4):
+        // such a hit is indistinguishable from the surface the ray starts on.
+        let max_z = az.abs().max(bz.abs()).max(cz.abs());
+        let max_x = ax.abs().max(bx.abs()).max(cx.abs());
+        let max_y = ay.abs().max(by.abs()).max(cy.abs());
+        let delta_z = gamma(3) * max_z;
+        let delta_x = gamma(5) * (max_x + max_z);
+        let delta_y = gamma(5) * (max_y + max_z);
+        let delta_e = 2.0 * (gamma(2) * max_x * max_y + delta_y * max_x + delta_x * max_y);
+        let max_e = e0.abs().max(e1.abs()).max(e2.abs());
+        let delta_t =
+            3.0 * (gamma(3) * max_e * max_z + delta_e * max_z + delta_z * max_e) * inv_det.abs();
+        if t <= delta_t {
+            return None;
+        }
+        Some(TriangleHit {
+            t,
+            u: e1 * inv_det,
+            v: e2 * inv_det,
+        })
+    }
+}

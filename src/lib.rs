@@ -1,0 +1,18 @@
+//! bvhlab: how acceleration structures make ray–scene queries fast, shown and measured.
+//!
+//! One data flow runs through the crate:
+//! `scene` (triangles in objects, camera, light) → `accel` (a structure built with plain-data
+//! parameters, refitted after motion) → `render` (a frame of pixels with per-pixel counters).
+//! The same traversal serves the fast path and the teaching path: it is generic over a
+//! statistics sink, and `NoStats` compiles the counting away.
+//! - `geometry`: rays, boxes and the slab test, triangles and the ray–triangle intersectors;
+//! - `scene`: OBJ loading, the built-in scenes, the pinhole camera;
+//! - `accel`: brute force and the BVH (build strategies, traversal, refit);
+//! - `render`: the tile-parallel CPU renderer, its shading and heatmap modes;
+//! - `bench`: the standard ray sets and the benchmark behind `bvhlab bench`.
+
+pub mod accel;
+pub mod bench;
+pub mod geometry;
+pub mod render;
+pub mod scene;

@@ -1,0 +1,41 @@
+//! Colour maps for heatmaps: viridis, perceptually uniform and readable in greyscale and by
+//! most colour-blind viewers, so equal steps in count look like equal steps in colour.
+
+use glam::Vec3;
+
+/// Viridis sampled at nine evenly spaced points (matplotlib's table), interpolated linearly.
+const VIRIDIS: [[f32; 3]; 9] = [
+    [0.267004, 0.004874, 0.329415],
+    [0.282623, 0.140926, 0.457517],
+    [0.253935, 0.265254, 0.529983],
+    [0.206756, 0.371758, 0.553117],
+    [0.163625, 0.471133, 0.558148],
+    [0.127568, 0.566949, 0.550556],
+    [0.134692, 0.658636, 0.517649],
+    [0.266941, 0.748751, 0.440573],
+    [0.993248, 0.906157, 0.143936],
+];
+
+/// The colour of `x` in [0, 1] (clamped), as sRGB-encoded values in [0, 1].
+pub fn viridis(x: f32) -> Vec3 {
+    let x = if x.is_nan() { 0.0 } else { x.clamp(0.0, 1.0) };
+    let f = x * (VIRIDIS.len() - 1) as f32;
+    let i = (f as usize).min(VIRIDIS.len() - 2);
+    let w = f - i as f32;
+    Vec3::from(VIRIDIS[i]).lerp(Vec3::from(VIRIDIS[i + 1]), w)
+}
+
+/// Linear → sRGB transfer, for shaded images.
+pub fn linear_to_srgb(c: f32) -> f32 {
+    let c = c.clamp(0.0, 1.0);
+    if c <= 0.003_130_8 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+pub fn to_rgba8(srgb: Vec3) -> [u8; 4] {
+    let q = |c: f32| (c.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
+    [q(srgb.x), q(srgb.y), q(srgb.z), 255]
+}

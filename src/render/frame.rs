@@ -1,0 +1,152 @@
+//! A rendered frame: RGBA pixels, what each pixel's rays found and cost, and a summary.
+//! The per-pixel samples are kept so a frame can be recoloured (another mode, another
+//! heatmap scale) without tracing again.
+
+use crate::accel::{Counter, Counters};
+use glam::Vec3;
+use std::time::Duration;
+
+/// What the rays of one pixel found, and the work they took.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Sample {
+    /// Distance to the closest hit, +∞ for a miss.
+    pub t: f32,
+    /// Scene triangle index of the closest hit, `u32::MAX` for a miss.
+    pub triangle: u32,
+    /// Unit geometric normal of the hit, facing the ray.
+    pub normal: Vec3,
+    /// Diffuse colour of the hit object.
+    pub albedo: Vec3,
+    /// Cosine of the angle to the light, 0 when the light is behind the surface.
+    pub cos_light: f32,
+    /// Whether the shadow ray reached the light.
+    pub lit: bool,
+    pub primary: Counters,
+    pub shadow: Counters,
+}
+
+impl Sample {
+    pub fn is_hit(&self) -> bool {
+        self.triangle != u32::MAX
+    }
+
+    pub fn counters(&self, rays: RayKind) -> &Counters {
+        match rays {
+            RayKind::Primary => &self.primary,
+            RayKind::Shadow => &self.shadow,
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum RayKind {
+    #[default]
+    Primary,
+    Shadow,
+}
+
+impl RayKind {
+    pub fn label(self) -> &'static str {
+        match self {
+            RayKind::Primary => "primary rays",
+            RayKind::Shadow => "shadow rays",
+        }
+    }
+}
+
+/// Mean and maximum of one counter over the pixels that traced such a ray.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CounterSummary {
+    pub total: u64,
+    pub mean: f64,
+    pub max: u32,
+}
+
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FrameSummary {
+    pub primary_rays: u64,
+    pub primary_hits: u64,
+    pub shadow_rays: u64,
+    pub shadow_occluded: u64,
+    /// Wall time of tracing (both ray kinds), without colouring.
+    pub trace_time: Duration,
+    /// `[ray kind][counter]` as in `RayKind` and `Counter::ALL` order.
+    pub counters: [[CounterSummary; 3]; 2],
+}
+
+impl FrameSummary {
+    pub fn rays(&self) -> u64 {
+        self.primary_rays + self.shadow_rays
+    }
+
+    pub fn mrays_per_s(&self) -> f64 {
+        let s = self.trace_time.as_secs_f64();
+        if s > 0.0 {
+            self.rays() as f64 / s / 1e6
+        } else {
+            0.0
+        }
+    }
+
+    pub fn counter(&self, rays: RayKind, which: Counter) -> &CounterSummary {
+        let k = Counter::ALL.iter().position(|&c| c == which).unwrap_or(0);
+        &self.counters[rays as usize][k]
+    }
+
+    pub(crate) fn from_samples(samples: &[Sample], trace_time: Duration) -> Self {
+        let mut s = FrameSummary {
+            trace_time,
+            ..Default::default()
+        };
+        for sample in samples {
+            s.primary_rays += 1;
+            if sample.is_hit() {
+                s.primary_hits += 1;
+                s.shadow_rays += 1;
+                s.shadow_occluded += u64::from(!sample.lit);
+            }
+            for (r, c) in [(0, &sample.primary), (1, &sample.shadow)] {
+                for (k, which) in Counter::ALL.into_iter().enumerate() {
+                    let v = c.get(which);
+                    let cs = &mut s.counters[r][k];
+                    cs.total += v as u64;
+                    cs.max = cs.max.max(v);
+                }
+            }
+        }
+        for (r, n) in [(0, s.primary_rays), (1, s.shadow_rays)] {
+            for cs in &mut s.counters[r] {
+                cs.mean = cs.total as f64 / n.max(1) as f64;
+            }
+        }
+        s
+    }
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct Frame {
+    pub width: u32,
+    pub height: u32,
+    /// Row-major, top row first, 4 bytes per pixel.
+    pub rgba: Vec<u8>,
+    pub samples: Vec<Sample>,
+    pub summary: FrameSummary,
+    /// The count that maps to the top of the heatmap colour scale in `rgba`, if it is one.
+    pub heat_max: Option<u32>,
+}
+
+impl Frame {
+    pub fn sample(&self, x: u32, y: u32) -> Option<&Sample> {
+        (x < self.width && y < self.height).then(|| &self.samples[(y * self.width + x) as usize])
+    }
+
+    pub fn save_png(&self, path: &std::path::Path) -> Result<(), image::ImageError> {
+        image::save_buffer(
+            path,
+            &self.rgba,
+            self.width,
+            self.height,
+            image::ExtendedColorType::Rgba8,
+        )
+    }
+}

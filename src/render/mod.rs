@@ -1,0 +1,216 @@
+//! The CPU ray tracer: one primary ray per pixel and one shadow ray per hit, traced in
+//! parallel tiles, then coloured by the chosen mode: shaded, normals, depth, or a heatmap of
+//! the work each pixel's rays took.
+
+pub mod colormap;
+pub mod frame;
+
+pub use frame::{CounterSummary, Frame, FrameSummary, RayKind, Sample};
+
+use crate::accel::{Accel, Counter, Counters};
+use crate::geometry::spawn::SurfacePoint;
+use crate::geometry::{Intersector, Ray, Watertight};
+use crate::scene::{Camera, Scene};
+use colormap::{linear_to_srgb, to_rgba8, viridis};
+use glam::Vec3;
+use rayon::prelude::*;
+use std::time::Instant;
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Mode {
+    /// Lambert shading with a hard shadow from the point light.
+    #[default]
+    Shaded,
+    Normals,
+    Depth,
+    /// One counter of one kind of ray, through the colour map.
+    Heatmap(Counter, RayKind),
+}
+
+impl Mode {
+    pub fn label(self) -> String {
+        match self {
+            Mode::Shaded => "shaded".into(),
+            Mode::Normals => "normals".into(),
+            Mode::Depth => "depth".into(),
+            Mode::Heatmap(c, r) => format!("{} ({})", c.label(), r.label()),
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    pub camera: Camera,
+    pub light: Vec3,
+    pub mode: Mode,
+    /// Heatmap scale: the count shown at the top of the map; `None` = the frame's maximum.
+    pub heat_max: Option<u32>,
+}
+
+impl RenderSettings {
+    pub fn for_scene(scene: &Scene, width: u32, height: u32) -> Self {
+        RenderSettings {
+            width,
+            height,
+            camera: scene.camera(),
+            light: scene.light(),
+            mode: Mode::Shaded,
+            heat_max: None,
+        }
+    }
+}
+
+/// Side of the square tiles the image is split into for the worker threads.
+const TILE: u32 = 16;
+const AMBIENT: f32 = 0.12;
+
+/// Traces and colours a frame with the default (watertight) intersector.
+pub fn render<A: Accel>(accel: &A, scene: &Scene, settings: &RenderSettings) -> Frame {
+    render_with::<A, Watertight>(accel, scene, settings)
+}
+
+pub fn render_with<A: Accel, I: Intersector>(
+    accel: &A,
+    scene: &Scene,
+    settings: &RenderSettings,
+) -> Frame {
+    let (w, h) = (settings.width.max(1), settings.height.max(1));
+    let rays = settings.camera.rays(w, h);
+    let tiles_x = w.div_ceil(TILE);
+    let tiles = tiles_x * h.div_ceil(TILE);
+    let start = Instant::now();
+    let tile_samples: Vec<(u32, Vec<Sample>)> = (0..tiles)
+        .into_par_iter()
+        .map(|tile| {
+            let (x0, y0) = ((tile % tiles_x) * TILE, (tile / tiles_x) * TILE);
+            let mut out = Vec::with_capacity((TILE * TILE) as usize);
+            for y in y0..(y0 + TILE).min(h) {
+                for x in x0..(x0 + TILE).min(w) {
+                    let ray = rays.pixel_center(x, y);
+                    out.push(trace_pixel::<A, I>(accel, scene, &ray, settings.light));
+                }
+            }
+            (tile, out)
+        })
+        .collect();
+    let trace_time = start.elapsed();
+
+    let mut samples = vec![Sample::default(); (w * h) as usize];
+    for (tile, out) in tile_samples {
+        let (x0, y0) = ((tile % tiles_x) * TILE, (tile / tiles_x) * TILE);
+        let tw = (x0 + TILE).min(w) - x0;
+        for (k, s) in out.into_iter().enumerate() {
+            let (x, y) = (x0 + k as u32 % tw, y0 + k as u32 / tw);
+            samples[(y * w + x) as usize] = s;
+        }
+    }
+    let mut frame = Frame {
+        width: w,
+        height: h,
+        rgba: Vec::new(),
+        summary: FrameSummary::from_samples(&samples, trace_time),
+        samples,
+        heat_max: None,
+    };
+    colorize(&mut frame, settings.mode, settings.heat_max);
+    frame
+}
+
+/// The primary ray of one pixel and, if it hits, its shadow ray towards the light.
+fn trace_pixel<A: Accel, I: Intersector>(
+    accel: &A,
+    scene: &Scene,
+    ray: &Ray,
+    light: Vec3,
+) -> Sample {
+    let mut primary = Counters::default();
+    let Some(hit) = accel.closest_hit::<I, _>(ray, &mut primary) else {
+        return Sample {
+            t: f32::INFINITY,
+            triangle: u32::MAX,
+            primary,
+            ..Default::default()
+        };
+    };
+    let tri = &scene.triangles[hit.triangle as usize];
+    let mut normal = tri.normal().normalize_or_zero();
+    if normal.dot(ray.direction) > 0.0 {
+        normal = -normal;
+    }
+    let albedo = scene
+        .object_of(hit.triangle as usize)
+        .map_or(Vec3::splat(0.7), |o| scene.objects[o].color);
+    let point = SurfacePoint::on_triangle(tri, hit.u, hit.v);
+    let to_light = light - point.p;
+    let origin = point.spawn_origin(normal, to_light);
+    let to_light = light - origin;
+    let distance = to_light.length();
+    let mut shadow = Counters::default();
+    let (lit, cos_light) = if distance > 0.0 {
+        let dir = to_light / distance;
+        let shadow_ray = Ray::segment(origin, dir, 0.0, distance);
+        let occluded = accel.any_hit::<I, _>(&shadow_ray, &mut shadow);
+        (!occluded, normal.dot(dir).max(0.0))
+    } else {
+        (true, 1.0)
+    };
+    Sample {
+        t: hit.t,
+        triangle: hit.triangle,
+        normal,
+        albedo,
+        cos_light,
+        lit,
+        primary,
+        shadow,
+    }
+}
+
+/// (Re)computes `frame.rgba` from its samples for `mode`.
+pub fn colorize(frame: &mut Frame, mode: Mode, heat_max: Option<u32>) {
+    let samples = &frame.samples;
+    let (t_near, t_far) = samples
+        .iter()
+        .filter(|s| s.is_hit())
+        .fold((f32::INFINITY, 0.0f32), |(a, b), s| {
+            (a.min(s.t), b.max(s.t))
+        });
+    frame.heat_max = match mode {
+        Mode::Heatmap(c, r) => Some(
+            heat_max
+                .unwrap_or_else(|| frame.summary.counter(r, c).max)
+                .max(1),
+        ),
+        _ => None,
+    };
+    let background = Vec3::new(0.06, 0.07, 0.09);
+    frame.rgba = samples
+        .par_iter()
+        .flat_map_iter(|s| {
+            let srgb = match mode {
+                Mode::Heatmap(c, r) => {
+                    let max = frame.heat_max.unwrap_or(1) as f32;
+                    viridis(s.counters(r).get(c) as f32 / max)
+                }
+                _ if !s.is_hit() => background,
+                Mode::Shaded => {
+                    let light = if s.lit { s.cos_light } else { 0.0 };
+                    let c = s.albedo * (AMBIENT + (1.0 - AMBIENT) * light);
+                    Vec3::new(
+                        linear_to_srgb(c.x),
+                        linear_to_srgb(c.y),
+                        linear_to_srgb(c.z),
+                    )
+                }
+                Mode::Normals => s.normal * 0.5 + 0.5,
+                Mode::Depth => {
+                    let range = (t_far - t_near).max(f32::MIN_POSITIVE);
+                    Vec3::splat(1.0 - 0.85 * (s.t - t_near) / range)
+                }
+            };
+            to_rgba8(srgb)
+        })
+        .collect();
+}

@@ -1,0 +1,143 @@
+//! Shared helpers for the integration tests: a seeded generator, random scenes and rays,
+//! and the hit comparison used against brute force.
+#![allow(dead_code)]
+
+use bvhlab::accel::Hit;
+use bvhlab::geometry::{Aabb, Ray, Triangle};
+use glam::Vec3;
+
+/// splitmix64: small, seeded, good enough for test inputs.
+pub struct Rng(u64);
+
+impl Rng {
+    pub fn new(seed: u64) -> Self {
+        Rng(seed)
+    }
+
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1).
+    pub fn f32(&mut self) -> f32 {
+        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.f32()
+    }
+
+    pub fn below(&mut self, n: usize) -> usize {
+        (self.next_u64() % n as u64) as usize
+    }
+
+    pub fn vec3_in(&mut self, b: &Aabb) -> Vec3 {
+        Vec3::new(
+            self.range(b.min.x, b.max.x),
+            self.range(b.min.y, b.max.y),
+            self.range(b.min.z, b.max.z),
+        )
+    }
+
+    pub fn unit_vector(&mut self) -> Vec3 {
+        loop {
+            let v = Vec3::new(
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+            );
+            let l = v.length_squared();
+            if l > 1e-4 && l <= 1.0 {
+                return v / l.sqrt();
+            }
+        }
+    }
+}
+
+/// `n` random triangles of random size inside the unit cube.
+pub fn soup(n: usize, seed: u64) -> Vec<Triangle> {
+    let mut rng = Rng::new(seed);
+    (0..n)
+        .map(|_| {
+            let c = Vec3::new(rng.f32(), rng.f32(), rng.f32());
+            let s = rng.range(0.005, 0.15);
+            Triangle::new(
+                c + rng.unit_vector() * s,
+                c + rng.unit_vector() * s,
+                c + rng.unit_vector() * s,
+            )
+        })
+        .collect()
+}
+
+/// A mix of rays for a scene with bounds `b`: from outside aimed at points inside, from
+/// inside in random directions, axis-parallel rays (with ±0 components), and rays that
+/// miss everything.
+pub fn rays(b: &Aabb, n: usize, seed: u64) -> Vec<Ray> {
+    let mut rng = Rng::new(seed);
+    let size = b.diagonal().max(1e-3);
+    let center = b.center();
+    (0..n)
+        .map(|i| match i % 5 {
+            0 => {
+                let target = rng.vec3_in(b);
+                let origin = center + rng.unit_vector() * size * 1.5;
+                Ray::new(origin, target - origin)
+            }
+            1 => Ray::new(rng.vec3_in(b), rng.unit_vector()),
+            2 => {
+                let mut d = Vec3::ZERO;
+                let axis = rng.below(3);
+                d[axis] = if rng.f32() < 0.5 { 1.0 } else { -1.0 };
+                // Signed zeros in the other components.
+                for k in 0..3 {
+                    if k != axis && rng.f32() < 0.5 {
+                        d[k] = -0.0;
+                    }
+                }
+                Ray::new(rng.vec3_in(b), d)
+            }
+            3 => {
+                let origin = center + rng.unit_vector() * size * 2.0;
+                Ray::new(
+                    origin,
+                    (origin - center).normalize() + rng.unit_vector() * 0.1,
+                )
+            }
+            _ => {
+                let origin = rng.vec3_in(b);
+                let d = rng.unit_vector();
+                Ray::segment(origin, d, 0.0, rng.range(0.0, size * 0.5))
+            }
+        })
+        .collect()
+}
+
+/// Hits agree when they name the same triangle, or tie: equal t within a few ulps.
+pub fn same_hit(a: Option<Hit>, b: Option<Hit>) -> bool {
+    match (a, b) {
+        (None, None) => true,
+        (Some(x), Some(y)) => x.triangle == y.triangle || ulps_apart(x.t, y.t) <= 4,
+        _ => false,
+    }
+}
+
+pub fn ulps_apart(a: f32, b: f32) -> u32 {
+    if a == b {
+        return 0;
+    }
+    if a.is_sign_negative() != b.is_sign_negative() {
+        return u32::MAX;
+    }
+    a.to_bits().abs_diff(b.to_bits())
+}
+
+/// The directory of the shared reference scenes, if the environment provides it.
+pub fn shared_scenes() -> Option<std::path::PathBuf> {
+    let dir = std::path::PathBuf::from(std::env::var_os("BVHLAB_SCENES")?);
+    dir.is_dir().then_some(dir)
+}
