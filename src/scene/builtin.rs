@@ -34,7 +34,7 @@ pub fn by_name(spec: &str) -> Result<Option<Scene>, SceneError> {
         Some((name, param)) => (name, Some(param)),
         None => (spec, None),
     };
-    let size = |default, triangles_each| size(name, param, default, triangles_each);
+    let sized = |default, triangles_each| size(name, param, default, triangles_each);
     let scene = match name {
         "cornell" => {
             no_parameter(name, param)?;
@@ -44,13 +44,13 @@ pub fn by_name(spec: &str) -> Result<Option<Scene>, SceneError> {
             no_parameter(name, param)?;
             teapot_in_stadium()?
         }
-        "grass" => grass(size(100_000, 2)?),
-        "walls" => walls(size(200, 12)?, false),
-        "walls-rotated" => walls(size(200, 12)?, true),
-        "same-centroid" => same_centroid(size(10_000, 1)?),
-        "same-bbox" => same_bbox(size(10_000, 1)?),
-        "soup" => soup(size(10_000, 1)?),
-        "sphere" => sphere(size(20_000, 1)?),
+        "grass" => grass(sized(100_000, 2)?),
+        "walls" => walls(sized(200, 12)?, false),
+        "walls-rotated" => walls(sized(200, 12)?, true),
+        "same-centroid" => same_centroid(sized(10_000, 1)?),
+        "same-bbox" => same_bbox(sized(10_000, 1)?),
+        "soup" => soup(sized(10_000, 1)?),
+        "sphere" => sphere(sized(20_000, 1)?),
         _ => return Ok(None),
     };
     Ok(Some(scene))
@@ -147,11 +147,14 @@ fn teapot_in_stadium() -> Result<Scene, SceneError> {
     let bounds = teapot.bounds();
     let scale = 1.0 / bounds.extent().max_element();
     let base = vec3(bounds.center().x, bounds.min.y, bounds.center().z);
+    // Off the centre spot, as a real teapot would stand: a median split of the stadium
+    // then does not cut through it by luck.
+    let spot = vec3(13.0, 0.0, 9.0);
     let teapot: Vec<Triangle> = teapot
         .triangles
         .iter()
         .map(|t| Triangle {
-            v: t.v.map(|p| (p - base) * scale),
+            v: t.v.map(|p| (p - base) * scale + spot),
         })
         .collect();
 
@@ -211,8 +214,11 @@ fn teapot_in_stadium() -> Result<Scene, SceneError> {
     scene.push_object("stands", vec3(0.55, 0.57, 0.62), &stands);
     scene.push_object("walls", vec3(0.7, 0.65, 0.55), &walls);
     scene.push_object("floodlight towers", vec3(0.3, 0.3, 0.35), &towers);
-    scene.view = Some(Camera::new(vec3(0.7, 0.45, 1.5), vec3(0.0, 0.4, 0.0)));
-    scene.light = Some(vec3(15.0, 40.0, 25.0));
+    scene.view = Some(Camera::new(
+        spot + vec3(0.7, 0.45, 1.5),
+        spot + vec3(0.0, 0.4, 0.0),
+    ));
+    scene.light = Some(spot + vec3(15.0, 40.0, 25.0));
     Ok(scene)
 }
 
@@ -328,15 +334,19 @@ fn same_bbox(n: usize) -> Scene {
     let triangles: Vec<Triangle> = (0..n)
         .map(|_| {
             loop {
-                let mut v = [Vec3::ZERO; 3];
-                for axis in 0..3 {
+                // One coordinate per corner on each axis: a low, a high and a free one.
+                let mut axis = || {
                     let low = rng.below(3);
                     let high = (low + 1 + rng.below(2)) % 3;
-                    v[low][axis] = -0.5;
-                    v[high][axis] = 0.5;
-                    v[3 - low - high][axis] = rng.range(-0.5, 0.5);
-                }
-                let t = Triangle { v };
+                    let mut c = [0.0; 3];
+                    c[3 - low - high] = rng.range(-0.5, 0.5);
+                    c[low] = -0.5;
+                    c[high] = 0.5;
+                    c
+                };
+                let [x, y, z] = [axis(), axis(), axis()];
+                let corner = |i: usize| vec3(x[i], y[i], z[i]);
+                let t = Triangle::new(corner(0), corner(1), corner(2));
                 if t.area() > 0.01 {
                     break t;
                 }

@@ -76,7 +76,6 @@ pub(crate) fn parse_obj(
         single_index: false,
         ignore_points: true,
         ignore_lines: true,
-        ..Default::default()
     };
     let (models, materials) =
         tobj::load_obj_buf(&mut bytes.as_slice(), &options, |library| match mtl_dir {

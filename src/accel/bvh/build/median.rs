@@ -4,7 +4,7 @@ use super::prim::{NodeInfo, PrimRef, Split, partition, split_at};
 
 /// Equal counts on both sides: the median centroid along the widest centroid axis.
 pub fn object_median(refs: &mut [PrimRef], info: &NodeInfo) -> Split {
-    let axis = info.centroids.largest_axis();
+    let (axis, _) = info.centroid_axis();
     let m = refs.len() / 2;
     refs.select_nth_unstable_by(m, |a, b| {
         a.centroid2()[axis].total_cmp(&b.centroid2()[axis])
@@ -17,7 +17,7 @@ pub fn object_median(refs: &mut [PrimRef], info: &NodeInfo) -> Split {
 /// progress.
 pub fn spatial_median(refs: &mut [PrimRef], info: &NodeInfo) -> Split {
     let c = &info.centroids;
-    let axis = c.largest_axis();
+    let (axis, _) = info.centroid_axis();
     let mid = 0.5 * (c.min[axis] + c.max[axis]);
     let split = partition(refs, |r| r.centroid2()[axis] < mid);
     if split.0 == 0 || split.0 == refs.len() {

@@ -211,7 +211,7 @@ impl Builder<'_> {
     ) -> Node {
         let n = refs.len();
         let Some((m, left_info, right_info)) = self.split(refs, &info, depth) else {
-            return Node::leaf(info.bounds, first as u32, n as u32);
+            return Node::leaf(info.bounds.to_aabb(), first as u32, n as u32);
         };
         debug_assert!(0 < m && m < n);
         let (pair, rest) = slots.split_at_mut(2);
@@ -245,7 +245,7 @@ impl Builder<'_> {
         };
         pair[0] = l;
         pair[1] = r;
-        Node::interior(info.bounds, slot_base as u32)
+        Node::interior(info.bounds.to_aabb(), slot_base as u32)
     }
 
     /// Where to split `refs` (partitioning them so that `refs[..m]` is the left child), or
@@ -257,7 +257,7 @@ impl Builder<'_> {
         if n == 1 {
             return None;
         }
-        if info.centroids.extent().max_element() == 0.0 {
+        if info.centroid_axis().1 {
             // All centroids are equal: no plane separates them, and no split can make rays
             // cheaper. Halve by count only so the leaf size limit still holds.
             return must_split.then(|| prim::split_at(refs, n / 2));

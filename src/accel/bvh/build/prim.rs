@@ -3,7 +3,7 @@
 
 use super::PARALLEL_PASS;
 use crate::geometry::Aabb;
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 
 #[derive(Clone, Copy, Debug)]
@@ -25,14 +25,59 @@ impl PrimRef {
         }
     }
 
-    pub fn bounds(&self) -> Aabb {
-        Aabb::new(self.min, self.max)
-    }
-
     /// Twice the box centre: the factor ½ changes no comparison, so it is left out.
     #[inline(always)]
     pub fn centroid2(&self) -> Vec3 {
         self.min + self.max
+    }
+
+    #[inline(always)]
+    pub fn lo(&self) -> Vec3A {
+        Vec3A::from(self.min)
+    }
+
+    #[inline(always)]
+    pub fn hi(&self) -> Vec3A {
+        Vec3A::from(self.max)
+    }
+}
+
+/// A box in SIMD registers, for the builders' inner loops.
+#[derive(Clone, Copy, Debug)]
+pub struct Box3A {
+    pub min: Vec3A,
+    pub max: Vec3A,
+}
+
+impl Box3A {
+    pub const EMPTY: Box3A = Box3A {
+        min: Vec3A::splat(f32::INFINITY),
+        max: Vec3A::splat(f32::NEG_INFINITY),
+    };
+
+    #[inline(always)]
+    pub fn grow(&mut self, lo: Vec3A, hi: Vec3A) {
+        self.min = self.min.min(lo);
+        self.max = self.max.max(hi);
+    }
+
+    #[inline(always)]
+    pub fn union(self, o: Box3A) -> Box3A {
+        Box3A {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
+    }
+
+    /// Surface area; 0 for an empty box.
+    #[inline(always)]
+    pub fn surface_area(&self) -> f32 {
+        let e = (self.max - self.min).max(Vec3A::ZERO);
+        2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
+    }
+
+    pub fn to_aabb(self) -> Aabb {
+        Aabb::new(self.min.into(), self.max.into())
     }
 }
 
@@ -40,20 +85,22 @@ impl PrimRef {
 /// and the bounds of their (doubled) centroids.
 #[derive(Clone, Copy, Debug)]
 pub struct NodeInfo {
-    pub bounds: Aabb,
-    pub centroids: Aabb,
+    pub bounds: Box3A,
+    pub centroids: Box3A,
 }
 
 impl NodeInfo {
     pub const EMPTY: NodeInfo = NodeInfo {
-        bounds: Aabb::EMPTY,
-        centroids: Aabb::EMPTY,
+        bounds: Box3A::EMPTY,
+        centroids: Box3A::EMPTY,
     };
 
     #[inline(always)]
     pub fn add(&mut self, r: &PrimRef) {
-        self.bounds = self.bounds.union(r.bounds());
-        self.centroids = self.centroids.grow_point(r.centroid2());
+        let (lo, hi) = (r.lo(), r.hi());
+        self.bounds.grow(lo, hi);
+        let c = lo + hi;
+        self.centroids.grow(c, c);
     }
 
     pub fn merge(self, o: NodeInfo) -> NodeInfo {
@@ -61,6 +108,19 @@ impl NodeInfo {
             bounds: self.bounds.union(o.bounds),
             centroids: self.centroids.union(o.centroids),
         }
+    }
+
+    /// Widest axis of the centroids, and whether they all coincide.
+    pub fn centroid_axis(&self) -> (usize, bool) {
+        let e = self.centroids.max - self.centroids.min;
+        let axis = if e.x >= e.y && e.x >= e.z {
+            0
+        } else if e.y >= e.z {
+            1
+        } else {
+            2
+        };
+        (axis, e.max_element() <= 0.0)
     }
 
     pub fn of(refs: &[PrimRef]) -> NodeInfo {

@@ -2,39 +2,38 @@
 //! evaluate the SAH only at the B − 1 bucket boundaries. One linear pass instead of a sort,
 //! at the price of split planes restricted to a grid; B trades build time for tree quality.
 
-use super::prim::{NodeInfo, PrimRef, Split, partition};
+use super::prim::{Box3A, NodeInfo, PrimRef, Split, partition};
 use super::{BuildParams, PARALLEL_PASS, sah_split_cost, sah_worth_splitting};
-use crate::geometry::Aabb;
-use glam::Vec3;
+use glam::Vec3A;
 use rayon::prelude::*;
 use std::cell::RefCell;
 
 #[derive(Clone, Copy)]
 struct Bin {
-    bounds: Aabb,
+    bounds: Box3A,
     count: u32,
 }
 
 const EMPTY_BIN: Bin = Bin {
-    bounds: Aabb::EMPTY,
+    bounds: Box3A::EMPTY,
     count: 0,
 };
 
 /// Maps a (doubled) centroid to its bucket on each axis.
 #[derive(Clone, Copy)]
 struct Binning {
-    origin: Vec3,
-    scale: Vec3,
+    origin: Vec3A,
+    scale: Vec3A,
     buckets: usize,
 }
 
 impl Binning {
-    fn new(centroids: &Aabb, buckets: usize) -> Self {
-        let extent = centroids.extent();
-        let scale = Vec3::select(
-            extent.cmpgt(Vec3::ZERO),
+    fn new(centroids: &Box3A, buckets: usize) -> Self {
+        let extent = centroids.max - centroids.min;
+        let scale = Vec3A::select(
+            extent.cmpgt(Vec3A::ZERO),
             buckets as f32 / extent,
-            Vec3::ZERO,
+            Vec3A::ZERO,
         );
         Binning {
             origin: centroids.min,
@@ -47,20 +46,22 @@ impl Binning {
     /// so the partition reproduces the counts the cost was computed from.
     #[inline(always)]
     fn bucket(&self, r: &PrimRef, axis: usize) -> usize {
-        let k = (r.centroid2()[axis] - self.origin[axis]) * self.scale[axis];
+        let k = ((r.lo() + r.hi() - self.origin) * self.scale)[axis];
         (k as usize).min(self.buckets - 1)
     }
 
-    /// Adds `refs` to `bins` (`bins[axis * B + k]` for all three axes).
+    /// Adds `refs` to `bins`: `bins[3k + axis]` is bucket k on that axis, the three axes
+    /// side by side so the sweeps below advance them together.
     fn fill(&self, refs: &[PrimRef], bins: &mut [Bin]) {
-        let b = self.buckets;
+        let last = self.buckets - 1;
         for r in refs {
-            let c = (r.centroid2() - self.origin) * self.scale;
+            let (lo, hi) = (r.lo(), r.hi());
+            let c = (lo + hi - self.origin) * self.scale;
             let k = [c.x as usize, c.y as usize, c.z as usize];
             for (axis, &k) in k.iter().enumerate() {
-                let bin = &mut bins[axis * b + k.min(b - 1)];
+                let bin = &mut bins[3 * k.min(last) + axis];
                 bin.count += 1;
-                bin.bounds = bin.bounds.union(r.bounds());
+                bin.bounds.grow(lo, hi);
             }
         }
     }
@@ -108,35 +109,36 @@ pub fn split(refs: &mut [PrimRef], info: &NodeInfo, p: &BuildParams) -> Option<S
     let best = SCRATCH.with_borrow_mut(|s| {
         s.bins.clear();
         s.bins.resize(3 * b, EMPTY_BIN);
-        s.right_area.resize(b, 0.0);
-        s.right_count.resize(b, 0);
+        s.right_area.resize(3 * b, 0.0);
+        s.right_count.resize(3 * b, 0);
         binning.fill_parallel(refs, &mut s.bins);
         let mut best: Option<(f32, usize, usize)> = None;
-        for axis in 0..3 {
-            if binning.scale[axis] == 0.0 {
-                continue;
+        let (mut acc, mut count) = ([Box3A::EMPTY; 3], [0u32; 3]);
+        for k in (1..b).rev() {
+            for axis in 0..3 {
+                let bin = &s.bins[3 * k + axis];
+                acc[axis] = acc[axis].union(bin.bounds);
+                count[axis] += bin.count;
+                s.right_area[3 * k + axis] = acc[axis].surface_area();
+                s.right_count[3 * k + axis] = count[axis];
             }
-            let bins = &s.bins[axis * b..(axis + 1) * b];
-            let (mut acc, mut count) = (Aabb::EMPTY, 0);
-            for k in (1..b).rev() {
-                acc = acc.union(bins[k].bounds);
-                count += bins[k].count;
-                s.right_area[k] = acc.surface_area();
-                s.right_count[k] = count;
-            }
-            let (mut acc, mut count) = (Aabb::EMPTY, 0);
-            for k in 1..b {
-                acc = acc.union(bins[k - 1].bounds);
-                count += bins[k - 1].count;
-                let right = s.right_count[k];
-                if count == 0 || right == 0 {
+        }
+        let (mut acc, mut count) = ([Box3A::EMPTY; 3], [0u32; 3]);
+        for k in 1..b {
+            for axis in 0..3 {
+                let bin = &s.bins[3 * (k - 1) + axis];
+                acc[axis] = acc[axis].union(bin.bounds);
+                count[axis] += bin.count;
+                let right = s.right_count[3 * k + axis];
+                // An axis with no extent has everything in bucket 0: no candidate there.
+                if count[axis] == 0 || right == 0 {
                     continue;
                 }
                 let cost = sah_split_cost(
                     parent_area,
-                    acc.surface_area(),
-                    count as usize,
-                    s.right_area[k],
+                    acc[axis].surface_area(),
+                    count[axis] as usize,
+                    s.right_area[3 * k + axis],
                     right as usize,
                     p,
                 );

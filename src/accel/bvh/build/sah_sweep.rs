@@ -3,9 +3,8 @@
 //! The exact minimum of the greedy SAH, at O(N log N) per node: the reference the binned
 //! builder approximates.
 
-use super::prim::{NodeInfo, PrimRef, Split, split_at};
+use super::prim::{Box3A, NodeInfo, PrimRef, Split, split_at};
 use super::{BuildParams, sah_split_cost, sah_worth_splitting};
-use crate::geometry::Aabb;
 
 pub fn split(refs: &mut [PrimRef], info: &NodeInfo, p: &BuildParams) -> Option<Split> {
     let n = refs.len();
@@ -16,14 +15,14 @@ pub fn split(refs: &mut [PrimRef], info: &NodeInfo, p: &BuildParams) -> Option<S
     let mut best: Option<(f32, usize, usize)> = None;
     for axis in 0..3 {
         sort_along(&mut sorted, axis);
-        let mut right = Aabb::EMPTY;
+        let mut right = Box3A::EMPTY;
         for i in (1..n).rev() {
-            right = right.union(sorted[i].bounds());
+            right.grow(sorted[i].lo(), sorted[i].hi());
             right_area[i] = right.surface_area();
         }
-        let mut left = Aabb::EMPTY;
+        let mut left = Box3A::EMPTY;
         for i in 1..n {
-            left = left.union(sorted[i - 1].bounds());
+            left.grow(sorted[i - 1].lo(), sorted[i - 1].hi());
             let cost = sah_split_cost(parent_area, left.surface_area(), i, right_area[i], n - i, p);
             if best.is_none_or(|(c, _, _)| cost < c) {
                 best = Some((cost, axis, i));
