@@ -351,6 +351,19 @@ fn run_render(args: RenderArgs) -> Result<()> {
         s.trace_time.as_secs_f64() * 1e3,
         s.mrays_per_s()
     );
+    for rays in [RayKind::Primary, RayKind::Shadow] {
+        let c = |k| s.counter(rays, k);
+        out!(
+            "  {:<13} mean (max): {:.1} ({}) nodes visited, {:.1} ({}) box tests, {:.1} ({}) triangle tests",
+            rays.label(),
+            c(Counter::NodesVisited).mean,
+            c(Counter::NodesVisited).max,
+            c(Counter::BoxTests).mean,
+            c(Counter::BoxTests).max,
+            c(Counter::TriangleTests).mean,
+            c(Counter::TriangleTests).max,
+        );
+    }
     if let Some(max) = frame.heat_max {
         out!("heatmap scale: 0 (dark purple) to {max} (yellow)");
     }

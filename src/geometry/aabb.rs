@@ -108,7 +108,7 @@ impl Aabb {
     /// [tmin, tmax].
     #[inline(always)]
     pub fn slab_test(&self, ray: &SlabRay, tmin: f32, tmax: f32) -> f32 {
-        slab_entry(self.min, self.max, ray, tmin, tmax)
+        slab_entry(&[self.min, self.max], ray, tmin, tmax)
     }
 }
 
@@ -117,21 +117,19 @@ impl Aabb {
 pub struct SlabRay {
     pub origin: Vec3,
     pub inv_dir: Vec3,
-    /// Whether each direction component is negative, −0.0 included.
-    pub negative: [bool; 3],
+    /// Per axis, which corner (0 = min, 1 = max) holds the near plane: 1 where the
+    /// direction is negative, −0.0 included. The far plane is the other one.
+    pub near: [usize; 3],
 }
 
 impl SlabRay {
     pub fn new(ray: &Ray) -> Self {
         let d = ray.direction;
+        let near = |c: f32| usize::from(c.is_sign_negative());
         SlabRay {
             origin: ray.origin,
             inv_dir: Vec3::new(1.0 / d.x, 1.0 / d.y, 1.0 / d.z),
-            negative: [
-                d.x.is_sign_negative(),
-                d.y.is_sign_negative(),
-                d.z.is_sign_negative(),
-            ],
+            near: [near(d.x), near(d.y), near(d.z)],
         }
     }
 }
@@ -150,42 +148,26 @@ fn min_keep(acc: f32, x: f32) -> f32 {
     if x < acc { x } else { acc }
 }
 
-/// The slab test on raw bounds, shared by `Aabb` and the BVH node layouts.
+/// The slab test on a box given as its two corners `[min, max]`, shared by `Aabb` and the
+/// BVH nodes: the distance at which the ray enters the box, or +∞ if it misses the box
+/// within [tmin, tmax].
 #[inline(always)]
-pub fn slab_entry(min: Vec3, max: Vec3, ray: &SlabRay, tmin: f32, tmax: f32) -> f32 {
-    let (near_x, far_x) = if ray.negative[0] {
-        (max.x, min.x)
-    } else {
-        (min.x, max.x)
-    };
-    let (near_y, far_y) = if ray.negative[1] {
-        (max.y, min.y)
-    } else {
-        (min.y, max.y)
-    };
-    let (near_z, far_z) = if ray.negative[2] {
-        (max.z, min.z)
-    } else {
-        (min.z, max.z)
-    };
-    let o = ray.origin;
-    let inv = ray.inv_dir;
-    let t_near = max_keep(
-        max_keep(
-            max_keep(tmin, (near_x - o.x) * inv.x),
-            (near_y - o.y) * inv.y,
-        ),
-        (near_z - o.z) * inv.z,
-    );
-    let t_far = min_keep(
-        min_keep(
-            min_keep(tmax, (far_x - o.x) * inv.x * FAR_SCALE),
-            (far_y - o.y) * inv.y * FAR_SCALE,
-        ),
-        (far_z - o.z) * inv.z * FAR_SCALE,
-    );
-    if t_near <= t_far {
-        t_near
+pub fn slab_entry(corners: &[Vec3; 2], ray: &SlabRay, tmin: f32, tmax: f32) -> f32 {
+    let [nx, ny, nz] = ray.near;
+    let (o, inv) = (ray.origin, ray.inv_dir);
+    // `& 1` keeps the indices provably in range, so no bounds check is left in the loop.
+    let near_x = (corners[nx & 1].x - o.x) * inv.x;
+    let near_y = (corners[ny & 1].y - o.y) * inv.y;
+    let near_z = (corners[nz & 1].z - o.z) * inv.z;
+    let far_x = (corners[(nx ^ 1) & 1].x - o.x) * inv.x;
+    let far_y = (corners[(ny ^ 1) & 1].y - o.y) * inv.y;
+    let far_z = (corners[(nz ^ 1) & 1].z - o.z) * inv.z;
+    let enter = max_keep(max_keep(max_keep(tmin, near_x), near_y), near_z);
+    // Scaling the smallest far distance once is the same as scaling each: x ↦ x·(1 + 2γ)
+    // is monotonic. Starting from +∞ lets a NaN fall through to +∞ too.
+    let exit = min_keep(min_keep(min_keep(f32::INFINITY, far_x), far_y), far_z) * FAR_SCALE;
+    if enter <= min_keep(tmax, exit) {
+        enter
     } else {
         f32::INFINITY
     }

@@ -9,7 +9,7 @@ pub mod traverse;
 pub mod validate;
 
 pub use build::{BuildError, BuildParams, Strategy, build};
-pub use node::Node;
+pub use node::{Node, Nodes};
 pub use report::{BuildReport, TreeStats};
 
 use crate::geometry::Triangle;
@@ -41,7 +41,7 @@ impl TraversalOrder {
 #[derive(Clone, Debug)]
 pub struct Bvh {
     /// Node 0 is the root; a node's two children are adjacent and come after it.
-    pub nodes: Vec<Node>,
+    pub nodes: Nodes,
     /// Leaf order → scene triangle index.
     pub prim_indices: Vec<u32>,
     /// The scene's triangles in leaf order.

@@ -7,11 +7,12 @@ use glam::Vec3;
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C)]
 pub struct Node {
-    pub min: Vec3,
+    /// The box as its two corners, [min, max]: the slab test picks each axis's near plane
+    /// by index instead of by comparison.
+    pub corners: [Vec3; 2],
     /// Interior: index of the left child (the right child follows it).
     /// Leaf: index of the first triangle in leaf order.
     pub left_first: u32,
-    pub max: Vec3,
     /// Number of triangles of a leaf; `INTERIOR` marks an interior node. (A leaf may hold
     /// zero triangles: the root of an empty scene.)
     pub count: u32,
@@ -29,18 +30,16 @@ impl Default for Node {
 impl Node {
     pub fn leaf(bounds: Aabb, first: u32, count: u32) -> Self {
         Node {
-            min: bounds.min,
+            corners: [bounds.min, bounds.max],
             left_first: first,
-            max: bounds.max,
             count,
         }
     }
 
     pub fn interior(bounds: Aabb, left: u32) -> Self {
         Node {
-            min: bounds.min,
+            corners: [bounds.min, bounds.max],
             left_first: left,
-            max: bounds.max,
             count: INTERIOR,
         }
     }
@@ -51,12 +50,11 @@ impl Node {
     }
 
     pub fn bounds(&self) -> Aabb {
-        Aabb::new(self.min, self.max)
+        Aabb::new(self.corners[0], self.corners[1])
     }
 
     pub fn set_bounds(&mut self, b: Aabb) {
-        self.min = b.min;
-        self.max = b.max;
+        self.corners = [b.min, b.max];
     }
 
     /// The leaf's triangles as a range of leaf-order indices.
@@ -66,3 +64,74 @@ impl Node {
 }
 
 const _: () = assert!(std::mem::size_of::<Node>() == 32);
+
+/// Two sibling nodes: one 64-byte cache line, so a traversal step that tests both children
+/// of a node touches one line.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[repr(C, align(64))]
+pub struct NodePair(pub [Node; 2]);
+
+/// The nodes of a tree, numbered from 0 (the root); every interior node's children are the
+/// pair at odd index `left_first` and `left_first + 1`, stored as one aligned `NodePair`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Nodes {
+    root: Node,
+    pairs: Vec<NodePair>,
+}
+
+impl Nodes {
+    /// From nodes in the flat numbering (root, then children pairs from index 1).
+    pub fn from_flat(flat: &[Node]) -> Self {
+        let (root, rest) = flat
+            .split_first()
+            .map_or((Node::default(), &[][..]), |(r, rest)| (*r, rest));
+        Nodes {
+            root,
+            pairs: rest
+                .chunks_exact(2)
+                .map(|c| NodePair([c[0], c[1]]))
+                .collect(),
+        }
+    }
+
+    pub fn len(&self) -> usize {
+        1 + 2 * self.pairs.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        false
+    }
+
+    /// The children of an interior node whose `left_first` is `left`.
+    #[inline(always)]
+    pub fn pair(&self, left: usize) -> &[Node; 2] {
+        &self.pairs[(left - 1) >> 1].0
+    }
+
+    pub fn iter(&self) -> impl Iterator<Item = &Node> {
+        std::iter::once(&self.root).chain(self.pairs.iter().flat_map(|p| p.0.iter()))
+    }
+}
+
+impl std::ops::Index<usize> for Nodes {
+    type Output = Node;
+
+    #[inline(always)]
+    fn index(&self, i: usize) -> &Node {
+        if i == 0 {
+            &self.root
+        } else {
+            &self.pairs[(i - 1) >> 1].0[(i - 1) & 1]
+        }
+    }
+}
+
+impl std::ops::IndexMut<usize> for Nodes {
+    fn index_mut(&mut self, i: usize) -> &mut Node {
+        if i == 0 {
+            &mut self.root
+        } else {
+            &mut self.pairs[(i - 1) >> 1].0[(i - 1) & 1]
+        }
+    }
+}

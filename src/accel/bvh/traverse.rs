@@ -25,10 +25,10 @@ impl Bvh {
         stats: &mut S,
     ) -> Option<Hit> {
         let slab = SlabRay::new(ray);
-        let nodes = &self.nodes[..];
+        let nodes = &self.nodes;
         stats.box_tests(1);
         let root = &nodes[0];
-        if slab_entry(root.min, root.max, &slab, ray.tmin, ray.tmax) == f32::INFINITY {
+        if slab_entry(&root.corners, &slab, ray.tmin, ray.tmax) == f32::INFINITY {
             return None;
         }
         let data = I::prepare(ray);
@@ -53,10 +53,10 @@ impl Bvh {
                 }
             } else {
                 let l = node.left_first as usize;
-                let (a, b) = (&nodes[l], &nodes[l + 1]);
+                let [a, b] = nodes.pair(l);
                 stats.box_tests(2);
-                let mut da = slab_entry(a.min, a.max, &slab, ray.tmin, box_tmax);
-                let mut db = slab_entry(b.min, b.max, &slab, ray.tmin, box_tmax);
+                let mut da = slab_entry(&a.corners, &slab, ray.tmin, box_tmax);
+                let mut db = slab_entry(&b.corners, &slab, ray.tmin, box_tmax);
                 let (mut ia, mut ib) = (l, l + 1);
                 if ORDERED && db < da {
                     std::mem::swap(&mut da, &mut db);
@@ -96,11 +96,11 @@ impl Bvh {
 
     fn occluded<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
         let slab = SlabRay::new(ray);
-        let nodes = &self.nodes[..];
+        let nodes = &self.nodes;
         stats.box_tests(1);
         let root = &nodes[0];
         let tmax = ray.tmax * T_SCALE;
-        if slab_entry(root.min, root.max, &slab, ray.tmin, tmax) == f32::INFINITY {
+        if slab_entry(&root.corners, &slab, ray.tmin, tmax) == f32::INFINITY {
             return false;
         }
         let data = I::prepare(ray);
@@ -119,10 +119,10 @@ impl Bvh {
                 }
             } else {
                 let l = node.left_first as usize;
-                let (a, b) = (&nodes[l], &nodes[l + 1]);
+                let [a, b] = nodes.pair(l);
                 stats.box_tests(2);
-                let hit_a = slab_entry(a.min, a.max, &slab, ray.tmin, tmax) != f32::INFINITY;
-                let hit_b = slab_entry(b.min, b.max, &slab, ray.tmin, tmax) != f32::INFINITY;
+                let hit_a = slab_entry(&a.corners, &slab, ray.tmin, tmax) != f32::INFINITY;
+                let hit_b = slab_entry(&b.corners, &slab, ray.tmin, tmax) != f32::INFINITY;
                 if hit_a {
                     if hit_b {
                         stack[sp] = l as u32 + 1;

@@ -64,17 +64,17 @@ impl Bvh {
     /// Depths, checking on the way that every child index lies after its parent.
     fn node_depths_checked(&self) -> Result<Vec<u32>, String> {
         let mut depth = vec![u32::MAX; self.nodes.len()];
-        if let Some(d) = depth.first_mut() {
-            *d = 0;
-        }
+        depth[0] = 0;
         for (i, n) in self.nodes.iter().enumerate() {
             if depth[i] == u32::MAX {
                 return Err(format!("node {i} is not reachable from the root"));
             }
             if !n.is_leaf() {
                 let l = n.left_first as usize;
-                if l <= i || l + 1 >= self.nodes.len() {
-                    return Err(format!("node {i} has children at {l} (must follow it)"));
+                if l <= i || l % 2 == 0 || l + 1 >= self.nodes.len() {
+                    return Err(format!(
+                        "node {i} has children at {l} (must be an odd index after it)"
+                    ));
                 }
                 for c in [l, l + 1] {
                     if depth[c] != u32::MAX {

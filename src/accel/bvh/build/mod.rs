@@ -16,7 +16,7 @@ mod prim;
 mod sah_binned;
 mod sah_sweep;
 
-use super::node::Node;
+use super::node::{Node, Nodes};
 use super::report::BuildReport;
 use super::{Bvh, TraversalOrder};
 use crate::geometry::{Aabb, Triangle};
@@ -167,7 +167,7 @@ fn build_tree(triangles: &[Triangle], params: &BuildParams) -> Bvh {
         .collect();
     let n = refs.len();
     let nodes = if n == 0 {
-        vec![Node::leaf(Aabb::EMPTY, 0, 0)]
+        Nodes::from_flat(&[Node::leaf(Aabb::EMPTY, 0, 0)])
     } else {
         // A subtree over n primitives has at most 2n − 2 descendants. Giving each subtree a
         // fixed slice of that size lets both halves be built in parallel into disjoint
@@ -177,7 +177,7 @@ fn build_tree(triangles: &[Triangle], params: &BuildParams) -> Bvh {
         let info = NodeInfo::of(&refs);
         let root = builder.subtree(&mut refs, 0, 0, info, &mut slots[1..], 1);
         slots[0] = root;
-        compact(&slots)
+        Nodes::from_flat(&compact(&slots))
     };
     let prim_indices: Vec<u32> = refs.iter().map(|r| r.index).collect();
     let triangles = prim_indices
