@@ -71,7 +71,7 @@ impl Bvh {
             }
             if !n.is_leaf() {
                 let l = n.left_first as usize;
-                if l <= i || l % 2 == 0 || l + 1 >= self.nodes.len() {
+                if l <= i || l.is_multiple_of(2) || l + 1 >= self.nodes.len() {
                     return Err(format!(
                         "node {i} has children at {l} (must be an odd index after it)"
                     ));
