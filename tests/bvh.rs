@@ -527,3 +527,51 @@ fn build_report_describes_the_tree() {
     assert!(t.bytes >= t.nodes * 32);
     assert!(r.rows().iter().any(|(k, _)| k == "SAH cost"));
 }
+
+#[test]
+fn every_builder_matches_brute_force_on_the_shared_meshes() {
+    let Some(dir) = common::shared_scenes() else {
+        eprintln!("BVHLAB_SCENES not set: skipping the shared meshes");
+        return;
+    };
+    for file in [
+        "cornell-box.obj",
+        "teapot.obj",
+        "bunny.obj",
+        "sponza.obj",
+        "sibenik.obj",
+        "conference.obj",
+    ] {
+        let scene = bvhlab::scene::load_obj(&dir.join(file)).expect("shared mesh loads");
+        let brute = BruteForce::new(&scene.triangles, true);
+        let mut rays = rays(&scene.bounds(), 150, 42);
+        let cam = scene.camera().rays(8, 6);
+        rays.extend(
+            (0..6)
+                .flat_map(|y| (0..8).map(move |x| (x, y)))
+                .map(|(x, y)| cam.pixel_center(x, y)),
+        );
+        let expected: Vec<_> = rays
+            .iter()
+            .map(|r| brute.closest_hit::<Watertight, _>(r, &mut NoStats))
+            .collect();
+        for strategy in Strategy::ALL {
+            let bvh = built(
+                &scene.triangles,
+                &BuildParams::with_strategy(strategy),
+                TraversalOrder::FrontToBack,
+            );
+            for (ray, want) in rays.iter().zip(&expected) {
+                let got = bvh.closest_hit::<Watertight, _>(ray, &mut NoStats);
+                assert!(
+                    same_hit(got, *want),
+                    "{file} {strategy:?}: {ray:?}: {got:?} vs {want:?}"
+                );
+                assert_eq!(
+                    bvh.any_hit::<Watertight, _>(ray, &mut NoStats),
+                    want.is_some()
+                );
+            }
+        }
+    }
+}

@@ -113,13 +113,19 @@ pub fn split(refs: &mut [PrimRef], info: &NodeInfo, p: &BuildParams) -> Option<S
         s.right_count.resize(3 * b, 0);
         binning.fill_parallel(refs, &mut s.bins);
         let mut best: Option<(f32, usize, usize)> = None;
-        let (mut acc, mut count) = ([Box3A::EMPTY; 3], [0u32; 3]);
+        // Empty buckets change neither side: the sweeps skip their unions and areas, and
+        // only boundaries right after a non-empty bucket are candidates (the others repeat
+        // a partition already costed).
+        let (mut acc, mut count, mut area) = ([Box3A::EMPTY; 3], [0u32; 3], [0.0f32; 3]);
         for k in (1..b).rev() {
             for axis in 0..3 {
                 let bin = &s.bins[3 * k + axis];
-                acc[axis] = acc[axis].union(bin.bounds);
-                count[axis] += bin.count;
-                s.right_area[3 * k + axis] = acc[axis].surface_area();
+                if bin.count > 0 {
+                    acc[axis] = acc[axis].union(bin.bounds);
+                    count[axis] += bin.count;
+                    area[axis] = acc[axis].surface_area();
+                }
+                s.right_area[3 * k + axis] = area[axis];
                 s.right_count[3 * k + axis] = count[axis];
             }
         }
@@ -127,13 +133,12 @@ pub fn split(refs: &mut [PrimRef], info: &NodeInfo, p: &BuildParams) -> Option<S
         for k in 1..b {
             for axis in 0..3 {
                 let bin = &s.bins[3 * (k - 1) + axis];
-                acc[axis] = acc[axis].union(bin.bounds);
-                count[axis] += bin.count;
                 let right = s.right_count[3 * k + axis];
-                // An axis with no extent has everything in bucket 0: no candidate there.
-                if count[axis] == 0 || right == 0 {
+                if bin.count == 0 || right == 0 {
                     continue;
                 }
+                acc[axis] = acc[axis].union(bin.bounds);
+                count[axis] += bin.count;
                 let cost = sah_split_cost(
                     parent_area,
                     acc[axis].surface_area(),
