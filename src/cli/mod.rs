@@ -1,0 +1,164 @@
+//! Arguments shared by the subcommands, and one file per subcommand.
+
+pub mod bench;
+pub mod render;
+pub mod stats;
+
+use anyhow::{Context, Result, bail};
+use bvhlab::accel::bvh::{BuildParams, Strategy, TraversalOrder};
+use bvhlab::scene::{Camera, Scene};
+use clap::{Args, ValueEnum};
+use glam::Vec3;
+
+#[derive(Args, Clone)]
+pub struct BuildArgs {
+    /// Split strategy.
+    #[arg(long, value_enum, default_value_t = BuilderArg::SahBinned)]
+    pub builder: BuilderArg,
+    /// Bucket count B for binned SAH (2..=256).
+    #[arg(long, default_value_t = BuildParams::default().buckets)]
+    pub buckets: u32,
+    /// Maximum number of triangles in a leaf (1..=4096).
+    #[arg(long, default_value_t = BuildParams::default().max_leaf_size)]
+    pub max_leaf: u32,
+    /// SAH cost of a traversal step.
+    #[arg(long, default_value_t = BuildParams::default().c_trav)]
+    pub c_trav: f32,
+    /// SAH cost of a ray–triangle test.
+    #[arg(long, default_value_t = BuildParams::default().c_isect)]
+    pub c_isect: f32,
+    /// Child order in closest-hit traversal.
+    #[arg(long, value_enum, default_value_t = OrderArg::FrontToBack)]
+    pub order: OrderArg,
+}
+
+#[derive(ValueEnum, Clone, Copy)]
+pub enum BuilderArg {
+    ObjectMedian,
+    SpatialMedian,
+    SahSweep,
+    SahBinned,
+}
+
+#[derive(ValueEnum, Clone, Copy)]
+pub enum OrderArg {
+    FrontToBack,
+    Naive,
+}
+
+#[derive(ValueEnum, Clone, Copy)]
+pub enum AccelArg {
+    /// The BVH built with the --builder parameters.
+    Bvh,
+    /// Every triangle for every ray.
+    BruteForce,
+    /// Every triangle, after testing the scene's bounding box.
+    BruteForceBbox,
+}
+
+#[derive(ValueEnum, Clone, Copy, PartialEq)]
+pub enum ModeArg {
+    Shaded,
+    Normals,
+    Depth,
+    /// Heatmap of nodes visited.
+    Nodes,
+    /// Heatmap of ray–box tests.
+    Boxes,
+    /// Heatmap of ray–triangle tests.
+    Triangles,
+}
+
+impl BuildArgs {
+    pub fn params(&self) -> BuildParams {
+        BuildParams {
+            strategy: match self.builder {
+                BuilderArg::ObjectMedian => Strategy::ObjectMedian,
+                BuilderArg::SpatialMedian => Strategy::SpatialMedian,
+                BuilderArg::SahSweep => Strategy::SahSweep,
+                BuilderArg::SahBinned => Strategy::SahBinned,
+            },
+            buckets: self.buckets,
+            max_leaf_size: self.max_leaf,
+            c_trav: self.c_trav,
+            c_isect: self.c_isect,
+        }
+    }
+
+    pub fn order(&self) -> TraversalOrder {
+        match self.order {
+            OrderArg::FrontToBack => TraversalOrder::FrontToBack,
+            OrderArg::Naive => TraversalOrder::Naive,
+        }
+    }
+}
+
+#[derive(Args, Clone)]
+pub struct ViewArgs {
+    /// Camera position x,y,z (default: the scene's view).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub eye: Option<Vec3>,
+    /// Point the camera looks at x,y,z.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub look: Option<Vec3>,
+    /// Point light position x,y,z (default: the scene's light).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub light: Option<Vec3>,
+}
+
+impl ViewArgs {
+    pub fn camera(&self, scene: &Scene) -> Result<Camera> {
+        let default = scene.camera();
+        let cam = Camera {
+            eye: self.eye.unwrap_or(default.eye),
+            look_at: self.look.unwrap_or(default.look_at),
+            ..default
+        };
+        if cam.eye == cam.look_at {
+            bail!("--eye and --look must be different points");
+        }
+        Ok(cam)
+    }
+
+    pub fn light(&self, scene: &Scene) -> Vec3 {
+        self.light.unwrap_or_else(|| scene.light())
+    }
+}
+
+pub fn parse_vec3(s: &str) -> Result<Vec3, String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    let [x, y, z] = parts.as_slice() else {
+        return Err(format!("expected x,y,z, got '{s}'"));
+    };
+    let f = |v: &str| {
+        v.parse::<f32>()
+            .ok()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| format!("'{v}' is not a finite number"))
+    };
+    Ok(Vec3::new(f(x)?, f(y)?, f(z)?))
+}
+
+pub fn load_scene(spec: &str) -> Result<Scene> {
+    Scene::load(spec).with_context(|| format!("cannot load scene '{spec}'"))
+}
+
+pub fn check_size(width: u32, height: u32) -> Result<()> {
+    if !(1..=16384).contains(&width) || !(1..=16384).contains(&height) {
+        bail!("image size {width}×{height} must be within 1..=16384 on each side");
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn vec3_parsing() {
+        assert_eq!(parse_vec3("1,-2, 3.5"), Ok(Vec3::new(1.0, -2.0, 3.5)));
+        assert!(parse_vec3("1,2").is_err());
+        assert!(parse_vec3("1,2,nan").is_err());
+        assert!(parse_vec3("a,b,c").is_err());
+    }
+}

@@ -1,0 +1,154 @@
+//! `bvhlab render`: a scene through the CPU ray tracer into a PNG.
+
+use super::{AccelArg, BuildArgs, ModeArg, ViewArgs, check_size, load_scene};
+use anyhow::{Context, Result, bail};
+use bvhlab::accel::bvh::build;
+use bvhlab::accel::{BruteForce, Counter};
+use bvhlab::render::{self, Mode, RayKind, RenderSettings};
+use bvhlab::scene::Scene;
+use clap::{Args, Parser};
+use std::path::PathBuf;
+
+#[derive(Args)]
+pub struct RenderArgs {
+    /// Built-in scene name (optionally NAME:N) or path to an .obj file.
+    #[arg(long, default_value = "cornell")]
+    pub scene: String,
+    /// Output PNG.
+    #[arg(long, short)]
+    pub out: Option<PathBuf>,
+    #[arg(long, value_enum, default_value_t = ModeArg::Shaded)]
+    pub mode: ModeArg,
+    /// For heatmaps: count the shadow rays instead of the primary rays.
+    #[arg(long)]
+    pub shadow: bool,
+    /// For heatmaps: the count at the top of the colour scale (default: the frame's maximum).
+    #[arg(long)]
+    pub heat_max: Option<u32>,
+    #[arg(long, default_value_t = 1024)]
+    pub width: u32,
+    #[arg(long, default_value_t = 768)]
+    pub height: u32,
+    /// Vertical field of view in degrees.
+    #[arg(long)]
+    pub fov: Option<f32>,
+    #[command(flatten)]
+    pub view: ViewArgs,
+    /// Acceleration structure.
+    #[arg(long, value_enum, default_value_t = AccelArg::Bvh)]
+    pub accel: AccelArg,
+    #[command(flatten)]
+    pub build: BuildArgs,
+}
+
+impl RenderArgs {
+    /// The arguments of a plain `bvhlab render`, writing to `out`.
+    pub fn defaults(out: PathBuf) -> Self {
+        let mut args = match crate::Cli::parse_from(["bvhlab", "render"]).command {
+            Some(crate::Command::Render(a)) => a,
+            _ => unreachable!("the render subcommand parses to Render"),
+        };
+        args.out = Some(out);
+        args
+    }
+}
+
+pub fn run(args: RenderArgs) -> Result<()> {
+    check_size(args.width, args.height)?;
+    let scene = load_scene(&args.scene)?;
+    let mut camera = args.view.camera(&scene)?;
+    if let Some(fov) = args.fov {
+        if !(fov > 0.0 && fov < 180.0) {
+            bail!("--fov {fov} must be between 0 and 180 degrees");
+        }
+        camera.fov_y_deg = fov;
+    }
+    let rays = if args.shadow {
+        RayKind::Shadow
+    } else {
+        RayKind::Primary
+    };
+    let mode = match args.mode {
+        ModeArg::Shaded => Mode::Shaded,
+        ModeArg::Normals => Mode::Normals,
+        ModeArg::Depth => Mode::Depth,
+        ModeArg::Nodes => Mode::Heatmap(Counter::NodesVisited, rays),
+        ModeArg::Boxes => Mode::Heatmap(Counter::BoxTests, rays),
+        ModeArg::Triangles => Mode::Heatmap(Counter::TriangleTests, rays),
+    };
+    let settings = RenderSettings {
+        width: args.width,
+        height: args.height,
+        camera,
+        light: args.view.light(&scene),
+        mode,
+        heat_max: args.heat_max,
+    };
+    let frame = match args.accel {
+        AccelArg::Bvh => {
+            let (mut bvh, report) = build(&scene.triangles, &args.build.params())?;
+            bvh.order = args.build.order();
+            eprintln!(
+                "built {} over {} triangles in {:.2} ms",
+                report.params.strategy.label(),
+                report.triangles,
+                report.build_ms()
+            );
+            render::render(&bvh, &scene, &settings)
+        }
+        AccelArg::BruteForce => render_brute(&scene, false, &settings),
+        AccelArg::BruteForceBbox => render_brute(&scene, true, &settings),
+    };
+    let out = args.out.unwrap_or_else(|| {
+        let name = format!("bvhlab-{}.png", sanitize(&scene.name));
+        PathBuf::from(name)
+    });
+    frame
+        .save_png(&out)
+        .with_context(|| format!("cannot write {}", out.display()))?;
+    let s = &frame.summary;
+    out!(
+        "wrote {} ({}×{}, {}): {} rays in {:.1} ms, {:.2} Mrays/s",
+        out.display(),
+        frame.width,
+        frame.height,
+        mode.label(),
+        s.rays(),
+        s.trace_time.as_secs_f64() * 1e3,
+        s.mrays_per_s()
+    );
+    for rays in [RayKind::Primary, RayKind::Shadow] {
+        let c = |k| s.counter(rays, k);
+        out!(
+            "  {:<13} mean (max): {:.1} ({}) nodes visited, {:.1} ({}) box tests, {:.1} ({}) triangle tests",
+            rays.label(),
+            c(Counter::NodesVisited).mean,
+            c(Counter::NodesVisited).max,
+            c(Counter::BoxTests).mean,
+            c(Counter::BoxTests).max,
+            c(Counter::TriangleTests).mean,
+            c(Counter::TriangleTests).max,
+        );
+    }
+    if let Some(max) = frame.heat_max {
+        out!("heatmap scale: 0 (dark purple) to {max} (yellow)");
+    }
+    Ok(())
+}
+
+pub fn render_brute(scene: &Scene, early_out: bool, settings: &RenderSettings) -> render::Frame {
+    let accel = BruteForce::new(&scene.triangles, early_out);
+    render::render(&accel, scene, settings)
+}
+
+pub fn sanitize(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}

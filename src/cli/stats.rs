@@ -1,0 +1,31 @@
+//! `bvhlab stats`: the build report of a BVH as a table.
+
+use super::{BuildArgs, load_scene};
+use anyhow::Result;
+use bvhlab::accel::bvh::build;
+use clap::Args;
+
+#[derive(Args)]
+pub struct StatsArgs {
+    /// Built-in scene name (optionally NAME:N) or path to an .obj file.
+    #[arg(long, default_value = "cornell")]
+    pub scene: String,
+    #[command(flatten)]
+    pub build: BuildArgs,
+}
+
+pub fn run(args: StatsArgs) -> Result<()> {
+    let scene = load_scene(&args.scene)?;
+    let (_, report) = build(&scene.triangles, &args.build.params())?;
+    out!("scene: {} ({} objects)", scene.name, scene.objects.len());
+    let width = report
+        .rows()
+        .iter()
+        .map(|(k, _)| k.chars().count())
+        .max()
+        .unwrap_or(0);
+    for (k, v) in report.rows() {
+        out!("  {k:<width$}  {v}");
+    }
+    Ok(())
+}
