@@ -9,9 +9,11 @@
 //! - `scene`: OBJ loading, the built-in scenes, the pinhole camera;
 //! - `accel`: brute force and the BVH (build strategies, traversal, refit);
 //! - `render`: the tile-parallel CPU renderer, its shading and heatmap modes;
-//! - `bench`: the standard ray sets and the benchmark behind `bvhlab bench`.
+//! - `bench`: the standard ray sets and the benchmark behind `bvhlab bench`;
+//! - `app`: the egui explorer over all of it, with a worker thread that owns scene and tree.
 
 pub mod accel;
+pub mod app;
 pub mod bench;
 pub mod geometry;
 pub mod render;

@@ -20,8 +20,7 @@ mod cli;
     version,
     about = "How bounding volume hierarchies make ray–scene queries fast: render, inspect and benchmark.",
     long_about = "How bounding volume hierarchies make ray–scene queries fast: render, inspect and \
-                  benchmark.\n\nWithout a command, renders the default scene (cornell) to \
-                  bvhlab-cornell.png.\n\nScenes are built-in names (cornell, teapot-in-stadium, \
+                  benchmark.\n\nWithout a command, opens the explorer app.\n\nScenes are built-in names (cornell, teapot-in-stadium, \
                   grass, walls, walls-rotated, same-centroid, same-bbox, soup, sphere; most take a \
                   size as NAME:N, e.g. soup:50000) or paths to .obj files."
 )]
@@ -32,24 +31,30 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Open the explorer app (the same as no command).
+    App(cli::app::AppArgs),
+    /// Open the app in a given state, save the window to a PNG, and exit.
+    Screenshot(cli::app::ScreenshotArgs),
     /// Render a scene to a PNG through the CPU ray tracer.
     Render(cli::render::RenderArgs),
     /// Build a BVH and print its build report as a table.
     Stats(cli::stats::StatsArgs),
     /// Time builds and the standard primary, diffuse and shadow ray sets.
     Bench(cli::bench::BenchArgs),
+    /// Trace a binary file of rays (closest hit or --any) and write the hits in input order.
+    Trace(cli::trace::TraceArgs),
 }
 
 fn main() -> Result<()> {
     let cli = Cli::parse();
     let result = match cli.command {
-        None => {
-            let args = cli::render::RenderArgs::defaults("bvhlab-cornell.png".into());
-            cli::render::run(args)
-        }
+        None => cli::app::run(cli::app::AppArgs::default()),
+        Some(Command::App(args)) => cli::app::run(args),
+        Some(Command::Screenshot(args)) => cli::app::screenshot(args),
         Some(Command::Render(args)) => cli::render::run(args),
         Some(Command::Stats(args)) => cli::stats::run(args),
         Some(Command::Bench(args)) => cli::bench::run(args),
+        Some(Command::Trace(args)) => cli::trace::run(args),
     };
     match result {
         Err(e)

@@ -575,3 +575,21 @@ fn every_builder_matches_brute_force_on_the_shared_meshes() {
         }
     }
 }
+
+#[test]
+fn build_progress_counts_every_triangle_once() {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    for n in [0, 10, 5000, 60_000] {
+        let tris = soup(n, 8);
+        for strategy in Strategy::ALL {
+            let progress = AtomicUsize::new(0);
+            bvhlab::accel::bvh::build_with_progress(
+                &tris,
+                &BuildParams::with_strategy(strategy),
+                &progress,
+            )
+            .unwrap();
+            assert_eq!(progress.load(Ordering::Relaxed), n, "{strategy:?}");
+        }
+    }
+}

@@ -2,10 +2,11 @@
 //! Mrays/s on the standard primary, shadow and diffuse ray sets of a view.
 
 pub mod rays;
+pub mod stress;
 
 use crate::accel::bvh::{BuildError, BuildReport, build};
 use crate::accel::{Accel, BuildParams, Bvh, NoStats};
-use crate::geometry::{Ray, Watertight};
+use crate::geometry::{Intersector, IntersectorKind, Ray};
 use crate::scene::{Camera, Scene};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -23,6 +24,9 @@ pub struct BenchConfig {
     pub builds: u32,
     /// Runs over each ray set (the best counts).
     pub runs: u32,
+    /// The ray–triangle test of the timed runs (the ray sets are always generated with the
+    /// watertight default, so every intersector traces the same rays).
+    pub intersector: IntersectorKind,
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -49,6 +53,7 @@ pub struct BenchResult {
     pub scene: String,
     pub triangles: usize,
     pub threads: usize,
+    pub intersector: IntersectorKind,
     pub report: BuildReport,
     pub primary: RaySetResult,
     pub diffuse: RaySetResult,
@@ -71,25 +76,31 @@ pub fn run(scene: &Scene, cfg: &BenchConfig) -> Result<BenchResult, BuildError> 
         unreachable!("at least one build ran")
     };
     let sets = RaySets::standard(&bvh, scene, &cfg.camera, cfg.light, cfg.width, cfg.height);
-    let runs = cfg.runs.max(1);
-    let primary = time_set(&sets.primary, runs, |r| {
-        bvh.closest_hit::<Watertight, _>(r, &mut NoStats).is_some()
-    });
-    let diffuse = time_set(&sets.diffuse, runs, |r| {
-        bvh.closest_hit::<Watertight, _>(r, &mut NoStats).is_some()
-    });
-    let shadow = time_set(&sets.shadow, runs, |r| {
-        bvh.any_hit::<Watertight, _>(r, &mut NoStats)
-    });
+    let [primary, diffuse, shadow] =
+        crate::with_intersector!(cfg.intersector, I => time_sets::<I>(&bvh, &sets, cfg.runs));
     Ok(BenchResult {
         scene: scene.name.clone(),
         triangles: scene.triangles.len(),
         threads: rayon::current_num_threads(),
+        intersector: cfg.intersector,
         report,
         primary,
         diffuse,
         shadow,
     })
+}
+
+/// Primary, diffuse and shadow sets traced `runs` times each with the intersector `I`.
+pub fn time_sets<I: Intersector>(bvh: &Bvh, sets: &RaySets, runs: u32) -> [RaySetResult; 3] {
+    let runs = runs.max(1);
+    let primary = time_set(&sets.primary, runs, |r| {
+        bvh.closest_hit::<I, _>(r, &mut NoStats).is_some()
+    });
+    let diffuse = time_set(&sets.diffuse, runs, |r| {
+        bvh.closest_hit::<I, _>(r, &mut NoStats).is_some()
+    });
+    let shadow = time_set(&sets.shadow, runs, |r| bvh.any_hit::<I, _>(r, &mut NoStats));
+    [primary, diffuse, shadow]
 }
 
 /// Traces `rays` `runs` times in parallel; the best time and the hit count.
@@ -125,6 +136,7 @@ impl BenchResult {
             "scene": self.scene,
             "triangles": self.triangles,
             "threads": self.threads,
+            "intersector": self.intersector.label(),
             "builder": self.report.params.strategy.label(),
             "buckets": self.report.params.buckets,
             "max_leaf_size": self.report.params.max_leaf_size,

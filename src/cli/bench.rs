@@ -1,7 +1,7 @@
 //! `bvhlab bench`: build times and Mrays/s on the standard ray sets of a view.
 
-use super::{BuildArgs, ViewArgs, check_size, load_scene};
-use anyhow::{Context, Result, bail};
+use super::{BuildArgs, IntersectorArg, ViewArgs, check_size, load_scene, thread_pool};
+use anyhow::Result;
 use bvhlab::bench::{self, BenchConfig};
 use clap::Args;
 
@@ -28,6 +28,9 @@ pub struct BenchArgs {
     /// Print exactly one JSON object.
     #[arg(long)]
     pub json: bool,
+    /// Ray–triangle test of the timed runs.
+    #[arg(long, value_enum, default_value_t = IntersectorArg::Watertight)]
+    pub intersector: IntersectorArg,
     #[command(flatten)]
     pub build: BuildArgs,
 }
@@ -43,16 +46,10 @@ pub fn run(args: BenchArgs) -> Result<()> {
         params: args.build.params(),
         builds: args.builds,
         runs: args.runs,
+        intersector: args.intersector.kind(),
     };
     cfg.params.validate()?;
-    let mut pool = rayon::ThreadPoolBuilder::new();
-    if let Some(n) = args.threads {
-        if n == 0 {
-            bail!("--threads must be at least 1");
-        }
-        pool = pool.num_threads(n);
-    }
-    let pool = pool.build().context("cannot start the worker threads")?;
+    let pool = thread_pool(args.threads)?;
     let result = pool.install(|| bench::run(&scene, &cfg))?;
     if args.json {
         out!("{}", result.to_json());
@@ -60,11 +57,12 @@ pub fn run(args: BenchArgs) -> Result<()> {
     }
     let r = &result;
     out!(
-        "{}: {} triangles, {} threads, {}",
+        "{}: {} triangles, {} threads, {}, {} intersector",
         r.scene,
         r.triangles,
         r.threads,
-        r.report.params.strategy.label()
+        r.report.params.strategy.label(),
+        r.intersector.label()
     );
     out!(
         "  build {:.2} ms (best of {}), SAH cost {:.2}, {} nodes",

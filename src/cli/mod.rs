@@ -1,11 +1,14 @@
 //! Arguments shared by the subcommands, and one file per subcommand.
 
+pub mod app;
 pub mod bench;
 pub mod render;
 pub mod stats;
+pub mod trace;
 
 use anyhow::{Context, Result, bail};
 use bvhlab::accel::bvh::{BuildParams, Strategy, TraversalOrder};
+use bvhlab::geometry::IntersectorKind;
 use bvhlab::scene::{Camera, Scene};
 use clap::{Args, ValueEnum};
 use glam::Vec3;
@@ -54,6 +57,27 @@ pub enum AccelArg {
     BruteForce,
     /// Every triangle, after testing the scene's bounding box.
     BruteForceBbox,
+}
+
+/// The ray–triangle test (see `bvhlab::geometry::IntersectorKind`).
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq)]
+pub enum IntersectorArg {
+    /// Woop, Benthin and Wald (2013) in f32: no ray slips between triangles.
+    Watertight,
+    /// Möller–Trumbore (1997) in f32: fast, not watertight.
+    MollerTrumbore,
+    /// The watertight test in f64: the accurate reference.
+    F64,
+}
+
+impl IntersectorArg {
+    pub fn kind(self) -> IntersectorKind {
+        match self {
+            IntersectorArg::Watertight => IntersectorKind::Watertight,
+            IntersectorArg::MollerTrumbore => IntersectorKind::MollerTrumbore,
+            IntersectorArg::F64 => IntersectorKind::F64,
+        }
+    }
 }
 
 #[derive(ValueEnum, Clone, Copy, PartialEq)]
@@ -141,6 +165,18 @@ pub fn parse_vec3(s: &str) -> Result<Vec3, String> {
 
 pub fn load_scene(spec: &str) -> Result<Scene> {
     Scene::load(spec).with_context(|| format!("cannot load scene '{spec}'"))
+}
+
+/// A rayon pool with `threads` workers (default: all cores).
+pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    let mut pool = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = threads {
+        if n == 0 {
+            bail!("--threads must be at least 1");
+        }
+        pool = pool.num_threads(n);
+    }
+    pool.build().context("cannot start the worker threads")
 }
 
 pub fn check_size(width: u32, height: u32) -> Result<()> {

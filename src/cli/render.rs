@@ -1,12 +1,12 @@
 //! `bvhlab render`: a scene through the CPU ray tracer into a PNG.
 
-use super::{AccelArg, BuildArgs, ModeArg, ViewArgs, check_size, load_scene};
+use super::{AccelArg, BuildArgs, IntersectorArg, ModeArg, ViewArgs, check_size, load_scene};
 use anyhow::{Context, Result, bail};
 use bvhlab::accel::bvh::build;
 use bvhlab::accel::{BruteForce, Counter};
 use bvhlab::render::{self, Mode, RayKind, RenderSettings};
-use bvhlab::scene::Scene;
-use clap::{Args, Parser};
+use bvhlab::with_intersector;
+use clap::Args;
 use std::path::PathBuf;
 
 #[derive(Args)]
@@ -37,20 +37,11 @@ pub struct RenderArgs {
     /// Acceleration structure.
     #[arg(long, value_enum, default_value_t = AccelArg::Bvh)]
     pub accel: AccelArg,
+    /// Ray–triangle test used by every ray.
+    #[arg(long, value_enum, default_value_t = IntersectorArg::Watertight)]
+    pub intersector: IntersectorArg,
     #[command(flatten)]
     pub build: BuildArgs,
-}
-
-impl RenderArgs {
-    /// The arguments of a plain `bvhlab render`, writing to `out`.
-    pub fn defaults(out: PathBuf) -> Self {
-        let mut args = match crate::Cli::parse_from(["bvhlab", "render"]).command {
-            Some(crate::Command::Render(a)) => a,
-            _ => unreachable!("the render subcommand parses to Render"),
-        };
-        args.out = Some(out);
-        args
-    }
 }
 
 pub fn run(args: RenderArgs) -> Result<()> {
@@ -84,6 +75,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         mode,
         heat_max: args.heat_max,
     };
+    let kind = args.intersector.kind();
     let frame = match args.accel {
         AccelArg::Bvh => {
             let (mut bvh, report) = build(&scene.triangles, &args.build.params())?;
@@ -94,10 +86,15 @@ pub fn run(args: RenderArgs) -> Result<()> {
                 report.triangles,
                 report.build_ms()
             );
-            render::render(&bvh, &scene, &settings)
+            with_intersector!(kind, I => render::render_with::<_, I>(&bvh, &scene, &settings))
         }
-        AccelArg::BruteForce => render_brute(&scene, false, &settings),
-        AccelArg::BruteForceBbox => render_brute(&scene, true, &settings),
+        AccelArg::BruteForce | AccelArg::BruteForceBbox => {
+            let accel = BruteForce::new(
+                &scene.triangles,
+                matches!(args.accel, AccelArg::BruteForceBbox),
+            );
+            with_intersector!(kind, I => render::render_with::<_, I>(&accel, &scene, &settings))
+        }
     };
     let out = args.out.unwrap_or_else(|| {
         let name = format!("bvhlab-{}.png", sanitize(&scene.name));
@@ -134,11 +131,6 @@ pub fn run(args: RenderArgs) -> Result<()> {
         out!("heatmap scale: 0 (dark purple) to {max} (yellow)");
     }
     Ok(())
-}
-
-pub fn render_brute(scene: &Scene, early_out: bool, settings: &RenderSettings) -> render::Frame {
-    let accel = BruteForce::new(&scene.triangles, early_out);
-    render::render(&accel, scene, settings)
 }
 
 pub fn sanitize(name: &str) -> String {

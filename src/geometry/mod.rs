@@ -4,11 +4,12 @@
 pub mod aabb;
 pub mod intersect;
 pub mod ray;
+pub mod rayfile;
 pub mod spawn;
 pub mod triangle;
 
 pub use aabb::Aabb;
-pub use intersect::{Intersector, MollerTrumbore, Watertight};
+pub use intersect::{Intersector, IntersectorKind, MollerTrumbore, ReferenceF64, Watertight};
 pub use ray::Ray;
 pub use triangle::Triangle;
 

@@ -4,6 +4,7 @@
 
 pub mod colormap;
 pub mod frame;
+pub mod overlay;
 
 pub use frame::{CounterSummary, Frame, FrameSummary, RayKind, Sample};
 
@@ -114,7 +115,7 @@ pub fn render_with<A: Accel, I: Intersector>(
         samples,
         heat_max: None,
     };
-    colorize(&mut frame, settings.mode, settings.heat_max);
+    frame.recolor(settings.mode, settings.heat_max);
     frame
 }
 
@@ -168,8 +169,18 @@ fn trace_pixel<A: Accel, I: Intersector>(
     }
 }
 
-/// (Re)computes `frame.rgba` from its samples for `mode`.
-pub fn colorize(frame: &mut Frame, mode: Mode, heat_max: Option<u32>) {
+impl Frame {
+    /// Recomputes `rgba` and `heat_max` for another mode or scale, without tracing again.
+    pub fn recolor(&mut self, mode: Mode, heat_max: Option<u32>) {
+        let (rgba, max) = colorize(self, mode, heat_max);
+        self.rgba = rgba;
+        self.heat_max = max;
+    }
+}
+
+/// The pixels of `frame` in `mode`, and for heatmaps the count at the top of the scale
+/// (`heat_max`, or the frame's maximum).
+pub fn colorize(frame: &Frame, mode: Mode, heat_max: Option<u32>) -> (Vec<u8>, Option<u32>) {
     let samples = &frame.samples;
     let (t_near, t_far) = samples
         .iter()
@@ -177,7 +188,7 @@ pub fn colorize(frame: &mut Frame, mode: Mode, heat_max: Option<u32>) {
         .fold((f32::INFINITY, 0.0f32), |(a, b), s| {
             (a.min(s.t), b.max(s.t))
         });
-    frame.heat_max = match mode {
+    let scale = match mode {
         Mode::Heatmap(c, r) => Some(
             heat_max
                 .unwrap_or_else(|| frame.summary.counter(r, c).max)
@@ -186,12 +197,12 @@ pub fn colorize(frame: &mut Frame, mode: Mode, heat_max: Option<u32>) {
         _ => None,
     };
     let background = Vec3::new(0.06, 0.07, 0.09);
-    frame.rgba = samples
+    let rgba = samples
         .par_iter()
         .flat_map_iter(|s| {
             let srgb = match mode {
                 Mode::Heatmap(c, r) => {
-                    let max = frame.heat_max.unwrap_or(1) as f32;
+                    let max = scale.unwrap_or(1) as f32;
                     viridis(s.counters(r).get(c) as f32 / max)
                 }
                 _ if !s.is_hit() => background,
@@ -213,4 +224,5 @@ pub fn colorize(frame: &mut Frame, mode: Mode, heat_max: Option<u32>) {
             to_rgba8(srgb)
         })
         .collect();
+    (rgba, scale)
 }

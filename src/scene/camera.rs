@@ -59,6 +59,27 @@ impl Camera {
     }
 }
 
+impl Camera {
+    /// Where a world point lands in a `width` × `height` image: (x, y) in pixels (y down)
+    /// and its distance from the eye (the t of a primary ray, whose direction is unit
+    /// length). `None` behind the eye.
+    pub fn project(&self, p: Vec3, width: u32, height: u32) -> Option<(f32, f32, f32)> {
+        let rays = self.rays(width, height);
+        let v = p - self.eye;
+        let z = v.dot(rays.forward);
+        if z <= 1e-6 * v.length().max(1e-30) {
+            return None;
+        }
+        let sx = v.dot(rays.right) / (z * rays.right.length_squared());
+        let sy = v.dot(rays.up) / (z * rays.up.length_squared());
+        Some((
+            (sx + 1.0) * 0.5 * rays.width,
+            (1.0 - sy) * 0.5 * rays.height,
+            v.length(),
+        ))
+    }
+}
+
 /// Precomputed image-plane vectors for generating primary rays.
 #[derive(Clone, Copy, Debug)]
 pub struct CameraRays {

@@ -8,7 +8,7 @@ pub mod report;
 pub mod traverse;
 pub mod validate;
 
-pub use build::{BuildError, BuildParams, Strategy, build};
+pub use build::{BuildError, BuildParams, Strategy, build, build_with_progress};
 pub use node::{Node, Nodes};
 pub use report::{BuildReport, TreeStats};
 

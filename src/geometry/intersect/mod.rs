@@ -1,10 +1,13 @@
 //! Ray–triangle intersectors behind one interface, so every structure can trace with any of
-//! them: the watertight test is the default, Möller–Trumbore is the classic fast comparison.
+//! them: the watertight test is the default, Möller–Trumbore is the classic fast comparison,
+//! and the f64 reference is the accurate yardstick. `IntersectorKind` picks one at run time.
 
 mod moller_trumbore;
+pub mod reference;
 mod watertight;
 
 pub use moller_trumbore::MollerTrumbore;
+pub use reference::ReferenceF64;
 pub use watertight::Watertight;
 
 use super::{Ray, Triangle};
@@ -33,4 +36,61 @@ pub trait Intersector: Copy + Default + Send + Sync + 'static {
         tmin: f32,
         tmax: f32,
     ) -> Option<TriangleHit>;
+}
+
+/// The intersector as a run-time choice (CLI flag, app setting). Code generic over
+/// `Intersector` is instantiated for each kind through `with_intersector!`, so the choice
+/// costs one branch per batch of rays, not one per triangle test.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum IntersectorKind {
+    /// Woop, Benthin and Wald (2013) in f32: no ray slips between two triangles.
+    #[default]
+    Watertight,
+    /// Möller–Trumbore (1997) in f32: fast, not watertight.
+    MollerTrumbore,
+    /// The watertight test in f64: the reference.
+    F64,
+}
+
+impl IntersectorKind {
+    pub const ALL: [IntersectorKind; 3] = [
+        IntersectorKind::Watertight,
+        IntersectorKind::MollerTrumbore,
+        IntersectorKind::F64,
+    ];
+
+    /// The `Intersector::NAME` of the kind, as used on the command line.
+    pub fn label(self) -> &'static str {
+        match self {
+            IntersectorKind::Watertight => Watertight::NAME,
+            IntersectorKind::MollerTrumbore => MollerTrumbore::NAME,
+            IntersectorKind::F64 => ReferenceF64::NAME,
+        }
+    }
+
+    pub fn from_label(label: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.label() == label)
+    }
+}
+
+/// Evaluates `$body` with the type name `$I` bound to the intersector `$kind` selects:
+/// `with_intersector!(kind, I => bvh.closest_hit::<I, _>(&ray, &mut NoStats))`.
+#[macro_export]
+macro_rules! with_intersector {
+    ($kind:expr, $I:ident => $body:expr) => {
+        match $kind {
+            $crate::geometry::IntersectorKind::Watertight => {
+                type $I = $crate::geometry::Watertight;
+                $body
+            }
+            $crate::geometry::IntersectorKind::MollerTrumbore => {
+                type $I = $crate::geometry::MollerTrumbore;
+                $body
+            }
+            $crate::geometry::IntersectorKind::F64 => {
+                type $I = $crate::geometry::ReferenceF64;
+                $body
+            }
+        }
+    };
 }

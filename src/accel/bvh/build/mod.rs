@@ -22,6 +22,7 @@ use super::{Bvh, TraversalOrder};
 use crate::geometry::{Aabb, Triangle};
 use prim::{NodeInfo, PrimRef, Split};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -145,6 +146,16 @@ pub fn build(
     triangles: &[Triangle],
     params: &BuildParams,
 ) -> Result<(Bvh, BuildReport), BuildError> {
+    build_with_progress(triangles, params, &AtomicUsize::new(0))
+}
+
+/// `build`, counting into `progress` the triangles already placed in finished subtrees, so
+/// another thread can show how far a long build is.
+pub fn build_with_progress(
+    triangles: &[Triangle],
+    params: &BuildParams,
+    progress: &AtomicUsize,
+) -> Result<(Bvh, BuildReport), BuildError> {
     params.validate()?;
     if triangles.len() >= (u32::MAX / 2) as usize {
         return Err(BuildError::TooMany(triangles.len()));
@@ -153,13 +164,13 @@ pub fn build(
         return Err(BuildError::NonFinite(i));
     }
     let start = Instant::now();
-    let bvh = build_tree(triangles, params);
+    let bvh = build_tree(triangles, params, progress);
     let build_time = start.elapsed();
     let report = BuildReport::new(&bvh, params, build_time);
     Ok((bvh, report))
 }
 
-fn build_tree(triangles: &[Triangle], params: &BuildParams) -> Bvh {
+fn build_tree(triangles: &[Triangle], params: &BuildParams, progress: &AtomicUsize) -> Bvh {
     let mut refs: Vec<PrimRef> = triangles
         .par_iter()
         .enumerate()
@@ -173,10 +184,13 @@ fn build_tree(triangles: &[Triangle], params: &BuildParams) -> Bvh {
         // fixed slice of that size lets both halves be built in parallel into disjoint
         // slices of one array; `compact` then squeezes out the slots leaves did not use.
         let mut slots = vec![Node::default(); 2 * n - 1];
-        let builder = Builder { params };
+        let builder = Builder { params, progress };
         let info = NodeInfo::of(&refs);
         let root = builder.subtree(&mut refs, 0, 0, info, &mut slots[1..], 1);
         slots[0] = root;
+        if n < PARALLEL_SUBTREE {
+            progress.fetch_add(n, Ordering::Relaxed);
+        }
         Nodes::from_flat(&compact(&slots))
     };
     let prim_indices: Vec<u32> = refs.iter().map(|r| r.index).collect();
@@ -194,6 +208,8 @@ fn build_tree(triangles: &[Triangle], params: &BuildParams) -> Bvh {
 
 struct Builder<'a> {
     params: &'a BuildParams,
+    /// Counted per sequential subtree, not per leaf, to keep the atomic out of the way.
+    progress: &'a AtomicUsize,
 }
 
 impl Builder<'_> {
@@ -210,7 +226,11 @@ impl Builder<'_> {
         slot_base: usize,
     ) -> Node {
         let n = refs.len();
+        let parallel = n >= PARALLEL_SUBTREE;
         let Some((m, left_info, right_info)) = self.split(refs, &info, depth) else {
+            if parallel {
+                self.progress.fetch_add(n, Ordering::Relaxed);
+            }
             return Node::leaf(info.bounds.to_aabb(), first as u32, n as u32);
         };
         debug_assert!(0 < m && m < n);
@@ -238,8 +258,14 @@ impl Builder<'_> {
                 base,
             )
         };
-        let (l, r) = if n >= PARALLEL_SUBTREE {
-            rayon::join(left, right)
+        let (l, r) = if parallel {
+            let lr = rayon::join(left, right);
+            for size in [m, n - m] {
+                if size < PARALLEL_SUBTREE {
+                    self.progress.fetch_add(size, Ordering::Relaxed);
+                }
+            }
+            lr
         } else {
             (left(), right())
         };

@@ -1,0 +1,482 @@
+//! The explorer app: an egui window over the library. The UI thread only draws and
+//! handles input; a worker thread owns the scene and the BVH and renders frames
+//! (see `worker`). Panels are plain functions of the app state.
+
+mod orbit;
+mod panels;
+pub mod screenshot;
+pub mod settings;
+mod viewport;
+pub mod worker;
+
+use crate::accel::bvh::BuildReport;
+use crate::scene::Scene;
+use eframe::egui;
+use orbit::Orbit;
+use screenshot::ScreenshotPlan;
+
+use settings::Settings;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+use worker::{Command, Overlay, RenderJob, Reply, Shown, TreeShape, Worker};
+
+/// How the app starts: normally with the remembered settings; tests and screenshots start
+/// from defaults and remember nothing.
+#[derive(Clone, Debug, Default)]
+pub struct Launch {
+    /// Overrides the scene to open.
+    pub scene: Option<String>,
+    /// Start from default settings and do not save them.
+    pub fresh: bool,
+    pub screenshot: Option<ScreenshotPlan>,
+}
+
+/// Which tool the left mouse button is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Tool {
+    Orbit,
+    /// Click picks a triangle, drag moves it (or its object) and refits.
+    Move,
+}
+
+/// A drag of triangles in progress.
+struct Drag {
+    triangles: Arc<Vec<u32>>,
+    /// Distance from the eye to the grabbed point: sets how far a pixel moves it.
+    depth: f32,
+}
+
+/// Seconds of stillness after which a reduced-resolution preview is replaced by a full frame.
+const SETTLE: Duration = Duration::from_millis(180);
+/// The preview renders this fraction of the viewport's pixels in each direction.
+const PREVIEW_SCALE: f32 = 0.5;
+
+pub struct BvhLabApp {
+    pub settings: Settings,
+    worker: Worker,
+    persist: bool,
+    pub scene: Option<Arc<Scene>>,
+    pub load_error: Option<String>,
+    pub report: Option<BuildReport>,
+    pub build_error: Option<String>,
+    building: bool,
+    pub shape: Arc<TreeShape>,
+    pub shown: Option<Arc<Shown>>,
+    texture: Option<egui::TextureHandle>,
+    orbit: Orbit,
+    pub tool: Tool,
+    last_interaction: Option<Instant>,
+    pub selection: Option<u32>,
+    drag: Option<Drag>,
+    /// SAH cost after each refit since the last build (the first entry is the build's).
+    pub sah_history: Vec<f64>,
+    pub last_refit: Option<Duration>,
+    /// When the last move was sent, to time move → refitted frame.
+    move_sent: Option<Instant>,
+    pub drag_latency: Option<Duration>,
+    pub walk: Option<u32>,
+    viewport_px: [u32; 2],
+    last_job: Option<RenderJob>,
+    sent_build: Option<(crate::accel::BuildParams, crate::accel::TraversalOrder)>,
+    show_help: bool,
+    /// The newest command the worker has finished.
+    idle_seq: u64,
+    picked: worker::Picked,
+    pub screenshot: Option<ScreenshotPlan>,
+}
+
+impl BvhLabApp {
+    pub fn new(cc: &eframe::CreationContext<'_>, launch: Launch) -> Self {
+        let mut settings: Settings = match cc.storage {
+            Some(storage) if !launch.fresh => {
+                eframe::get_value(storage, settings::STORAGE_KEY).unwrap_or_default()
+            }
+            _ => Settings::default(),
+        };
+        if let Some(scene) = &launch.scene {
+            settings.scene = scene.clone();
+        }
+        if let Some(plan) = &launch.screenshot {
+            plan.apply(&mut settings);
+        }
+        let ctx = cc.egui_ctx.clone();
+        let mut worker = Worker::spawn(move || ctx.request_repaint());
+        worker.send(Command::Build {
+            params: settings.build_params(),
+            order: settings.order(),
+        });
+        worker.send(Command::Load(settings.scene.clone()));
+        cc.egui_ctx.set_zoom_factor(settings.ui_scale);
+        BvhLabApp {
+            sent_build: Some((settings.build_params(), settings.order())),
+            settings,
+            worker,
+            persist: !launch.fresh,
+            scene: None,
+            load_error: None,
+            report: None,
+            build_error: None,
+            building: true,
+            shape: Arc::new(TreeShape::default()),
+            shown: None,
+            texture: None,
+            orbit: Orbit::from_camera(&crate::scene::Camera::framing(&crate::geometry::Aabb::new(
+                glam::Vec3::splat(-1.0),
+                glam::Vec3::ONE,
+            ))),
+            tool: Tool::Orbit,
+            last_interaction: None,
+            selection: None,
+            drag: None,
+            sah_history: Vec::new(),
+            last_refit: None,
+            move_sent: None,
+            drag_latency: None,
+            walk: None,
+            viewport_px: [0, 0],
+            last_job: None,
+            show_help: false,
+            idle_seq: 0,
+            picked: Arc::new(Mutex::new(None)),
+            screenshot: launch.screenshot,
+        }
+    }
+
+    /// Handles everything the worker has said since the last frame.
+    fn handle_replies(&mut self, ctx: &egui::Context, replies: Vec<Reply>) {
+        for r in replies {
+            match r {
+                Reply::Loaded { spec, scene } => {
+                    self.orbit = Orbit::from_camera(&scene.camera());
+                    if std::path::Path::new(&spec).exists() && scene::is_file_spec(&spec) {
+                        self.settings.add_recent(&spec);
+                    }
+                    self.settings.scene = spec;
+                    self.scene = Some(scene);
+                    self.load_error = None;
+                    self.selection = None;
+                    self.walk = None;
+                    self.building = true;
+                }
+                Reply::LoadFailed { error, .. } => self.load_error = Some(error),
+                Reply::Built { report, shape } => {
+                    self.sah_history = vec![report.tree.sah_cost];
+                    self.settings.level = self.settings.level.min(shape.max_depth);
+                    self.walk = self.walk.filter(|&w| (w as usize) < shape.depth.len());
+                    self.shape = shape;
+                    self.report = Some(report);
+                    self.build_error = None;
+                    self.building = false;
+                }
+                Reply::BuildFailed(e) => {
+                    self.build_error = Some(e);
+                    self.building = false;
+                }
+                Reply::Refitted {
+                    sah_after,
+                    refit_time,
+                    ..
+                } => {
+                    self.sah_history.push(sah_after);
+                    self.last_refit = Some(refit_time);
+                    self.maybe_auto_rebuild();
+                }
+                Reply::Frame(shown) => {
+                    if let Some(t) = self.move_sent.take() {
+                        self.drag_latency = Some(t.elapsed());
+                    }
+                    let [w, h] = [shown.job.width as usize, shown.job.height as usize];
+                    let image = egui::ColorImage::from_rgba_unmultiplied([w, h], &shown.rgba);
+                    match &mut self.texture {
+                        Some(t) => t.set(image, egui::TextureOptions::LINEAR),
+                        None => {
+                            self.texture =
+                                Some(ctx.load_texture("frame", image, egui::TextureOptions::LINEAR))
+                        }
+                    }
+                    self.shown = Some(shown);
+                }
+                Reply::Idle(seq) => self.idle_seq = self.idle_seq.max(seq),
+            }
+        }
+    }
+
+    fn maybe_auto_rebuild(&mut self) {
+        let (Some(limit), Some(first), Some(last)) = (
+            self.settings.auto_rebuild_percent,
+            self.sah_history.first(),
+            self.sah_history.last(),
+        ) else {
+            return;
+        };
+        if *last > first * (1.0 + limit as f64 / 100.0) {
+            self.rebuild();
+        }
+    }
+
+    /// Builds the tree again from the current triangle positions.
+    pub fn rebuild(&mut self) {
+        self.building = true;
+        self.worker.send(Command::Rebuild);
+    }
+
+    pub fn load(&mut self, spec: String) {
+        self.load_error = None;
+        self.worker.send(Command::Load(spec));
+    }
+
+    /// Sends build parameters when they changed.
+    fn sync_build(&mut self) {
+        let wanted = (self.settings.build_params(), self.settings.order());
+        if self.sent_build != Some(wanted) {
+            self.sent_build = Some(wanted);
+            if wanted.0.validate().is_ok() {
+                self.building = true;
+            }
+            self.worker.send(Command::Build {
+                params: wanted.0,
+                order: wanted.1,
+            });
+        }
+    }
+
+    fn interacting(&self) -> bool {
+        self.drag.is_some() || self.last_interaction.is_some_and(|t| t.elapsed() < SETTLE)
+    }
+
+    /// The frame the viewport wants now.
+    fn wanted_job(&self) -> Option<RenderJob> {
+        let [w, h] = self.viewport_px;
+        if w == 0 || h == 0 || self.scene.is_none() {
+            return None;
+        }
+        let preview = self.interacting();
+        let scale = if preview { PREVIEW_SCALE } else { 1.0 };
+        let s = &self.settings;
+        Some(RenderJob {
+            camera: self.orbit.camera(),
+            width: ((w as f32 * scale) as u32).max(1),
+            height: ((h as f32 * scale) as u32).max(1),
+            mode: s.mode.render_mode(s.shadow_rays),
+            heat_max: s.heat_max,
+            overlay: Overlay {
+                level: s.show_levels.then_some(s.level),
+                walk: self.walk,
+                see_through: s.see_through,
+                color_by_node: s.color_by_node,
+            },
+            preview,
+        })
+    }
+
+    fn sync_render(&mut self, ctx: &egui::Context) {
+        let Some(job) = self.wanted_job() else {
+            return;
+        };
+        if job.preview {
+            // Come back when the user has been still long enough for a full frame.
+            ctx.request_repaint_after(SETTLE);
+        }
+        if self.last_job.as_ref() != Some(&job) {
+            self.last_job = Some(job.clone());
+            self.worker.send(Command::Render(job));
+        }
+    }
+
+    /// Blocks until the worker has handled everything sent, then takes its replies. For
+    /// tests and screenshots: the interactive UI never waits.
+    pub fn wait_for_worker(&mut self, ctx: &egui::Context) {
+        let replies = self.worker.wait_idle(Duration::from_secs(120));
+        self.handle_replies(ctx, replies);
+    }
+
+    /// Whether the worker has handled everything sent so far and the newest frame is the
+    /// full-resolution one the viewport wants.
+    pub fn settled(&self) -> bool {
+        self.idle_seq >= self.worker.sent()
+            && !self.building
+            && self
+                .shown
+                .as_ref()
+                .is_some_and(|s| Some(&s.job) == self.last_job.as_ref() && !s.job.preview)
+    }
+
+    /// Moves `triangles` by `delta` in the world and refits (as a drag does).
+    pub fn move_triangles(&mut self, triangles: Arc<Vec<u32>>, delta: glam::Vec3) {
+        self.move_sent = Some(Instant::now());
+        self.worker.send(Command::Move { triangles, delta });
+    }
+
+    pub fn end_gesture(&mut self) {
+        self.worker.send(Command::EndGesture);
+    }
+
+    pub fn undo(&mut self) {
+        self.worker.send(Command::Undo);
+    }
+
+    /// The triangles a drag starting on `triangle` moves: it alone, or its whole object.
+    pub fn drag_set(&self, triangle: u32) -> Arc<Vec<u32>> {
+        let object = self
+            .settings
+            .move_whole_object
+            .then(|| {
+                self.scene
+                    .as_ref()?
+                    .object_of(triangle as usize)
+                    .map(|o| (o, self.scene.clone()))
+            })
+            .flatten();
+        match object {
+            Some((o, Some(scene))) => {
+                let r = scene.objects[o].range();
+                Arc::new((r.start as u32..r.end as u32).collect())
+            }
+            _ => Arc::new(vec![triangle]),
+        }
+    }
+}
+
+/// Whether a scene spec names a file rather than a built-in scene.
+mod scene {
+    pub fn is_file_spec(spec: &str) -> bool {
+        std::path::Path::new(spec)
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("obj"))
+    }
+}
+
+impl eframe::App for BvhLabApp {
+    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        let ctx = ui.ctx().clone();
+        let replies = self.worker.poll();
+        self.handle_replies(&ctx, replies);
+        self.take_picked_file();
+        self.take_dropped_files(&ctx);
+        self.shortcuts(&ctx);
+
+        panels::top_bar(self, ui);
+        panels::status_bar(self, ui);
+        egui::Panel::left("controls")
+            .resizable(true)
+            .default_size(300.0)
+            .show(ui, |ui| {
+                egui::ScrollArea::vertical().show(ui, |ui| panels::controls(self, ui));
+            });
+        egui::Panel::right("stats")
+            .resizable(true)
+            .default_size(290.0)
+            .show(ui, |ui| {
+                egui::ScrollArea::vertical().show(ui, |ui| panels::stats(self, ui));
+            });
+        egui::CentralPanel::no_frame().show(ui, |ui| viewport::show(self, ui));
+        panels::help_window(self, &ctx);
+
+        self.sync_build();
+        self.sync_render(&ctx);
+        if self.building {
+            // Poll the build's progress while it runs.
+            ctx.request_repaint_after(Duration::from_millis(100));
+        }
+        let settled = self.settled();
+        if let Some(plan) = &mut self.screenshot
+            && plan.step(settled, &ctx)
+        {
+            self.scripted_refit();
+        }
+    }
+
+    fn save(&mut self, storage: &mut dyn eframe::Storage) {
+        if self.persist {
+            eframe::set_value(storage, settings::STORAGE_KEY, &self.settings);
+        }
+    }
+}
+
+impl BvhLabApp {
+    fn take_picked_file(&mut self) {
+        let picked = self.picked.lock().ok().and_then(|mut p| p.take());
+        if let Some(path) = picked {
+            self.load(path.display().to_string());
+        }
+    }
+
+    fn take_dropped_files(&mut self, ctx: &egui::Context) {
+        let dropped: Vec<_> = ctx.input(|i| i.raw.dropped_files.clone());
+        if let Some(file) = dropped.first() {
+            let path = file.path();
+            if !path.as_os_str().is_empty() {
+                self.load(path.display().to_string());
+            }
+        }
+    }
+
+    /// Opens the file dialog on its own thread so the UI keeps drawing.
+    pub fn open_dialog(&self, ctx: &egui::Context) {
+        let slot = self.picked.clone();
+        let ctx = ctx.clone();
+        std::thread::spawn(move || {
+            let file = rfd::FileDialog::new()
+                .add_filter("Wavefront OBJ", &["obj", "OBJ"])
+                .pick_file();
+            if let (Some(f), Ok(mut s)) = (file, slot.lock()) {
+                *s = Some(f);
+                ctx.request_repaint();
+            }
+        });
+    }
+
+    /// For the refit screenshot: drag the object under the centre of the view sideways.
+    fn scripted_refit(&mut self) {
+        let Some(shown) = &self.shown else { return };
+        let f = &shown.frame;
+        let centre = f
+            .sample(f.width / 2, f.height * 3 / 5)
+            .filter(|s| s.is_hit());
+        let Some(s) = centre else { return };
+        let triangle = s.triangle;
+        self.selection = Some(triangle);
+        self.settings.move_whole_object = true;
+        let set = self.drag_set(triangle);
+        let step = self.orbit.pixel_size(self.viewport_px[1] as f32) * 6.0;
+        let (right, up, _) = self.orbit.camera().basis();
+        for k in 0..12 {
+            let d = if k % 2 == 0 { right } else { up * 0.5 };
+            self.move_triangles(set.clone(), d * step);
+        }
+        self.end_gesture();
+    }
+}
+
+/// Opens the app window and runs until it is closed.
+pub fn run(launch: Launch) -> anyhow::Result<()> {
+    let size = launch
+        .screenshot
+        .as_ref()
+        .map_or([1400.0, 860.0], |p| [p.width as f32, p.height as f32]);
+    let options = eframe::NativeOptions {
+        renderer: eframe::Renderer::Wgpu,
+        viewport: egui::ViewportBuilder::default()
+            .with_title("bvhlab")
+            .with_inner_size(size)
+            .with_drag_and_drop(true),
+        persist_window: launch.screenshot.is_none(),
+        ..Default::default()
+    };
+    let result = launch.screenshot.as_ref().map(|p| p.result.clone());
+    eframe::run_native(
+        "bvhlab",
+        options,
+        Box::new(move |cc| Ok(Box::new(BvhLabApp::new(cc, launch)))),
+    )
+    .map_err(|e| anyhow::anyhow!("cannot open the window: {e}"))?;
+    if let Some(result) = result {
+        let outcome = result.lock().map(|r| r.clone()).unwrap_or(None);
+        match outcome {
+            Some(Ok(path)) => println!("wrote {path}"),
+            Some(Err(e)) => anyhow::bail!(e),
+            None => anyhow::bail!("the window closed before the screenshot was taken"),
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,560 @@
+//! The side panels, top and bottom bars and the help window: plain functions of the app
+//! state. Every control is labelled, for screen readers and for the UI tests.
+
+use super::settings::{StrategyChoice, ViewMode};
+use super::{BvhLabApp, Tool};
+use crate::accel::bvh::build::{MAX_BUCKETS, MAX_LEAF_SIZE, MIN_BUCKETS};
+use crate::render::Mode;
+use crate::scene::builtin;
+use eframe::egui::{self, RichText};
+use egui_plot::{Bar, BarChart, Line, Plot, PlotPoints};
+use std::sync::atomic::Ordering;
+
+pub fn top_bar(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    egui::Panel::top("top").show(ui, |ui| {
+        ui.horizontal(|ui| {
+            ui.strong("bvhlab");
+            ui.separator();
+            if ui
+                .button("Open…")
+                .on_hover_text("Open an OBJ file (Ctrl+O)")
+                .clicked()
+            {
+                app.open_dialog(ui.ctx());
+            }
+            let current = app.settings.scene.clone();
+            egui::ComboBox::from_label("scene")
+                .selected_text(short_name(&current))
+                .show_ui(ui, |ui| {
+                    for name in builtin::NAMES {
+                        if ui.selectable_label(current == *name, *name).clicked() {
+                            app.load(name.to_string());
+                        }
+                    }
+                    if !app.settings.recent.is_empty() {
+                        ui.separator();
+                        ui.label(RichText::new("recent files").weak());
+                        for path in app.settings.recent.clone() {
+                            if ui
+                                .selectable_label(current == path, short_name(&path))
+                                .on_hover_text(&path)
+                                .clicked()
+                            {
+                                app.load(path);
+                            }
+                        }
+                    }
+                });
+            ui.separator();
+            ui.label("left drag:");
+            ui.selectable_value(&mut app.tool, Tool::Orbit, "orbit (O)");
+            ui.selectable_value(&mut app.tool, Tool::Move, "move triangles (M)");
+            ui.separator();
+            let scale = ui.add(
+                egui::Slider::new(&mut app.settings.ui_scale, 0.75..=2.5)
+                    .step_by(0.05)
+                    .text("UI scale"),
+            );
+            if scale.drag_stopped() || scale.lost_focus() || (scale.changed() && !scale.dragged()) {
+                ui.ctx().set_zoom_factor(app.settings.ui_scale);
+            }
+            if ui.button("Help (F1)").clicked() {
+                app.show_help = true;
+            }
+        });
+    });
+}
+
+fn short_name(spec: &str) -> String {
+    std::path::Path::new(spec)
+        .file_name()
+        .map_or_else(|| spec.to_string(), |f| f.to_string_lossy().into_owned())
+}
+
+pub fn status_bar(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    egui::Panel::bottom("status").show(ui, |ui| {
+        ui.horizontal(|ui| {
+            match &app.scene {
+                Some(s) => {
+                    ui.label(format!(
+                        "{}: {} triangles, {} objects",
+                        s.name,
+                        s.triangles.len(),
+                        s.objects.len()
+                    ));
+                }
+                None => {
+                    ui.label("loading…");
+                }
+            }
+            if app.building {
+                let (done, all) = (
+                    app.worker.progress.0.load(Ordering::Relaxed),
+                    app.worker.progress.1.load(Ordering::Relaxed).max(1),
+                );
+                ui.separator();
+                ui.add(
+                    egui::ProgressBar::new(done as f32 / all as f32)
+                        .desired_width(160.0)
+                        .text("building"),
+                );
+            }
+            if let Some(shown) = &app.shown {
+                ui.separator();
+                let s = &shown.frame.summary;
+                ui.label(format!(
+                    "{}×{}{}  {:.1} ms  {:.2} Mrays/s",
+                    shown.job.width,
+                    shown.job.height,
+                    if shown.job.preview { " (preview)" } else { "" },
+                    s.trace_time.as_secs_f64() * 1e3,
+                    s.mrays_per_s()
+                ));
+            }
+        });
+    });
+}
+
+pub fn controls(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    ui.add_space(4.0);
+    if let Some(e) = &app.load_error {
+        ui.colored_label(ui.visuals().error_fg_color, format!("Load failed: {e}"));
+        ui.label(RichText::new("The previous scene is still loaded.").weak());
+        if ui.button("Dismiss").clicked() {
+            app.load_error = None;
+        }
+        ui.separator();
+    }
+    build_section(app, ui);
+    view_section(app, ui);
+    levels_section(app, ui);
+    walk_section(app, ui);
+    refit_section(app, ui);
+}
+
+fn build_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    egui::CollapsingHeader::new("Build")
+        .default_open(true)
+        .show(ui, |ui| {
+            let s = &mut app.settings;
+            ui.label("split strategy");
+            for (choice, label) in [
+                (StrategyChoice::ObjectMedian, "object median"),
+                (StrategyChoice::SpatialMedian, "spatial median"),
+                (StrategyChoice::SahSweep, "full-sweep SAH"),
+                (StrategyChoice::SahBinned, "binned SAH"),
+            ] {
+                ui.radio_value(&mut s.strategy, choice, label);
+            }
+            ui.add_enabled(
+                s.strategy == StrategyChoice::SahBinned,
+                egui::Slider::new(&mut s.buckets, MIN_BUCKETS..=MAX_BUCKETS)
+                    .logarithmic(true)
+                    .text("buckets B"),
+            );
+            ui.add(
+                egui::Slider::new(&mut s.max_leaf_size, 1..=MAX_LEAF_SIZE.min(64))
+                    .text("max leaf size"),
+            );
+            ui.add(egui::Slider::new(&mut s.c_trav, 0.0..=10.0).text("C_trav"));
+            ui.add(egui::Slider::new(&mut s.c_isect, 0.05..=10.0).text("C_isect"));
+            ui.checkbox(
+                &mut s.naive_order,
+                "naive traversal order (no front-to-back)",
+            );
+            if let Some(e) = &app.build_error {
+                ui.colored_label(ui.visuals().error_fg_color, e);
+            }
+        });
+}
+
+fn view_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    egui::CollapsingHeader::new("View")
+        .default_open(true)
+        .show(ui, |ui| {
+            let s = &mut app.settings;
+            ui.horizontal_wrapped(|ui| {
+                for (k, m) in ViewMode::ALL.into_iter().enumerate() {
+                    ui.selectable_value(&mut s.mode, m, m.label())
+                        .on_hover_text(format!("key {}", k + 1));
+                }
+            });
+            if s.mode.is_heatmap() {
+                ui.checkbox(&mut s.shadow_rays, "count shadow rays (instead of primary)");
+                let mut fixed = s.heat_max.is_some();
+                ui.horizontal(|ui| {
+                    ui.checkbox(&mut fixed, "fixed scale maximum");
+                    let shown_max = app.shown.as_ref().and_then(|f| f.heat_max).unwrap_or(100);
+                    match (fixed, &mut s.heat_max) {
+                        (true, Some(m)) => {
+                            ui.add(egui::DragValue::new(m).range(1..=100_000));
+                        }
+                        (true, m @ None) => *m = Some(shown_max),
+                        (false, m) => *m = None,
+                    }
+                });
+            }
+            if ui.button("Frame all (F)").clicked() {
+                app.frame_all();
+            }
+        });
+}
+
+fn levels_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    egui::CollapsingHeader::new("Levels")
+        .default_open(true)
+        .show(ui, |ui| {
+            let max = app.shape.max_depth;
+            let s = &mut app.settings;
+            ui.checkbox(&mut s.show_levels, "show the boxes of one level");
+            ui.add_enabled_ui(s.show_levels, |ui| {
+                ui.horizontal(|ui| {
+                    if ui.button("< previous").clicked() {
+                        s.level = s.level.saturating_sub(1);
+                    }
+                    if ui.button("next >").clicked() {
+                        s.level = (s.level + 1).min(max);
+                    }
+                });
+                ui.add(egui::Slider::new(&mut s.level, 0..=max).text("depth"));
+                ui.checkbox(&mut s.see_through, "see through surfaces");
+                ui.horizontal(|ui| {
+                    ui.label("colour by");
+                    ui.radio_value(&mut s.color_by_node, false, "depth");
+                    ui.radio_value(&mut s.color_by_node, true, "node");
+                });
+                let count = app.shape.depth.iter().filter(|&&d| d == s.level).count();
+                ui.label(format!("{count} nodes at depth {}", s.level));
+            });
+        });
+}
+
+fn walk_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    egui::CollapsingHeader::new("Tree walk")
+        .default_open(true)
+        .show(ui, |ui| {
+            let mut on = app.walk.is_some();
+            if ui.checkbox(&mut on, "walk the tree node by node").changed() {
+                app.walk = on.then_some(0);
+            }
+            if app.walk.is_none() {
+                return;
+            }
+            ui.horizontal(|ui| {
+                if ui.button("↑ parent").clicked() {
+                    app.walk_to(Step::Parent);
+                }
+                if ui.button("← left").clicked() {
+                    app.walk_to(Step::Left);
+                }
+                if ui.button("→ right").clicked() {
+                    app.walk_to(Step::Right);
+                }
+            });
+            if let Some(info) = app.shown.as_ref().and_then(|s| s.walk.as_ref()) {
+                egui::Grid::new("walk").num_columns(2).show(ui, |ui| {
+                    ui.label("node");
+                    ui.label(info.node.to_string());
+                    ui.end_row();
+                    ui.label("depth");
+                    ui.label(info.depth.to_string());
+                    ui.end_row();
+                    ui.label("triangles");
+                    ui.label(info.triangles.to_string());
+                    ui.end_row();
+                    ui.label("surface area");
+                    ui.label(format!("{:.4}", info.surface_area));
+                    ui.end_row();
+                    ui.label(if info.children.is_some() {
+                        "SAH cost of split"
+                    } else {
+                        "leaf cost N·C_isect"
+                    });
+                    ui.label(format!("{:.3}", info.sah_cost));
+                    ui.end_row();
+                });
+                if info.children.is_some() {
+                    ui.horizontal(|ui| {
+                        ui.colored_label(egui::Color32::from_rgb(255, 140, 40), "■ left child");
+                        ui.colored_label(egui::Color32::from_rgb(60, 170, 255), "■ right child");
+                    });
+                }
+            }
+        });
+}
+
+/// A step of the tree walk.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Step {
+    Parent,
+    Left,
+    Right,
+}
+
+impl BvhLabApp {
+    pub fn walk_to(&mut self, step: Step) {
+        let Some(node) = self.walk else { return };
+        let i = node as usize;
+        let next = match step {
+            Step::Parent => self.shape.parent.get(i).copied().filter(|&p| p != u32::MAX),
+            Step::Left => self.shape.left.get(i).copied().filter(|&l| l != u32::MAX),
+            Step::Right => self
+                .shape
+                .left
+                .get(i)
+                .copied()
+                .filter(|&l| l != u32::MAX)
+                .map(|l| l + 1),
+        };
+        if let Some(n) = next {
+            self.walk = Some(n);
+        }
+    }
+
+    pub fn frame_all(&mut self) {
+        if let Some(scene) = &self.scene {
+            self.orbit.frame_all(&scene.bounds());
+        }
+    }
+}
+
+fn refit_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    egui::CollapsingHeader::new("Drag to refit")
+        .default_open(true)
+        .show(ui, |ui| {
+            ui.label(
+                RichText::new(
+                    "Choose “move triangles”, then click a triangle to select it and drag it.",
+                )
+                .weak(),
+            );
+            ui.checkbox(&mut app.settings.move_whole_object, "move its whole object");
+            if let (Some(t), Some(scene)) = (app.selection, &app.scene) {
+                let object = scene
+                    .object_of(t as usize)
+                    .map_or("?".to_string(), |o| scene.objects[o].name.clone());
+                ui.label(format!("selected: triangle {t} of '{object}'"));
+            }
+            ui.horizontal(|ui| {
+                if ui.button("Undo move (Ctrl+Z)").clicked() {
+                    app.undo();
+                }
+                if ui.button("Rebuild (B)").clicked() {
+                    app.rebuild();
+                }
+            });
+            let mut auto = app.settings.auto_rebuild_percent.is_some();
+            ui.horizontal(|ui| {
+                ui.checkbox(&mut auto, "rebuild when SAH cost grows by");
+                let mut p = app.settings.auto_rebuild_percent.unwrap_or(25.0);
+                ui.add_enabled(
+                    auto,
+                    egui::DragValue::new(&mut p)
+                        .range(1.0..=1000.0)
+                        .suffix(" %"),
+                );
+                app.settings.auto_rebuild_percent = auto.then_some(p);
+            });
+            if let Some(t) = app.last_refit {
+                ui.label(format!("last refit {:.2} ms", t.as_secs_f64() * 1e3));
+            }
+            if let Some(t) = app.drag_latency {
+                ui.label(format!(
+                    "move → refitted frame {:.1} ms",
+                    t.as_secs_f64() * 1e3
+                ));
+            }
+        });
+}
+
+pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    ui.add_space(4.0);
+    ui.heading("Build");
+    if let Some(r) = &app.report {
+        egui::Grid::new("report")
+            .num_columns(2)
+            .striped(true)
+            .show(ui, |ui| {
+                for (k, v) in r.rows() {
+                    if k.starts_with("leaf sizes") {
+                        continue;
+                    }
+                    ui.label(k);
+                    ui.label(v);
+                    ui.end_row();
+                }
+            });
+        ui.label("leaf sizes");
+        let bars: Vec<Bar> = r
+            .tree
+            .leaf_size_histogram
+            .iter()
+            .enumerate()
+            .filter(|&(_, &c)| c > 0)
+            .map(|(size, &c)| Bar::new(size as f64, c as f64).width(0.8))
+            .collect();
+        Plot::new("leaf sizes")
+            .height(110.0)
+            .allow_drag(false)
+            .allow_zoom(false)
+            .allow_scroll(false)
+            .x_axis_label("triangles in leaf")
+            .y_axis_label("leaves")
+            .show(ui, |p| p.bar_chart(BarChart::new("leaves", bars)));
+    } else {
+        ui.label("building…");
+    }
+    ui.separator();
+    ui.heading("Last frame");
+    if let Some(shown) = &app.shown {
+        let s = &shown.frame.summary;
+        ui.label(format!(
+            "{} rays ({} primary, {} shadow), {:.2} Mrays/s",
+            s.rays(),
+            s.primary_rays,
+            s.shadow_rays,
+            s.mrays_per_s()
+        ));
+        egui::Grid::new("counters")
+            .num_columns(3)
+            .striped(true)
+            .show(ui, |ui| {
+                ui.label("");
+                ui.strong("primary mean / max");
+                ui.strong("shadow mean / max");
+                ui.end_row();
+                for which in crate::accel::Counter::ALL {
+                    ui.label(which.label());
+                    for rays in [
+                        crate::render::RayKind::Primary,
+                        crate::render::RayKind::Shadow,
+                    ] {
+                        let c = s.counter(rays, which);
+                        ui.label(format!("{:.1} / {}", c.mean, c.max));
+                    }
+                    ui.end_row();
+                }
+            });
+    }
+    ui.separator();
+    ui.heading("SAH cost since the last build");
+    let points: PlotPoints = app
+        .sah_history
+        .iter()
+        .enumerate()
+        .map(|(i, &c)| [i as f64, c])
+        .collect();
+    Plot::new("sah history")
+        .height(130.0)
+        .x_axis_label("refits")
+        .y_axis_label("SAH cost")
+        .show(ui, |p| p.line(Line::new("SAH cost", points)));
+    if let (Some(first), Some(last)) = (app.sah_history.first(), app.sah_history.last()) {
+        ui.label(format!(
+            "{:+.1} % since the build",
+            (last / first - 1.0) * 100.0
+        ));
+    }
+}
+
+pub fn legend(ui: &mut egui::Ui, rect: egui::Rect, mode: Mode, max: u32) {
+    let Mode::Heatmap(counter, rays) = mode else {
+        return;
+    };
+    let painter = ui.painter_at(rect);
+    let (w, h) = (200.0, 14.0);
+    let origin = rect.left_bottom() + egui::vec2(12.0, -40.0);
+    let bg = egui::Rect::from_min_size(
+        origin - egui::vec2(6.0, 20.0),
+        egui::vec2(w + 12.0, h + 40.0),
+    );
+    painter.rect_filled(bg, 4.0, egui::Color32::from_black_alpha(170));
+    let steps = 64;
+    for k in 0..steps {
+        let c = crate::render::colormap::viridis(k as f32 / (steps - 1) as f32);
+        let x0 = origin.x + w * k as f32 / steps as f32;
+        let r = egui::Rect::from_min_size(
+            egui::pos2(x0, origin.y),
+            egui::vec2(w / steps as f32 + 0.5, h),
+        );
+        painter.rect_filled(
+            r,
+            0.0,
+            egui::Color32::from_rgb(
+                (c.x * 255.0) as u8,
+                (c.y * 255.0) as u8,
+                (c.z * 255.0) as u8,
+            ),
+        );
+    }
+    let font = egui::FontId::proportional(12.0);
+    let white = egui::Color32::WHITE;
+    painter.text(
+        origin - egui::vec2(0.0, 4.0),
+        egui::Align2::LEFT_BOTTOM,
+        format!("{} ({})", counter.label(), rays.label()),
+        font.clone(),
+        white,
+    );
+    painter.text(
+        origin + egui::vec2(0.0, h + 2.0),
+        egui::Align2::LEFT_TOP,
+        "0",
+        font.clone(),
+        white,
+    );
+    painter.text(
+        origin + egui::vec2(w / 2.0, h + 2.0),
+        egui::Align2::CENTER_TOP,
+        format!("{}", max / 2),
+        font.clone(),
+        white,
+    );
+    painter.text(
+        origin + egui::vec2(w, h + 2.0),
+        egui::Align2::RIGHT_TOP,
+        format!("{max}"),
+        font,
+        white,
+    );
+}
+
+pub fn help_window(app: &mut BvhLabApp, ctx: &egui::Context) {
+    let mut open = app.show_help;
+    egui::Window::new("Help")
+        .open(&mut open)
+        .resizable(false)
+        .show(ctx, |ui| {
+            egui::Grid::new("keys")
+                .num_columns(2)
+                .striped(true)
+                .show(ui, |ui| {
+                    for (k, what) in [
+                        ("left drag", "orbit (or move a triangle with the move tool)"),
+                        ("right / middle drag", "pan"),
+                        ("wheel", "zoom"),
+                        ("F", "frame the whole scene"),
+                        ("R", "back to the scene's own view"),
+                        ("O / M", "orbit tool / move-triangles tool"),
+                        (
+                            "1 … 6",
+                            "shaded, normals, depth, nodes, box tests, triangle tests",
+                        ),
+                        ("S", "heatmaps of shadow rays on/off"),
+                        ("L", "level boxes on/off"),
+                        ("[ / ]", "previous / next level"),
+                        ("W", "tree walk on/off"),
+                        ("↑ ← →", "walk to parent / left child / right child"),
+                        ("B", "rebuild the tree"),
+                        ("Ctrl+Z", "undo the last move"),
+                        ("Ctrl+O", "open an OBJ file (or drop one on the window)"),
+                        ("F1", "this help"),
+                    ] {
+                        ui.strong(k);
+                        ui.label(what);
+                        ui.end_row();
+                    }
+                });
+        });
+    app.show_help = open;
+}

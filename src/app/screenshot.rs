@@ -1,0 +1,134 @@
+//! `bvhlab screenshot`: the real app window, opened in a given state, saved through egui's
+//! screenshot request once its frame is complete, then closed. This is how the README's
+//! pictures are made.
+
+use super::settings::{Settings, ViewMode};
+use eframe::egui;
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// Which view of the app to capture.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Shot {
+    Shaded,
+    Nodes,
+    Boxes,
+    Triangles,
+    /// The boxes of one BVH level over the shaded scene.
+    Levels,
+    /// An object dragged away, refitted, with the SAH cost chart.
+    Refit,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Stage {
+    Settling,
+    Refitting,
+    Requested,
+    Closing,
+}
+
+/// What the screenshot run saved: the path, or why it could not.
+pub type Outcome = Arc<Mutex<Option<Result<String, String>>>>;
+
+#[derive(Clone, Debug)]
+pub struct ScreenshotPlan {
+    pub out: PathBuf,
+    pub shot: Shot,
+    pub width: u32,
+    pub height: u32,
+    pub result: Outcome,
+    stage: Stage,
+    started: Instant,
+}
+
+/// A run that has not settled by then gives up with an error.
+const TIMEOUT: Duration = Duration::from_secs(180);
+
+impl ScreenshotPlan {
+    pub fn new(out: PathBuf, shot: Shot, width: u32, height: u32) -> Self {
+        ScreenshotPlan {
+            out,
+            shot,
+            width,
+            height,
+            result: Arc::new(Mutex::new(None)),
+            stage: Stage::Settling,
+            started: Instant::now(),
+        }
+    }
+
+    /// The settings the shot starts from.
+    pub fn apply(&self, s: &mut Settings) {
+        s.mode = match self.shot {
+            Shot::Nodes => ViewMode::Nodes,
+            Shot::Boxes => ViewMode::Boxes,
+            Shot::Triangles => ViewMode::Triangles,
+            Shot::Shaded | Shot::Levels | Shot::Refit => ViewMode::Shaded,
+        };
+        if self.shot == Shot::Levels {
+            s.show_levels = true;
+            s.level = 3;
+        }
+    }
+
+    fn finish(&mut self, outcome: Result<String, String>) {
+        if let Ok(mut r) = self.result.lock() {
+            r.get_or_insert(outcome);
+        }
+        self.stage = Stage::Closing;
+    }
+
+    /// Advances the plan; `settled` says the worker is idle and the full frame is shown.
+    /// Returns true once when the app should perform the scripted drag of a refit shot.
+    pub fn step(&mut self, settled: bool, ctx: &egui::Context) -> bool {
+        if self.started.elapsed() > TIMEOUT && self.stage != Stage::Closing {
+            self.finish(Err(format!("the frame did not settle within {TIMEOUT:?}")));
+        }
+        let mut refit = false;
+        match self.stage {
+            Stage::Settling if settled => {
+                if self.shot == Shot::Refit {
+                    self.stage = Stage::Refitting;
+                    refit = true;
+                } else {
+                    self.request(ctx);
+                }
+            }
+            Stage::Refitting if settled => self.request(ctx),
+            Stage::Requested if self.result.lock().is_ok_and(|r| r.is_some()) => {
+                self.stage = Stage::Closing;
+            }
+            Stage::Closing => ctx.send_viewport_cmd(egui::ViewportCommand::Close),
+            _ => {}
+        }
+        // Keep frames coming until the window closes.
+        ctx.request_repaint_after(Duration::from_millis(50));
+        refit
+    }
+
+    fn request(&mut self, ctx: &egui::Context) {
+        self.stage = Stage::Requested;
+        let out = self.out.clone();
+        let result = self.result.clone();
+        let repaint = ctx.clone();
+        ctx.request_screenshot(move |image| {
+            let [w, h] = image.size;
+            let bytes: Vec<u8> = image.pixels.iter().flat_map(|c| c.to_array()).collect();
+            let saved = image::save_buffer(
+                &out,
+                &bytes,
+                w as u32,
+                h as u32,
+                image::ExtendedColorType::Rgba8,
+            )
+            .map(|()| out.display().to_string())
+            .map_err(|e| format!("cannot write {}: {e}", out.display()));
+            if let Ok(mut r) = result.lock() {
+                *r = Some(saved);
+            }
+            repaint.request_repaint();
+        });
+    }
+}

@@ -1,0 +1,165 @@
+//! What the app remembers between runs (eframe persistence): the build and view settings,
+//! the UI scale and the recently opened files.
+
+use crate::accel::Counter;
+use crate::accel::bvh::{BuildParams, Strategy, TraversalOrder};
+use crate::render::{Mode, RayKind};
+use serde::{Deserialize, Serialize};
+
+pub const STORAGE_KEY: &str = "bvhlab-settings";
+const MAX_RECENT: usize = 8;
+
+/// The view modes the app offers, in plain data so they persist.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ViewMode {
+    #[default]
+    Shaded,
+    Normals,
+    Depth,
+    Nodes,
+    Boxes,
+    Triangles,
+}
+
+impl ViewMode {
+    pub const ALL: [ViewMode; 6] = [
+        ViewMode::Shaded,
+        ViewMode::Normals,
+        ViewMode::Depth,
+        ViewMode::Nodes,
+        ViewMode::Boxes,
+        ViewMode::Triangles,
+    ];
+
+    pub fn label(self) -> &'static str {
+        match self {
+            ViewMode::Shaded => "shaded",
+            ViewMode::Normals => "normals",
+            ViewMode::Depth => "depth",
+            ViewMode::Nodes => "nodes visited",
+            ViewMode::Boxes => "box tests",
+            ViewMode::Triangles => "triangle tests",
+        }
+    }
+
+    pub fn is_heatmap(self) -> bool {
+        matches!(
+            self,
+            ViewMode::Nodes | ViewMode::Boxes | ViewMode::Triangles
+        )
+    }
+
+    pub fn render_mode(self, shadow: bool) -> Mode {
+        let rays = if shadow {
+            RayKind::Shadow
+        } else {
+            RayKind::Primary
+        };
+        match self {
+            ViewMode::Shaded => Mode::Shaded,
+            ViewMode::Normals => Mode::Normals,
+            ViewMode::Depth => Mode::Depth,
+            ViewMode::Nodes => Mode::Heatmap(Counter::NodesVisited, rays),
+            ViewMode::Boxes => Mode::Heatmap(Counter::BoxTests, rays),
+            ViewMode::Triangles => Mode::Heatmap(Counter::TriangleTests, rays),
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum StrategyChoice {
+    ObjectMedian,
+    SpatialMedian,
+    SahSweep,
+    SahBinned,
+}
+
+impl From<StrategyChoice> for Strategy {
+    fn from(s: StrategyChoice) -> Strategy {
+        match s {
+            StrategyChoice::ObjectMedian => Strategy::ObjectMedian,
+            StrategyChoice::SpatialMedian => Strategy::SpatialMedian,
+            StrategyChoice::SahSweep => Strategy::SahSweep,
+            StrategyChoice::SahBinned => Strategy::SahBinned,
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Settings {
+    pub scene: String,
+    pub strategy: StrategyChoice,
+    pub buckets: u32,
+    pub max_leaf_size: u32,
+    pub c_trav: f32,
+    pub c_isect: f32,
+    pub naive_order: bool,
+    pub mode: ViewMode,
+    /// Heatmaps count shadow rays instead of primary rays.
+    pub shadow_rays: bool,
+    /// Fixed top of the heatmap scale; `None` = each frame's maximum.
+    pub heat_max: Option<u32>,
+    pub show_levels: bool,
+    pub level: u32,
+    pub see_through: bool,
+    pub color_by_node: bool,
+    pub move_whole_object: bool,
+    /// Rebuild automatically when the SAH cost has grown by more than this many percent.
+    pub auto_rebuild_percent: Option<f32>,
+    pub ui_scale: f32,
+    pub recent: Vec<String>,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        let p = BuildParams::default();
+        Settings {
+            scene: "cornell".into(),
+            strategy: StrategyChoice::SahBinned,
+            buckets: p.buckets,
+            max_leaf_size: p.max_leaf_size,
+            c_trav: p.c_trav,
+            c_isect: p.c_isect,
+            naive_order: false,
+            mode: ViewMode::Shaded,
+            shadow_rays: false,
+            heat_max: None,
+            show_levels: false,
+            level: 0,
+            see_through: false,
+            color_by_node: false,
+            move_whole_object: false,
+            auto_rebuild_percent: None,
+            ui_scale: 1.0,
+            recent: Vec::new(),
+        }
+    }
+}
+
+impl Settings {
+    pub fn build_params(&self) -> BuildParams {
+        BuildParams {
+            strategy: self.strategy.into(),
+            buckets: self.buckets,
+            max_leaf_size: self.max_leaf_size,
+            c_trav: self.c_trav,
+            c_isect: self.c_isect,
+        }
+    }
+
+    pub fn order(&self) -> TraversalOrder {
+        if self.naive_order {
+            TraversalOrder::Naive
+        } else {
+            TraversalOrder::FrontToBack
+        }
+    }
+
+    /// Remembers a file that loaded, most recent first.
+    pub fn add_recent(&mut self, path: &str) {
+        self.recent.retain(|p| p != path);
+        self.recent.insert(0, path.to_string());
+        self.recent.truncate(MAX_RECENT);
+    }
+}

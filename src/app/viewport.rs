@@ -1,0 +1,236 @@
+//! The central viewport: the worker's newest frame as a texture filling the panel, the
+//! camera controls, picking and dragging triangles, the heatmap legend and the exact
+//! counters of the pixel under the cursor.
+
+use super::panels::{Step, legend};
+use super::settings::ViewMode;
+use super::{BvhLabApp, Drag, Tool};
+use crate::scene::Camera;
+use eframe::egui::{self, Key, PointerButton, Sense};
+use std::time::Instant;
+
+pub fn show(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    let rect = ui.available_rect_before_wrap();
+    let ppp = ui.ctx().pixels_per_point();
+    // Full resolution means one traced pixel per physical pixel (capped for huge screens).
+    let scale = (ppp * rect.width()).min(2560.0) / rect.width().max(1.0);
+    app.viewport_px = [
+        (rect.width() * scale).round().max(1.0) as u32,
+        (rect.height() * scale).round().max(1.0) as u32,
+    ];
+    let response = ui.allocate_rect(rect, Sense::click_and_drag());
+    let painter = ui.painter_at(rect);
+    painter.rect_filled(rect, 0.0, egui::Color32::from_rgb(15, 17, 22));
+    if let Some(tex) = &app.texture {
+        let uv = egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0));
+        painter.image(tex.id(), rect, uv, egui::Color32::WHITE);
+    }
+    handle_input(app, ui, &response, rect);
+    if let Some(shown) = &app.shown
+        && let Some(max) = shown.heat_max
+    {
+        legend(ui, rect, shown.job.mode, max);
+    }
+    if let Some(pos) = response.hover_pos()
+        && app.drag.is_none()
+        && let Some(text) = pixel_report(app, rect, pos)
+    {
+        response.on_hover_ui_at_pointer(|ui| {
+            ui.label(text);
+        });
+    }
+}
+
+/// The frame pixel under a screen position.
+fn pixel_at(app: &BvhLabApp, rect: egui::Rect, pos: egui::Pos2) -> Option<(u32, u32)> {
+    let f = &app.shown.as_ref()?.frame;
+    let u = (pos.x - rect.min.x) / rect.width();
+    let v = (pos.y - rect.min.y) / rect.height();
+    if !(0.0..1.0).contains(&u) || !(0.0..1.0).contains(&v) {
+        return None;
+    }
+    Some(((u * f.width as f32) as u32, (v * f.height as f32) as u32))
+}
+
+fn pixel_report(app: &BvhLabApp, rect: egui::Rect, pos: egui::Pos2) -> Option<String> {
+    let (x, y) = pixel_at(app, rect, pos)?;
+    let s = app.shown.as_ref()?.frame.sample(x, y)?;
+    let mut text = format!(
+        "pixel ({x}, {y})\nprimary: {} nodes, {} box tests, {} triangle tests",
+        s.primary.nodes_visited, s.primary.box_tests, s.primary.triangle_tests
+    );
+    if s.is_hit() {
+        text += &format!(
+            "\nshadow: {} nodes, {} box tests, {} triangle tests ({})\nhit triangle {} at t = {:.4}",
+            s.shadow.nodes_visited,
+            s.shadow.box_tests,
+            s.shadow.triangle_tests,
+            if s.lit { "lit" } else { "in shadow" },
+            s.triangle,
+            s.t
+        );
+    } else {
+        text += "\nno hit";
+    }
+    Some(text)
+}
+
+fn handle_input(app: &mut BvhLabApp, ui: &egui::Ui, response: &egui::Response, rect: egui::Rect) {
+    let height = rect.height();
+    let mut moved = false;
+    let moving = app.tool == Tool::Move;
+
+    if response.drag_started_by(PointerButton::Primary)
+        && moving
+        && let Some(pos) = response.interact_pointer_pos()
+    {
+        start_drag(app, rect, pos);
+    }
+    if response.dragged_by(PointerButton::Primary) {
+        let d = response.drag_delta();
+        if let Some(drag) = &app.drag {
+            // Move in the view plane: a pixel at the grabbed depth is this long in the world.
+            let cam = app.orbit.camera();
+            let (right, up, _) = cam.basis();
+            let s = 2.0 * drag.depth * (cam.fov_y_deg.to_radians() * 0.5).tan() / height.max(1.0);
+            let delta = (right * d.x - up * d.y) * s;
+            if delta != glam::Vec3::ZERO {
+                let set = drag.triangles.clone();
+                app.move_triangles(set, delta);
+            }
+        } else if !moving {
+            app.orbit.rotate(d.x, d.y, height);
+        }
+        moved = true;
+    }
+    if response.drag_stopped() && app.drag.take().is_some() {
+        app.end_gesture();
+    }
+    if response.dragged_by(PointerButton::Secondary) || response.dragged_by(PointerButton::Middle) {
+        let d = response.drag_delta();
+        app.orbit.pan(d.x, d.y, height);
+        moved = true;
+    }
+    if response.clicked()
+        && moving
+        && let Some(pos) = response.interact_pointer_pos()
+    {
+        app.selection = pick(app, rect, pos);
+    }
+    if response.hovered() {
+        let scroll = ui.input(|i| i.smooth_scroll_delta.y);
+        if scroll != 0.0 {
+            app.orbit.zoom(scroll);
+            moved = true;
+        }
+    }
+    if moved {
+        app.last_interaction = Some(Instant::now());
+    }
+}
+
+fn pick(app: &BvhLabApp, rect: egui::Rect, pos: egui::Pos2) -> Option<u32> {
+    let (x, y) = pixel_at(app, rect, pos)?;
+    let s = app.shown.as_ref()?.frame.sample(x, y)?;
+    s.is_hit().then_some(s.triangle)
+}
+
+fn start_drag(app: &mut BvhLabApp, rect: egui::Rect, pos: egui::Pos2) {
+    let Some((x, y)) = pixel_at(app, rect, pos) else {
+        return;
+    };
+    let Some(s) = app
+        .shown
+        .as_ref()
+        .and_then(|sh| sh.frame.sample(x, y).copied())
+    else {
+        return;
+    };
+    if !s.is_hit() {
+        return;
+    }
+    app.selection = Some(s.triangle);
+    app.drag = Some(Drag {
+        triangles: app.drag_set(s.triangle),
+        depth: s.t,
+    });
+}
+
+impl BvhLabApp {
+    /// Keyboard shortcuts (listed in the help window).
+    pub(super) fn shortcuts(&mut self, ctx: &egui::Context) {
+        if ctx.egui_wants_keyboard_input() {
+            return;
+        }
+        let pressed = |k: Key| ctx.input(|i| i.key_pressed(k));
+        let ctrl = ctx.input(|i| i.modifiers.command);
+        let s = &mut self.settings;
+        for (k, m) in [
+            Key::Num1,
+            Key::Num2,
+            Key::Num3,
+            Key::Num4,
+            Key::Num5,
+            Key::Num6,
+        ]
+        .into_iter()
+        .zip(ViewMode::ALL)
+        {
+            if pressed(k) {
+                s.mode = m;
+            }
+        }
+        if pressed(Key::S) {
+            s.shadow_rays = !s.shadow_rays;
+        }
+        if pressed(Key::L) {
+            s.show_levels = !s.show_levels;
+        }
+        if pressed(Key::OpenBracket) {
+            s.level = s.level.saturating_sub(1);
+        }
+        if pressed(Key::CloseBracket) {
+            s.level = (s.level + 1).min(self.shape.max_depth);
+        }
+        if pressed(Key::O) && !ctrl {
+            self.tool = Tool::Orbit;
+        }
+        if pressed(Key::O) && ctrl {
+            self.open_dialog(ctx);
+        }
+        if pressed(Key::M) {
+            self.tool = Tool::Move;
+        }
+        if pressed(Key::W) {
+            self.walk = if self.walk.is_some() { None } else { Some(0) };
+        }
+        if pressed(Key::ArrowUp) {
+            self.walk_to(Step::Parent);
+        }
+        if pressed(Key::ArrowLeft) {
+            self.walk_to(Step::Left);
+        }
+        if pressed(Key::ArrowRight) {
+            self.walk_to(Step::Right);
+        }
+        if pressed(Key::F) {
+            self.frame_all();
+            self.last_interaction = Some(Instant::now());
+        }
+        if pressed(Key::R)
+            && let Some(scene) = &self.scene
+        {
+            let cam: Camera = scene.camera();
+            self.orbit = super::Orbit::from_camera(&cam);
+        }
+        if pressed(Key::B) {
+            self.rebuild();
+        }
+        if pressed(Key::Z) && ctrl {
+            self.undo();
+        }
+        if pressed(Key::F1) {
+            self.show_help = !self.show_help;
+        }
+    }
+}

@@ -1,0 +1,333 @@
+//! The slab test against an exact reference: ray–box overlap decided in rational arithmetic
+//! (i128), with rays whose direction has +0.0 or −0.0 components, origins exactly on slab
+//! planes, and rays built to touch a box exactly at a corner, an edge or a face.
+//!
+//! Properties checked (Ize 2013 and the notes in `geometry::aabb`):
+//! - conservative: every box the exact ray touches within [tmin, tmax] is reported, and its
+//!   entry distance is at most the exact one scaled by 1 + 2γ(3);
+//! - exact for axis-parallel rays over [0, ∞): no rounding is involved, so no false hits;
+//! - not sloppy: a box missed by a clear relative margin is reported missed.
+
+use crate::bench::rays::splitmix64;
+use crate::geometry::aabb::{SlabRay, slab_entry};
+use crate::geometry::{Aabb, Ray, gamma};
+use glam::Vec3;
+use std::cmp::Ordering;
+
+/// Exact values are integers at this scale: every f32 with 2^-16 ≤ |x| ≤ 2^20 is an integer
+/// multiple of 2^-40, and products of two such integers fit in i128.
+const SCALE_BITS: i32 = 40;
+pub const MIN_MAGNITUDE: f32 = 1.0 / 65536.0;
+pub const MAX_MAGNITUDE: f32 = 1_048_576.0;
+
+/// Whether `x` lies in the domain the exact reference handles.
+pub fn in_domain(x: f32) -> bool {
+    x == 0.0 || (MIN_MAGNITUDE..=MAX_MAGNITUDE).contains(&x.abs())
+}
+
+fn to_int(x: f32) -> i128 {
+    // Exact: x · 2^40 is an integer below 2^61 for x in the domain.
+    (x as f64 * 2f64.powi(SCALE_BITS)) as i128
+}
+
+/// An extended rational num/den (den > 0), or ±∞.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Ext {
+    NegInf,
+    Fin(i128, i128),
+    PosInf,
+}
+
+impl Ext {
+    fn of_f32(x: f32) -> Ext {
+        if x == f32::INFINITY {
+            Ext::PosInf
+        } else if x == f32::NEG_INFINITY {
+            Ext::NegInf
+        } else {
+            Ext::Fin(to_int(x), 1 << SCALE_BITS)
+        }
+    }
+
+    fn cmp(self, o: Ext) -> Ordering {
+        match (self, o) {
+            (Ext::NegInf, Ext::NegInf) | (Ext::PosInf, Ext::PosInf) => Ordering::Equal,
+            (Ext::NegInf, _) | (_, Ext::PosInf) => Ordering::Less,
+            (_, Ext::NegInf) | (Ext::PosInf, _) => Ordering::Greater,
+            (Ext::Fin(a, b), Ext::Fin(c, d)) => (a * d).cmp(&(c * b)),
+        }
+    }
+
+    fn max(self, o: Ext) -> Ext {
+        if self.cmp(o) == Ordering::Less {
+            o
+        } else {
+            self
+        }
+    }
+
+    fn min(self, o: Ext) -> Ext {
+        if self.cmp(o) == Ordering::Greater {
+            o
+        } else {
+            self
+        }
+    }
+
+    fn to_f64(self) -> f64 {
+        match self {
+            Ext::NegInf => f64::NEG_INFINITY,
+            Ext::PosInf => f64::INFINITY,
+            Ext::Fin(n, d) => n as f64 / d as f64,
+        }
+    }
+}
+
+/// The exact answer of the closed slab test: the smallest t in [tmin, tmax] at which the
+/// ray is inside the closed box, or `None`. All inputs must be `in_domain` (or ±∞ for tmin
+/// and tmax).
+pub fn exact_entry(b: &Aabb, ray: &Ray, tmin: f32, tmax: f32) -> Option<f64> {
+    let mut lo = Ext::of_f32(tmin);
+    let mut hi = Ext::of_f32(tmax);
+    for a in 0..3 {
+        let (o, d) = (to_int(ray.origin[a]), to_int(ray.direction[a]));
+        let (bmin, bmax) = (to_int(b.min[a]), to_int(b.max[a]));
+        if d == 0 {
+            // Parallel to the slab: inside it for every t, or for none.
+            if o < bmin || o > bmax {
+                return None;
+            }
+            continue;
+        }
+        let (t0, t1) = if d > 0 {
+            (Ext::Fin(bmin - o, d), Ext::Fin(bmax - o, d))
+        } else {
+            (Ext::Fin(o - bmax, -d), Ext::Fin(o - bmin, -d))
+        };
+        lo = lo.max(t0);
+        hi = hi.min(t1);
+    }
+    (lo.cmp(hi) != Ordering::Greater).then(|| lo.to_f64())
+}
+
+/// The f32 slab test under test.
+pub fn f32_entry(b: &Aabb, ray: &Ray, tmin: f32, tmax: f32) -> Option<f32> {
+    let e = slab_entry(&[b.min, b.max], &SlabRay::new(ray), tmin, tmax);
+    (e != f32::INFINITY).then_some(e)
+}
+
+/// Violations of the slab test's properties over a set of cases.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SlabReport {
+    pub cases: u64,
+    /// Exact touches, of which the f32 test missed `missed` (must be 0).
+    pub touching: u64,
+    pub missed: u64,
+    /// f32 entry beyond the exact entry · (1 + 2γ(3)) (must be 0).
+    pub late_entry: u64,
+    /// Axis-parallel rays over [0, ∞) where f32 and exact disagree at all (must be 0).
+    pub axis_parallel: u64,
+    pub axis_parallel_wrong: u64,
+    /// Misses by a clear margin (exit < entry · (1 − 1e-4)) reported as hits (must be 0).
+    pub clear_misses: u64,
+    pub clear_misses_hit: u64,
+    /// Cases with a NaN in the result (must be 0).
+    pub nan: u64,
+}
+
+impl SlabReport {
+    pub fn failures(&self) -> u64 {
+        self.missed + self.late_entry + self.axis_parallel_wrong + self.clear_misses_hit + self.nan
+    }
+
+    pub fn add(&mut self, o: &SlabReport) {
+        self.cases += o.cases;
+        self.touching += o.touching;
+        self.missed += o.missed;
+        self.late_entry += o.late_entry;
+        self.axis_parallel += o.axis_parallel;
+        self.axis_parallel_wrong += o.axis_parallel_wrong;
+        self.clear_misses += o.clear_misses;
+        self.clear_misses_hit += o.clear_misses_hit;
+        self.nan += o.nan;
+    }
+
+    /// Checks one case and records it.
+    pub fn check(&mut self, b: &Aabb, ray: &Ray, tmin: f32, tmax: f32) {
+        self.cases += 1;
+        let exact = exact_entry(b, ray, tmin, tmax);
+        let got = f32_entry(b, ray, tmin, tmax);
+        if got.is_some_and(f32::is_nan) {
+            self.nan += 1;
+        }
+        if let Some(t) = exact {
+            self.touching += 1;
+            match got {
+                None => self.missed += 1,
+                Some(e) => {
+                    let allowed = if t >= 0.0 {
+                        t * (1.0 + 2.0 * gamma(3) as f64)
+                    } else {
+                        t * (1.0 - 2.0 * gamma(3) as f64)
+                    };
+                    if e as f64 > allowed.max(tmin as f64) {
+                        self.late_entry += 1;
+                    }
+                }
+            }
+        } else if got.is_some() && clearly_missed(b, ray, tmin, tmax) {
+            self.clear_misses_hit += 1;
+        }
+        if exact.is_none() && clearly_missed(b, ray, tmin, tmax) {
+            self.clear_misses += 1;
+        }
+        let zeros = (0..3).filter(|&a| ray.direction[a] == 0.0).count();
+        if zeros == 2 && tmin == 0.0 && tmax == f32::INFINITY {
+            self.axis_parallel += 1;
+            if exact.is_some() != got.is_some() {
+                self.axis_parallel_wrong += 1;
+            }
+        }
+    }
+}
+
+/// Whether the exact ray misses the box by a clear relative margin: shrinking the box by
+/// 1e-4 of its size and of the distances involved still leaves no overlap... decided by
+/// growing the box by that margin and asking the exact test again.
+fn clearly_missed(b: &Aabb, ray: &Ray, tmin: f32, tmax: f32) -> bool {
+    let size = b.extent().max_element().max(1.0);
+    let reach = (b.center() - ray.origin).length() + size;
+    let margin = 1e-4 * (size + reach);
+    let grown = Aabb::new(b.min - Vec3::splat(margin), b.max + Vec3::splat(margin));
+    let in_dom = |v: Vec3| v.to_array().iter().all(|&x| in_domain(x));
+    if !in_dom(grown.min) || !in_dom(grown.max) {
+        return false;
+    }
+    let widen = |t: f32, up: bool| {
+        if t.is_infinite() || t == 0.0 {
+            t
+        } else {
+            let w = t.abs() * 1e-4 + 1e-3;
+            if up { t + w } else { t - w }
+        }
+    };
+    let (lo, hi) = (widen(tmin, false), widen(tmax, true));
+    if !(in_domain(lo) || lo.is_infinite()) || !(in_domain(hi) || hi.is_infinite()) {
+        return false;
+    }
+    exact_entry(&grown, ray, lo, hi).is_none()
+}
+
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 = splitmix64(self.0);
+        self.0
+    }
+    fn below(&mut self, n: u64) -> u64 {
+        self.next() % n
+    }
+    /// A value of the domain: sign, exponent in [-16, 19] and a random significand; with
+    /// probability 1/4 a coarse value (few significant bits) so that coincidences happen.
+    fn value(&mut self) -> f32 {
+        let sign = if self.next() & 1 == 0 { 1.0 } else { -1.0 };
+        let e = self.below(36) as i32 - 16;
+        let m = if self.below(4) == 0 {
+            1.0 + self.below(8) as f32 / 8.0
+        } else {
+            1.0 + (self.next() >> 41) as f32 / (1u64 << 23) as f32
+        };
+        sign * m * 2f32.powi(e)
+    }
+    fn signed_zero(&mut self) -> f32 {
+        if self.next() & 1 == 0 { 0.0 } else { -0.0 }
+    }
+}
+
+/// Case `i` of the random slab stress: a random box, a ray with 0–2 zero direction
+/// components of random sign, an origin on a slab plane half of the time, and a ray built to
+/// touch a corner, an edge or a face exactly a third of the time.
+pub fn case(i: u64, seed: u64) -> (Aabb, Ray, f32, f32) {
+    let mut rng = Rng(splitmix64(seed ^ i.wrapping_mul(0xa076_1d64_78bd_642f)));
+    let (p, q) = (
+        Vec3::new(rng.value(), rng.value(), rng.value()),
+        Vec3::new(rng.value(), rng.value(), rng.value()),
+    );
+    let b = Aabb::new(p.min(q), p.max(q));
+    let zeros = rng.below(3) as usize;
+    let mut d = Vec3::new(rng.value(), rng.value(), rng.value());
+    let mut axes = [0usize, 1, 2];
+    // Shuffle so any axes can be the zero ones.
+    for k in (1..3).rev() {
+        axes.swap(k, rng.below(k as u64 + 1) as usize);
+    }
+    for &a in &axes[..zeros] {
+        d[a] = rng.signed_zero();
+    }
+    let mut o = Vec3::new(rng.value(), rng.value(), rng.value());
+    let kind = rng.below(3);
+    if kind == 1 {
+        // Origin exactly on a slab plane (of a zero axis when there is one).
+        let a = if zeros > 0 {
+            axes[0]
+        } else {
+            rng.below(3) as usize
+        };
+        o[a] = if rng.next() & 1 == 0 {
+            b.min[a]
+        } else {
+            b.max[a]
+        };
+    } else if kind == 2 {
+        // Through a corner, an edge point or a face point of the box, exactly at t = 2^j.
+        let mut target = Vec3::ZERO;
+        let on_boundary = 1 + rng.below(3) as usize;
+        for (k, &a) in axes.iter().enumerate() {
+            target[a] = if k < on_boundary {
+                if rng.next() & 1 == 0 {
+                    b.min[a]
+                } else {
+                    b.max[a]
+                }
+            } else {
+                b.min[a] + (b.max[a] - b.min[a]) * 0.5
+            };
+        }
+        let t0 = 2f32.powi(rng.below(9) as i32 - 4);
+        let origin = target - d * t0;
+        // Keep it only if it is exact: then the ray passes through `target` at t0.
+        let exact = (0..3).all(|a| {
+            (origin[a] as f64 + d[a] as f64 * t0 as f64) == target[a] as f64 && in_domain(origin[a])
+        });
+        if exact {
+            o = origin;
+        }
+    }
+    let ray = Ray::new(o, d);
+    let (tmin, tmax) = match rng.below(4) {
+        0 | 1 => (0.0, f32::INFINITY),
+        2 => (0.0, rng.value().abs()),
+        _ => {
+            let (x, y) = (rng.value().abs(), rng.value().abs());
+            (x.min(y), x.max(y))
+        }
+    };
+    (b, ray, tmin, tmax)
+}
+
+/// Runs `n` random cases.
+pub fn run(n: u64, seed: u64) -> SlabReport {
+    use rayon::prelude::*;
+    (0..n)
+        .into_par_iter()
+        .fold(SlabReport::default, |mut r, i| {
+            let (b, ray, tmin, tmax) = case(i, seed);
+            r.check(&b, &ray, tmin, tmax);
+            r
+        })
+        .reduce(SlabReport::default, |mut a, b| {
+            a.add(&b);
+            a
+        })
+}

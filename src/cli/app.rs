@@ -1,0 +1,79 @@
+//! `bvhlab` (no command) and `bvhlab app`: the explorer window; `bvhlab screenshot`: the same
+//! window in a given state, saved to a PNG.
+
+use super::check_size;
+use anyhow::Result;
+use bvhlab::app::screenshot::{ScreenshotPlan, Shot};
+use bvhlab::app::{Launch, run as run_app};
+use clap::{Args, ValueEnum};
+use std::path::PathBuf;
+
+#[derive(Args, Default)]
+pub struct AppArgs {
+    /// Built-in scene name (optionally NAME:N) or path to an .obj file (default: the last one).
+    #[arg(long)]
+    pub scene: Option<String>,
+    /// Start from the default settings and remember nothing.
+    #[arg(long)]
+    pub fresh: bool,
+}
+
+pub fn run(args: AppArgs) -> Result<()> {
+    run_app(Launch {
+        scene: args.scene,
+        fresh: args.fresh,
+        screenshot: None,
+    })
+}
+
+#[derive(ValueEnum, Clone, Copy)]
+pub enum ShotArg {
+    Shaded,
+    /// Heatmap of nodes visited.
+    Nodes,
+    /// Heatmap of ray–box tests.
+    Boxes,
+    /// Heatmap of ray–triangle tests.
+    Triangles,
+    /// The boxes of one BVH level over the shaded scene.
+    Levels,
+    /// An object dragged away and the tree refitted, with the SAH cost chart.
+    Refit,
+}
+
+#[derive(Args)]
+pub struct ScreenshotArgs {
+    /// Output PNG.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Built-in scene name (optionally NAME:N) or path to an .obj file.
+    #[arg(long, default_value = "cornell")]
+    pub scene: String,
+    #[arg(long, value_enum, default_value_t = ShotArg::Shaded)]
+    pub mode: ShotArg,
+    /// Window width in pixels.
+    #[arg(long, default_value_t = 1400)]
+    pub width: u32,
+    /// Window height in pixels.
+    #[arg(long, default_value_t = 860)]
+    pub height: u32,
+}
+
+pub fn screenshot(args: ScreenshotArgs) -> Result<()> {
+    check_size(args.width, args.height)?;
+    let shot = match args.mode {
+        ShotArg::Shaded => Shot::Shaded,
+        ShotArg::Nodes => Shot::Nodes,
+        ShotArg::Boxes => Shot::Boxes,
+        ShotArg::Triangles => Shot::Triangles,
+        ShotArg::Levels => Shot::Levels,
+        ShotArg::Refit => Shot::Refit,
+    };
+    // Fail before opening a window when the scene cannot load.
+    bvhlab::scene::Scene::load(&args.scene)?;
+    run_app(Launch {
+        scene: Some(args.scene),
+        fresh: true,
+        screenshot: Some(ScreenshotPlan::new(args.out, shot, args.width, args.height)),
+    })
+}

@@ -1,0 +1,140 @@
+//! The binary ray and hit files of `bvhlab trace`, for users who bring their own rays.
+//!
+//! rays: per ray eight little-endian f32 (ox, oy, oz, dx, dy, dz, tmin, tmax), hits with t in
+//! the open interval (tmin, tmax) counted in units of the (unnormalised) direction.
+//! hits: per ray, in input order, a little-endian f32 t (+∞ on a miss) and a u32 triangle
+//! index (0xFFFFFFFF on a miss). Occlusion: one byte per ray, 1 occluded and 0 not.
+
+use super::Ray;
+use crate::accel::Hit;
+use glam::Vec3;
+
+pub const RAY_BYTES: usize = 32;
+pub const HIT_BYTES: usize = 8;
+/// The triangle index of a miss.
+pub const MISS: u32 = u32::MAX;
+/// At most this many invalid rays are listed in an error.
+const LISTED: usize = 10;
+
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum RayFileError {
+    #[error(
+        "the ray file has {len} bytes, not a multiple of {RAY_BYTES} (8 little-endian f32 per ray): \
+         it ends inside ray {complete}"
+    )]
+    Truncated { len: usize, complete: usize },
+    #[error("{count} invalid ray(s): {}", list_invalid(.first))]
+    InvalidRays {
+        count: usize,
+        /// The first few, as (ray index, reason).
+        first: Vec<(usize, &'static str)>,
+    },
+}
+
+fn list_invalid(first: &[(usize, &'static str)]) -> String {
+    first
+        .iter()
+        .map(|(i, why)| format!("ray {i}: {why}"))
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
+/// Why a ray cannot be traced, or `None` if it can.
+pub fn invalid_reason(ray: &Ray) -> Option<&'static str> {
+    if !ray.origin.is_finite() {
+        Some("origin is NaN or infinite")
+    } else if !ray.direction.is_finite() {
+        Some("direction is NaN or infinite")
+    } else if ray.direction == Vec3::ZERO {
+        Some("direction is zero")
+    } else if ray.tmin.is_nan() || ray.tmax.is_nan() {
+        Some("tmin or tmax is NaN")
+    } else {
+        None
+    }
+}
+
+/// Decodes a ray file; every ray must be valid (see `invalid_reason`).
+pub fn decode_rays(bytes: &[u8]) -> Result<Vec<Ray>, RayFileError> {
+    if !bytes.len().is_multiple_of(RAY_BYTES) {
+        return Err(RayFileError::Truncated {
+            len: bytes.len(),
+            complete: bytes.len() / RAY_BYTES,
+        });
+    }
+    let rays: Vec<Ray> = bytes
+        .chunks_exact(RAY_BYTES)
+        .map(|chunk| {
+            let f = |i: usize| {
+                let mut word = [0u8; 4];
+                word.copy_from_slice(&chunk[4 * i..4 * i + 4]);
+                f32::from_le_bytes(word)
+            };
+            Ray::segment(
+                Vec3::new(f(0), f(1), f(2)),
+                Vec3::new(f(3), f(4), f(5)),
+                f(6),
+                f(7),
+            )
+        })
+        .collect();
+    let mut count = 0;
+    let mut first = Vec::new();
+    for (i, ray) in rays.iter().enumerate() {
+        if let Some(why) = invalid_reason(ray) {
+            count += 1;
+            if first.len() < LISTED {
+                first.push((i, why));
+            }
+        }
+    }
+    if count > 0 {
+        return Err(RayFileError::InvalidRays { count, first });
+    }
+    Ok(rays)
+}
+
+pub fn encode_rays(rays: &[Ray]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(rays.len() * RAY_BYTES);
+    for r in rays {
+        for x in [
+            r.origin.x,
+            r.origin.y,
+            r.origin.z,
+            r.direction.x,
+            r.direction.y,
+            r.direction.z,
+            r.tmin,
+            r.tmax,
+        ] {
+            out.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+    out
+}
+
+pub fn encode_hits(hits: &[Option<Hit>]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(hits.len() * HIT_BYTES);
+    for h in hits {
+        let (t, tri) = h.map_or((f32::INFINITY, MISS), |h| (h.t, h.triangle));
+        out.extend_from_slice(&t.to_le_bytes());
+        out.extend_from_slice(&tri.to_le_bytes());
+    }
+    out
+}
+
+/// Decodes a hit file into (t, triangle index) pairs.
+pub fn decode_hits(bytes: &[u8]) -> Vec<(f32, u32)> {
+    bytes
+        .chunks_exact(HIT_BYTES)
+        .map(|c| {
+            let t = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+            let i = u32::from_le_bytes([c[4], c[5], c[6], c[7]]);
+            (t, i)
+        })
+        .collect()
+}
+
+pub fn encode_occlusion(occluded: &[bool]) -> Vec<u8> {
+    occluded.iter().map(|&o| u8::from(o)).collect()
+}
