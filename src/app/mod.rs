@@ -79,8 +79,8 @@ pub struct BvhLabApp {
     last_job: Option<RenderJob>,
     sent_build: Option<(crate::accel::BuildParams, crate::accel::TraversalOrder)>,
     show_help: bool,
-    /// The newest command the worker has finished.
-    idle_seq: u64,
+    /// The scene as the worker has it, after moves (see `request_snapshot`).
+    pub snapshot: Option<Arc<Scene>>,
     picked: worker::Picked,
     pub screenshot: Option<ScreenshotPlan>,
 }
@@ -136,7 +136,7 @@ impl BvhLabApp {
             viewport_px: [0, 0],
             last_job: None,
             show_help: false,
-            idle_seq: 0,
+            snapshot: None,
             picked: Arc::new(Mutex::new(None)),
             screenshot: launch.screenshot,
         }
@@ -196,7 +196,8 @@ impl BvhLabApp {
                     }
                     self.shown = Some(shown);
                 }
-                Reply::Idle(seq) => self.idle_seq = self.idle_seq.max(seq),
+                Reply::Snapshot(scene) => self.snapshot = Some(scene),
+                Reply::Idle(_) => {}
             }
         }
     }
@@ -260,6 +261,7 @@ impl BvhLabApp {
             mode: s.mode.render_mode(s.shadow_rays),
             heat_max: s.heat_max,
             overlay: Overlay {
+                selected: self.selection.map(|t| self.drag_set(t)),
                 level: s.show_levels.then_some(s.level),
                 walk: self.walk,
                 see_through: s.see_through,
@@ -293,7 +295,7 @@ impl BvhLabApp {
     /// Whether the worker has handled everything sent so far and the newest frame is the
     /// full-resolution one the viewport wants.
     pub fn settled(&self) -> bool {
-        self.idle_seq >= self.worker.sent()
+        self.worker.is_idle()
             && !self.building
             && self
                 .shown
@@ -305,6 +307,11 @@ impl BvhLabApp {
     pub fn move_triangles(&mut self, triangles: Arc<Vec<u32>>, delta: glam::Vec3) {
         self.move_sent = Some(Instant::now());
         self.worker.send(Command::Move { triangles, delta });
+    }
+
+    /// Asks the worker for the scene as it is now; it arrives in `snapshot`.
+    pub fn request_snapshot(&mut self) {
+        self.worker.send(Command::Snapshot);
     }
 
     pub fn end_gesture(&mut self) {
@@ -426,7 +433,8 @@ impl BvhLabApp {
         });
     }
 
-    /// For the refit screenshot: drag the object under the centre of the view sideways.
+    /// For the refit screenshot: drag the triangle under the centre of the view away, so its
+    /// leaf's box and every box above it stretch.
     fn scripted_refit(&mut self) {
         let Some(shown) = &self.shown else { return };
         let f = &shown.frame;
@@ -436,12 +444,11 @@ impl BvhLabApp {
         let Some(s) = centre else { return };
         let triangle = s.triangle;
         self.selection = Some(triangle);
-        self.settings.move_whole_object = true;
         let set = self.drag_set(triangle);
-        let step = self.orbit.pixel_size(self.viewport_px[1] as f32) * 6.0;
+        let step = self.orbit.pixel_size(self.viewport_px[1] as f32) * 30.0;
         let (right, up, _) = self.orbit.camera().basis();
         for k in 0..12 {
-            let d = if k % 2 == 0 { right } else { up * 0.5 };
+            let d = if k % 2 == 0 { right } else { up * 0.6 };
             self.move_triangles(set.clone(), d * step);
         }
         self.end_gesture();

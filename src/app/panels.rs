@@ -241,13 +241,13 @@ fn walk_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 return;
             }
             ui.horizontal(|ui| {
-                if ui.button("↑ parent").clicked() {
+                if ui.button("parent (Up)").clicked() {
                     app.walk_to(Step::Parent);
                 }
-                if ui.button("← left").clicked() {
+                if ui.button("left child (Left)").clicked() {
                     app.walk_to(Step::Left);
                 }
-                if ui.button("→ right").clicked() {
+                if ui.button("right child (Right)").clicked() {
                     app.walk_to(Step::Right);
                 }
             });
@@ -360,7 +360,7 @@ fn refit_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             }
             if let Some(t) = app.drag_latency {
                 ui.label(format!(
-                    "move → refitted frame {:.1} ms",
+                    "move to refitted frame {:.1} ms",
                     t.as_secs_f64() * 1e3
                 ));
             }
@@ -544,7 +544,10 @@ pub fn help_window(app: &mut BvhLabApp, ctx: &egui::Context) {
                         ("L", "level boxes on/off"),
                         ("[ / ]", "previous / next level"),
                         ("W", "tree walk on/off"),
-                        ("↑ ← →", "walk to parent / left child / right child"),
+                        (
+                            "Up / Left / Right",
+                            "walk to parent / left child / right child",
+                        ),
                         ("B", "rebuild the tree"),
                         ("Ctrl+Z", "undo the last move"),
                         ("Ctrl+O", "open an OBJ file (or drop one on the window)"),

@@ -67,9 +67,17 @@ impl ScreenshotPlan {
             Shot::Triangles => ViewMode::Triangles,
             Shot::Shaded | Shot::Levels | Shot::Refit => ViewMode::Shaded,
         };
-        if self.shot == Shot::Levels {
-            s.show_levels = true;
-            s.level = 3;
+        match self.shot {
+            Shot::Levels => {
+                s.show_levels = true;
+                s.level = 3;
+            }
+            Shot::Refit => {
+                s.show_levels = true;
+                s.level = 4;
+                s.see_through = true;
+            }
+            _ => {}
         }
     }
 

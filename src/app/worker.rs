@@ -21,6 +21,8 @@ use std::time::{Duration, Instant};
 /// What to draw over the traced image.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Overlay {
+    /// Tint these triangles: the selection of the move tool.
+    pub selected: Option<Arc<Vec<u32>>>,
     /// Outline every node at this depth.
     pub level: Option<u32>,
     /// The node of the tree walk: its box, its children's boxes, their triangles tinted.
@@ -59,6 +61,8 @@ pub enum Command {
     EndGesture,
     /// Build again over the triangles as they are now.
     Rebuild,
+    /// Send the scene with its triangles where they are now (after moves).
+    Snapshot,
     Undo,
 }
 
@@ -116,6 +120,7 @@ pub enum Reply {
         refit_time: Duration,
     },
     Frame(Arc<Shown>),
+    Snapshot(Arc<Scene>),
     /// Every command up to this sequence number has been handled.
     Idle(u64),
 }
@@ -125,6 +130,8 @@ pub struct Worker {
     tx: Option<Sender<(u64, Command)>>,
     rx: Receiver<Reply>,
     sent: u64,
+    /// The newest command the worker has reported done.
+    done: u64,
     /// Triangles placed by the build in progress, and how many there are in all.
     pub progress: Arc<(AtomicUsize, AtomicUsize)>,
     thread: Option<JoinHandle<()>>,
@@ -159,6 +166,7 @@ impl Worker {
             tx: Some(tx),
             rx,
             sent: 0,
+            done: 0,
             progress,
             thread,
         }
@@ -173,26 +181,41 @@ impl Worker {
     }
 
     /// Replies that have arrived, without waiting.
-    pub fn poll(&self) -> Vec<Reply> {
-        self.rx.try_iter().collect()
+    pub fn poll(&mut self) -> Vec<Reply> {
+        let replies: Vec<Reply> = self.rx.try_iter().collect();
+        self.note_done(&replies);
+        replies
+    }
+
+    fn note_done(&mut self, replies: &[Reply]) {
+        for r in replies {
+            if let Reply::Idle(seq) = r {
+                self.done = self.done.max(*seq);
+            }
+        }
+    }
+
+    /// Whether every command sent so far has been handled.
+    pub fn is_idle(&self) -> bool {
+        self.done >= self.sent
     }
 
     /// Waits until every command sent so far is handled (or `timeout` passes) and returns
     /// the replies on the way. For tests and screenshots, never the interactive UI.
-    pub fn wait_idle(&self, timeout: Duration) -> Vec<Reply> {
+    pub fn wait_idle(&mut self, timeout: Duration) -> Vec<Reply> {
         let deadline = Instant::now() + timeout;
         let mut out = Vec::new();
-        loop {
+        while !self.is_idle() {
             let left = deadline.saturating_duration_since(Instant::now());
             match self.rx.recv_timeout(left) {
-                Ok(Reply::Idle(seq)) if seq >= self.sent => {
-                    out.push(Reply::Idle(seq));
-                    return out;
+                Ok(r) => {
+                    self.note_done(std::slice::from_ref(&r));
+                    out.push(r);
                 }
-                Ok(r) => out.push(r),
-                Err(_) => return out,
+                Err(_) => break,
             }
         }
+        out
     }
 
     pub fn sent(&self) -> u64 {
@@ -302,6 +325,11 @@ impl State {
             Command::Render(_) => {}
             Command::Rebuild => {
                 self.rebuild();
+            }
+            Command::Snapshot => {
+                if let Some(scene) = &self.scene {
+                    self.reply(Reply::Snapshot(Arc::new(scene.clone())));
+                }
             }
             Command::Move { triangles, delta } => {
                 self.move_triangles(&triangles, delta);
@@ -421,6 +449,12 @@ impl State {
     fn draw_overlay(&self, frame: &Frame, rgba: &mut [u8], job: &RenderJob) -> Option<WalkInfo> {
         let bvh = self.bvh.as_ref()?;
         let o = &job.overlay;
+        if let Some(sel) = &o.selected {
+            let lookup: std::collections::HashSet<u32> = sel.iter().copied().collect();
+            tint_triangles(frame, rgba, |t| {
+                lookup.contains(&t).then_some([255, 230, 80, 110])
+            });
+        }
         if let Some(level) = o.level {
             let boxes: Vec<OutlinedBox> = (0..bvh.nodes.len())
                 .filter(|&i| self.shape.depth.get(i) == Some(&level))

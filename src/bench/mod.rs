@@ -1,6 +1,7 @@
 //! The benchmark behind `bvhlab bench`: best-of-several build times and SAH cost, then
 //! Mrays/s on the standard primary, shadow and diffuse ray sets of a view.
 
+pub mod compare;
 pub mod rays;
 pub mod stress;
 

@@ -6,10 +6,10 @@
 //! runs from the aimed-at surface point towards it), so in exact arithmetic it crosses the
 //! surface. The watertight test must then report a hit; Möller–Trumbore may not.
 
+use super::Rng;
 use super::meshes::{ClosedMesh, F32_INTS, PlacedMesh, Placement, exact_in_f32};
 use crate::accel::bvh::{BuildParams, build};
 use crate::accel::{Accel, BruteForce, Bvh, NoStats};
-use crate::bench::rays::splitmix64;
 use crate::geometry::{Intersector, Ray};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -47,33 +47,6 @@ impl Family {
 
 /// Points of an edge a–b aimed at: (w_a·a + w_b·b) / (w_a + w_b).
 const EDGE_WEIGHTS: [(i64, i64); 5] = [(1, 1), (1, 2), (2, 1), (1, 3), (3, 1)];
-
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = splitmix64(self.0);
-        self.0
-    }
-    /// Uniform in [0, 1).
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n as u64) as usize
-    }
-    fn in_ball(&mut self) -> DVec3 {
-        loop {
-            let p = DVec3::new(self.unit(), self.unit(), self.unit()) * 2.0 - 1.0;
-            if p.length_squared() <= 1.0 {
-                return p;
-            }
-        }
-    }
-    fn signed_zero(&mut self) -> f32 {
-        if self.next() & 1 == 0 { 0.0 } else { -0.0 }
-    }
-}
 
 /// The must-hit rays of one placed mesh.
 pub struct RayMaker<'a> {
@@ -127,7 +100,7 @@ impl<'a> RayMaker<'a> {
     /// edges are visited in turn. `None` when the attempt is not a certain hit: not exact in
     /// f32, or (on coarse grids) not passing robustly through the interior.
     pub fn ray(&self, index: u64, seed: u64) -> Option<(Family, Ray)> {
-        let mut rng = Rng(splitmix64(seed ^ index.wrapping_mul(0x9e37_79b9_7f4a_7c15)));
+        let mut rng = Rng::for_case(seed, index);
         let family = Family::ALL[(index % Family::ALL.len() as u64) as usize];
         let m = self.mesh;
         let turn = (index / Family::ALL.len() as u64) as usize;
@@ -154,7 +127,7 @@ impl<'a> RayMaker<'a> {
             Family::EdgeFromInside | Family::EdgeFromOutside => {
                 let [a, b] = self.edges[turn % self.edges.len()];
                 let (ka, kb) = (m.ints[a as usize], m.ints[b as usize]);
-                let (wa, wb) = EDGE_WEIGHTS[rng.below(EDGE_WEIGHTS.len())];
+                let (wa, wb) = EDGE_WEIGHTS[rng.below(EDGE_WEIGHTS.len() as u64) as usize];
                 let w = (wa + wb) as f64;
                 let p_grid = (to_f64(ka) * wa as f64 + to_f64(kb) * wb as f64) / w;
                 let p_world = p_grid * m.grid;
@@ -176,8 +149,8 @@ impl<'a> RayMaker<'a> {
                 let axis = (0..3)
                     .max_by(|&i, &j| to_core[i].abs().total_cmp(&to_core[j].abs()))
                     .unwrap_or(0);
-                let step = ((0.5 * (core[axis] - v_grid[axis])).round() as i64)
-                    .clamp(-F32_INTS, F32_INTS);
+                let step =
+                    ((0.5 * (core[axis] - v_grid[axis])).round() as i64).clamp(-F32_INTS, F32_INTS);
                 let mut o = vertex;
                 if family == Family::AxisFromInside {
                     o[axis] += step;

@@ -8,7 +8,7 @@
 //! - exact for axis-parallel rays over [0, ∞): no rounding is involved, so no false hits;
 //! - not sloppy: a box missed by a clear relative margin is reported missed.
 
-use crate::bench::rays::splitmix64;
+use super::Rng;
 use crate::geometry::aabb::{SlabRay, slab_entry};
 use crate::geometry::{Aabb, Ray, gamma};
 use glam::Vec3;
@@ -218,45 +218,31 @@ fn clearly_missed(b: &Aabb, ray: &Ray, tmin: f32, tmax: f32) -> bool {
     exact_entry(&grown, ray, lo, hi).is_none()
 }
 
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = splitmix64(self.0);
-        self.0
-    }
-    fn below(&mut self, n: u64) -> u64 {
-        self.next() % n
-    }
-    /// A value of the domain: sign, exponent in [-16, 19] and a random significand; with
-    /// probability 1/4 a coarse value (few significant bits) so that coincidences happen.
-    fn value(&mut self) -> f32 {
-        let sign = if self.next() & 1 == 0 { 1.0 } else { -1.0 };
-        let e = self.below(36) as i32 - 16;
-        let m = if self.below(4) == 0 {
-            1.0 + self.below(8) as f32 / 8.0
-        } else {
-            1.0 + (self.next() >> 41) as f32 / (1u64 << 23) as f32
-        };
-        sign * m * 2f32.powi(e)
-    }
-    fn signed_zero(&mut self) -> f32 {
-        if self.next() & 1 == 0 { 0.0 } else { -0.0 }
-    }
+/// A value of the domain: sign, exponent in [-16, 19] and a random significand; with
+/// probability 1/4 a coarse value (few significant bits) so that coincidences happen.
+fn value(rng: &mut Rng) -> f32 {
+    let sign = if rng.coin() { 1.0 } else { -1.0 };
+    let e = rng.below(36) as i32 - 16;
+    let m = if rng.below(4) == 0 {
+        1.0 + rng.below(8) as f32 / 8.0
+    } else {
+        1.0 + (rng.next() >> 41) as f32 / (1u64 << 23) as f32
+    };
+    sign * m * 2f32.powi(e)
 }
 
 /// Case `i` of the random slab stress: a random box, a ray with 0–2 zero direction
 /// components of random sign, an origin on a slab plane half of the time, and a ray built to
 /// touch a corner, an edge or a face exactly a third of the time.
 pub fn case(i: u64, seed: u64) -> (Aabb, Ray, f32, f32) {
-    let mut rng = Rng(splitmix64(seed ^ i.wrapping_mul(0xa076_1d64_78bd_642f)));
+    let mut rng = Rng::for_case(seed, i);
     let (p, q) = (
-        Vec3::new(rng.value(), rng.value(), rng.value()),
-        Vec3::new(rng.value(), rng.value(), rng.value()),
+        Vec3::new(value(&mut rng), value(&mut rng), value(&mut rng)),
+        Vec3::new(value(&mut rng), value(&mut rng), value(&mut rng)),
     );
     let b = Aabb::new(p.min(q), p.max(q));
     let zeros = rng.below(3) as usize;
-    let mut d = Vec3::new(rng.value(), rng.value(), rng.value());
+    let mut d = Vec3::new(value(&mut rng), value(&mut rng), value(&mut rng));
     let mut axes = [0usize, 1, 2];
     // Shuffle so any axes can be the zero ones.
     for k in (1..3).rev() {
@@ -265,7 +251,7 @@ pub fn case(i: u64, seed: u64) -> (Aabb, Ray, f32, f32) {
     for &a in &axes[..zeros] {
         d[a] = rng.signed_zero();
     }
-    let mut o = Vec3::new(rng.value(), rng.value(), rng.value());
+    let mut o = Vec3::new(value(&mut rng), value(&mut rng), value(&mut rng));
     let kind = rng.below(3);
     if kind == 1 {
         // Origin exactly on a slab plane (of a zero axis when there is one).
@@ -274,22 +260,14 @@ pub fn case(i: u64, seed: u64) -> (Aabb, Ray, f32, f32) {
         } else {
             rng.below(3) as usize
         };
-        o[a] = if rng.next() & 1 == 0 {
-            b.min[a]
-        } else {
-            b.max[a]
-        };
+        o[a] = if rng.coin() { b.min[a] } else { b.max[a] };
     } else if kind == 2 {
         // Through a corner, an edge point or a face point of the box, exactly at t = 2^j.
         let mut target = Vec3::ZERO;
         let on_boundary = 1 + rng.below(3) as usize;
         for (k, &a) in axes.iter().enumerate() {
             target[a] = if k < on_boundary {
-                if rng.next() & 1 == 0 {
-                    b.min[a]
-                } else {
-                    b.max[a]
-                }
+                if rng.coin() { b.min[a] } else { b.max[a] }
             } else {
                 b.min[a] + (b.max[a] - b.min[a]) * 0.5
             };
@@ -307,9 +285,9 @@ pub fn case(i: u64, seed: u64) -> (Aabb, Ray, f32, f32) {
     let ray = Ray::new(o, d);
     let (tmin, tmax) = match rng.below(4) {
         0 | 1 => (0.0, f32::INFINITY),
-        2 => (0.0, rng.value().abs()),
+        2 => (0.0, value(&mut rng).abs()),
         _ => {
-            let (x, y) = (rng.value().abs(), rng.value().abs());
+            let (x, y) = (value(&mut rng).abs(), value(&mut rng).abs());
             (x.min(y), x.max(y))
         }
     };

@@ -109,9 +109,9 @@ impl Evaluation {
 
 /// The f64 test with its error bounds for one ray and triangle.
 pub fn evaluate(shear: &Shear64, tri: &Triangle) -> Evaluation {
-    let a = shear.project(tri.v[0]);
-    let b = shear.project(tri.v[1]);
-    let c = shear.project(tri.v[2]);
+    let [kx, ky, kz] = shear.k;
+    let rel = tri.v.map(|p| p.as_dvec3() - shear.origin);
+    let [a, b, c] = tri.v.map(|p| shear.project(p));
     let e = [
         b.x * c.y - b.y * c.x,
         c.x * a.y - c.y * a.x,
@@ -120,16 +120,27 @@ pub fn evaluate(shear: &Shear64, tri: &Triangle) -> Evaluation {
     let det = e[0] + e[1] + e[2];
     let mixed = e.iter().any(|&x| x < 0.0) && e.iter().any(|&x| x > 0.0);
     let t = (e[0] * a.z + e[1] * b.z + e[2] * c.z) / det;
+    let max3 = |f: &dyn Fn(DVec3) -> f64| f(rel[0]).max(f(rel[1])).max(f(rel[2]));
+    // Bounds on the sheared coordinates' magnitudes before cancellation: each is computed
+    // as q_x + s_x·q_z from these terms. (pbrt-v4 §6.8.4 uses max |z'| in place of
+    // |s_x·q_z|, which is too small when the direction is not normalised.)
+    let sum_x = max3(&|q| q[kx].abs() + (shear.s.x * q[kz]).abs());
+    let sum_y = max3(&|q| q[ky].abs() + (shear.s.y * q[kz]).abs());
     let max_x = a.x.abs().max(b.x.abs()).max(c.x.abs());
     let max_y = a.y.abs().max(b.y.abs()).max(c.y.abs());
     let max_z = a.z.abs().max(b.z.abs()).max(c.z.abs());
     let max_e = e[0].abs().max(e[1].abs()).max(e[2].abs());
-    // pbrt-v4 §6.8.4, once with f64's γ and once with f32's.
+    // Error bounds once with f64's γ and once with f32's: the coordinates carry up to five
+    // roundings (difference, shear factor, product, sum), an edge function two more.
     let bounds = |g: &dyn Fn(i32) -> f64| {
-        let delta_x = g(5) * (max_x + max_z);
-        let delta_y = g(5) * (max_y + max_z);
+        let delta_x = g(5) * sum_x;
+        let delta_y = g(5) * sum_y;
         let delta_z = g(3) * max_z;
-        let delta_e = 2.0 * (g(2) * max_x * max_y + delta_y * max_x + delta_x * max_y);
+        let delta_e = 2.0
+            * (g(2) * (max_x + delta_x) * (max_y + delta_y)
+                + delta_y * max_x
+                + delta_x * max_y
+                + delta_x * delta_y);
         let delta_t = 3.0 * (g(3) * max_e * max_z + delta_e * max_z + delta_z * max_e)
             / det.abs().max(f64::MIN_POSITIVE);
         (delta_e, delta_t)
