@@ -41,6 +41,8 @@ enum Command {
     Stats(cli::stats::StatsArgs),
     /// Time builds and the standard primary, diffuse and shadow ray sets.
     Bench(cli::bench::BenchArgs),
+    /// Time the explorer's frames (preview and full size) and its drag-to-refit frames.
+    Frames(cli::frames::FramesArgs),
     /// Trace a binary file of rays (closest hit or --any) and write the hits in input order.
     Trace(cli::trace::TraceArgs),
 }
@@ -54,6 +56,7 @@ fn main() -> Result<()> {
         Some(Command::Render(args)) => cli::render::run(args),
         Some(Command::Stats(args)) => cli::stats::run(args),
         Some(Command::Bench(args)) => cli::bench::run(args),
+        Some(Command::Frames(args)) => cli::frames::run(args),
         Some(Command::Trace(args)) => cli::trace::run(args),
     };
     match result {

@@ -445,7 +445,7 @@ impl BvhLabApp {
         let triangle = s.triangle;
         self.selection = Some(triangle);
         let set = self.drag_set(triangle);
-        let step = self.orbit.pixel_size(self.viewport_px[1] as f32) * 30.0;
+        let step = self.orbit.pixel_size(self.viewport_px[1] as f32) * 80.0;
         let (right, up, _) = self.orbit.camera().basis();
         for k in 0..12 {
             let d = if k % 2 == 0 { right } else { up * 0.6 };

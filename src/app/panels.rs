@@ -204,6 +204,11 @@ fn levels_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     egui::CollapsingHeader::new("Levels")
         .default_open(true)
         .show(ui, |ui| {
+            if app.report.is_none() {
+                // Until the tree exists its depth is unknown: no slider to clamp the level.
+                ui.label("building…");
+                return;
+            }
             let max = app.shape.max_depth;
             let s = &mut app.settings;
             ui.checkbox(&mut s.show_levels, "show the boxes of one level");

@@ -9,7 +9,7 @@
 
 use crate::accel::bvh::{BuildParams, BuildReport, Bvh, TraversalOrder, build_with_progress};
 use crate::render::overlay::{OutlinedBox, outline_boxes, palette, tint_triangles};
-use crate::render::{Frame, Mode, RenderSettings, colorize, render};
+use crate::render::{Frame, Mode, RenderSettings, colorize, trace};
 use crate::scene::{Camera, Scene};
 use glam::Vec3;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -273,8 +273,24 @@ impl State {
             let mut batch = vec![first];
             batch.extend(commands.try_iter());
             let last_seq = batch.last().map_or(0, |(s, _)| *s);
+            // Of several loads or builds waiting, only the newest matters (a slider dragged
+            // across ten values asks for one build, not ten).
+            let last_load = batch
+                .iter()
+                .rposition(|(_, c)| matches!(c, Command::Load(_)));
+            let last_build = batch
+                .iter()
+                .rposition(|(_, c)| matches!(c, Command::Build { .. }));
             let mut job = None;
-            for (_, command) in batch {
+            for (i, (_, command)) in batch.into_iter().enumerate() {
+                let superseded = match command {
+                    Command::Load(_) => Some(i) != last_load,
+                    Command::Build { .. } => Some(i) != last_build,
+                    _ => false,
+                };
+                if superseded {
+                    continue;
+                }
                 match command {
                     Command::Render(j) => job = Some(j),
                     other => self.apply(other),
@@ -429,7 +445,7 @@ impl State {
                     mode: job.mode,
                     heat_max: job.heat_max,
                 };
-                let f = Arc::new(render(bvh, scene, &settings));
+                let f = Arc::new(trace(bvh, scene, &settings));
                 self.traced = Some((key, f.clone()));
                 (f, true)
             }

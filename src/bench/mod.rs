@@ -2,6 +2,7 @@
 //! Mrays/s on the standard primary, shadow and diffuse ray sets of a view.
 
 pub mod compare;
+pub mod frames;
 pub mod rays;
 pub mod stress;
 

@@ -2,6 +2,7 @@
 
 pub mod app;
 pub mod bench;
+pub mod frames;
 pub mod render;
 pub mod stats;
 pub mod trace;

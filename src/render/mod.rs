@@ -63,8 +63,8 @@ impl RenderSettings {
     }
 }
 
-/// Side of the square tiles the image is split into for the worker threads.
-const TILE: u32 = 16;
+/// Rows per tile: the image is split into tiles of whole rows for the worker threads.
+const TILE_ROWS: u32 = 4;
 const AMBIENT: f32 = 0.12;
 
 /// Traces and colours a frame with the default (watertight) intersector.
@@ -77,46 +77,48 @@ pub fn render_with<A: Accel, I: Intersector>(
     scene: &Scene,
     settings: &RenderSettings,
 ) -> Frame {
+    let mut frame = trace_with::<A, I>(accel, scene, settings);
+    frame.recolor(settings.mode, settings.heat_max);
+    frame
+}
+
+/// Traces a frame with the default intersector, leaving `rgba` empty: for callers that
+/// colour it themselves (`colorize`).
+pub fn trace<A: Accel>(accel: &A, scene: &Scene, settings: &RenderSettings) -> Frame {
+    trace_with::<A, Watertight>(accel, scene, settings)
+}
+
+/// Traces every pixel's rays into the frame's samples. The image is cut into tiles of
+/// `TILE_ROWS` full rows, contiguous in memory, so each worker thread writes its own slice.
+pub fn trace_with<A: Accel, I: Intersector>(
+    accel: &A,
+    scene: &Scene,
+    settings: &RenderSettings,
+) -> Frame {
     let (w, h) = (settings.width.max(1), settings.height.max(1));
     let rays = settings.camera.rays(w, h);
-    let tiles_x = w.div_ceil(TILE);
-    let tiles = tiles_x * h.div_ceil(TILE);
     let start = Instant::now();
-    let tile_samples: Vec<(u32, Vec<Sample>)> = (0..tiles)
-        .into_par_iter()
-        .map(|tile| {
-            let (x0, y0) = ((tile % tiles_x) * TILE, (tile / tiles_x) * TILE);
-            let mut out = Vec::with_capacity((TILE * TILE) as usize);
-            for y in y0..(y0 + TILE).min(h) {
-                for x in x0..(x0 + TILE).min(w) {
-                    let ray = rays.pixel_center(x, y);
-                    out.push(trace_pixel::<A, I>(accel, scene, &ray, settings.light));
-                }
-            }
-            (tile, out)
-        })
-        .collect();
-    let trace_time = start.elapsed();
-
     let mut samples = vec![Sample::default(); (w * h) as usize];
-    for (tile, out) in tile_samples {
-        let (x0, y0) = ((tile % tiles_x) * TILE, (tile / tiles_x) * TILE);
-        let tw = (x0 + TILE).min(w) - x0;
-        for (k, s) in out.into_iter().enumerate() {
-            let (x, y) = (x0 + k as u32 % tw, y0 + k as u32 / tw);
-            samples[(y * w + x) as usize] = s;
-        }
-    }
-    let mut frame = Frame {
+    samples
+        .par_chunks_mut((w * TILE_ROWS) as usize)
+        .enumerate()
+        .for_each(|(tile, out)| {
+            let y0 = tile as u32 * TILE_ROWS;
+            for (k, sample) in out.iter_mut().enumerate() {
+                let (x, y) = (k as u32 % w, y0 + k as u32 / w);
+                let ray = rays.pixel_center(x, y);
+                *sample = trace_pixel::<A, I>(accel, scene, &ray, settings.light);
+            }
+        });
+    let trace_time = start.elapsed();
+    Frame {
         width: w,
         height: h,
         rgba: Vec::new(),
         summary: FrameSummary::from_samples(&samples, trace_time),
         samples,
         heat_max: None,
-    };
-    frame.recolor(settings.mode, settings.heat_max);
-    frame
+    }
 }
 
 /// The primary ray of one pixel and, if it hits, its shadow ray towards the light.

@@ -1,0 +1,136 @@
+//! Frame times of the explorer app, measured through its worker without a window: a view
+//! rendered at preview and full resolution in the shaded and heatmap modes, and the time
+//! from a drag's move command to the refitted frame (the latency a user feels while
+//! dragging).
+
+use crate::accel::Counter;
+use crate::accel::bvh::{BuildParams, TraversalOrder};
+use crate::app::worker::{Command, Overlay, RenderJob, Reply, Worker};
+use crate::render::{Mode, RayKind};
+use crate::scene::Camera;
+use glam::Vec3;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+#[derive(Clone, Debug)]
+pub struct FrameTime {
+    pub mode: Mode,
+    pub width: u32,
+    pub height: u32,
+    /// Median over the runs, command to frame.
+    pub median: Duration,
+}
+
+#[derive(Clone, Debug)]
+pub struct FrameReport {
+    pub scene: String,
+    pub triangles: usize,
+    pub frames: Vec<FrameTime>,
+    /// Median time from a move of `moved` triangles to its refitted preview frame.
+    pub drag_median: Duration,
+    pub drag_fps: f64,
+    pub moved: usize,
+}
+
+/// Waits for the frame of the command just sent; `None` if the worker went quiet.
+fn frame_after(worker: &mut Worker) -> Option<()> {
+    let replies = worker.wait_idle(Duration::from_secs(300));
+    replies
+        .iter()
+        .any(|r| matches!(r, Reply::Frame(_)))
+        .then_some(())
+}
+
+fn median(mut v: Vec<Duration>) -> Duration {
+    v.sort();
+    v.get(v.len() / 2).copied().unwrap_or_default()
+}
+
+/// Measures `runs` frames per (mode, size) and `runs` drag steps at `preview` size.
+pub fn run(
+    spec: &str,
+    camera: Option<Camera>,
+    sizes: &[(u32, u32)],
+    runs: usize,
+) -> Result<FrameReport, String> {
+    let mut worker = Worker::spawn(|| {});
+    worker.send(Command::Build {
+        params: BuildParams::default(),
+        order: TraversalOrder::FrontToBack,
+    });
+    worker.send(Command::Load(spec.to_string()));
+    let mut scene = None;
+    for r in worker.wait_idle(Duration::from_secs(300)) {
+        match r {
+            Reply::Loaded { scene: s, .. } => scene = Some(s),
+            Reply::LoadFailed { error, .. } => return Err(error),
+            _ => {}
+        }
+    }
+    let scene = scene.ok_or("the scene did not load")?;
+    let mut camera = camera.unwrap_or_else(|| scene.camera());
+    let modes = [
+        Mode::Shaded,
+        Mode::Heatmap(Counter::NodesVisited, RayKind::Primary),
+    ];
+    let job = |camera: Camera, mode, (width, height): (u32, u32)| RenderJob {
+        camera,
+        width,
+        height,
+        mode,
+        heat_max: None,
+        overlay: Overlay::default(),
+        preview: false,
+    };
+    let mut frames = Vec::new();
+    for &size in sizes {
+        for mode in modes {
+            let mut times = Vec::new();
+            for k in 0..runs {
+                // A new camera each time, as an orbit would: every frame is traced.
+                camera.eye += Vec3::splat(1e-4 * (k as f32 + 1.0) * scene.bounds().diagonal());
+                let start = Instant::now();
+                worker.send(Command::Render(job(camera, mode, size)));
+                frame_after(&mut worker).ok_or("no frame")?;
+                times.push(start.elapsed());
+            }
+            frames.push(FrameTime {
+                mode,
+                width: size.0,
+                height: size.1,
+                median: median(times),
+            });
+        }
+    }
+    // Drag: move the largest object back and forth, one refitted preview frame per move.
+    let object = scene
+        .objects
+        .iter()
+        .max_by_key(|o| o.count)
+        .ok_or("the scene has no objects")?;
+    let moved: Arc<Vec<u32>> = Arc::new(object.range().map(|t| t as u32).collect());
+    let step = scene.bounds().diagonal() * 0.002;
+    let preview = sizes.first().copied().unwrap_or((640, 360));
+    worker.send(Command::Render(job(camera, Mode::Shaded, preview)));
+    frame_after(&mut worker).ok_or("no frame")?;
+    let mut times = Vec::new();
+    for k in 0..runs.max(10) {
+        let delta = if k % 2 == 0 { Vec3::X } else { -Vec3::X } * step;
+        let start = Instant::now();
+        worker.send(Command::Move {
+            triangles: moved.clone(),
+            delta,
+        });
+        frame_after(&mut worker).ok_or("no frame after a move")?;
+        times.push(start.elapsed());
+    }
+    let drag_median = median(times);
+    Ok(FrameReport {
+        scene: scene.name.clone(),
+        triangles: scene.triangles.len(),
+        frames,
+        drag_fps: 1.0 / drag_median.as_secs_f64().max(1e-9),
+        drag_median,
+        moved: moved.len(),
+    })
+}

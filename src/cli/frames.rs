@@ -1,0 +1,56 @@
+//! `bvhlab frames`: frame times of the explorer app's worker (no window), at preview and
+//! full resolution, and the drag-to-refitted-frame time.
+
+use super::{ViewArgs, load_scene};
+use anyhow::{Result, anyhow};
+use bvhlab::bench::frames;
+use clap::Args;
+
+#[derive(Args)]
+pub struct FramesArgs {
+    /// Built-in scene name (optionally NAME:N) or path to an .obj file.
+    #[arg(long)]
+    pub scene: String,
+    #[command(flatten)]
+    pub view: ViewArgs,
+    /// Frames per measurement (the median is reported).
+    #[arg(long, default_value_t = 15)]
+    pub runs: usize,
+}
+
+pub fn run(args: FramesArgs) -> Result<()> {
+    let scene = load_scene(&args.scene)?;
+    let camera = (args.view.eye.is_some() || args.view.look.is_some())
+        .then(|| args.view.camera(&scene))
+        .transpose()?;
+    let r = frames::run(
+        &args.scene,
+        camera,
+        &[(640, 360), (1280, 720)],
+        args.runs.max(1),
+    )
+    .map_err(|e| anyhow!(e))?;
+    out!(
+        "{}: {} triangles, {} threads",
+        r.scene,
+        r.triangles,
+        rayon::current_num_threads()
+    );
+    for f in &r.frames {
+        out!(
+            "  {:>4}×{:<4} {:<32} {:>7.1} ms/frame  ({:.1} frames/s)",
+            f.width,
+            f.height,
+            f.mode.label(),
+            f.median.as_secs_f64() * 1e3,
+            1.0 / f.median.as_secs_f64().max(1e-9)
+        );
+    }
+    out!(
+        "  drag (move {} triangles, refit, 640×360 shaded frame): {:.1} ms  ({:.1} frames/s)",
+        r.moved,
+        r.drag_median.as_secs_f64() * 1e3,
+        r.drag_fps
+    );
+    Ok(())
+}
