@@ -45,6 +45,9 @@ enum Command {
     Frames(cli::frames::FramesArgs),
     /// Trace a binary file of rays (closest hit or --any) and write the hits in input order.
     Trace(cli::trace::TraceArgs),
+    /// Numerical stress suite: leaks, slab test, degenerate triangles, f64 agreement, shadow
+    /// self-hits. Exits non-zero on any failure.
+    Stress(cli::stress::StressArgs),
 }
 
 fn main() -> Result<()> {
@@ -58,6 +61,7 @@ fn main() -> Result<()> {
         Some(Command::Bench(args)) => cli::bench::run(args),
         Some(Command::Frames(args)) => cli::frames::run(args),
         Some(Command::Trace(args)) => cli::trace::run(args),
+        Some(Command::Stress(args)) => cli::stress::run(args),
     };
     match result {
         Err(e)

@@ -282,6 +282,7 @@ impl State {
                 .iter()
                 .rposition(|(_, c)| matches!(c, Command::Build { .. }));
             let mut job = None;
+            let version = self.version;
             for (i, (_, command)) in batch.into_iter().enumerate() {
                 let superseded = match command {
                     Command::Load(_) => Some(i) != last_load,
@@ -296,7 +297,11 @@ impl State {
                     other => self.apply(other),
                 }
             }
-            if let Some(j) = job.or_else(|| self.last_job.clone()) {
+            // A new request, or the last one again if the scene or tree changed under it.
+            let again = (self.version != version)
+                .then(|| self.last_job.clone())
+                .flatten();
+            if let Some(j) = job.or(again) {
                 self.render(j);
             }
             self.reply(Reply::Idle(last_seq));

@@ -129,9 +129,11 @@ pub fn reference_hits<A: Accel>(accel: &A, rays: &[Ray]) -> Vec<Option<Hit>> {
 }
 
 /// Traces `rays` with `I` through `accel` and classifies every answer against `reference`
-/// (from `reference_hits` over the same rays).
-pub fn agreement<A: Accel, I: Intersector>(
+/// (from `reference_hits` over the same rays, through `reference_accel`, which may be another
+/// structure over the same triangles).
+pub fn agreement<A: Accel, R: Accel, I: Intersector>(
     accel: &A,
+    reference_accel: &R,
     triangles: &[Triangle],
     rays: &[Ray],
     reference: &[Option<Hit>],
@@ -143,7 +145,7 @@ pub fn agreement<A: Accel, I: Intersector>(
             let got = accel.closest_hit::<I, _>(ray, &mut NoStats);
             acc.rays += 1;
             acc.reference_hits += u64::from(r.is_some());
-            match classify(accel, triangles, ray, got, r) {
+            match classify(reference_accel, triangles, ray, got, r) {
                 Verdict::Agree => {
                     acc.agree += 1;
                     if let (Some(g), Some(r)) = (got, r) {

@@ -1,8 +1,10 @@
 //! The benchmark behind `bvhlab bench`: best-of-several build times and SAH cost, then
 //! Mrays/s on the standard primary, shadow and diffuse ray sets of a view.
 
+pub mod accuracy;
 pub mod compare;
 pub mod frames;
+pub mod plot;
 pub mod rays;
 pub mod stress;
 

@@ -1,9 +1,12 @@
 //! `bvhlab bench`: build times and Mrays/s on the standard ray sets of a view.
 
 use super::{BuildArgs, IntersectorArg, ViewArgs, check_size, load_scene, thread_pool};
-use anyhow::Result;
+use anyhow::{Context, Result};
+use bvhlab::bench::accuracy::{self, AccuracyConfig};
 use bvhlab::bench::{self, BenchConfig};
+use bvhlab::scene::Scene;
 use clap::Args;
+use std::path::PathBuf;
 
 #[derive(Args)]
 pub struct BenchArgs {
@@ -31,6 +34,22 @@ pub struct BenchArgs {
     /// Ray–triangle test of the timed runs.
     #[arg(long, value_enum, default_value_t = IntersectorArg::Watertight)]
     pub intersector: IntersectorArg,
+    /// Run time against error: every intersector with every builder (object median, spatial
+    /// median, full-sweep SAH, binned SAH with B = 2..64); writes a CSV and a Pareto plot.
+    #[arg(long)]
+    pub accuracy: bool,
+    /// With --accuracy: the CSV file (default: accuracy-<scene>.csv).
+    #[arg(long, requires = "accuracy")]
+    pub csv: Option<PathBuf>,
+    /// With --accuracy: the Pareto plot PNG (default: accuracy-<scene>.png).
+    #[arg(long, requires = "accuracy")]
+    pub plot: Option<PathBuf>,
+    /// With --accuracy: random rays compared with the f64 reference besides the ray sets.
+    #[arg(long, default_value_t = 100_000)]
+    pub random_rays: usize,
+    /// With --accuracy: rays crossing the surface exactly at shared edges and vertices.
+    #[arg(long, default_value_t = 100_000)]
+    pub crossing_rays: usize,
     #[command(flatten)]
     pub build: BuildArgs,
 }
@@ -50,6 +69,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
     };
     cfg.params.validate()?;
     let pool = thread_pool(args.threads)?;
+    if args.accuracy {
+        return run_accuracy(&args, &scene, &cfg, &pool);
+    }
     let result = pool.install(|| bench::run(&scene, &cfg))?;
     if args.json {
         out!("{}", result.to_json());
@@ -83,5 +105,108 @@ pub fn run(args: BenchArgs) -> Result<()> {
             set.mrays_per_s()
         );
     }
+    Ok(())
+}
+
+fn run_accuracy(
+    args: &BenchArgs,
+    scene: &Scene,
+    cfg: &BenchConfig,
+    pool: &rayon::ThreadPool,
+) -> Result<()> {
+    let acc = AccuracyConfig {
+        camera: cfg.camera,
+        light: cfg.light,
+        width: cfg.width,
+        height: cfg.height,
+        builds: cfg.builds,
+        runs: cfg.runs,
+        random_rays: args.random_rays,
+        crossing_rays: args.crossing_rays,
+        seed: 1,
+    };
+    let quiet = args.json;
+    let rows = pool.install(|| {
+        accuracy::run(scene, &acc, &mut |line| {
+            if !quiet {
+                eprintln!("  done: {line}");
+            }
+        })
+    })?;
+    let stem = super::render::sanitize(&scene.name);
+    let csv_path = args
+        .csv
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(format!("accuracy-{stem}.csv")));
+    let plot_path = args
+        .plot
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(format!("accuracy-{stem}.png")));
+    std::fs::write(&csv_path, accuracy::csv(&rows))
+        .with_context(|| format!("cannot write {}", csv_path.display()))?;
+    accuracy::pareto_plot(&rows)
+        .save(&plot_path)
+        .with_context(|| format!("cannot write {}", plot_path.display()))?;
+    if args.json {
+        let json: Vec<serde_json::Value> = rows
+            .iter()
+            .map(|r| {
+                serde_json::json!({
+                    "scene": r.scene, "builder": r.builder.label,
+                    "intersector": r.intersector.label(), "build_ms": r.build_ms,
+                    "sah_vs_full_sweep": r.sah_vs_sweep,
+                    "primary_mrays_s": r.sets[0].mrays_per_s(),
+                    "diffuse_mrays_s": r.sets[1].mrays_per_s(),
+                    "shadow_mrays_s": r.sets[2].mrays_per_s(),
+                    "ns_per_ray": r.ns_per_ray(),
+                    "crossing_rays": r.crossings.rays,
+                    "leaks": r.crossings.missed + r.crossings.passed_through,
+                    "compared_rays": r.agreement.rays,
+                    "mismatches": r.agreement.mismatches,
+                })
+            })
+            .collect();
+        out!("{}", serde_json::Value::Array(json));
+        return Ok(());
+    }
+    out!(
+        "{}: {} triangles, {} threads, {}x{} ray sets; {} crossing rays, {} rays compared with f64",
+        scene.name,
+        scene.triangles.len(),
+        rows.first().map_or(0, |r| r.threads),
+        cfg.width,
+        cfg.height,
+        rows.first().map_or(0, |r| r.crossings.rays),
+        rows.first().map_or(0, |r| r.agreement.rays)
+    );
+    out!(
+        "  {:<17} {:<16} {:>9} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>10}",
+        "builder",
+        "intersector",
+        "build ms",
+        "SAH rel",
+        "primary",
+        "diffuse",
+        "shadow",
+        "ns/ray",
+        "leaks",
+        "mismatches"
+    );
+    for r in &rows {
+        out!(
+            "  {:<17} {:<16} {:>9.2} {:>8.3} {:>8.2} {:>8.2} {:>8.2} {:>8.1} {:>8} {:>10}",
+            r.builder.label,
+            r.intersector.label(),
+            r.build_ms,
+            r.sah_vs_sweep,
+            r.sets[0].mrays_per_s(),
+            r.sets[1].mrays_per_s(),
+            r.sets[2].mrays_per_s(),
+            r.ns_per_ray(),
+            r.crossings.missed + r.crossings.passed_through,
+            r.agreement.mismatches
+        );
+    }
+    out!("wrote {} and {}", csv_path.display(), plot_path.display());
     Ok(())
 }

@@ -5,6 +5,7 @@ pub mod bench;
 pub mod frames;
 pub mod render;
 pub mod stats;
+pub mod stress;
 pub mod trace;
 
 use anyhow::{Context, Result, bail};

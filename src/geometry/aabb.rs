@@ -163,12 +163,12 @@ pub fn slab_entry(corners: &[Vec3; 2], ray: &SlabRay, tmin: f32, tmax: f32) -> f
     let far_y = (corners[(ny ^ 1) & 1].y - o.y) * inv.y;
     let far_z = (corners[(nz ^ 1) & 1].z - o.z) * inv.z;
     let enter = max_keep(max_keep(max_keep(tmin, near_x), near_y), near_z);
-    // Scaling the smallest far distance once is the same as scaling each: x ↦ x·(1 + 2γ)
-    // is monotonic. Starting from +∞ lets a NaN fall through to +∞ too.
-    let exit = min_keep(min_keep(min_keep(f32::INFINITY, far_x), far_y), far_z) * FAR_SCALE;
-    if enter <= min_keep(tmax, exit) {
-        enter
-    } else {
-        f32::INFINITY
-    }
+    // Each far distance is scaled before the minimum (x ↦ x·(1 + 2γ) is monotonic, so this
+    // equals scaling the minimum once). Scaling once after a minimum that may be ±∞ ran at
+    // half speed on axis-parallel rays (measured); this form runs at the same speed on both.
+    let exit = min_keep(
+        min_keep(min_keep(tmax, far_x * FAR_SCALE), far_y * FAR_SCALE),
+        far_z * FAR_SCALE,
+    );
+    if enter <= exit { enter } else { f32::INFINITY }
 }

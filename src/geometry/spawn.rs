@@ -19,9 +19,12 @@ impl SurfacePoint {
         let b0 = 1.0 - u - v;
         let p = b0 * tri.v[0] + u * tri.v[1] + v * tri.v[2];
         let abs_sum = (b0 * tri.v[0]).abs() + (u * tri.v[1]).abs() + (v * tri.v[2]).abs();
+        // b0 itself is rounded, by up to γ(2)·(|1 − u| + |b0|): an absolute error that is
+        // large next to a small b0, so it is bounded with |v0| rather than |b0·v0|.
+        let b0_error = gamma(2) * (1.0 + u.abs() + b0.abs());
         SurfacePoint {
             p,
-            error: gamma(7) * abs_sum,
+            error: gamma(7) * abs_sum + b0_error * tri.v[0].abs(),
         }
     }
 

@@ -46,7 +46,7 @@ pub fn case(i: u64, seed: u64) -> (Triangle, Ray, bool) {
     let scale = 10f32.powi(rng.below(7) as i32 - 3);
     let far = 10f32.powi(rng.below(4) as i32);
     let offset = random_point(&mut rng, scale * far);
-    if i % 2 == 0 {
+    if i.is_multiple_of(2) {
         let axis = rng.below(3) as usize;
         let plane = offset[axis];
         let mut corner = || {

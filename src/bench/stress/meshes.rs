@@ -397,11 +397,11 @@ impl PlacedMesh {
     }
 
     /// Whether the snapped mesh still resolves its shape: its smallest feature spans at
-    /// least 8 grid steps on every axis. Coarser meshes collapse into a few points and have
-    /// no interior to aim at.
+    /// least 4 grid steps on every axis. Coarser meshes collapse into a few points and have
+    /// no interior to aim at. (Rays are further checked against `robustly_inside`.)
     pub fn resolvable(&self) -> bool {
         let feature = self.mesh.feature_size() * self.placement.scale;
-        (0..3).all(|a| feature / self.grid[a] >= 8.0)
+        (0..3).all(|a| feature / self.grid[a] >= 4.0)
     }
 
     /// Whether world point `p` lies inside the snapped mesh whatever the snapping and the

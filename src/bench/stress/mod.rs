@@ -7,7 +7,9 @@ pub mod degenerate;
 pub mod grazing;
 pub mod leaks;
 pub mod meshes;
+pub mod shadow;
 pub mod slab;
+pub mod suite;
 
 use crate::bench::rays::splitmix64;
 use glam::DVec3;
@@ -21,22 +23,22 @@ impl Rng {
         Rng(splitmix64(seed ^ index.wrapping_mul(0x9e37_79b9_7f4a_7c15)))
     }
 
-    pub fn next(&mut self) -> u64 {
+    pub fn next_u64(&mut self) -> u64 {
         self.0 = splitmix64(self.0);
         self.0
     }
 
     /// Uniform in [0, 1).
     pub fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
+        (self.next_u64() >> 11) as f64 / (1u64 << 53) as f64
     }
 
     pub fn below(&mut self, n: u64) -> u64 {
-        self.next() % n.max(1)
+        self.next_u64() % n.max(1)
     }
 
     pub fn coin(&mut self) -> bool {
-        self.next() & 1 == 0
+        self.next_u64() & 1 == 0
     }
 
     /// Uniform in the unit ball.

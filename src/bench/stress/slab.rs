@@ -226,7 +226,7 @@ fn value(rng: &mut Rng) -> f32 {
     let m = if rng.below(4) == 0 {
         1.0 + rng.below(8) as f32 / 8.0
     } else {
-        1.0 + (rng.next() >> 41) as f32 / (1u64 << 23) as f32
+        1.0 + (rng.next_u64() >> 41) as f32 / (1u64 << 23) as f32
     };
     sign * m * 2f32.powi(e)
 }
@@ -308,4 +308,51 @@ pub fn run(n: u64, seed: u64) -> SlabReport {
             a.add(&b);
             a
         })
+}
+
+/// Mean time of one slab test (ns) on general rays and on axis-parallel rays (two ±0
+/// components), over the same random boxes. Measured for `bvhlab stress`, never asserted.
+pub fn timing(tests: u64, seed: u64) -> (f64, f64) {
+    const N: usize = 1024;
+    let mut rng = Rng::for_case(seed, 0);
+    let boxes: Vec<[Vec3; 2]> = (0..N)
+        .map(|_| {
+            let c = rng.in_ball().as_vec3() * 10.0;
+            let e = (rng.in_ball().as_vec3().abs() + Vec3::splat(0.1)) * 2.0;
+            [c - e, c + e]
+        })
+        .collect();
+    let general: Vec<SlabRay> = (0..N)
+        .map(|_| {
+            let d = rng.in_ball().as_vec3();
+            SlabRay::new(&Ray::new(rng.in_ball().as_vec3() * 10.0, d))
+        })
+        .collect();
+    let axis: Vec<SlabRay> = (0..N)
+        .map(|_| {
+            let mut d = Vec3::new(rng.signed_zero(), rng.signed_zero(), rng.signed_zero());
+            d[rng.below(3) as usize] = if rng.coin() { 1.0 } else { -1.0 };
+            SlabRay::new(&Ray::new(rng.in_ball().as_vec3() * 10.0, d))
+        })
+        .collect();
+    let time = |rays: &[SlabRay]| {
+        let start = std::time::Instant::now();
+        let mut hits = 0u64;
+        for i in 0..tests as usize {
+            let e = slab_entry(
+                std::hint::black_box(&boxes[i % N]),
+                std::hint::black_box(&rays[(i / N + i) % N]),
+                0.0,
+                f32::INFINITY,
+            );
+            hits += u64::from(e != f32::INFINITY);
+        }
+        std::hint::black_box(hits);
+        start.elapsed().as_secs_f64() * 1e9 / tests.max(1) as f64
+    };
+    // Warm up, then measure each twice and keep the faster.
+    time(&general);
+    let g = time(&general).min(time(&general));
+    let a = time(&axis).min(time(&axis));
+    (g, a)
 }

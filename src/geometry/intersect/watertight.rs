@@ -6,9 +6,10 @@
 //! they disagree on no ray: nothing slips through. An edge function that rounds to exactly
 //! zero is recomputed in f64, where the f32 inputs multiply exactly.
 
+use super::reference::gamma64;
 use super::{Intersector, TriangleHit};
 use crate::geometry::{Ray, Triangle, gamma};
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Watertight;
@@ -83,24 +84,34 @@ impl Intersector for Watertight {
         }
         let (az, bz, cz) = (s.z * a.z, s.z * b.z, s.z * c.z);
         let inv_det = 1.0 / det;
-        let t = (e0 * az + e1 * bz + e2 * cz) * inv_det;
+        let mut t = (e0 * az + e1 * bz + e2 * cz) * inv_det;
         if !(t > tmin && t < tmax) {
             return None;
         }
-        // Reject hits closer to the origin than the rounding error of t itself (pbrt §6.8.4):
-        // such a hit is indistinguishable from the surface the ray starts on.
+        // The rounding error of t (pbrt-v4 §6.8.4). The sheared x and y are q_x + s_x·q_z
+        // with |s_x| ≤ 1, so their error is bounded with |q_z| (pbrt uses the scaled z,
+        // too small when the direction is longer than 1).
         let max_z = az.abs().max(bz.abs()).max(cz.abs());
+        let max_qz = a.z.abs().max(b.z.abs()).max(c.z.abs());
         let max_x = ax.abs().max(bx.abs()).max(cx.abs());
         let max_y = ay.abs().max(by.abs()).max(cy.abs());
         let delta_z = gamma(3) * max_z;
-        let delta_x = gamma(5) * (max_x + max_z);
-        let delta_y = gamma(5) * (max_y + max_z);
+        let delta_x = gamma(5) * (max_x + max_qz);
+        let delta_y = gamma(5) * (max_y + max_qz);
         let delta_e = 2.0 * (gamma(2) * max_x * max_y + delta_y * max_x + delta_x * max_y);
         let max_e = e0.abs().max(e1.abs()).max(e2.abs());
         let delta_t =
             3.0 * (gamma(3) * max_e * max_z + delta_e * max_z + delta_z * max_e) * inv_det.abs();
         if t <= delta_t {
-            return None;
+            // f32 cannot tell this hit from the surface the ray starts on. pbrt rejects it,
+            // which avoids self-intersection but also loses real hits close to long thin
+            // triangles (whose f32 t error is large), letting rays through closed meshes.
+            // f64 decides instead: its error is ~10^-16 of the same terms.
+            let t64 = plane_distance_f64(ray, tri)?;
+            if !(t64 > tmin as f64 && t64 < tmax as f64) {
+                return None;
+            }
+            t = t64 as f32;
         }
         Some(TriangleHit {
             t,
@@ -108,4 +119,33 @@ impl Intersector for Watertight {
             v: e2 * inv_det,
         })
     }
+}
+
+/// The distance along the ray to the triangle's plane, n·(v0 − o) / n·d, in f64 with an error
+/// bound: `None` unless it is positive beyond that bound. The f32 inputs' differences are
+/// exact in f64; each later operation is counted in the γ terms.
+#[cold]
+#[inline(never)]
+fn plane_distance_f64(ray: &Ray, tri: &Triangle) -> Option<f64> {
+    let a = tri.v[0].as_dvec3();
+    let e1 = tri.v[1].as_dvec3() - a;
+    let e2 = tri.v[2].as_dvec3() - a;
+    let n = e1.cross(e2);
+    // |error of each component of n|: two products and a difference, on exact inputs.
+    let n_err = DVec3::new(
+        (e1.y * e2.z).abs() + (e1.z * e2.y).abs(),
+        (e1.z * e2.x).abs() + (e1.x * e2.z).abs(),
+        (e1.x * e2.y).abs() + (e1.y * e2.x).abs(),
+    ) * gamma64(2);
+    let w = a - ray.origin.as_dvec3();
+    let d = ray.direction.as_dvec3();
+    let (num, den) = (n.dot(w), n.dot(d));
+    let num_err = gamma64(3) * (n.abs() + n_err).dot(w.abs()) + n_err.dot(w.abs());
+    let den_err = gamma64(3) * (n.abs() + n_err).dot(d.abs()) + n_err.dot(d.abs());
+    if den.abs() <= den_err {
+        return None;
+    }
+    let t = num / den;
+    let t_err = (num_err + t.abs() * den_err) / (den.abs() - den_err) + gamma64(1) * t.abs();
+    (t > t_err).then_some(t)
 }
