@@ -143,6 +143,7 @@ fn dragging_a_triangle_refits_and_hits_equal_a_fresh_build() {
         light: moved.light(),
         mode: shown.job.mode,
         heat_max: None,
+        shadows: true,
     };
     let expected = render(&fresh, &moved, &settings);
     let mut differing = 0;

@@ -449,6 +449,8 @@ impl State {
                     light: scene.light(),
                     mode: job.mode,
                     heat_max: job.heat_max,
+                    // A preview skips the shadow rays unless they are what it shows.
+                    shadows: !job.preview || job.mode.counts_shadow_rays(),
                 };
                 let f = Arc::new(trace(bvh, scene, &settings));
                 self.traced = Some((key, f.clone()));

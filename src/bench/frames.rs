@@ -17,6 +17,8 @@ pub struct FrameTime {
     pub mode: Mode,
     pub width: u32,
     pub height: u32,
+    /// A preview, as the app shows while the view or a triangle moves.
+    pub preview: bool,
     /// Median over the runs, command to frame.
     pub median: Duration,
 }
@@ -46,11 +48,12 @@ fn median(mut v: Vec<Duration>) -> Duration {
     v.get(v.len() / 2).copied().unwrap_or_default()
 }
 
-/// Measures `runs` frames per (mode, size) and `runs` drag steps at `preview` size.
+/// Measures `runs` frames per (mode, size) and `runs` drag steps at the first size, which
+/// should be a preview, as while dragging. `sizes` are (width, height, preview).
 pub fn run(
     spec: &str,
     camera: Option<Camera>,
-    sizes: &[(u32, u32)],
+    sizes: &[(u32, u32, bool)],
     runs: usize,
 ) -> Result<FrameReport, String> {
     let mut worker = Worker::spawn(|| {});
@@ -73,14 +76,14 @@ pub fn run(
         Mode::Shaded,
         Mode::Heatmap(Counter::NodesVisited, RayKind::Primary),
     ];
-    let job = |camera: Camera, mode, (width, height): (u32, u32)| RenderJob {
+    let job = |camera: Camera, mode, (width, height, preview): (u32, u32, bool)| RenderJob {
         camera,
         width,
         height,
         mode,
         heat_max: None,
         overlay: Overlay::default(),
-        preview: false,
+        preview,
     };
     let mut frames = Vec::new();
     for &size in sizes {
@@ -98,6 +101,7 @@ pub fn run(
                 mode,
                 width: size.0,
                 height: size.1,
+                preview: size.2,
                 median: median(times),
             });
         }
@@ -110,7 +114,7 @@ pub fn run(
         .ok_or("the scene has no objects")?;
     let moved: Arc<Vec<u32>> = Arc::new(object.range().map(|t| t as u32).collect());
     let step = scene.bounds().diagonal() * 0.002;
-    let preview = sizes.first().copied().unwrap_or((640, 360));
+    let preview = sizes.first().copied().unwrap_or((640, 360, true));
     worker.send(Command::Render(job(camera, Mode::Shaded, preview)));
     frame_after(&mut worker).ok_or("no frame")?;
     let mut times = Vec::new();

@@ -23,13 +23,8 @@ pub fn run(args: FramesArgs) -> Result<()> {
     let camera = (args.view.eye.is_some() || args.view.look.is_some())
         .then(|| args.view.camera(&scene))
         .transpose()?;
-    let r = frames::run(
-        &args.scene,
-        camera,
-        &[(640, 360), (1280, 720)],
-        args.runs.max(1),
-    )
-    .map_err(|e| anyhow!(e))?;
+    let sizes = [(640, 360, true), (640, 360, false), (1280, 720, false)];
+    let r = frames::run(&args.scene, camera, &sizes, args.runs.max(1)).map_err(|e| anyhow!(e))?;
     out!(
         "{}: {} triangles, {} threads",
         r.scene,
@@ -38,16 +33,17 @@ pub fn run(args: FramesArgs) -> Result<()> {
     );
     for f in &r.frames {
         out!(
-            "  {:>4}×{:<4} {:<32} {:>7.1} ms/frame  ({:.1} frames/s)",
+            "  {:>4}×{:<4} {:<8} {:<30} {:>7.1} ms/frame  ({:.1} frames/s)",
             f.width,
             f.height,
+            if f.preview { "preview" } else { "full" },
             f.mode.label(),
             f.median.as_secs_f64() * 1e3,
             1.0 / f.median.as_secs_f64().max(1e-9)
         );
     }
     out!(
-        "  drag (move {} triangles, refit, 640×360 shaded frame): {:.1} ms  ({:.1} frames/s)",
+        "  drag (move {} triangles, refit, 640×360 shaded preview): {:.1} ms  ({:.1} frames/s)",
         r.moved,
         r.drag_median.as_secs_f64() * 1e3,
         r.drag_fps

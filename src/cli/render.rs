@@ -74,6 +74,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         light: args.view.light(&scene),
         mode,
         heat_max: args.heat_max,
+        shadows: true,
     };
     let kind = args.intersector.kind();
     let frame = match args.accel {

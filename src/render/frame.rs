@@ -93,7 +93,7 @@ impl FrameSummary {
         &self.counters[rays as usize][k]
     }
 
-    pub(crate) fn from_samples(samples: &[Sample], trace_time: Duration) -> Self {
+    pub(crate) fn from_samples(samples: &[Sample], trace_time: Duration, shadows: bool) -> Self {
         let mut s = FrameSummary {
             trace_time,
             ..Default::default()
@@ -102,7 +102,7 @@ impl FrameSummary {
             s.primary_rays += 1;
             if sample.is_hit() {
                 s.primary_hits += 1;
-                s.shadow_rays += 1;
+                s.shadow_rays += u64::from(shadows);
                 s.shadow_occluded += u64::from(!sample.lit);
             }
             for (r, c) in [(0, &sample.primary), (1, &sample.shadow)] {

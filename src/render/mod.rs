@@ -29,6 +29,11 @@ pub enum Mode {
 }
 
 impl Mode {
+    /// Whether this mode shows the work of shadow rays.
+    pub fn counts_shadow_rays(self) -> bool {
+        matches!(self, Mode::Heatmap(_, RayKind::Shadow))
+    }
+
     pub fn label(self) -> String {
         match self {
             Mode::Shaded => "shaded".into(),
@@ -48,6 +53,8 @@ pub struct RenderSettings {
     pub mode: Mode,
     /// Heatmap scale: the count shown at the top of the map; `None` = the frame's maximum.
     pub heat_max: Option<u32>,
+    /// Trace a shadow ray per hit. Without them (a quick preview) every hit counts as lit.
+    pub shadows: bool,
 }
 
 impl RenderSettings {
@@ -59,6 +66,7 @@ impl RenderSettings {
             light: scene.light(),
             mode: Mode::Shaded,
             heat_max: None,
+            shadows: true,
         }
     }
 }
@@ -107,7 +115,7 @@ pub fn trace_with<A: Accel, I: Intersector>(
             for (k, sample) in out.iter_mut().enumerate() {
                 let (x, y) = (k as u32 % w, y0 + k as u32 / w);
                 let ray = rays.pixel_center(x, y);
-                *sample = trace_pixel::<A, I>(accel, scene, &ray, settings.light);
+                *sample = trace_pixel::<A, I>(accel, scene, &ray, settings);
             }
         });
     let trace_time = start.elapsed();
@@ -115,7 +123,7 @@ pub fn trace_with<A: Accel, I: Intersector>(
         width: w,
         height: h,
         rgba: Vec::new(),
-        summary: FrameSummary::from_samples(&samples, trace_time),
+        summary: FrameSummary::from_samples(&samples, trace_time, settings.shadows),
         samples,
         heat_max: None,
     }
@@ -126,8 +134,9 @@ fn trace_pixel<A: Accel, I: Intersector>(
     accel: &A,
     scene: &Scene,
     ray: &Ray,
-    light: Vec3,
+    settings: &RenderSettings,
 ) -> Sample {
+    let light = settings.light;
     let mut primary = Counters::default();
     let Some(hit) = accel.closest_hit::<I, _>(ray, &mut primary) else {
         return Sample {
@@ -154,7 +163,7 @@ fn trace_pixel<A: Accel, I: Intersector>(
     let (lit, cos_light) = if distance > 0.0 {
         let dir = to_light / distance;
         let shadow_ray = Ray::segment(origin, dir, 0.0, distance);
-        let occluded = accel.any_hit::<I, _>(&shadow_ray, &mut shadow);
+        let occluded = settings.shadows && accel.any_hit::<I, _>(&shadow_ray, &mut shadow);
         (!occluded, normal.dot(dir).max(0.0))
     } else {
         (true, 1.0)
