@@ -1,9 +1,6 @@
-//! Run time against error, behind `bvhlab bench --accuracy`. For every intersector
-//! (watertight f32, Möller–Trumbore f32, f64) and every builder (object median, spatial
-//! median, full-sweep SAH, binned SAH with B = 2…64): build time, SAH cost relative to the
-//! full sweep, Mrays/s on the standard ray sets, the leak rate on rays crossing shared edges
-//! and vertices, and the mismatch rate against the f64 reference. Written as CSV and as a
-//! Pareto plot of time against error.
+//! Run time against error, behind `bvhlab bench --accuracy`: every intersector with every
+//! builder (object/spatial median, full-sweep SAH, binned SAH B = 2…64) gives build time, SAH
+//! cost, Mrays/s, leak and mismatch rates; written as CSV and as a Pareto plot.
 
 use super::compare::{self, Agreement};
 use super::plot::{self, Color, Point, ScatterPlot};

@@ -1,12 +1,6 @@
-//! Closest hits measured against the f64 reference. A disagreement is only forgiven when the
-//! reference, with its error bounds, cannot tell the two answers apart:
-//! - a tie: both triangles are hit by the reference at the same t within the bounds (a
-//!   shared edge or vertex, coplanar overlaps);
-//! - rounding: the ray passes within the f32 test's rounding error (pbrt-v4 §6.8.4) of the
-//!   edge of every triangle on which the answers differ.
-//!
-//! Everything else is a mismatch. The reference is traced through the same BVH; its boxes are
-//! conservative, and the tests check it against brute force.
+//! Closest hits measured against the f64 reference. A disagreement is forgiven only as a tie
+//! (both triangles at the same t within the error bounds) or as rounding (the ray passes within
+//! the f32 test's error of the edges involved); anything else is a mismatch.
 
 use crate::accel::{Accel, Hit, NoStats};
 use crate::bench::stress::Rng;

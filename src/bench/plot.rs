@@ -1,6 +1,5 @@
-//! A small scatter plot drawn straight into a PNG (no plotting stack, no system fonts): the
-//! Pareto plot of run time against error behind `bvhlab bench --accuracy`. Text uses the
-//! public-domain 8×8 bitmap font of the `font8x8` crate.
+//! A small scatter plot drawn straight into a PNG, for the Pareto plot of time against error:
+//! no plotting stack and no system fonts (text uses `font8x8`'s public-domain bitmap font).
 
 use image::{Rgb, RgbImage};
 
@@ -182,9 +181,15 @@ pub fn render(plot: &ScatterPlot, width: u32, height: u32) -> RgbImage {
     // Grid and ticks.
     let x_ticks: Vec<(f64, String)> = if plot.log_x {
         let (lo, hi) = (10f64.powf(x0), 10f64.powf(x1));
+        // Every integer mantissa when the axis spans about a decade, else 1, 2, 5.
+        let mantissas: &[f64] = if x1 - x0 < 1.3 {
+            &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0]
+        } else {
+            &[1.0, 2.0, 5.0]
+        };
         let mut out = Vec::new();
         for k in (lo.log10().floor() as i32)..=(hi.log10().ceil() as i32) {
-            for m in [1.0, 2.0, 5.0] {
+            for &m in mantissas {
                 let v = m * 10f64.powi(k);
                 if v >= lo && v <= hi {
                     out.push((v.log10(), format_tick(v)));

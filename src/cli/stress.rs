@@ -5,7 +5,7 @@
 use super::{load_scene, thread_pool};
 use anyhow::{Result, bail};
 use bvhlab::accel::bvh::{BuildParams, build};
-use bvhlab::accel::{Accel, NoStats};
+use bvhlab::accel::{Accel, Counters, NoStats};
 use bvhlab::bench::stress::slab;
 use bvhlab::bench::stress::suite::{self, StressConfig, StressReport};
 use bvhlab::geometry::{IntersectorKind, Ray, Watertight};
@@ -95,20 +95,25 @@ pub fn run(args: StressArgs) -> Result<()> {
                 eprintln!("  done: {line}");
             }
         });
-        (report, axis_parallel_timing(&scenes[0]))
+        // Time traversal on the largest scene.
+        let largest = scenes.iter().max_by_key(|s| s.triangles.len());
+        let timing = largest.map(axis_parallel_timing).unwrap_or_default();
+        (report, timing)
     });
     if args.json {
         let mut json = report.to_json();
         json["timing"] = serde_json::json!({
-            "slab_ns_general": round2(timing.0),
-            "slab_ns_axis_parallel": round2(timing.1),
-            "bvh_mrays_general": round2(timing.2),
-            "bvh_mrays_axis_parallel": round2(timing.3),
-            "bvh_scene": scenes[0].name,
+            "slab_ns_general": round2(timing.slab_general),
+            "slab_ns_axis_parallel": round2(timing.slab_axis),
+            "bvh_scene": timing.scene,
+            "bvh_mrays_general": round2(timing.bvh_mrays_general),
+            "bvh_mrays_axis_parallel": round2(timing.bvh_mrays_axis),
+            "bvh_ns_per_box_test_general": round2(timing.bvh_ns_per_box_general),
+            "bvh_ns_per_box_test_axis_parallel": round2(timing.bvh_ns_per_box_axis),
         });
         out!("{json}");
     } else {
-        print_summary(&report, timing)?;
+        print_summary(&report, &timing)?;
     }
     let failures = report.failures();
     if !failures.is_empty() {
@@ -125,17 +130,32 @@ fn round2(x: f64) -> f64 {
     (x * 100.0).round() / 100.0
 }
 
-/// Slab-test ns per test on general and axis-parallel rays, and BVH closest-hit Mrays/s on
-/// `scene` for rays from its camera in general and in axis-parallel directions.
-fn axis_parallel_timing(scene: &Scene) -> (f64, f64, f64, f64) {
-    let (g, a) = slab::timing(20_000_000, 3);
-    let Ok((bvh, _)) = build(&scene.triangles, &BuildParams::default()) else {
-        return (g, a, 0.0, 0.0);
+/// Slab-test ns per test on general and axis-parallel rays, then BVH closest-hit traversal of
+/// `scene` for rays from the same random origins in random and in axis-parallel directions:
+/// Mrays/s and ns per box test (directions change how many boxes a ray tests).
+fn axis_parallel_timing(scene: &Scene) -> Timing {
+    let (slab_general, slab_axis) = slab::timing(20_000_000, 3);
+    let mut t = Timing {
+        slab_general,
+        slab_axis,
+        ..Timing::default()
     };
-    let cam = scene.camera().rays(512, 384);
-    let general: Vec<Ray> = (0..384)
-        .flat_map(|y| (0..512).map(move |x| (x, y)))
-        .map(|(x, y)| cam.pixel_center(x, y))
+    let Ok((bvh, _)) = build(&scene.triangles, &BuildParams::default()) else {
+        return t;
+    };
+    let b = scene.bounds();
+    let mut rng = bvhlab::bench::stress::Rng(5);
+    let n = 400_000;
+    let origins: Vec<Vec3> = (0..n)
+        .map(|_| {
+            let u = Vec3::new(rng.unit() as f32, rng.unit() as f32, rng.unit() as f32);
+            b.min + (b.max - b.min) * u
+        })
+        .collect();
+    let general: Vec<Ray> = origins
+        .iter()
+        .map(|&o| Ray::new(o, rng.in_ball().normalize_or_zero().as_vec3()))
+        .filter(|r| r.direction != Vec3::ZERO)
         .collect();
     let axes = [
         Vec3::X,
@@ -145,21 +165,20 @@ fn axis_parallel_timing(scene: &Scene) -> (f64, f64, f64, f64) {
         Vec3::Z,
         Vec3::NEG_Z,
     ];
-    let axis: Vec<Ray> = general
+    let axis: Vec<Ray> = origins
         .iter()
         .enumerate()
-        .map(|(i, r)| {
-            // Origins spread like the general rays', directions along the axes with ±0.
+        .map(|(i, &o)| {
             let mut d = axes[i % 6];
             for k in 0..3 {
-                if d[k] == 0.0 && (i / 6 + k) % 2 == 1 {
+                if d[k] == 0.0 && rng.coin() {
                     d[k] = -0.0;
                 }
             }
-            Ray::new(r.at(0.5 * (i % 7) as f32), d)
+            Ray::new(o, d)
         })
         .collect();
-    let mrays = |rays: &[Ray]| {
+    let measure = |rays: &[Ray]| {
         let mut best = f64::INFINITY;
         for _ in 0..3 {
             let start = Instant::now();
@@ -170,12 +189,38 @@ fn axis_parallel_timing(scene: &Scene) -> (f64, f64, f64, f64) {
             std::hint::black_box(hits);
             best = best.min(start.elapsed().as_secs_f64());
         }
-        rays.len() as f64 / best / 1e6
+        let boxes: u64 = rays
+            .par_iter()
+            .map(|r| {
+                let mut c = Counters::default();
+                bvh.closest_hit::<Watertight, _>(r, &mut c);
+                c.box_tests as u64
+            })
+            .sum();
+        let threads = rayon::current_num_threads() as f64;
+        (
+            rays.len() as f64 / best / 1e6,
+            best * threads * 1e9 / boxes.max(1) as f64,
+        )
     };
-    (g, a, mrays(&general), mrays(&axis))
+    (t.bvh_mrays_general, t.bvh_ns_per_box_general) = measure(&general);
+    (t.bvh_mrays_axis, t.bvh_ns_per_box_axis) = measure(&axis);
+    t.scene = scene.name.clone();
+    t
 }
 
-fn print_summary(r: &StressReport, timing: (f64, f64, f64, f64)) -> Result<()> {
+#[derive(Clone, Debug, Default)]
+struct Timing {
+    slab_general: f64,
+    slab_axis: f64,
+    scene: String,
+    bvh_mrays_general: f64,
+    bvh_mrays_axis: f64,
+    bvh_ns_per_box_general: f64,
+    bvh_ns_per_box_axis: f64,
+}
+
+fn print_summary(r: &StressReport, timing: &Timing) -> Result<()> {
     let kinds = IntersectorKind::ALL;
     out!(
         "bvhlab stress: {} edge and vertex rays, {:.1} s",
@@ -213,11 +258,14 @@ fn print_summary(r: &StressReport, timing: (f64, f64, f64, f64)) -> Result<()> {
         s.nan
     );
     out!(
-        "  timing: {:.2} ns per slab test on general rays, {:.2} on axis-parallel; BVH {:.2} vs {:.2} Mrays/s",
-        timing.0,
-        timing.1,
-        timing.2,
-        timing.3
+        "  timing: {:.2} ns per slab test on general rays, {:.2} on axis-parallel; BVH on {}: {:.2} vs {:.2} Mrays/s, {:.2} vs {:.2} ns per box test (thread time)",
+        timing.slab_general,
+        timing.slab_axis,
+        timing.scene,
+        timing.bvh_mrays_general,
+        timing.bvh_mrays_axis,
+        timing.bvh_ns_per_box_general,
+        timing.bvh_ns_per_box_axis
     );
     for (k, kind) in kinds.iter().enumerate() {
         let d = &r.degenerate[k];

@@ -1,9 +1,6 @@
-//! The binary ray and hit files of `bvhlab trace`, for users who bring their own rays.
-//!
-//! rays: per ray eight little-endian f32 (ox, oy, oz, dx, dy, dz, tmin, tmax), hits with t in
-//! the open interval (tmin, tmax) counted in units of the (unnormalised) direction.
-//! hits: per ray, in input order, a little-endian f32 t (+∞ on a miss) and a u32 triangle
-//! index (0xFFFFFFFF on a miss). Occlusion: one byte per ray, 1 occluded and 0 not.
+//! The binary ray and hit files of `bvhlab trace`: rays as 8 little-endian f32 (origin,
+//! direction, tmin, tmax), hits as f32 t (+∞ on a miss) and u32 triangle (0xFFFFFFFF), in
+//! input order; occlusion as one byte per ray.
 
 use super::Ray;
 use crate::accel::Hit;

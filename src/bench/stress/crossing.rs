@@ -1,12 +1,6 @@
-//! Leaks on any mesh, open or closed: rays that cross the surface exactly at a shared edge or
-//! vertex. Where two triangles share an edge with bit-identical corners and consistent
-//! winding, or a vertex is surrounded by a closed fan of such triangles, and the ray crosses
-//! that local surface transversally (every triangle there faces it the same way, clearly),
-//! the exact ray hits the surface at the aimed-at point. A closest hit that is missing, or
-//! farther than that point, is a leak.
-//!
-//! Origins are chosen on the binary grid of the aimed-at corners, so the ray's f32 direction
-//! is exact and its line passes through the point exactly.
+//! Leaks on any mesh, open or closed: rays that cross the surface exactly at an edge shared by
+//! two consistently wound triangles, or at a vertex inside a closed fan, transversally. The
+//! exact ray hits there; a closest hit missing or farther away is a leak.
 
 use super::Rng;
 use crate::accel::{Accel, NoStats};

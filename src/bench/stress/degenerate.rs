@@ -1,7 +1,5 @@
-//! Degenerate triangles: all three corners equal, two corners equal, or three distinct corners
-//! on one line. They have no area, so no ray may hit them, and none may make a test panic or
-//! return a NaN. Corners lie on a dyadic grid, so "collinear" is exact and the rays aimed at
-//! their points pass through them exactly.
+//! Degenerate triangles (one point, a repeated corner, three collinear corners) on exact
+//! dyadic grids: they have no area, so no ray may hit them, and none may give a NaN.
 
 use super::Rng;
 use crate::geometry::{Intersector, Ray, Triangle};

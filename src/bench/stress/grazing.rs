@@ -1,8 +1,6 @@
-//! Rays grazing triangles edge-on. A ray lying exactly in a triangle's plane sees it as a
-//! segment of zero area: it must not hit it. That is exact for triangles in an axis plane
-//! (z = c) and rays with o_z = c and d_z = ±0, which is where the lecture's scenes have
-//! their walls. For other planes no f32 ray lies exactly in the plane, so the rays along
-//! edges and through the plane may hit or miss, but must never give a NaN or panic.
+//! Rays grazing triangles edge-on. A ray exactly in an axis-aligned triangle's plane (d = ±0
+//! across it) sees zero area and must not hit; rays along edges or nearly in the plane of any
+//! triangle may hit or miss, but never with a NaN.
 
 use super::Rng;
 use crate::geometry::{Intersector, Ray, Triangle};

@@ -1,10 +1,6 @@
-//! Watertightness: rays that must hit a closed mesh, aimed exactly at its vertices and at
-//! points of its shared edges, from inside and from outside; a ray that returns no hit is a
-//! leak, whether the triangle test or the BVH's box test lost it.
-//!
-//! Every ray passes through a point the mesh robustly encloses (it starts there, or its line
-//! runs from the aimed-at surface point towards it), so in exact arithmetic it crosses the
-//! surface. The watertight test must then report a hit; Möller–Trumbore may not.
+//! Watertightness: rays aimed exactly at a closed mesh's vertices and shared-edge points, from
+//! inside and outside, each passing through a robustly interior point, so it must hit. A ray
+//! with no hit is a leak, whether the triangle test or the BVH's box test lost it.
 
 use super::Rng;
 use super::meshes::{ClosedMesh, F32_INTS, PlacedMesh, Placement, exact_in_f32};

@@ -1,11 +1,6 @@
-//! Closed test meshes for the watertightness stress: a subdivided icosahedron (sphere), a
-//! cube of many small triangles and a torus, as indexed vertex arrays so that neighbouring
-//! triangles share bit-identical corners.
-//!
-//! A mesh is placed (scaled, translated) in f64 and then snapped, per axis, to a grid of
-//! power-of-two spacing G on which every coordinate is an f32. Rays are built in integer grid
-//! units, where "passes exactly through this vertex / this point of an edge" is integer
-//! arithmetic, and convert to f32 without rounding.
+//! Closed test meshes (icosphere, cube of many small triangles, torus) as indexed vertex
+//! arrays, placed at any offset and scale and snapped to a per-axis power-of-two grid, so that
+//! rays built in integer grid units pass exactly through vertices and edge points.
 
 use crate::geometry::Triangle;
 use glam::{DVec3, Vec3};

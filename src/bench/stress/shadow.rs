@@ -1,7 +1,6 @@
-//! Shadow-ray self-intersection. From every hit of a set of rays, a shadow ray towards the
-//! light and a diffuse bounce ray start at `SurfacePoint::spawn_origin` (pbrt-v4: offset
-//! along the normal by the bound on the hit point's rounding error); a secondary ray whose
-//! closest hit is the triangle it starts on has hit itself.
+//! Shadow-ray self-intersection: from every hit, a shadow ray to the light and a bounce ray
+//! start at `SurfacePoint::spawn_origin` (pbrt-v4's error-bound offset); one whose closest hit
+//! is the triangle it leaves has hit itself.
 
 use crate::accel::{Accel, NoStats};
 use crate::bench::rays::cosine_direction;

@@ -1,12 +1,6 @@
-//! The slab test against an exact reference: ray–box overlap decided in rational arithmetic
-//! (i128), with rays whose direction has +0.0 or −0.0 components, origins exactly on slab
-//! planes, and rays built to touch a box exactly at a corner, an edge or a face.
-//!
-//! Properties checked (Ize 2013 and the notes in `geometry::aabb`):
-//! - conservative: every box the exact ray touches within [tmin, tmax] is reported, and its
-//!   entry distance is at most the exact one scaled by 1 + 2γ(3);
-//! - exact for axis-parallel rays over [0, ∞): no rounding is involved, so no false hits;
-//! - not sloppy: a box missed by a clear relative margin is reported missed.
+//! The slab test against exact rational arithmetic (i128): ±0 direction components, origins on
+//! slab planes, rays touching a box exactly at a corner, edge or face. It must be conservative
+//! (Ize 2013), exact on axis-parallel rays, and miss boxes missed by a clear margin.
 
 use super::Rng;
 use crate::geometry::aabb::{SlabRay, slab_entry};

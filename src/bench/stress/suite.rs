@@ -1,6 +1,6 @@
-//! The whole stress suite: every case for every intersector, the totals, and the verdict.
-//! The default (watertight) and the f64 reference must produce the zeros;
-//! Möller–Trumbore is measured, and only fails on a NaN.
+//! The whole stress suite: every case for every intersector, the totals and the verdict. The
+//! watertight default and the f64 reference must produce the zeros; Möller–Trumbore
+//! is measured, and fails only on a NaN.
 
 use super::crossing::{self, CrossingReport, Topology};
 use super::degenerate::{self, DegenerateReport};

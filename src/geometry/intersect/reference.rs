@@ -1,10 +1,6 @@
-//! The f64 reference: the watertight test of Woop, Benthin and Wald (2013) in double
-//! precision, with the f32 ray and vertices converted exactly. It is the slow, accurate end of
-//! the accuracy/time trade-off, and the yardstick the stress suite measures the f32 tests by.
-//!
-//! `evaluate` also returns what the f32 test cannot know about itself: bounds (pbrt-v4 §6.8.4)
-//! on how far the f32 watertight test's edge functions and distance may be from the exact
-//! values. Within those bounds an f32 answer is a legitimate rounding, not a bug.
+//! The f64 reference: the watertight test (Woop, Benthin and Wald 2013) in double precision,
+//! the accurate end of the time/error trade-off. `evaluate` also bounds how far the f32 test's
+//! edge functions and t can be from it (pbrt-v4 §6.8.4): within them, an f32 answer is rounding.
 
 use super::{Intersector, TriangleHit};
 use crate::geometry::{Ray, Triangle, gamma};

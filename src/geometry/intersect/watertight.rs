@@ -4,7 +4,8 @@
 //! signs of three 2D edge functions of the projected vertices. Two triangles sharing an edge
 //! compute that edge's function from the same two vertices, in the same order up to sign, so
 //! they disagree on no ray: nothing slips through. An edge function that rounds to exactly
-//! zero is recomputed in f64, where the f32 inputs multiply exactly.
+//! zero is recomputed in f64, where the f32 inputs multiply exactly; so is the distance of a
+//! hit too close to the origin for f32 to tell which side it is on.
 
 use super::reference::gamma64;
 use super::{Intersector, TriangleHit};
