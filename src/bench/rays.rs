@@ -39,20 +39,9 @@ impl RaySets {
             .filter_map(|(i, ray)| {
                 let hit = accel.closest_hit::<Watertight, _>(ray, &mut NoStats)?;
                 let tri = &scene.triangles[hit.triangle as usize];
-                let mut n = tri.normal().normalize_or_zero();
-                if n.dot(ray.direction) > 0.0 {
-                    n = -n;
-                }
+                let n = tri.facing_normal(ray.direction);
                 let point = SurfacePoint::on_triangle(tri, hit.u, hit.v);
-                let origin = point.spawn_origin(n, light - point.p);
-                let to_light = light - origin;
-                let distance = to_light.length();
-                let shadow = Ray::segment(
-                    origin,
-                    to_light / distance.max(f32::MIN_POSITIVE),
-                    0.0,
-                    distance,
-                );
+                let shadow = point.ray_towards(n, light);
                 let dir = cosine_direction(n, i as u64);
                 let diffuse = Ray::new(point.spawn_origin(n, dir), dir);
                 Some((shadow, diffuse))

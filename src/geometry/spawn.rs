@@ -3,7 +3,7 @@
 //! component (pbrt-v4 §6.8.5); the origin is pushed along the normal just past that bound
 //! and then one more ulp away, so it lies strictly on the correct side of the surface.
 
-use super::{Triangle, gamma};
+use super::{Ray, Triangle, gamma};
 use glam::Vec3;
 
 /// A surface point with a conservative bound on the error of each coordinate.
@@ -46,5 +46,19 @@ impl SurfacePoint {
             }
         }
         po
+    }
+
+    /// The shadow-ray segment from this point (on the side of `n` facing `target`) to
+    /// `target`: unit direction, tmax = the distance. A point at the target gets an empty
+    /// segment along `n`, which hits nothing.
+    pub fn ray_towards(&self, n: Vec3, target: Vec3) -> Ray {
+        let origin = self.spawn_origin(n, target - self.p);
+        let to_target = target - origin;
+        let distance = to_target.length();
+        if distance > 0.0 {
+            Ray::segment(origin, to_target / distance, 0.0, distance)
+        } else {
+            Ray::segment(origin, n.normalize_or(Vec3::Y), 0.0, 0.0)
+        }
     }
 }

@@ -28,6 +28,13 @@ impl Triangle {
         (self.v[1] - self.v[0]).cross(self.v[2] - self.v[0])
     }
 
+    /// The unit geometric normal on the side a ray with direction `dir` arrives from (zero
+    /// for a degenerate triangle).
+    pub fn facing_normal(&self, dir: Vec3) -> Vec3 {
+        let n = self.normal().normalize_or_zero();
+        if n.dot(dir) > 0.0 { -n } else { n }
+    }
+
     pub fn area(&self) -> f32 {
         0.5 * self.normal().length()
     }

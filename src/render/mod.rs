@@ -147,27 +147,15 @@ fn trace_pixel<A: Accel, I: Intersector>(
         };
     };
     let tri = &scene.triangles[hit.triangle as usize];
-    let mut normal = tri.normal().normalize_or_zero();
-    if normal.dot(ray.direction) > 0.0 {
-        normal = -normal;
-    }
+    let normal = tri.facing_normal(ray.direction);
     let albedo = scene
         .object_of(hit.triangle as usize)
         .map_or(Vec3::splat(0.7), |o| scene.objects[o].color);
     let mut shadow = Counters::default();
     let (lit, cos_light) = if settings.shadows {
-        let point = SurfacePoint::on_triangle(tri, hit.u, hit.v);
-        let origin = point.spawn_origin(normal, light - point.p);
-        let to_light = light - origin;
-        let distance = to_light.length();
-        if distance > 0.0 {
-            let dir = to_light / distance;
-            let shadow_ray = Ray::segment(origin, dir, 0.0, distance);
-            let occluded = accel.any_hit::<I, _>(&shadow_ray, &mut shadow);
-            (!occluded, normal.dot(dir).max(0.0))
-        } else {
-            (true, 1.0)
-        }
+        let shadow_ray = SurfacePoint::on_triangle(tri, hit.u, hit.v).ray_towards(normal, light);
+        let occluded = accel.any_hit::<I, _>(&shadow_ray, &mut shadow);
+        (!occluded, normal.dot(shadow_ray.direction).max(0.0))
     } else {
         let to_light = (light - ray.at(hit.t)).normalize_or_zero();
         (true, normal.dot(to_light).max(0.0))

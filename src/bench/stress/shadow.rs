@@ -50,16 +50,10 @@ pub fn run<A: Accel, I: Intersector>(
                 return r;
             };
             let tri = &triangles[hit.triangle as usize];
-            let mut n = tri.normal().normalize_or_zero();
-            if n.dot(ray.direction) > 0.0 {
-                n = -n;
-            }
+            let n = tri.facing_normal(ray.direction);
             let point = SurfacePoint::on_triangle(tri, hit.u, hit.v);
-            let origin = point.spawn_origin(n, light - point.p);
-            let to_light = light - origin;
-            let distance = to_light.length();
-            if distance > 0.0 {
-                let shadow = Ray::segment(origin, to_light / distance, 0.0, distance);
+            let shadow = point.ray_towards(n, light);
+            if shadow.tmax > 0.0 {
                 r.shadow_rays += 1;
                 if let Some(h) = accel.closest_hit::<I, _>(&shadow, &mut NoStats) {
                     r.occluded += 1;
