@@ -144,6 +144,7 @@ fn dragging_a_triangle_refits_and_hits_equal_a_fresh_build() {
         mode: shown.job.mode,
         heat_max: None,
         shadows: true,
+        counters: true,
     };
     let expected = render(&fresh, &moved, &settings);
     let mut differing = 0;

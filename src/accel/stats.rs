@@ -48,6 +48,13 @@ impl Stats for Counters {
     }
 }
 
+/// Nothing was counted: all zeros.
+impl From<NoStats> for Counters {
+    fn from(_: NoStats) -> Counters {
+        Counters::default()
+    }
+}
+
 impl AddAssign for Counters {
     fn add_assign(&mut self, o: Counters) {
         self.nodes_visited += o.nodes_visited;

@@ -62,6 +62,8 @@ pub struct BvhLabApp {
     building: bool,
     pub shape: Arc<TreeShape>,
     pub shown: Option<Arc<Shown>>,
+    /// The summary of the newest full frame: quick previews may not count.
+    pub full_summary: Option<crate::render::FrameSummary>,
     texture: Option<egui::TextureHandle>,
     orbit: Orbit,
     pub tool: Tool,
@@ -119,6 +121,7 @@ impl BvhLabApp {
             building: true,
             shape: Arc::new(TreeShape::default()),
             shown: None,
+            full_summary: None,
             texture: None,
             orbit: Orbit::from_camera(&crate::scene::Camera::framing(&crate::geometry::Aabb::new(
                 glam::Vec3::splat(-1.0),
@@ -193,6 +196,9 @@ impl BvhLabApp {
                             self.texture =
                                 Some(ctx.load_texture("frame", image, egui::TextureOptions::LINEAR))
                         }
+                    }
+                    if !shown.job.preview {
+                        self.full_summary = Some(shown.frame.summary.clone());
                     }
                     self.shown = Some(shown);
                 }

@@ -411,8 +411,7 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     }
     ui.separator();
     ui.heading("Last frame");
-    if let Some(shown) = &app.shown {
-        let s = &shown.frame.summary;
+    if let Some(s) = &app.full_summary {
         ui.label(format!(
             "{} rays ({} primary, {} shadow), {:.2} Mrays/s",
             s.rays(),

@@ -54,6 +54,10 @@ fn pixel_at(app: &BvhLabApp, rect: egui::Rect, pos: egui::Pos2) -> Option<(u32, 
 
 fn pixel_report(app: &BvhLabApp, rect: egui::Rect, pos: egui::Pos2) -> Option<String> {
     let (x, y) = pixel_at(app, rect, pos)?;
+    if app.shown.as_ref()?.frame.summary.counters[0][1].total == 0 {
+        // Every primary ray tests the root box, so no box test means nothing was counted.
+        return Some("preview: the counts come with the full frame".into());
+    }
     let s = app.shown.as_ref()?.frame.sample(x, y)?;
     let mut text = format!(
         "pixel ({x}, {y})\nprimary: {} nodes, {} box tests, {} triangle tests",

@@ -451,6 +451,8 @@ impl State {
                     heat_max: job.heat_max,
                     // A preview skips the shadow rays unless they are what it shows.
                     shadows: !job.preview || job.mode.counts_shadow_rays(),
+                    // A shaded preview shows no counts: it skips counting too.
+                    counters: !job.preview || matches!(job.mode, Mode::Heatmap(..)),
                 };
                 let f = Arc::new(trace(bvh, scene, &settings));
                 self.traced = Some((key, f.clone()));

@@ -75,6 +75,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         mode,
         heat_max: args.heat_max,
         shadows: true,
+        counters: true,
     };
     let kind = args.intersector.kind();
     let frame = match args.accel {

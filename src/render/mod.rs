@@ -8,7 +8,7 @@ pub mod overlay;
 
 pub use frame::{CounterSummary, Frame, FrameSummary, RayKind, Sample};
 
-use crate::accel::{Accel, Counter, Counters};
+use crate::accel::{Accel, Counter, Counters, NoStats, Stats};
 use crate::geometry::spawn::SurfacePoint;
 use crate::geometry::{Intersector, Ray, Watertight};
 use crate::scene::{Camera, Scene};
@@ -55,6 +55,9 @@ pub struct RenderSettings {
     pub heat_max: Option<u32>,
     /// Trace a shadow ray per hit. Without them (a quick preview) every hit counts as lit.
     pub shadows: bool,
+    /// Count each ray's work. Without (a quick shaded preview) the counters stay zero and
+    /// the counting code is compiled away.
+    pub counters: bool,
 }
 
 impl RenderSettings {
@@ -67,6 +70,7 @@ impl RenderSettings {
             mode: Mode::Shaded,
             heat_max: None,
             shadows: true,
+            counters: true,
         }
     }
 }
@@ -107,17 +111,19 @@ pub fn trace_with<A: Accel, I: Intersector>(
     let rays = settings.camera.rays(w, h);
     let start = Instant::now();
     let mut samples = vec![Sample::default(); (w * h) as usize];
-    samples
-        .par_chunks_mut((w * TILE_ROWS) as usize)
-        .enumerate()
-        .for_each(|(tile, out)| {
-            let y0 = tile as u32 * TILE_ROWS;
-            for (k, sample) in out.iter_mut().enumerate() {
-                let (x, y) = (k as u32 % w, y0 + k as u32 / w);
-                let ray = rays.pixel_center(x, y);
-                *sample = trace_pixel::<A, I>(accel, scene, &ray, settings);
-            }
-        });
+    let tiles = samples.par_chunks_mut((w * TILE_ROWS) as usize).enumerate();
+    let trace_tile = |(tile, out): (usize, &mut [Sample]), count: bool| {
+        let y0 = tile as u32 * TILE_ROWS;
+        for (k, sample) in out.iter_mut().enumerate() {
+            let ray = rays.pixel_center(k as u32 % w, y0 + k as u32 / w);
+            *sample = if count {
+                trace_pixel::<A, I, Counters>(accel, scene, &ray, settings)
+            } else {
+                trace_pixel::<A, I, NoStats>(accel, scene, &ray, settings)
+            };
+        }
+    };
+    tiles.for_each(|t| trace_tile(t, settings.counters));
     let trace_time = start.elapsed();
     Frame {
         width: w,
@@ -130,19 +136,19 @@ pub fn trace_with<A: Accel, I: Intersector>(
 }
 
 /// The primary ray of one pixel and, if it hits, its shadow ray towards the light.
-fn trace_pixel<A: Accel, I: Intersector>(
+fn trace_pixel<A: Accel, I: Intersector, S: Stats + Default + Into<Counters>>(
     accel: &A,
     scene: &Scene,
     ray: &Ray,
     settings: &RenderSettings,
 ) -> Sample {
     let light = settings.light;
-    let mut primary = Counters::default();
+    let mut primary = S::default();
     let Some(hit) = accel.closest_hit::<I, _>(ray, &mut primary) else {
         return Sample {
             t: f32::INFINITY,
             triangle: u32::MAX,
-            primary,
+            primary: primary.into(),
             ..Default::default()
         };
     };
@@ -151,7 +157,7 @@ fn trace_pixel<A: Accel, I: Intersector>(
     let albedo = scene
         .object_of(hit.triangle as usize)
         .map_or(Vec3::splat(0.7), |o| scene.objects[o].color);
-    let mut shadow = Counters::default();
+    let mut shadow = S::default();
     let (lit, cos_light) = if settings.shadows {
         let shadow_ray = SurfacePoint::on_triangle(tri, hit.u, hit.v).ray_towards(normal, light);
         let occluded = accel.any_hit::<I, _>(&shadow_ray, &mut shadow);
@@ -167,8 +173,8 @@ fn trace_pixel<A: Accel, I: Intersector>(
         albedo,
         cos_light,
         lit,
-        primary,
-        shadow,
+        primary: primary.into(),
+        shadow: shadow.into(),
     }
 }
 
