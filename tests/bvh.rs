@@ -593,3 +593,35 @@ fn build_progress_counts_every_triangle_once() {
         }
     }
 }
+
+#[test]
+fn refitting_only_the_moved_triangles_equals_a_full_refit() {
+    use bvhlab::accel::bvh::refit::RefitIndex;
+    let mut rng = Rng::new(12);
+    for strategy in Strategy::ALL {
+        let mut tris = soup(3000, 31);
+        let p = BuildParams::with_strategy(strategy);
+        let (mut partial, _) = build(&tris, &p).unwrap();
+        let mut full = partial.clone();
+        let mut index = RefitIndex::new(&partial);
+        for round in 0..5 {
+            let moved: Vec<u32> = (0..1 + round * 40)
+                .map(|_| rng.below(tris.len()) as u32)
+                .collect();
+            let offset = rng.unit_vector() * rng.range(0.0, 0.4);
+            for &t in &moved {
+                for v in &mut tris[t as usize].v {
+                    *v += offset;
+                }
+            }
+            let a = partial
+                .refit_moved(&mut index, &tris, &moved, 1.0, 1.0)
+                .unwrap();
+            let b = full.refit(&tris, 1.0, 1.0).unwrap();
+            assert_eq!(partial.nodes, full.nodes, "{strategy:?} round {round}");
+            assert_eq!(partial.triangles, full.triangles);
+            assert!((a.sah_after - b.sah_after).abs() < 1e-9);
+            partial.validate(p.max_leaf_size).unwrap();
+        }
+    }
+}

@@ -7,6 +7,7 @@
 //! the size, the scene or the tree changed; a new colour mode or overlay recolours the
 //! traced frame.
 
+use crate::accel::bvh::refit::RefitIndex;
 use crate::accel::bvh::{BuildParams, BuildReport, Bvh, TraversalOrder, build_with_progress};
 use crate::render::overlay::{OutlinedBox, outline_boxes, palette, tint_triangles};
 use crate::render::{Frame, Mode, RenderSettings, colorize, trace};
@@ -155,6 +156,7 @@ impl Worker {
             version: 0,
             traced: None,
             last_job: None,
+            refit_index: None,
             gesture: Vec::new(),
             undo: Vec::new(),
         };
@@ -254,6 +256,8 @@ struct State {
     version: u64,
     traced: Option<(TraceKey, Arc<Frame>)>,
     last_job: Option<RenderJob>,
+    /// For partial refits of the current tree; made at the first move after a build.
+    refit_index: Option<RefitIndex>,
     /// Moves of the drag in progress, then finished drags (for undo).
     gesture: Vec<(Arc<Vec<u32>>, Vec3)>,
     undo: Vec<Vec<(Arc<Vec<u32>>, Vec3)>>,
@@ -390,6 +394,7 @@ impl State {
         match build_with_progress(&scene.triangles, &self.params, &self.progress.0) {
             Ok((mut bvh, report)) => {
                 bvh.order = self.order;
+                self.refit_index = None;
                 self.shape = Arc::new(tree_shape(&bvh));
                 self.bvh = Some(bvh);
                 self.version += 1;
@@ -418,7 +423,10 @@ impl State {
             }
         }
         let start = Instant::now();
-        if let Ok(r) = bvh.refit(&scene.triangles, self.params.c_trav, self.params.c_isect) {
+        // Only the moved triangles' leaves and their ancestors change.
+        let index = self.refit_index.get_or_insert_with(|| RefitIndex::new(bvh));
+        let p = &self.params;
+        if let Ok(r) = bvh.refit_moved(index, &scene.triangles, triangles, p.c_trav, p.c_isect) {
             self.version += 1;
             self.reply(Reply::Refitted {
                 sah_before: r.sah_before,

@@ -13,6 +13,7 @@ pub use node::{Node, Nodes};
 pub use report::{BuildReport, TreeStats};
 
 use crate::geometry::Triangle;
+use rayon::prelude::*;
 
 /// Which child a traversal visits first.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -105,19 +106,22 @@ impl Bvh {
             // A flat or point-like scene: every ray that hits the root hits everything.
             return c_isect as f64 * self.triangles.len() as f64;
         }
-        let sum: f64 = self
+        let term = |n: &Node| {
+            let area = n.bounds().surface_area() as f64;
+            if n.is_leaf() {
+                area * n.count as f64 * c_isect as f64
+            } else {
+                area * c_trav as f64
+            }
+        };
+        // In parallel, but summed in a fixed order so the same tree always costs the same.
+        let parts: Vec<f64> = self
             .nodes
-            .iter()
-            .map(|n| {
-                let area = n.bounds().surface_area() as f64;
-                if n.is_leaf() {
-                    area * n.count as f64 * c_isect as f64
-                } else {
-                    area * c_trav as f64
-                }
-            })
-            .sum();
-        sum / root_area
+            .pairs()
+            .par_chunks(4096)
+            .map(|c| c.iter().flat_map(|p| &p.0).map(term).sum())
+            .collect();
+        (term(self.root()) + parts.iter().sum::<f64>()) / root_area
     }
 
     /// Memory used by nodes, triangles and the index map.

@@ -102,6 +102,11 @@ impl Nodes {
         false
     }
 
+    /// Every node but the root, as sibling pairs.
+    pub fn pairs(&self) -> &[NodePair] {
+        &self.pairs
+    }
+
     /// The children of an interior node whose `left_first` is `left`.
     #[inline(always)]
     pub fn pair(&self, left: usize) -> &[Node; 2] {

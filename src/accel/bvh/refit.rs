@@ -58,3 +58,93 @@ impl Bvh {
         })
     }
 }
+
+/// What a partial refit needs to find the boxes a moved triangle touches: the leaf-order
+/// slot of each scene triangle, the leaf of each slot and the parent of each node. Valid as
+/// long as the tree's topology is (refits keep it; a rebuild needs a new one).
+#[derive(Clone, Debug, Default)]
+pub struct RefitIndex {
+    slot_of: Vec<u32>,
+    leaf_of: Vec<u32>,
+    parent: Vec<u32>,
+    /// Scratch: which nodes are already queued.
+    queued: Vec<bool>,
+}
+
+impl RefitIndex {
+    pub fn new(bvh: &Bvh) -> Self {
+        let mut slot_of = vec![0u32; bvh.prim_indices.len()];
+        for (slot, &t) in bvh.prim_indices.iter().enumerate() {
+            slot_of[t as usize] = slot as u32;
+        }
+        let mut leaf_of = vec![0u32; bvh.prim_indices.len()];
+        for (i, n) in bvh.nodes.iter().enumerate() {
+            if n.is_leaf() {
+                for slot in n.prim_range() {
+                    leaf_of[slot] = i as u32;
+                }
+            }
+        }
+        RefitIndex {
+            slot_of,
+            leaf_of,
+            parent: bvh.parents(),
+            queued: vec![false; bvh.nodes.len()],
+        }
+    }
+}
+
+impl Bvh {
+    /// Refit after only the scene triangles `moved` changed: their leaves and the nodes
+    /// above them, O(moved · depth) instead of O(nodes). Gives the same boxes as `refit`.
+    pub fn refit_moved(
+        &mut self,
+        index: &mut RefitIndex,
+        scene: &[Triangle],
+        moved: &[u32],
+        c_trav: f32,
+        c_isect: f32,
+    ) -> Result<RefitReport, RefitError> {
+        if scene.len() != self.triangles.len() || index.slot_of.len() != scene.len() {
+            return Err(RefitError {
+                built: self.triangles.len(),
+                given: scene.len(),
+            });
+        }
+        let sah_before = self.sah_cost(c_trav, c_isect);
+        let mut dirty = Vec::new();
+        for &t in moved {
+            let Some(&slot) = index.slot_of.get(t as usize) else {
+                continue;
+            };
+            self.triangles[slot as usize] = scene[t as usize];
+            // Queue the leaf and every ancestor not queued yet.
+            let mut node = index.leaf_of[slot as usize];
+            while node != u32::MAX && !index.queued[node as usize] {
+                index.queued[node as usize] = true;
+                dirty.push(node);
+                node = index.parent[node as usize];
+            }
+        }
+        // Children have larger indices than their parents: high to low is bottom-up.
+        dirty.sort_unstable_by(|a, b| b.cmp(a));
+        for &i in &dirty {
+            let i = i as usize;
+            index.queued[i] = false;
+            let node = self.nodes[i];
+            let bounds = if node.is_leaf() {
+                self.triangles[node.prim_range()]
+                    .iter()
+                    .fold(Aabb::EMPTY, |b, t| b.union(t.bounds()))
+            } else {
+                let l = node.left_first as usize;
+                self.nodes[l].bounds().union(self.nodes[l + 1].bounds())
+            };
+            self.nodes[i].set_bounds(bounds);
+        }
+        Ok(RefitReport {
+            sah_before,
+            sah_after: self.sah_cost(c_trav, c_isect),
+        })
+    }
+}
