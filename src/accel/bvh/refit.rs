@@ -12,6 +12,22 @@ pub struct RefitReport {
     pub sah_after: f64,
 }
 
+impl Bvh {
+    /// Recomputes node `i`'s box from its triangles or from its children's boxes.
+    fn refit_node(&mut self, i: usize) {
+        let node = self.nodes[i];
+        let bounds = if node.is_leaf() {
+            self.triangles[node.prim_range()]
+                .iter()
+                .fold(Aabb::EMPTY, |b, t| b.union(t.bounds()))
+        } else {
+            let l = node.left_first as usize;
+            self.nodes[l].bounds().union(self.nodes[l + 1].bounds())
+        };
+        self.nodes[i].set_bounds(bounds);
+    }
+}
+
 /// A refit keeps the topology, so it needs exactly the triangles the tree was built over.
 #[derive(Debug, thiserror::Error, PartialEq)]
 #[error("refit needs the {built} triangles the tree was built over, got {given}: rebuild instead")]
@@ -41,16 +57,7 @@ impl Bvh {
             *dst = scene[src as usize];
         }
         for i in (0..self.nodes.len()).rev() {
-            let node = self.nodes[i];
-            let bounds = if node.is_leaf() {
-                self.triangles[node.prim_range()]
-                    .iter()
-                    .fold(Aabb::EMPTY, |b, t| b.union(t.bounds()))
-            } else {
-                let l = node.left_first as usize;
-                self.nodes[l].bounds().union(self.nodes[l + 1].bounds())
-            };
-            self.nodes[i].set_bounds(bounds);
+            self.refit_node(i);
         }
         Ok(RefitReport {
             sah_before,
@@ -131,16 +138,7 @@ impl Bvh {
         for &i in &dirty {
             let i = i as usize;
             index.queued[i] = false;
-            let node = self.nodes[i];
-            let bounds = if node.is_leaf() {
-                self.triangles[node.prim_range()]
-                    .iter()
-                    .fold(Aabb::EMPTY, |b, t| b.union(t.bounds()))
-            } else {
-                let l = node.left_first as usize;
-                self.nodes[l].bounds().union(self.nodes[l + 1].bounds())
-            };
-            self.nodes[i].set_bounds(bounds);
+            self.refit_node(i);
         }
         Ok(RefitReport {
             sah_before,

@@ -19,17 +19,8 @@ pub struct Shear64 {
 
 impl Shear64 {
     pub fn new(ray: &Ray) -> Self {
-        let a = ray.direction.abs();
         // The same axis choice as the f32 test, from the same f32 values.
-        let kz = if a.x >= a.y && a.x >= a.z {
-            0
-        } else if a.y >= a.z {
-            1
-        } else {
-            2
-        };
-        let kx = (kz + 1) % 3;
-        let ky = (kx + 1) % 3;
+        let [kx, ky, kz] = super::watertight::shear_axes(ray.direction);
         let d = ray.direction.as_dvec3();
         Shear64 {
             k: [kx, ky, kz],

@@ -22,22 +22,29 @@ pub struct Shear {
     s: Vec3,
 }
 
+/// The axes of the ray's coordinate system: kz is the direction's largest component, kx and
+/// ky follow it cyclically (so the permutation keeps the triangles' winding).
+#[inline(always)]
+pub fn shear_axes(direction: Vec3) -> [usize; 3] {
+    let a = direction.abs();
+    let kz = if a.x >= a.y && a.x >= a.z {
+        0
+    } else if a.y >= a.z {
+        1
+    } else {
+        2
+    };
+    let kx = (kz + 1) % 3;
+    [kx, (kx + 1) % 3, kz]
+}
+
 impl Intersector for Watertight {
     type RayData = Shear;
     const NAME: &'static str = "watertight";
 
     #[inline(always)]
     fn prepare(ray: &Ray) -> Shear {
-        let a = ray.direction.abs();
-        let kz = if a.x >= a.y && a.x >= a.z {
-            0
-        } else if a.y >= a.z {
-            1
-        } else {
-            2
-        };
-        let kx = (kz + 1) % 3;
-        let ky = (kx + 1) % 3;
+        let [kx, ky, kz] = shear_axes(ray.direction);
         let d = ray.direction;
         Shear {
             k: [kx, ky, kz],
