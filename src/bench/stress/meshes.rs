@@ -184,8 +184,9 @@ impl ClosedMesh {
         }
     }
 
-    /// Every edge once, as (smaller index, larger index).
-    pub fn edges(&self) -> Vec<[u32; 2]> {
+    /// Every face's three edges as (smaller index, larger index), sorted: shared edges sit
+    /// next to each other.
+    fn sorted_face_edges(&self) -> Vec<[u32; 2]> {
         let mut edges: Vec<[u32; 2]> = self
             .faces
             .iter()
@@ -193,20 +194,19 @@ impl ClosedMesh {
             .map(|[a, b]| [a.min(b), a.max(b)])
             .collect();
         edges.sort_unstable();
+        edges
+    }
+
+    /// Every edge once, as (smaller index, larger index).
+    pub fn edges(&self) -> Vec<[u32; 2]> {
+        let mut edges = self.sorted_face_edges();
         edges.dedup();
         edges
     }
 
     /// Whether every edge belongs to exactly two faces (a closed 2-manifold).
     pub fn is_closed(&self) -> bool {
-        let mut edges: Vec<[u32; 2]> = self
-            .faces
-            .iter()
-            .flat_map(|&[a, b, c]| [[a, b], [b, c], [c, a]])
-            .map(|[a, b]| [a.min(b), a.max(b)])
-            .collect();
-        edges.sort_unstable();
-        edges
+        self.sorted_face_edges()
             .chunk_by(|a, b| a == b)
             .all(|run| run.len() == 2 && run[0][0] != run[0][1])
     }
