@@ -69,6 +69,8 @@ pub struct BvhLabApp {
     pub tool: Tool,
     last_interaction: Option<Instant>,
     pub selection: Option<u32>,
+    /// The selection's triangles (it alone or its object), for the overlay tint.
+    selected_set: Option<(u32, bool, Arc<Vec<u32>>)>,
     drag: Option<Drag>,
     /// SAH cost after each refit since the last build (the first entry is the build's).
     pub sah_history: Vec<f64>,
@@ -130,6 +132,7 @@ impl BvhLabApp {
             tool: Tool::Orbit,
             last_interaction: None,
             selection: None,
+            selected_set: None,
             drag: None,
             sah_history: Vec::new(),
             last_refit: None,
@@ -267,7 +270,7 @@ impl BvhLabApp {
             mode: s.mode.render_mode(s.shadow_rays),
             heat_max: s.heat_max,
             overlay: Overlay {
-                selected: self.selection.map(|t| self.drag_set(t)),
+                selected: self.selected_set.as_ref().map(|(.., set)| set.clone()),
                 level: s.show_levels.then_some(s.level),
                 walk: self.walk,
                 see_through: s.see_through,
@@ -329,6 +332,15 @@ impl BvhLabApp {
     }
 
     /// The triangles a drag starting on `triangle` moves: it alone, or its whole object.
+    /// Keeps `selected_set` in step with the selection, so the frame-by-frame render
+    /// request neither rebuilds the triangle list nor compares it element by element.
+    fn refresh_selected_set(&mut self) {
+        let key = self.selection.map(|t| (t, self.settings.move_whole_object));
+        if self.selected_set.as_ref().map(|(t, w, _)| (*t, *w)) != key {
+            self.selected_set = key.map(|(t, w)| (t, w, self.drag_set(t)));
+        }
+    }
+
     pub fn drag_set(&self, triangle: u32) -> Arc<Vec<u32>> {
         let object = self
             .settings
@@ -386,6 +398,7 @@ impl eframe::App for BvhLabApp {
         panels::help_window(self, &ctx);
 
         self.sync_build();
+        self.refresh_selected_set();
         self.sync_render(&ctx);
         if self.building {
             // Poll the build's progress while it runs.
