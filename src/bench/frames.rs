@@ -31,16 +31,31 @@ pub struct FrameReport {
     /// Median time from a move of `moved` triangles to its refitted preview frame.
     pub drag_median: Duration,
     pub drag_fps: f64,
+    /// Medians of the two parts of a drag step: the refit, and tracing the new frame.
+    pub drag_refit: Duration,
+    pub drag_trace: Duration,
     pub moved: usize,
 }
 
+/// What the worker did for the command just sent.
+#[derive(Default)]
+struct Step {
+    /// Time spent tracing the frame, if one came.
+    trace: Option<Duration>,
+    refit: Duration,
+}
+
 /// Waits for the frame of the command just sent; `None` if the worker went quiet.
-fn frame_after(worker: &mut Worker) -> Option<()> {
-    let replies = worker.wait_idle(Duration::from_secs(300));
-    replies
-        .iter()
-        .any(|r| matches!(r, Reply::Frame(_)))
-        .then_some(())
+fn frame_after(worker: &mut Worker) -> Option<Step> {
+    let mut step = Step::default();
+    for r in worker.wait_idle(Duration::from_secs(300)) {
+        match r {
+            Reply::Frame(f) => step.trace = Some(f.frame.summary.trace_time),
+            Reply::Refitted { refit_time, .. } => step.refit += refit_time,
+            _ => {}
+        }
+    }
+    step.trace.is_some().then_some(step)
 }
 
 fn median(mut v: Vec<Duration>) -> Duration {
@@ -117,7 +132,7 @@ pub fn run(
     let preview = sizes.first().copied().unwrap_or((640, 360, true));
     worker.send(Command::Render(job(camera, Mode::Shaded, preview)));
     frame_after(&mut worker).ok_or("no frame")?;
-    let mut times = Vec::new();
+    let (mut times, mut refits, mut traces) = (Vec::new(), Vec::new(), Vec::new());
     for k in 0..runs.max(10) {
         let delta = if k % 2 == 0 { Vec3::X } else { -Vec3::X } * step;
         let start = Instant::now();
@@ -125,8 +140,10 @@ pub fn run(
             triangles: moved.clone(),
             delta,
         });
-        frame_after(&mut worker).ok_or("no frame after a move")?;
+        let step = frame_after(&mut worker).ok_or("no frame after a move")?;
         times.push(start.elapsed());
+        refits.push(step.refit);
+        traces.push(step.trace.unwrap_or_default());
     }
     let drag_median = median(times);
     Ok(FrameReport {
@@ -135,6 +152,8 @@ pub fn run(
         frames,
         drag_fps: 1.0 / drag_median.as_secs_f64().max(1e-9),
         drag_median,
+        drag_refit: median(refits),
+        drag_trace: median(traces),
         moved: moved.len(),
     })
 }

@@ -43,10 +43,12 @@ pub fn run(args: FramesArgs) -> Result<()> {
         );
     }
     out!(
-        "  drag (move {} triangles, refit, 640×360 shaded preview): {:.1} ms  ({:.1} frames/s)",
+        "  drag (move {} triangles, refit, 640×360 shaded preview): {:.1} ms  ({:.1} frames/s; refit {:.1} ms, trace {:.1} ms)",
         r.moved,
         r.drag_median.as_secs_f64() * 1e3,
-        r.drag_fps
+        r.drag_fps,
+        r.drag_refit.as_secs_f64() * 1e3,
+        r.drag_trace.as_secs_f64() * 1e3
     );
     Ok(())
 }
