@@ -625,3 +625,155 @@ fn refitting_only_the_moved_triangles_equals_a_full_refit() {
         }
     }
 }
+
+fn camera(eye: Vec3, look_at: Vec3, fov_y_deg: f32) -> bvhlab::scene::Camera {
+    bvhlab::scene::Camera {
+        fov_y_deg,
+        ..bvhlab::scene::Camera::new(eye, look_at)
+    }
+}
+
+/// Rays in 8 × 8 pixel packets of a `w` × `h` view from `eye` towards `look`, row by row
+/// within each packet, as the renderer casts them.
+fn view_packets(eye: Vec3, look: Vec3, w: u32, h: u32) -> Vec<Vec<Ray>> {
+    let cam = camera(eye, look, 50.0).rays(w, h);
+    let mut packets = Vec::new();
+    for y0 in (0..h).step_by(8) {
+        for x0 in (0..w).step_by(8) {
+            let packet = (y0..(y0 + 8).min(h))
+                .flat_map(|y| (x0..(x0 + 8).min(w)).map(move |x| (x, y)))
+                .map(|(x, y)| cam.pixel_center(x, y))
+                .collect();
+            packets.push(packet);
+        }
+    }
+    packets
+}
+
+/// Packet traversal returns, bit for bit, each ray's own closest hit.
+fn assert_packets_match_single_rays(bvh: &Bvh, packets: &[Vec<Ray>], what: &str) {
+    for packet in packets {
+        let mut hits = vec![None; packet.len()];
+        bvh.closest_hits::<Watertight>(packet, &mut hits);
+        for (ray, got) in packet.iter().zip(&hits) {
+            let want = bvh.closest_hit::<Watertight, _>(ray, &mut NoStats);
+            assert_eq!(*got, want, "{what}: {ray:?}");
+        }
+    }
+}
+
+#[test]
+fn packets_find_exactly_the_hits_of_single_rays() {
+    let mut rng = Rng::new(77);
+    for name in SMALL_BUILTINS {
+        let scene = Scene::load(name).expect("built-in scene");
+        let b = scene.bounds();
+        let cam = scene.camera();
+        // The scene's own view (not a multiple of 8 wide), views from inside the scene,
+        // a view straight down an axis (zero direction components in the middle packets),
+        // and incoherent packets of random rays.
+        let mut packets = view_packets(cam.eye, cam.look_at, 37, 21);
+        for _ in 0..3 {
+            packets.extend(view_packets(rng.vec3_in(&b), rng.vec3_in(&b), 24, 16));
+        }
+        let c = b.center();
+        packets.extend(view_packets(c - Vec3::Z * b.diagonal(), c, 17, 17));
+        packets.extend(rays(&b, 640, 5).chunks(64).map(<[Ray]>::to_vec));
+        for strategy in Strategy::ALL {
+            for order in TraversalOrder::ALL {
+                let p = BuildParams::with_strategy(strategy);
+                let bvh = built(&scene.triangles, &p, order);
+                assert_packets_match_single_rays(&bvh, &packets, &format!("{name} {strategy:?}"));
+            }
+        }
+    }
+}
+
+#[test]
+fn the_interval_test_culls_only_boxes_every_ray_misses() {
+    use bvhlab::geometry::aabb::{SlabRay, slab_entry};
+    use bvhlab::geometry::frustum::RayInterval;
+    let mut rng = Rng::new(5);
+    let (mut culled, mut kept) = (0, 0);
+    let space = Aabb::new(Vec3::splat(-10.0), Vec3::splat(10.0));
+    for _ in 0..2000 {
+        let eye = rng.vec3_in(&space);
+        let look = eye + rng.unit_vector();
+        // Narrow and wide packets, with limits as traversal leaves them.
+        let fov = rng.range(1.0, 60.0);
+        let cam = camera(eye, look, fov).rays(8, 8);
+        let mut packet: Vec<Ray> = (0..64).map(|k| cam.pixel_center(k % 8, k / 8)).collect();
+        for r in &mut packet {
+            r.tmax = if rng.f32() < 0.5 {
+                f32::INFINITY
+            } else {
+                rng.range(0.0, 30.0)
+            };
+        }
+        let Some(interval) = RayInterval::new(&packet) else {
+            continue;
+        };
+        let tmax = packet.iter().map(|r| r.tmax).fold(0.0, f32::max);
+        // Random boxes, and boxes near the packet's view where they are often entered.
+        let (mut a, mut b) = (rng.vec3_in(&space), rng.vec3_in(&space));
+        if rng.f32() < 0.5 {
+            let centre = eye + (look - eye) * rng.range(0.0, 20.0);
+            let half = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * rng.range(0.0, 3.0);
+            (a, b) = (centre - half, centre + half);
+        }
+        let mut corners = [a.min(b), a.max(b)];
+        if rng.f32() < 0.2 {
+            corners[1] = corners[0]; // a point-sized box
+        }
+        let any_enters = packet
+            .iter()
+            .any(|r| slab_entry(&corners, &SlabRay::new(r), r.tmin, r.tmax) != f32::INFINITY);
+        if interval.misses(&corners, tmax) {
+            assert!(
+                !any_enters,
+                "culled a box a ray enters: {corners:?} {eye:?} {look:?}"
+            );
+            culled += 1;
+        } else {
+            kept += 1;
+        }
+    }
+    assert!(culled > 100 && kept > 100, "culled {culled}, kept {kept}");
+}
+
+#[test]
+fn a_frame_traced_without_counting_has_the_hits_of_a_counted_frame() {
+    use bvhlab::render::{RenderSettings, trace};
+    for name in [
+        "cornell",
+        "teapot-in-stadium",
+        "walls-rotated",
+        "sphere:3000",
+    ] {
+        let scene = Scene::load(name).unwrap();
+        let (bvh, _) = build(&scene.triangles, &BuildParams::default()).unwrap();
+        let counted = RenderSettings::for_scene(&scene, 83, 45);
+        let quick = RenderSettings {
+            counters: false,
+            ..counted
+        };
+        let (a, b) = (trace(&bvh, &scene, &counted), trace(&bvh, &scene, &quick));
+        assert!(
+            a.summary.primary_hits > 0,
+            "{name}: the view sees the scene"
+        );
+        for (x, y) in a.samples.iter().zip(&b.samples) {
+            assert_eq!(
+                (x.t.to_bits(), x.triangle),
+                (y.t.to_bits(), y.triangle),
+                "{name}"
+            );
+            assert_eq!(
+                (x.lit, x.normal, x.albedo),
+                (y.lit, y.normal, y.albedo),
+                "{name}"
+            );
+        }
+        assert!(b.samples.iter().all(|s| s.primary.nodes_visited == 0));
+    }
+}

@@ -1,7 +1,7 @@
 //! The O(N) baseline: test the ray against every triangle. With the bounding-box early out,
 //! a ray that misses the scene's box costs one box test instead of N triangle tests.
 
-use super::{Accel, Hit, Stats};
+use super::{Accel, BestHit, Hit, Stats};
 use crate::geometry::aabb::SlabRay;
 use crate::geometry::{Aabb, Intersector, Ray, Triangle};
 
@@ -41,21 +41,14 @@ impl Accel for BruteForce {
             return None;
         }
         let data = I::prepare(ray);
-        let mut best: Option<Hit> = None;
-        let mut tmax = ray.tmax;
+        let mut best = BestHit::new(ray);
         for (i, tri) in self.triangles.iter().enumerate() {
             stats.triangle_test();
-            if let Some(h) = I::intersect(&data, ray, tri, ray.tmin, tmax) {
-                tmax = h.t;
-                best = Some(Hit {
-                    t: h.t,
-                    u: h.u,
-                    v: h.v,
-                    triangle: i as u32,
-                });
+            if let Some(h) = I::intersect(&data, ray, tri, ray.tmin, best.limit) {
+                best.offer(h, i as u32);
             }
         }
-        best
+        best.hit()
     }
 
     fn any_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {

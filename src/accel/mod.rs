@@ -4,22 +4,15 @@
 
 pub mod brute_force;
 pub mod bvh;
+pub mod hit;
 pub mod stats;
 
 pub use brute_force::BruteForce;
 pub use bvh::{BuildParams, Bvh, Strategy, TraversalOrder};
+pub use hit::{BestHit, Hit};
 pub use stats::{Counter, Counters, NoStats, Stats};
 
 use crate::geometry::{Intersector, Ray};
-
-/// The closest hit of a ray: distance, barycentrics and the scene's triangle index.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Hit {
-    pub t: f32,
-    pub u: f32,
-    pub v: f32,
-    pub triangle: u32,
-}
 
 pub trait Accel: Sync {
     /// The nearest triangle hit with t in (ray.tmin, ray.tmax).
@@ -28,4 +21,13 @@ pub trait Accel: Sync {
     /// Whether any triangle is hit with t in (ray.tmin, ray.tmax): the shadow-ray query,
     /// which may stop at the first hit it finds.
     fn any_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool;
+
+    /// The closest hit of each ray of a batch of coherent rays (a tile of primary rays),
+    /// without counting: the same hits as `closest_hit` ray by ray. Structures that can
+    /// trace rays together override it.
+    fn closest_hits<I: Intersector>(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        for (ray, hit) in rays.iter().zip(hits) {
+            *hit = self.closest_hit::<I, _>(ray, &mut NoStats);
+        }
+    }
 }

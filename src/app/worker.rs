@@ -482,10 +482,17 @@ impl State {
     fn draw_overlay(&self, frame: &Frame, rgba: &mut [u8], job: &RenderJob) -> Option<WalkInfo> {
         let bvh = self.bvh.as_ref()?;
         let o = &job.overlay;
+        let triangle_count = self.scene.as_ref().map_or(0, |s| s.triangles.len());
         if let Some(sel) = &o.selected {
-            let lookup: std::collections::HashSet<u32> = sel.iter().copied().collect();
+            // A table by triangle index: a selection can be a whole object of 10^5 triangles.
+            let mut selected = vec![false; triangle_count];
+            for &t in sel.iter() {
+                if let Some(s) = selected.get_mut(t as usize) {
+                    *s = true;
+                }
+            }
             tint_triangles(frame, rgba, |t| {
-                lookup.contains(&t).then_some([255, 230, 80, 110])
+                (selected.get(t as usize) == Some(&true)).then_some([255, 230, 80, 110])
             });
         }
         if let Some(level) = o.level {
@@ -538,7 +545,7 @@ impl State {
             info.sah_cost = p.c_trav
                 + child(l) * a.len() as f32 * p.c_isect
                 + child(l + 1) * b.len() as f32 * p.c_isect;
-            let mut side = vec![0u8; self.scene.as_ref().map_or(0, |s| s.triangles.len())];
+            let mut side = vec![0u8; triangle_count];
             for &t in &a {
                 side[t as usize] = 1;
             }

@@ -130,7 +130,10 @@ pub fn run(
     let moved: Arc<Vec<u32>> = Arc::new(object.range().map(|t| t as u32).collect());
     let step = scene.bounds().diagonal() * 0.002;
     let preview = sizes.first().copied().unwrap_or((640, 360, true));
-    worker.send(Command::Render(job(camera, Mode::Shaded, preview)));
+    // The app tints the selection while it is dragged.
+    let mut dragged = job(camera, Mode::Shaded, preview);
+    dragged.overlay.selected = Some(moved.clone());
+    worker.send(Command::Render(dragged));
     frame_after(&mut worker).ok_or("no frame")?;
     let (mut times, mut refits, mut traces) = (Vec::new(), Vec::new(), Vec::new());
     for k in 0..runs.max(10) {

@@ -135,7 +135,7 @@ impl SlabRay {
 }
 
 /// Rounding makes each far-plane distance at most 3 operations' worth too small (Ize 2013).
-const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
+pub(crate) const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
 
 /// `x > acc ? x : acc`: a NaN `x` never wins, so a ray lying in a slab plane stays inside.
 #[inline(always)]

@@ -8,7 +8,8 @@ pub mod overlay;
 
 pub use frame::{CounterSummary, Frame, FrameSummary, RayKind, Sample};
 
-use crate::accel::{Accel, Counter, Counters, NoStats, Stats};
+use crate::accel::bvh::packet::PACKET_SIZE;
+use crate::accel::{Accel, Counter, Counters, Hit, NoStats, Stats};
 use crate::geometry::spawn::SurfacePoint;
 use crate::geometry::{Intersector, Ray, Watertight};
 use crate::scene::{Camera, Scene};
@@ -75,8 +76,12 @@ impl RenderSettings {
     }
 }
 
-/// Rows per tile: the image is split into tiles of whole rows for the worker threads.
-const TILE_ROWS: u32 = 4;
+/// Rows per tile: the image is split into tiles of whole rows for the worker threads. A
+/// tile is one packet high.
+const TILE_ROWS: u32 = 8;
+/// Columns per primary-ray packet: a packet is an 8 × 8 block of a tile.
+const PACKET_COLUMNS: u32 = 8;
+const _: () = assert!((TILE_ROWS * PACKET_COLUMNS) as usize == PACKET_SIZE);
 const AMBIENT: f32 = 0.12;
 
 /// Traces and colours a frame with the default (watertight) intersector.
@@ -112,18 +117,38 @@ pub fn trace_with<A: Accel, I: Intersector>(
     let start = Instant::now();
     let mut samples = vec![Sample::default(); (w * h) as usize];
     let tiles = samples.par_chunks_mut((w * TILE_ROWS) as usize).enumerate();
-    let trace_tile = |(tile, out): (usize, &mut [Sample]), count: bool| {
+    tiles.for_each(|(tile, out)| {
         let y0 = tile as u32 * TILE_ROWS;
-        for (k, sample) in out.iter_mut().enumerate() {
-            let ray = rays.pixel_center(k as u32 % w, y0 + k as u32 / w);
-            *sample = if count {
-                trace_pixel::<A, I, Counters>(accel, scene, &ray, settings)
-            } else {
-                trace_pixel::<A, I, NoStats>(accel, scene, &ray, settings)
-            };
+        if settings.counters {
+            for (k, sample) in out.iter_mut().enumerate() {
+                let ray = rays.pixel_center(k as u32 % w, y0 + k as u32 / w);
+                let mut primary = Counters::default();
+                let hit = accel.closest_hit::<I, _>(&ray, &mut primary);
+                *sample = shade::<A, I, Counters>(accel, scene, &ray, hit, primary, settings);
+            }
+            return;
         }
-    };
-    tiles.for_each(|t| trace_tile(t, settings.counters));
+        // Without counting, primary rays go through the tree in 8 × 8 packets.
+        let rows = out.len() as u32 / w;
+        let mut packet = Vec::with_capacity(PACKET_SIZE);
+        let mut pixels = Vec::with_capacity(PACKET_SIZE);
+        let mut hits = [None; PACKET_SIZE];
+        for x0 in (0..w).step_by(PACKET_COLUMNS as usize) {
+            packet.clear();
+            pixels.clear();
+            for y in 0..rows {
+                for x in x0..(x0 + PACKET_COLUMNS).min(w) {
+                    packet.push(rays.pixel_center(x, y0 + y));
+                    pixels.push((y * w + x) as usize);
+                }
+            }
+            let hits = &mut hits[..packet.len()];
+            accel.closest_hits::<I>(&packet, hits);
+            for ((ray, &hit), &pixel) in packet.iter().zip(hits.iter()).zip(&pixels) {
+                out[pixel] = shade::<A, I, NoStats>(accel, scene, ray, hit, NoStats, settings);
+            }
+        }
+    });
     let trace_time = start.elapsed();
     Frame {
         width: w,
@@ -135,16 +160,18 @@ pub fn trace_with<A: Accel, I: Intersector>(
     }
 }
 
-/// The primary ray of one pixel and, if it hits, its shadow ray towards the light.
-fn trace_pixel<A: Accel, I: Intersector, S: Stats + Default + Into<Counters>>(
+/// A pixel's sample from its primary ray's hit (found with `primary` counting) and, if it
+/// hit, the shadow ray towards the light.
+fn shade<A: Accel, I: Intersector, S: Stats + Default + Into<Counters>>(
     accel: &A,
     scene: &Scene,
     ray: &Ray,
+    hit: Option<Hit>,
+    primary: S,
     settings: &RenderSettings,
 ) -> Sample {
     let light = settings.light;
-    let mut primary = S::default();
-    let Some(hit) = accel.closest_hit::<I, _>(ray, &mut primary) else {
+    let Some(hit) = hit else {
         return Sample {
             t: f32::INFINITY,
             triangle: u32::MAX,

@@ -117,23 +117,14 @@ pub fn rays(b: &Aabb, n: usize, seed: u64) -> Vec<Ray> {
         .collect()
 }
 
-/// Hits agree when they name the same triangle, or tie: equal t within a few ulps.
+/// Hits agree exactly: the same triangle at the same distance. Every structure keeps the
+/// lowest triangle index among hits at equal distance, so even ties must agree.
 pub fn same_hit(a: Option<Hit>, b: Option<Hit>) -> bool {
     match (a, b) {
         (None, None) => true,
-        (Some(x), Some(y)) => x.triangle == y.triangle || ulps_apart(x.t, y.t) <= 4,
+        (Some(x), Some(y)) => x.triangle == y.triangle && x.t.to_bits() == y.t.to_bits(),
         _ => false,
     }
-}
-
-pub fn ulps_apart(a: f32, b: f32) -> u32 {
-    if a == b {
-        return 0;
-    }
-    if a.is_sign_negative() != b.is_sign_negative() {
-        return u32::MAX;
-    }
-    a.to_bits().abs_diff(b.to_bits())
 }
 
 /// The directory of the shared reference scenes, if the environment provides it.

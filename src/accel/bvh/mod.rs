@@ -3,6 +3,7 @@
 
 pub mod build;
 pub mod node;
+pub mod packet;
 pub mod refit;
 pub mod report;
 pub mod traverse;

@@ -7,16 +7,16 @@
 
 use super::Bvh;
 use super::build::MAX_DEPTH;
-use crate::accel::{Accel, Hit, Stats, TraversalOrder};
+use crate::accel::{Accel, BestHit, Hit, Stats, TraversalOrder};
 use crate::geometry::aabb::{SlabRay, slab_entry};
 use crate::geometry::{Intersector, Ray, gamma};
 
 /// A box is entered at most this relative rounding error before its computed entry
 /// distance; boxes are compared with the best t scaled by it so no tie is lost to rounding.
-const T_SCALE: f32 = 1.0 + 2.0 * gamma(3);
+pub(crate) const T_SCALE: f32 = 1.0 + 2.0 * gamma(3);
 
 /// The stack never holds more than one entry per level.
-const STACK_SIZE: usize = MAX_DEPTH + 1;
+pub(crate) const STACK_SIZE: usize = MAX_DEPTH + 1;
 
 impl Bvh {
     fn closest<I: Intersector, S: Stats, const ORDERED: bool>(
@@ -32,9 +32,8 @@ impl Bvh {
             return None;
         }
         let data = I::prepare(ray);
-        let mut best_t = ray.tmax;
+        let mut best = BestHit::new(ray);
         let mut box_tmax = ray.tmax * T_SCALE;
-        let mut best: Option<(usize, f32, f32)> = None;
         let mut stack = [(0u32, 0.0f32); STACK_SIZE];
         let mut sp = 0;
         let mut index = 0usize;
@@ -44,11 +43,10 @@ impl Bvh {
             if node.is_leaf() {
                 for i in node.prim_range() {
                     stats.triangle_test();
-                    if let Some(h) = I::intersect(&data, ray, &self.triangles[i], ray.tmin, best_t)
-                    {
-                        best_t = h.t;
-                        box_tmax = h.t * T_SCALE;
-                        best = Some((i, h.u, h.v));
+                    let tri = &self.triangles[i];
+                    if let Some(h) = I::intersect(&data, ray, tri, ray.tmin, best.limit) {
+                        best.offer(h, self.prim_indices[i]);
+                        box_tmax = best.t * T_SCALE;
                     }
                 }
             } else {
@@ -77,12 +75,7 @@ impl Bvh {
             // Pop the next node the ray can still reach before the best hit.
             loop {
                 if sp == 0 {
-                    return best.map(|(i, u, v)| Hit {
-                        t: best_t,
-                        u,
-                        v,
-                        triangle: self.prim_indices[i],
-                    });
+                    return best.hit();
                 }
                 sp -= 1;
                 let (next, entry) = stack[sp];
@@ -154,5 +147,9 @@ impl Accel for Bvh {
 
     fn any_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
         self.occluded::<I, S>(ray, stats)
+    }
+
+    fn closest_hits<I: Intersector>(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        self.closest_hits_packet::<I>(rays, hits);
     }
 }
