@@ -86,7 +86,7 @@ pub fn run(
         }
     }
     let scene = scene.ok_or("the scene did not load")?;
-    let mut camera = camera.unwrap_or_else(|| scene.camera());
+    let camera = camera.unwrap_or_else(|| scene.camera());
     let modes = [
         Mode::Shaded,
         Mode::Heatmap(Counter::NodesVisited, RayKind::Primary),
@@ -105,10 +105,12 @@ pub fn run(
         for mode in modes {
             let mut times = Vec::new();
             for k in 0..runs {
-                // A new camera each time, as an orbit would: every frame is traced.
-                camera.eye += Vec3::splat(1e-4 * (k as f32 + 1.0) * scene.bounds().diagonal());
+                // A new camera each time, as an orbit would, so every frame is traced; the
+                // nudges are tiny and do not add up, so every frame shows the same view.
+                let mut nudged = camera;
+                nudged.eye += Vec3::splat(1e-5 * (k as f32 + 1.0) * scene.bounds().diagonal());
                 let start = Instant::now();
-                worker.send(Command::Render(job(camera, mode, size)));
+                worker.send(Command::Render(job(nudged, mode, size)));
                 frame_after(&mut worker).ok_or("no frame")?;
                 times.push(start.elapsed());
             }

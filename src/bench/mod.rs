@@ -8,6 +8,7 @@ pub mod plot;
 pub mod rays;
 pub mod stress;
 
+use crate::accel::bvh::packet::PACKET_SIZE;
 use crate::accel::bvh::{BuildError, BuildReport, build};
 use crate::accel::{Accel, BuildParams, Bvh, NoStats};
 use crate::geometry::{Intersector, IntersectorKind, Ray};
@@ -60,6 +61,8 @@ pub struct BenchResult {
     pub intersector: IntersectorKind,
     pub report: BuildReport,
     pub primary: RaySetResult,
+    /// The primary rays again, traced in packets of 8 × 8 pixels.
+    pub primary_packets: RaySetResult,
     pub diffuse: RaySetResult,
     pub shadow: RaySetResult,
 }
@@ -82,6 +85,9 @@ pub fn run(scene: &Scene, cfg: &BenchConfig) -> Result<BenchResult, BuildError> 
     let sets = RaySets::standard(&bvh, scene, &cfg.camera, cfg.light, cfg.width, cfg.height);
     let [primary, diffuse, shadow] =
         crate::with_intersector!(cfg.intersector, I => time_sets::<I>(&bvh, &sets, cfg.runs));
+    let primary_packets = crate::with_intersector!(cfg.intersector, I => {
+        time_packets::<I>(&bvh, &sets.primary_tiles, cfg.runs)
+    });
     Ok(BenchResult {
         scene: scene.name.clone(),
         triangles: scene.triangles.len(),
@@ -89,6 +95,7 @@ pub fn run(scene: &Scene, cfg: &BenchConfig) -> Result<BenchResult, BuildError> 
         intersector: cfg.intersector,
         report,
         primary,
+        primary_packets,
         diffuse,
         shadow,
     })
@@ -105,6 +112,30 @@ pub fn time_sets<I: Intersector>(bvh: &Bvh, sets: &RaySets, runs: u32) -> [RaySe
     });
     let shadow = time_set(&sets.shadow, runs, |r| bvh.any_hit::<I, _>(r, &mut NoStats));
     [primary, diffuse, shadow]
+}
+
+/// Closest hits of `rays` in packets of `PACKET_SIZE` consecutive rays, `runs` times.
+pub fn time_packets<I: Intersector>(bvh: &Bvh, rays: &[Ray], runs: u32) -> RaySetResult {
+    let mut result = RaySetResult {
+        rays: rays.len(),
+        hits: 0,
+        best: Duration::MAX,
+    };
+    for _ in 0..runs.max(1) {
+        let start = Instant::now();
+        let hits: usize = rays
+            .par_chunks(4 * PACKET_SIZE)
+            .map(|chunk| {
+                let mut hits = [None; 4 * PACKET_SIZE];
+                let hits = &mut hits[..chunk.len()];
+                bvh.closest_hits::<I>(chunk, hits);
+                hits.iter().filter(|h| h.is_some()).count()
+            })
+            .sum();
+        result.best = result.best.min(start.elapsed());
+        result.hits = hits;
+    }
+    result
 }
 
 /// Traces `rays` `runs` times in parallel; the best time and the hit count.
@@ -150,6 +181,7 @@ impl BenchResult {
             "leaves": t.leaves,
             "max_leaf_depth": t.max_leaf_depth,
             "primary": set(&self.primary, "hits"),
+            "primary_packets": set(&self.primary_packets, "hits"),
             "diffuse": set(&self.diffuse, "hits"),
             "shadow": set(&self.shadow, "occluded"),
         })

@@ -13,7 +13,10 @@ use std::f32::consts::PI;
 
 #[derive(Clone, Debug, Default)]
 pub struct RaySets {
+    /// Row by row, as in the image.
     pub primary: Vec<Ray>,
+    /// The same rays by 8 × 8 tiles of pixels, each tile one packet of coherent rays.
+    pub primary_tiles: Vec<Ray>,
     pub shadow: Vec<Ray>,
     pub diffuse: Vec<Ray>,
 }
@@ -48,7 +51,18 @@ impl RaySets {
             })
             .collect();
         let (shadow, diffuse) = secondary.into_iter().unzip();
+        let (w, h) = (width as usize, height as usize);
+        let primary_tiles = (0..h)
+            .step_by(8)
+            .flat_map(|y0| (0..w).step_by(8).map(move |x0| (x0, y0)))
+            .flat_map(|(x0, y0)| {
+                (y0..(y0 + 8).min(h))
+                    .flat_map(move |y| (x0..(x0 + 8).min(w)).map(move |x| y * w + x))
+            })
+            .map(|i| primary[i])
+            .collect();
         RaySets {
+            primary_tiles,
             primary,
             shadow,
             diffuse,

@@ -95,11 +95,12 @@ pub fn run(args: BenchArgs) -> Result<()> {
     );
     for (name, set, what) in [
         ("primary", &r.primary, "hits"),
+        ("primary in 8×8 packets", &r.primary_packets, "hits"),
         ("diffuse", &r.diffuse, "hits"),
         ("shadow", &r.shadow, "occluded"),
     ] {
         out!(
-            "  {name:<8} {:>9} rays  {:>9} {what:<8}  {:>7.2} Mrays/s",
+            "  {name:<22} {:>9} rays  {:>9} {what:<8}  {:>7.2} Mrays/s",
             set.rays,
             set.hits,
             set.mrays_per_s()
