@@ -101,6 +101,7 @@ fn bench_traces_with_the_chosen_intersector() {
             builds: 1,
             runs: 1,
             intersector: kind,
+            embree: false,
         };
         let r = bench::run(&scene, &cfg).unwrap();
         assert_eq!(r.intersector, kind);

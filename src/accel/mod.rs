@@ -4,6 +4,8 @@
 
 pub mod brute_force;
 pub mod bvh;
+#[cfg(feature = "embree")]
+pub mod embree;
 pub mod hit;
 pub mod stats;
 

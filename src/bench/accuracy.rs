@@ -157,7 +157,7 @@ pub fn run(
         }
         for kind in IntersectorKind::ALL {
             let (sets_result, crossing_result, agreement) = with_intersector!(kind, I => (
-                time_sets::<I>(&bvh, &sets, cfg.runs),
+                time_sets::<_, I>(&bvh, &sets, cfg.runs),
                 crossing::count::<_, I>(&bvh, tris, &crossings),
                 compare::agreement::<_, _, I>(&bvh, &reference_bvh, tris, &compared, &reference),
             ));

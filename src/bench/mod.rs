@@ -11,6 +11,8 @@ pub mod stress;
 use crate::accel::bvh::packet::PACKET_SIZE;
 use crate::accel::bvh::{BuildError, BuildReport, build};
 use crate::accel::{Accel, BuildParams, Bvh, NoStats};
+#[cfg(feature = "embree")]
+use crate::geometry::Watertight;
 use crate::geometry::{Intersector, IntersectorKind, Ray};
 use crate::scene::{Camera, Scene};
 use glam::Vec3;
@@ -32,6 +34,16 @@ pub struct BenchConfig {
     /// The ray–triangle test of the timed runs (the ray sets are always generated with the
     /// watertight default, so every intersector traces the same rays).
     pub intersector: IntersectorKind,
+    /// Also build and trace with Embree, on the same rays and threads.
+    pub embree: bool,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum BenchError {
+    #[error(transparent)]
+    Build(#[from] BuildError),
+    #[error("{0}")]
+    Peer(String),
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -65,10 +77,25 @@ pub struct BenchResult {
     pub primary_packets: RaySetResult,
     pub diffuse: RaySetResult,
     pub shadow: RaySetResult,
+    pub peer: Option<PeerResult>,
+}
+
+/// A peer structure timed on the same ray sets and threads.
+#[derive(Clone, Debug)]
+pub struct PeerResult {
+    pub name: &'static str,
+    /// The best of the builds.
+    pub build: Duration,
+    pub primary: RaySetResult,
+    pub primary_packets: RaySetResult,
+    pub diffuse: RaySetResult,
+    pub shadow: RaySetResult,
+    /// Primary rays whose hit (triangle, or hit against miss) differs from bvhlab's.
+    pub differing_primary_hits: usize,
 }
 
 /// Runs the benchmark on the current rayon thread pool.
-pub fn run(scene: &Scene, cfg: &BenchConfig) -> Result<BenchResult, BuildError> {
+pub fn run(scene: &Scene, cfg: &BenchConfig) -> Result<BenchResult, BenchError> {
     let mut best: Option<(Bvh, BuildReport)> = None;
     for _ in 0..cfg.builds.max(1) {
         let (bvh, report) = build(&scene.triangles, &cfg.params)?;
@@ -84,10 +111,15 @@ pub fn run(scene: &Scene, cfg: &BenchConfig) -> Result<BenchResult, BuildError> 
     };
     let sets = RaySets::standard(&bvh, scene, &cfg.camera, cfg.light, cfg.width, cfg.height);
     let [primary, diffuse, shadow] =
-        crate::with_intersector!(cfg.intersector, I => time_sets::<I>(&bvh, &sets, cfg.runs));
+        crate::with_intersector!(cfg.intersector, I => time_sets::<_, I>(&bvh, &sets, cfg.runs));
     let primary_packets = crate::with_intersector!(cfg.intersector, I => {
-        time_packets::<I>(&bvh, &sets.primary_tiles, cfg.runs)
+        time_packets::<_, I>(&bvh, &sets.primary_tiles, cfg.runs)
     });
+    let peer = if cfg.embree {
+        Some(run_embree(&bvh, scene, cfg, &sets)?)
+    } else {
+        None
+    };
     Ok(BenchResult {
         scene: scene.name.clone(),
         triangles: scene.triangles.len(),
@@ -98,24 +130,84 @@ pub fn run(scene: &Scene, cfg: &BenchConfig) -> Result<BenchResult, BuildError> 
         primary_packets,
         diffuse,
         shadow,
+        peer,
+    })
+}
+
+/// Whether this build can run Embree beside bvhlab.
+pub const EMBREE_AVAILABLE: bool = cfg!(feature = "embree");
+
+pub const EMBREE_MISSING: &str = "this bvhlab was built without Embree: install libembree-dev \
+     and build with `cargo build --release --features embree`";
+
+#[cfg(not(feature = "embree"))]
+fn run_embree(_: &Bvh, _: &Scene, _: &BenchConfig, _: &RaySets) -> Result<PeerResult, BenchError> {
+    Err(BenchError::Peer(EMBREE_MISSING.into()))
+}
+
+/// Embree on the same ray sets, with as many build and trace threads as bvhlab had.
+#[cfg(feature = "embree")]
+fn run_embree(
+    bvh: &Bvh,
+    scene: &Scene,
+    cfg: &BenchConfig,
+    sets: &RaySets,
+) -> Result<PeerResult, BenchError> {
+    use crate::accel::embree::Embree;
+    let threads = rayon::current_num_threads();
+    let mut best: Option<Embree> = None;
+    for _ in 0..cfg.builds.max(1) {
+        let e = Embree::build(&scene.triangles, threads).map_err(BenchError::Peer)?;
+        if best.as_ref().is_none_or(|b| e.build_time < b.build_time) {
+            best = Some(e);
+        }
+    }
+    let Some(embree) = best else {
+        unreachable!("at least one build ran")
+    };
+    let [primary, diffuse, shadow] = time_sets::<_, Watertight>(&embree, sets, cfg.runs);
+    let primary_packets = time_packets::<_, Watertight>(&embree, &sets.primary_tiles, cfg.runs);
+    let differing_primary_hits = sets
+        .primary
+        .par_iter()
+        .filter(|r| {
+            let ours = bvh.closest_hit::<Watertight, _>(r, &mut NoStats);
+            let theirs = embree.closest_hit::<Watertight, _>(r, &mut NoStats);
+            ours.map(|h| h.triangle) != theirs.map(|h| h.triangle)
+        })
+        .count();
+    Ok(PeerResult {
+        name: "Embree 3",
+        build: embree.build_time,
+        primary,
+        primary_packets,
+        diffuse,
+        shadow,
+        differing_primary_hits,
     })
 }
 
 /// Primary, diffuse and shadow sets traced `runs` times each with the intersector `I`.
-pub fn time_sets<I: Intersector>(bvh: &Bvh, sets: &RaySets, runs: u32) -> [RaySetResult; 3] {
+pub fn time_sets<A: Accel, I: Intersector>(
+    accel: &A,
+    sets: &RaySets,
+    runs: u32,
+) -> [RaySetResult; 3] {
     let runs = runs.max(1);
     let primary = time_set(&sets.primary, runs, |r| {
-        bvh.closest_hit::<I, _>(r, &mut NoStats).is_some()
+        accel.closest_hit::<I, _>(r, &mut NoStats).is_some()
     });
     let diffuse = time_set(&sets.diffuse, runs, |r| {
-        bvh.closest_hit::<I, _>(r, &mut NoStats).is_some()
+        accel.closest_hit::<I, _>(r, &mut NoStats).is_some()
     });
-    let shadow = time_set(&sets.shadow, runs, |r| bvh.any_hit::<I, _>(r, &mut NoStats));
+    let shadow = time_set(&sets.shadow, runs, |r| {
+        accel.any_hit::<I, _>(r, &mut NoStats)
+    });
     [primary, diffuse, shadow]
 }
 
 /// Closest hits of `rays` in packets of `PACKET_SIZE` consecutive rays, `runs` times.
-pub fn time_packets<I: Intersector>(bvh: &Bvh, rays: &[Ray], runs: u32) -> RaySetResult {
+pub fn time_packets<A: Accel, I: Intersector>(accel: &A, rays: &[Ray], runs: u32) -> RaySetResult {
     let mut result = RaySetResult {
         rays: rays.len(),
         hits: 0,
@@ -128,7 +220,7 @@ pub fn time_packets<I: Intersector>(bvh: &Bvh, rays: &[Ray], runs: u32) -> RaySe
             .map(|chunk| {
                 let mut hits = [None; 4 * PACKET_SIZE];
                 let hits = &mut hits[..chunk.len()];
-                bvh.closest_hits::<I>(chunk, hits);
+                accel.closest_hits::<I>(chunk, hits);
                 hits.iter().filter(|h| h.is_some()).count()
             })
             .sum();
@@ -184,6 +276,15 @@ impl BenchResult {
             "primary_packets": set(&self.primary_packets, "hits"),
             "diffuse": set(&self.diffuse, "hits"),
             "shadow": set(&self.shadow, "occluded"),
+            "peer": self.peer.as_ref().map(|p| serde_json::json!({
+                "name": p.name,
+                "build_ms": round3(p.build.as_secs_f64() * 1e3),
+                "primary": set(&p.primary, "hits"),
+                "primary_packets": set(&p.primary_packets, "hits"),
+                "diffuse": set(&p.diffuse, "hits"),
+                "shadow": set(&p.shadow, "occluded"),
+                "differing_primary_hits": p.differing_primary_hits,
+            })),
         })
     }
 }

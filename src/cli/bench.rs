@@ -31,6 +31,10 @@ pub struct BenchArgs {
     /// Print exactly one JSON object.
     #[arg(long)]
     pub json: bool,
+    /// Also build and trace with Embree 3 on the same rays and threads, and print the
+    /// ratios (needs a build with `--features embree`).
+    #[arg(long, conflicts_with = "accuracy")]
+    pub embree: bool,
     /// Ray–triangle test of the timed runs.
     #[arg(long, value_enum, default_value_t = IntersectorArg::Watertight)]
     pub intersector: IntersectorArg,
@@ -56,6 +60,9 @@ pub struct BenchArgs {
 
 pub fn run(args: BenchArgs) -> Result<()> {
     check_size(args.width, args.height)?;
+    if args.embree && !bench::EMBREE_AVAILABLE {
+        anyhow::bail!(bench::EMBREE_MISSING);
+    }
     let scene = load_scene(&args.scene)?;
     let cfg = BenchConfig {
         camera: args.view.camera(&scene)?,
@@ -66,6 +73,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         builds: args.builds,
         runs: args.runs,
         intersector: args.intersector.kind(),
+        embree: args.embree,
     };
     cfg.params.validate()?;
     let pool = thread_pool(args.threads)?;
@@ -104,6 +112,47 @@ pub fn run(args: BenchArgs) -> Result<()> {
             set.rays,
             set.hits,
             set.mrays_per_s()
+        );
+    }
+    if let Some(p) = &r.peer {
+        print_peer(r, p)?;
+    }
+    Ok(())
+}
+
+/// The peer's numbers beside bvhlab's, as ratios bvhlab / peer (above 1: bvhlab is faster).
+fn print_peer(r: &bench::BenchResult, p: &bench::PeerResult) -> Result<()> {
+    let build_ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
+    out!(
+        "  {} on the same rays and threads ({} primary hits differ):",
+        p.name,
+        p.differing_primary_hits
+    );
+    out!(
+        "  {:<22} {:>12} {:>12} {:>10}",
+        "",
+        "bvhlab",
+        p.name,
+        "ratio"
+    );
+    let (ours, theirs) = (r.report.build_ms(), build_ms(p.build));
+    out!(
+        "  {:<22} {:>9.2} ms {:>9.2} ms {:>9.2}×",
+        "build",
+        ours,
+        theirs,
+        theirs / ours.max(1e-9)
+    );
+    for (name, a, b) in [
+        ("primary", &r.primary, &p.primary),
+        ("primary in packets", &r.primary_packets, &p.primary_packets),
+        ("diffuse", &r.diffuse, &p.diffuse),
+        ("shadow", &r.shadow, &p.shadow),
+    ] {
+        let (x, y) = (a.mrays_per_s(), b.mrays_per_s());
+        out!(
+            "  {name:<22} {x:>7.2} Mr/s {y:>7.2} Mr/s {:>9.2}×",
+            x / y.max(1e-9)
         );
     }
     Ok(())

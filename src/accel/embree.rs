@@ -1,0 +1,313 @@
+//! Embree 3 as a peer structure, for side-by-side benchmarks on the same rays and threads
+//! (`bvhlab bench --embree`). Built only with the `embree` feature, which links the system's
+//! libembree3 (Debian: `apt-get install libembree-dev`).
+//!
+//! It answers the same `Accel` queries as bvhlab's own structures. Embree uses its own
+//! ray–triangle test whatever intersector is asked for, counts nothing, and accepts hits
+//! with t in the closed interval [tmin, tmax]; on the standard ray sets its hits agree with
+//! bvhlab's apart from ties and edge hits (the benchmark reports how many differ).
+
+use super::{Accel, Hit, Stats};
+use crate::geometry::{Intersector, Ray, Triangle};
+use std::ffi::{c_char, c_uint, c_void};
+use std::time::{Duration, Instant};
+
+/// The subset of Embree 3's C API (rtcore.h) the benchmark uses.
+mod ffi {
+    use super::*;
+
+    pub type Device = *mut c_void;
+    pub type Scene = *mut c_void;
+    pub type Geometry = *mut c_void;
+
+    pub const GEOMETRY_TYPE_TRIANGLE: c_uint = 0;
+    pub const BUFFER_TYPE_INDEX: c_uint = 0;
+    pub const BUFFER_TYPE_VERTEX: c_uint = 1;
+    pub const FORMAT_UINT3: c_uint = 0x5003;
+    pub const FORMAT_FLOAT3: c_uint = 0x9003;
+    pub const BUILD_QUALITY_MEDIUM: c_uint = 1;
+    pub const INVALID_GEOMETRY_ID: c_uint = u32::MAX;
+    pub const CONTEXT_FLAG_INCOHERENT: c_uint = 0;
+    pub const CONTEXT_FLAG_COHERENT: c_uint = 1;
+
+    /// RTCIntersectContext with RTC_MAX_INSTANCE_LEVEL_COUNT = 1 and no minimum width, as
+    /// Debian's libembree3 is configured (rtcore_config.h).
+    #[repr(C)]
+    pub struct IntersectContext {
+        pub flags: c_uint,
+        pub filter: *const c_void,
+        pub inst_id: [c_uint; 1],
+    }
+
+    #[repr(C, align(16))]
+    #[derive(Clone, Copy)]
+    pub struct Ray1 {
+        pub org: [f32; 3],
+        pub tnear: f32,
+        pub dir: [f32; 3],
+        pub time: f32,
+        pub tfar: f32,
+        pub mask: c_uint,
+        pub id: c_uint,
+        pub flags: c_uint,
+    }
+
+    #[repr(C, align(16))]
+    #[derive(Clone, Copy)]
+    pub struct Hit1 {
+        pub ng: [f32; 3],
+        pub u: f32,
+        pub v: f32,
+        pub prim_id: c_uint,
+        pub geom_id: c_uint,
+        pub inst_id: [c_uint; 1],
+    }
+
+    #[repr(C)]
+    #[derive(Clone, Copy)]
+    pub struct RayHit1 {
+        pub ray: Ray1,
+        pub hit: Hit1,
+    }
+
+    #[repr(C, align(64))]
+    pub struct Ray16 {
+        pub org_x: [f32; 16],
+        pub org_y: [f32; 16],
+        pub org_z: [f32; 16],
+        pub tnear: [f32; 16],
+        pub dir_x: [f32; 16],
+        pub dir_y: [f32; 16],
+        pub dir_z: [f32; 16],
+        pub time: [f32; 16],
+        pub tfar: [f32; 16],
+        pub mask: [c_uint; 16],
+        pub id: [c_uint; 16],
+        pub flags: [c_uint; 16],
+    }
+
+    #[repr(C, align(64))]
+    pub struct Hit16 {
+        pub ng_x: [f32; 16],
+        pub ng_y: [f32; 16],
+        pub ng_z: [f32; 16],
+        pub u: [f32; 16],
+        pub v: [f32; 16],
+        pub prim_id: [c_uint; 16],
+        pub geom_id: [c_uint; 16],
+        pub inst_id: [[c_uint; 16]; 1],
+    }
+
+    #[repr(C)]
+    pub struct RayHit16 {
+        pub ray: Ray16,
+        pub hit: Hit16,
+    }
+
+    #[link(name = "embree3")]
+    unsafe extern "C" {
+        pub fn rtcNewDevice(config: *const c_char) -> Device;
+        pub fn rtcReleaseDevice(device: Device);
+        pub fn rtcGetDeviceError(device: Device) -> c_uint;
+        pub fn rtcNewScene(device: Device) -> Scene;
+        pub fn rtcSetSceneBuildQuality(scene: Scene, quality: c_uint);
+        pub fn rtcReleaseScene(scene: Scene);
+        pub fn rtcNewGeometry(device: Device, kind: c_uint) -> Geometry;
+        pub fn rtcSetNewGeometryBuffer(
+            geometry: Geometry,
+            kind: c_uint,
+            slot: c_uint,
+            format: c_uint,
+            byte_stride: usize,
+            item_count: usize,
+        ) -> *mut c_void;
+        pub fn rtcCommitGeometry(geometry: Geometry);
+        pub fn rtcAttachGeometry(scene: Scene, geometry: Geometry) -> c_uint;
+        pub fn rtcReleaseGeometry(geometry: Geometry);
+        pub fn rtcCommitScene(scene: Scene);
+        pub fn rtcIntersect1(scene: Scene, context: *mut IntersectContext, rayhit: *mut RayHit1);
+        pub fn rtcIntersect16(
+            valid: *const i32,
+            scene: Scene,
+            context: *mut IntersectContext,
+            rayhit: *mut RayHit16,
+        );
+        pub fn rtcOccluded1(scene: Scene, context: *mut IntersectContext, ray: *mut Ray1);
+    }
+}
+
+/// An Embree device and scene over a copy of the triangles, built with Embree's default
+/// (medium quality) BVH.
+pub struct Embree {
+    device: ffi::Device,
+    scene: ffi::Scene,
+    /// How long the build took: filling Embree's buffers and committing the scene.
+    pub build_time: Duration,
+}
+
+// Embree's scene is immutable after commit, and its queries are thread-safe.
+unsafe impl Send for Embree {}
+unsafe impl Sync for Embree {}
+
+impl Embree {
+    /// Builds the scene with `threads` build threads; an error if Embree refuses.
+    pub fn build(triangles: &[Triangle], threads: usize) -> Result<Self, String> {
+        let config = format!("threads={threads}\0");
+        // SAFETY: plain calls into Embree's C API with valid pointers and the sizes given;
+        // each returned handle is checked before use and released in `Drop`.
+        unsafe {
+            let device = ffi::rtcNewDevice(config.as_ptr().cast());
+            if device.is_null() {
+                return Err("Embree: rtcNewDevice failed".into());
+            }
+            let start = Instant::now();
+            let scene = ffi::rtcNewScene(device);
+            let mut this = Embree {
+                device,
+                scene,
+                build_time: Duration::ZERO,
+            };
+            ffi::rtcSetSceneBuildQuality(scene, ffi::BUILD_QUALITY_MEDIUM);
+            let geometry = ffi::rtcNewGeometry(device, ffi::GEOMETRY_TYPE_TRIANGLE);
+            let n = triangles.len();
+            let vertices = ffi::rtcSetNewGeometryBuffer(
+                geometry,
+                ffi::BUFFER_TYPE_VERTEX,
+                0,
+                ffi::FORMAT_FLOAT3,
+                12,
+                3 * n,
+            ) as *mut f32;
+            let indices = ffi::rtcSetNewGeometryBuffer(
+                geometry,
+                ffi::BUFFER_TYPE_INDEX,
+                0,
+                ffi::FORMAT_UINT3,
+                12,
+                n,
+            ) as *mut u32;
+            if vertices.is_null() || indices.is_null() {
+                ffi::rtcReleaseGeometry(geometry);
+                return Err(format!(
+                    "Embree: no buffers for {n} triangles (error {})",
+                    ffi::rtcGetDeviceError(device)
+                ));
+            }
+            let vertices = std::slice::from_raw_parts_mut(vertices, 9 * n);
+            let indices = std::slice::from_raw_parts_mut(indices, 3 * n);
+            for (i, tri) in triangles.iter().enumerate() {
+                for (k, v) in tri.v.iter().enumerate() {
+                    vertices[9 * i + 3 * k..9 * i + 3 * k + 3].copy_from_slice(&v.to_array());
+                    indices[3 * i + k] = (3 * i + k) as u32;
+                }
+            }
+            ffi::rtcCommitGeometry(geometry);
+            ffi::rtcAttachGeometry(scene, geometry);
+            ffi::rtcReleaseGeometry(geometry);
+            ffi::rtcCommitScene(scene);
+            this.build_time = start.elapsed();
+            match ffi::rtcGetDeviceError(device) {
+                0 => Ok(this),
+                e => Err(format!("Embree: the build failed (error {e})")),
+            }
+        }
+    }
+
+    fn context(flags: c_uint) -> ffi::IntersectContext {
+        ffi::IntersectContext {
+            flags,
+            filter: std::ptr::null(),
+            inst_id: [ffi::INVALID_GEOMETRY_ID],
+        }
+    }
+
+    fn ray1(ray: &Ray) -> ffi::Ray1 {
+        ffi::Ray1 {
+            org: ray.origin.to_array(),
+            tnear: ray.tmin,
+            dir: ray.direction.to_array(),
+            time: 0.0,
+            tfar: ray.tmax,
+            mask: u32::MAX,
+            id: 0,
+            flags: 0,
+        }
+    }
+
+    /// Closest hits of up to 16 coherent rays through Embree's packet query.
+    fn intersect16(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        let mut valid = [0i32; 16];
+        // SAFETY: RayHit16 is plain old data; all zeros is a valid value.
+        let mut rh: ffi::RayHit16 = unsafe { std::mem::zeroed() };
+        for (i, r) in rays.iter().enumerate().take(16) {
+            valid[i] = -1;
+            let ray = &mut rh.ray;
+            (ray.org_x[i], ray.org_y[i], ray.org_z[i]) = (r.origin.x, r.origin.y, r.origin.z);
+            let d = r.direction;
+            (ray.dir_x[i], ray.dir_y[i], ray.dir_z[i]) = (d.x, d.y, d.z);
+            (ray.tnear[i], ray.tfar[i], ray.mask[i]) = (r.tmin, r.tmax, u32::MAX);
+            rh.hit.geom_id[i] = ffi::INVALID_GEOMETRY_ID;
+        }
+        let mut ctx = Self::context(ffi::CONTEXT_FLAG_COHERENT);
+        // SAFETY: valid, context and the 64-byte-aligned packet outlive the call.
+        unsafe { ffi::rtcIntersect16(valid.as_ptr(), self.scene, &mut ctx, &mut rh) };
+        for (i, h) in hits.iter_mut().enumerate().take(rays.len().min(16)) {
+            *h = (rh.hit.geom_id[i] != ffi::INVALID_GEOMETRY_ID).then(|| Hit {
+                t: rh.ray.tfar[i],
+                u: rh.hit.u[i],
+                v: rh.hit.v[i],
+                triangle: rh.hit.prim_id[i],
+            });
+        }
+    }
+}
+
+impl Drop for Embree {
+    fn drop(&mut self) {
+        // SAFETY: the handles came from Embree and are released once.
+        unsafe {
+            ffi::rtcReleaseScene(self.scene);
+            ffi::rtcReleaseDevice(self.device);
+        }
+    }
+}
+
+impl Accel for Embree {
+    fn closest_hit<I: Intersector, S: Stats>(&self, ray: &Ray, _: &mut S) -> Option<Hit> {
+        let mut rh = ffi::RayHit1 {
+            ray: Self::ray1(ray),
+            hit: ffi::Hit1 {
+                ng: [0.0; 3],
+                u: 0.0,
+                v: 0.0,
+                prim_id: ffi::INVALID_GEOMETRY_ID,
+                geom_id: ffi::INVALID_GEOMETRY_ID,
+                inst_id: [ffi::INVALID_GEOMETRY_ID],
+            },
+        };
+        let mut ctx = Self::context(ffi::CONTEXT_FLAG_INCOHERENT);
+        // SAFETY: the context and ray-hit structure outlive the call.
+        unsafe { ffi::rtcIntersect1(self.scene, &mut ctx, &mut rh) };
+        (rh.hit.geom_id != ffi::INVALID_GEOMETRY_ID).then_some(Hit {
+            t: rh.ray.tfar,
+            u: rh.hit.u,
+            v: rh.hit.v,
+            triangle: rh.hit.prim_id,
+        })
+    }
+
+    fn any_hit<I: Intersector, S: Stats>(&self, ray: &Ray, _: &mut S) -> bool {
+        let mut r = Self::ray1(ray);
+        let mut ctx = Self::context(ffi::CONTEXT_FLAG_INCOHERENT);
+        // SAFETY: the context and ray outlive the call.
+        unsafe { ffi::rtcOccluded1(self.scene, &mut ctx, &mut r) };
+        // Embree marks an occluded ray by setting tfar to −∞.
+        r.tfar == f32::NEG_INFINITY
+    }
+
+    fn closest_hits<I: Intersector>(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        for (rays, hits) in rays.chunks(16).zip(hits.chunks_mut(16)) {
+            self.intersect16(rays, hits);
+        }
+    }
+}
