@@ -107,6 +107,8 @@ pub fn trace<A: Accel>(accel: &A, scene: &Scene, settings: &RenderSettings) -> F
 
 /// Traces every pixel's rays into the frame's samples. The image is cut into tiles of
 /// `TILE_ROWS` full rows, contiguous in memory, so each worker thread writes its own slice.
+/// A counting frame traces ray by ray, as the lecture's counters are defined; without
+/// counting, the primary rays go in 8 × 8 packets (`Accel::closest_hits`), with the same hits.
 pub fn trace_with<A: Accel, I: Intersector>(
     accel: &A,
     scene: &Scene,
