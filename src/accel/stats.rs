@@ -3,13 +3,16 @@
 
 use std::ops::AddAssign;
 
-pub trait Stats {
+pub trait Stats: Default {
     /// A node (or, for brute force, the scene) was taken from the stack and processed.
     fn node_visit(&mut self);
     /// `n` ray–box slab tests were done.
     fn box_tests(&mut self, n: u32);
     /// One ray–triangle test was done.
     fn triangle_test(&mut self);
+    /// Adds the counts of `other`: a query counts into a sink of its own, which stays in
+    /// registers while it runs, and adds it to the caller's once at the end.
+    fn absorb(&mut self, other: Self);
 }
 
 /// Counts nothing and costs nothing.
@@ -23,6 +26,8 @@ impl Stats for NoStats {
     fn box_tests(&mut self, _n: u32) {}
     #[inline(always)]
     fn triangle_test(&mut self) {}
+    #[inline(always)]
+    fn absorb(&mut self, _: NoStats) {}
 }
 
 /// The lecture's three measures of work for one ray (or a sum over many).
@@ -45,6 +50,10 @@ impl Stats for Counters {
     #[inline(always)]
     fn triangle_test(&mut self) {
         self.triangle_tests += 1;
+    }
+    #[inline(always)]
+    fn absorb(&mut self, other: Counters) {
+        *self += other;
     }
 }
 

@@ -124,8 +124,10 @@ pub fn run(args: BenchArgs) -> Result<()> {
 fn print_peer(r: &bench::BenchResult, p: &bench::PeerResult) -> Result<()> {
     let build_ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
     out!(
-        "  {} on the same rays and threads ({} primary hits differ):",
+        "  {} on the same rays and threads (primary hits on another triangle: {} ties within \
+         rounding, {} at another depth or hit against miss):",
         p.name,
+        p.tied_primary_hits,
         p.differing_primary_hits
     );
     out!(

@@ -19,7 +19,20 @@ pub(crate) const T_SCALE: f32 = 1.0 + 2.0 * gamma(3);
 pub(crate) const STACK_SIZE: usize = MAX_DEPTH + 1;
 
 impl Bvh {
+    /// Closest hit, counting into a local sink (kept in registers) added to `stats` once.
     fn closest<I: Intersector, S: Stats, const ORDERED: bool>(
+        &self,
+        ray: &Ray,
+        stats: &mut S,
+    ) -> Option<Hit> {
+        let mut local = S::default();
+        let hit = self.closest_counted::<I, S, ORDERED>(ray, &mut local);
+        stats.absorb(local);
+        hit
+    }
+
+    #[inline(always)]
+    fn closest_counted<I: Intersector, S: Stats, const ORDERED: bool>(
         &self,
         ray: &Ray,
         stats: &mut S,
@@ -87,7 +100,16 @@ impl Bvh {
         }
     }
 
+    /// Any hit, counting like `closest`.
     fn occluded<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
+        let mut local = S::default();
+        let hit = self.occluded_counted::<I, S>(ray, &mut local);
+        stats.absorb(local);
+        hit
+    }
+
+    #[inline(always)]
+    fn occluded_counted<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
         let slab = SlabRay::new(ray);
         let nodes = &self.nodes;
         stats.box_tests(1);
