@@ -2,45 +2,21 @@
 //! driven through its labelled widgets and pointer events.
 
 use bvhlab::accel::bvh::{BuildParams, Strategy, build};
-use bvhlab::app::{BvhLabApp, Launch};
+mod common;
+
+use bvhlab::app::BvhLabApp;
 use bvhlab::render::{RenderSettings, render};
+use common::app::{launch, settle};
 use eframe::egui;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 
 fn app(scene: &str) -> Harness<'static, BvhLabApp> {
-    let scene = scene.to_string();
-    let mut harness = Harness::builder()
-        .with_size(egui::vec2(1400.0, 900.0))
-        .with_max_steps(16)
-        .build_eframe(move |cc| {
-            BvhLabApp::new(
-                cc,
-                Launch {
-                    scene: Some(scene),
-                    fresh: true,
-                    screenshot: None,
-                },
-            )
-        });
-    settle(&mut harness);
-    harness
-}
-
-/// Runs frames and waits for the worker until the full-resolution frame is shown.
-fn settle(h: &mut Harness<'static, BvhLabApp>) {
-    for _ in 0..40 {
-        h.run_steps(2);
-        let ctx = h.ctx.clone();
-        h.state_mut().wait_for_worker(&ctx);
-        h.run_steps(1);
-        if h.state().settled() {
-            return;
-        }
-        // Let a preview's settling time pass.
-        std::thread::sleep(std::time::Duration::from_millis(60));
-    }
-    panic!("the app did not settle");
+    launch(
+        Harness::builder().with_size(egui::vec2(1400.0, 900.0)),
+        scene,
+        |_| {},
+    )
 }
 
 #[test]

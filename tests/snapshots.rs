@@ -3,7 +3,10 @@
 //! PNGs in tests/snapshots/. Refresh them with `UPDATE_SNAPSHOTS=1`.
 
 use bvhlab::app::settings::ViewMode;
-use bvhlab::app::{BvhLabApp, Launch};
+mod common;
+
+use bvhlab::app::BvhLabApp;
+use common::app::launch;
 use eframe::egui;
 use egui_kittest::kittest::Queryable;
 use egui_kittest::wgpu::WgpuTestRenderer;
@@ -15,11 +18,11 @@ const REQUIRE: &str = "BVHLAB_REQUIRE_SNAPSHOTS";
 /// Small enough to keep the reference PNGs modest, large enough for all three columns.
 const WINDOW: egui::Vec2 = egui::vec2(1000.0, 700.0);
 
-/// Per-pixel tolerance and the number of pixels allowed over it. See the README's testing
-/// section: lavapipe on another CPU may round a few edge pixels differently, while any real
-/// change (another mode, scene, level or a moved widget) changes thousands of pixels.
+/// Kittest's default per-pixel tolerance (YIQ distance 0.6) and 20 pixels allowed over it.
+/// Measured: Mesa's GL path instead of Vulkan differs in at most 15 pixels, all under 0.4;
+/// the smallest real change tried (the heatmap scale's top at 110 instead of 109) fails 845.
 fn options() -> SnapshotOptions {
-    SnapshotOptions::new().threshold(1.0).max_failed_pixels(50)
+    SnapshotOptions::new().threshold(0.6).max_failed_pixels(20)
 }
 
 /// The CPU renderer, or `None` to skip when this machine has no wgpu adapter. Kittest panics
@@ -46,68 +49,31 @@ fn renderer() -> Option<WgpuTestRenderer> {
     None
 }
 
-/// The real app on `scene`, with `setup` applied to its settings, settled on its full frame.
+/// The real app on `scene`, with `setup` applied to its settings, settled on its full frame;
+/// `None` to skip on a machine without a wgpu adapter.
 fn app(scene: &str, setup: impl FnOnce(&mut BvhLabApp)) -> Option<Harness<'static, BvhLabApp>> {
-    let renderer = renderer()?;
-    let scene = scene.to_string();
-    let mut harness = Harness::builder()
-        .with_size(WINDOW)
-        .with_max_steps(16)
-        .renderer(renderer)
-        .build_eframe(move |cc| {
-            BvhLabApp::new(
-                cc,
-                Launch {
-                    scene: Some(scene),
-                    fresh: true,
-                    screenshot: None,
-                },
-            )
-        });
-    setup(harness.state_mut());
-    settle(&mut harness);
-    Some(harness)
-}
-
-/// Runs frames and waits for the worker until the full-resolution frame is shown
-/// (as in tests/app.rs).
-fn settle(h: &mut Harness<'static, BvhLabApp>) {
-    for _ in 0..40 {
-        h.run_steps(2);
-        let ctx = h.ctx.clone();
-        h.state_mut().wait_for_worker(&ctx);
-        h.run_steps(1);
-        if h.state().settled() {
-            // Two more frames so grids sized from the new frame's numbers are laid out.
-            h.run_steps(2);
-            assert!(
-                h.state().settled(),
-                "the extra frames asked for a new render"
-            );
-            return;
-        }
-        // Let a preview's settling time pass.
-        std::thread::sleep(std::time::Duration::from_millis(60));
-    }
-    panic!("the app did not settle");
+    let builder = Harness::builder().with_size(WINDOW).renderer(renderer()?);
+    Some(launch(builder, scene, setup))
 }
 
 /// Masks the texts that change from run to run (build and trace times, Mrays/s), then
 /// compares the window with tests/snapshots/`name`.png.
 fn check(mut h: Harness<'static, BvhLabApp>, name: &str) {
+    // egui puts a label's text in its accesskit value.
     let timings: Vec<egui::Rect> = h
-        .get_all_by(|n| {
-            n.label()
-                .is_some_and(|l| l.ends_with(" ms") || l.contains(" ms ") || l.contains("Mrays/s"))
+        .query_all_by(|n| {
+            n.value()
+                .is_some_and(|v| v.ends_with(" ms") || v.contains(" ms ") || v.contains("Mrays/s"))
         })
         .map(|n| n.rect())
         .collect();
-    assert!(
-        timings.len() >= 3,
-        "expected the build time, the status bar and the last frame"
-    );
+    assert!(!timings.is_empty(), "the status bar shows the trace time");
     for rect in timings {
-        h.mask(rect);
+        // Up to the window's right edge: a longer number must not change the masked area.
+        h.mask(egui::Rect::from_min_max(
+            rect.min,
+            egui::pos2(WINDOW.x, rect.max.y),
+        ));
     }
     h.snapshot_options(name, &options());
 }

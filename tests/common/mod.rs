@@ -2,6 +2,8 @@
 //! and the hit comparison used against brute force.
 #![allow(dead_code)]
 
+pub mod app;
+
 use bvhlab::accel::Hit;
 use bvhlab::geometry::{Aabb, Ray, Triangle};
 use glam::Vec3;
