@@ -28,13 +28,20 @@ pub struct FrameReport {
     pub scene: String,
     pub triangles: usize,
     pub frames: Vec<FrameTime>,
-    /// Median time from a move of `moved` triangles to its refitted preview frame.
-    pub drag_median: Duration,
-    pub drag_fps: f64,
-    /// Medians of the two parts of a drag step: the refit, and tracing the new frame.
-    pub drag_refit: Duration,
-    pub drag_trace: Duration,
+    /// Drag steps in the shaded and the heatmap mode.
+    pub drags: Vec<DragTime>,
     pub moved: usize,
+}
+
+/// A drag step: from a move of the dragged triangles to the refitted preview frame.
+#[derive(Clone, Debug)]
+pub struct DragTime {
+    pub mode: Mode,
+    pub median: Duration,
+    pub fps: f64,
+    /// Medians of the two parts of a step: the refit, and tracing the new frame.
+    pub refit: Duration,
+    pub trace: Duration,
 }
 
 /// What the worker did for the command just sent.
@@ -132,33 +139,40 @@ pub fn run(
     let moved: Arc<Vec<u32>> = Arc::new(object.range().map(|t| t as u32).collect());
     let step = scene.bounds().diagonal() * 0.002;
     let preview = sizes.first().copied().unwrap_or((640, 360, true));
-    // The app tints the selection while it is dragged.
-    let mut dragged = job(camera, Mode::Shaded, preview);
-    dragged.overlay.selected = Some(moved.clone());
-    worker.send(Command::Render(dragged));
-    frame_after(&mut worker).ok_or("no frame")?;
-    let (mut times, mut refits, mut traces) = (Vec::new(), Vec::new(), Vec::new());
-    for k in 0..runs.max(10) {
-        let delta = if k % 2 == 0 { Vec3::X } else { -Vec3::X } * step;
-        let start = Instant::now();
-        worker.send(Command::Move {
-            triangles: moved.clone(),
-            delta,
+    let mut drags = Vec::new();
+    for mode in modes {
+        // The app tints the selection while it is dragged.
+        let mut dragged = job(camera, mode, preview);
+        dragged.overlay.selected = Some(moved.clone());
+        worker.send(Command::Render(dragged));
+        frame_after(&mut worker).ok_or("no frame")?;
+        let (mut times, mut refits, mut traces) = (Vec::new(), Vec::new(), Vec::new());
+        for k in 0..runs.max(10) {
+            let delta = if k % 2 == 0 { Vec3::X } else { -Vec3::X } * step;
+            let start = Instant::now();
+            worker.send(Command::Move {
+                triangles: moved.clone(),
+                delta,
+            });
+            let step = frame_after(&mut worker).ok_or("no frame after a move")?;
+            times.push(start.elapsed());
+            refits.push(step.refit);
+            traces.push(step.trace.unwrap_or_default());
+        }
+        let median = median(times);
+        drags.push(DragTime {
+            mode,
+            fps: 1.0 / median.as_secs_f64().max(1e-9),
+            median,
+            refit: self::median(refits),
+            trace: self::median(traces),
         });
-        let step = frame_after(&mut worker).ok_or("no frame after a move")?;
-        times.push(start.elapsed());
-        refits.push(step.refit);
-        traces.push(step.trace.unwrap_or_default());
     }
-    let drag_median = median(times);
     Ok(FrameReport {
         scene: scene.name.clone(),
         triangles: scene.triangles.len(),
         frames,
-        drag_fps: 1.0 / drag_median.as_secs_f64().max(1e-9),
-        drag_median,
-        drag_refit: median(refits),
-        drag_trace: median(traces),
+        drags,
         moved: moved.len(),
     })
 }

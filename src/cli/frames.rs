@@ -42,13 +42,21 @@ pub fn run(args: FramesArgs) -> Result<()> {
             1.0 / f.median.as_secs_f64().max(1e-9)
         );
     }
+    for d in &r.drags {
+        out!(
+            "  drag, {:<30} {:>7.1} ms/step   ({:.1} frames/s; refit {:.1} ms, trace {:.1} ms)",
+            d.mode.label(),
+            d.median.as_secs_f64() * 1e3,
+            d.fps,
+            d.refit.as_secs_f64() * 1e3,
+            d.trace.as_secs_f64() * 1e3
+        );
+    }
     out!(
-        "  drag (move {} triangles, refit, 640×360 shaded preview): {:.1} ms  ({:.1} frames/s; refit {:.1} ms, trace {:.1} ms)",
+        "  (a drag step moves {} triangles, refits and traces the {}×{} preview)",
         r.moved,
-        r.drag_median.as_secs_f64() * 1e3,
-        r.drag_fps,
-        r.drag_refit.as_secs_f64() * 1e3,
-        r.drag_trace.as_secs_f64() * 1e3
+        sizes[0].0,
+        sizes[0].1
     );
     Ok(())
 }

@@ -35,7 +35,47 @@ pub fn linear_to_srgb(c: f32) -> f32 {
     }
 }
 
+/// `to_rgba8`'s rounding of `linear_to_srgb(c)` without the power per channel: the 255
+/// linear values at which the 8-bit sRGB code steps up, searched by bisection.
+pub fn srgb8(c: f32) -> u8 {
+    static STEPS: std::sync::OnceLock<[f32; 255]> = std::sync::OnceLock::new();
+    let steps = STEPS.get_or_init(|| {
+        // Code k + 1 starts where the exact transfer reaches (k + 0.5) / 255; the bisection
+        // on f32 finds the first linear value whose rounded code is k + 1.
+        std::array::from_fn(|k| {
+            let code = |x: f32| (linear_to_srgb(x) * 255.0 + 0.5) as u32;
+            let (mut lo, mut hi) = (0.0f32, 1.0f32);
+            for _ in 0..40 {
+                let mid = 0.5 * (lo + hi);
+                if code(mid) > k as u32 {
+                    hi = mid
+                } else {
+                    lo = mid
+                }
+            }
+            hi
+        })
+    });
+    steps.partition_point(|&step| step <= c) as u8
+}
+
 pub fn to_rgba8(srgb: Vec3) -> [u8; 4] {
     let q = |c: f32| (c.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
     [q(srgb.x), q(srgb.y), q(srgb.z), 255]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb8_rounds_as_the_exact_transfer_does() {
+        let exact = |c: f32| to_rgba8(Vec3::splat(linear_to_srgb(c)))[0];
+        let mut samples: Vec<f32> = (0..=1_000_000).map(|i| i as f32 / 1e6).collect();
+        samples.extend([-1.0, -0.0, 0.0, 1e-30, 0.003_130_8, 1.0, 1.5, f32::INFINITY]);
+        for c in samples {
+            assert_eq!(srgb8(c), exact(c), "{c}");
+        }
+        assert_eq!(srgb8(f32::NAN), 0);
+    }
 }

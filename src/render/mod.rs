@@ -13,7 +13,7 @@ use crate::accel::{Accel, Counter, Counters, Hit, NoStats, Stats};
 use crate::geometry::spawn::SurfacePoint;
 use crate::geometry::{Intersector, Ray, Watertight};
 use crate::scene::{Camera, Scene};
-use colormap::{linear_to_srgb, to_rgba8, viridis};
+use colormap::{srgb8, to_rgba8, viridis};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -220,12 +220,17 @@ impl Frame {
 /// (`heat_max`, or the frame's maximum).
 pub fn colorize(frame: &Frame, mode: Mode, heat_max: Option<u32>) -> (Vec<u8>, Option<u32>) {
     let samples = &frame.samples;
-    let (t_near, t_far) = samples
-        .iter()
-        .filter(|s| s.is_hit())
-        .fold((f32::INFINITY, 0.0f32), |(a, b), s| {
-            (a.min(s.t), b.max(s.t))
-        });
+    // Only the depth mode needs the range of distances.
+    let (t_near, t_far) = if mode == Mode::Depth {
+        samples
+            .iter()
+            .filter(|s| s.is_hit())
+            .fold((f32::INFINITY, 0.0f32), |(a, b), s| {
+                (a.min(s.t), b.max(s.t))
+            })
+    } else {
+        (0.0, 1.0)
+    };
     let scale = match mode {
         Mode::Heatmap(c, r) => Some(
             heat_max
@@ -234,33 +239,34 @@ pub fn colorize(frame: &Frame, mode: Mode, heat_max: Option<u32>) -> (Vec<u8>, O
         ),
         _ => None,
     };
-    let background = Vec3::new(0.06, 0.07, 0.09);
-    let rgba = samples
-        .par_iter()
-        .flat_map_iter(|s| {
-            let srgb = match mode {
-                Mode::Heatmap(c, r) => {
-                    let max = scale.unwrap_or(1) as f32;
-                    viridis(s.counters(r).get(c) as f32 / max)
-                }
-                _ if !s.is_hit() => background,
-                Mode::Shaded => {
-                    let light = if s.lit { s.cos_light } else { 0.0 };
-                    let c = s.albedo * (AMBIENT + (1.0 - AMBIENT) * light);
-                    Vec3::new(
-                        linear_to_srgb(c.x),
-                        linear_to_srgb(c.y),
-                        linear_to_srgb(c.z),
-                    )
-                }
-                Mode::Normals => s.normal * 0.5 + 0.5,
-                Mode::Depth => {
-                    let range = (t_far - t_near).max(f32::MIN_POSITIVE);
-                    Vec3::splat(1.0 - 0.85 * (s.t - t_near) / range)
-                }
-            };
-            to_rgba8(srgb)
-        })
-        .collect();
+    let background = to_rgba8(Vec3::new(0.06, 0.07, 0.09));
+    let color = |s: &Sample| match mode {
+        Mode::Heatmap(c, r) => {
+            let max = scale.unwrap_or(1) as f32;
+            to_rgba8(viridis(s.counters(r).get(c) as f32 / max))
+        }
+        _ if !s.is_hit() => background,
+        Mode::Shaded => {
+            let light = if s.lit { s.cos_light } else { 0.0 };
+            let c = s.albedo * (AMBIENT + (1.0 - AMBIENT) * light);
+            [srgb8(c.x), srgb8(c.y), srgb8(c.z), 255]
+        }
+        Mode::Normals => to_rgba8(s.normal * 0.5 + 0.5),
+        Mode::Depth => {
+            let range = (t_far - t_near).max(f32::MIN_POSITIVE);
+            to_rgba8(Vec3::splat(1.0 - 0.85 * (s.t - t_near) / range))
+        }
+    };
+    // Written in place, a chunk of pixels per task (collecting a flat-mapped parallel
+    // iterator builds and joins a list of vectors instead).
+    const CHUNK: usize = 4096;
+    let mut rgba = vec![0u8; samples.len() * 4];
+    rgba.par_chunks_mut(4 * CHUNK)
+        .zip(samples.par_chunks(CHUNK))
+        .for_each(|(out, samples)| {
+            for (px, s) in out.chunks_exact_mut(4).zip(samples) {
+                px.copy_from_slice(&color(s));
+            }
+        });
     (rgba, scale)
 }
