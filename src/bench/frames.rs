@@ -159,13 +159,13 @@ pub fn run(
             refits.push(step.refit);
             traces.push(step.trace.unwrap_or_default());
         }
-        let median = median(times);
+        let step_time = median(times);
         drags.push(DragTime {
             mode,
-            fps: 1.0 / median.as_secs_f64().max(1e-9),
-            median,
-            refit: self::median(refits),
-            trace: self::median(traces),
+            fps: 1.0 / step_time.as_secs_f64().max(1e-9),
+            median: step_time,
+            refit: median(refits),
+            trace: median(traces),
         });
     }
     Ok(FrameReport {

@@ -100,19 +100,11 @@ pub struct PeerResult {
 
 /// Runs the benchmark on the current rayon thread pool.
 pub fn run(scene: &Scene, cfg: &BenchConfig) -> Result<BenchResult, BenchError> {
-    let mut best: Option<(Bvh, BuildReport)> = None;
-    for _ in 0..cfg.builds.max(1) {
-        let (bvh, report) = build(&scene.triangles, &cfg.params)?;
-        if best
-            .as_ref()
-            .is_none_or(|(_, b)| report.build_time < b.build_time)
-        {
-            best = Some((bvh, report));
-        }
-    }
-    let Some((bvh, report)) = best else {
-        unreachable!("at least one build ran")
-    };
+    let (bvh, report) = best_build(
+        cfg.builds,
+        || build(&scene.triangles, &cfg.params),
+        |(_, report)| report.build_time,
+    )?;
     let sets = RaySets::standard(&bvh, scene, &cfg.camera, cfg.light, cfg.width, cfg.height);
     let [primary, diffuse, shadow] =
         crate::with_intersector!(cfg.intersector, I => time_sets::<_, I>(&bvh, &sets, cfg.runs));
@@ -138,6 +130,22 @@ pub fn run(scene: &Scene, cfg: &BenchConfig) -> Result<BenchResult, BenchError> 
     })
 }
 
+/// The fastest of `builds` (at least one) builds, by the time `took` reads off each.
+fn best_build<T, E>(
+    builds: u32,
+    mut build: impl FnMut() -> Result<T, E>,
+    took: impl Fn(&T) -> Duration,
+) -> Result<T, E> {
+    let mut best = build()?;
+    for _ in 1..builds {
+        let next = build()?;
+        if took(&next) < took(&best) {
+            best = next;
+        }
+    }
+    Ok(best)
+}
+
 /// Whether this build can run Embree beside bvhlab.
 pub const EMBREE_AVAILABLE: bool = cfg!(feature = "embree");
 
@@ -159,16 +167,11 @@ fn run_embree(
 ) -> Result<PeerResult, BenchError> {
     use crate::accel::embree::Embree;
     let threads = rayon::current_num_threads();
-    let mut best: Option<Embree> = None;
-    for _ in 0..cfg.builds.max(1) {
-        let e = Embree::build(&scene.triangles, threads).map_err(BenchError::Peer)?;
-        if best.as_ref().is_none_or(|b| e.build_time < b.build_time) {
-            best = Some(e);
-        }
-    }
-    let Some(embree) = best else {
-        unreachable!("at least one build ran")
-    };
+    let embree = best_build(
+        cfg.builds,
+        || Embree::build(&scene.triangles, threads).map_err(BenchError::Peer),
+        |e| e.build_time,
+    )?;
     let [primary, diffuse, shadow] = time_sets::<_, Watertight>(&embree, sets, cfg.runs);
     let primary_packets = time_packets::<_, Watertight>(&embree, &sets.primary_tiles, cfg.runs);
     let (tied_primary_hits, differing_primary_hits) = sets
@@ -231,6 +234,29 @@ pub fn time_sets<A: Accel, I: Intersector>(
 
 /// Closest hits of `rays` in packets of `PACKET_SIZE` consecutive rays, `runs` times.
 pub fn time_packets<A: Accel, I: Intersector>(accel: &A, rays: &[Ray], runs: u32) -> RaySetResult {
+    time_chunks(rays, runs, 4 * PACKET_SIZE, |chunk| {
+        let mut hits = [None; 4 * PACKET_SIZE];
+        let hits = &mut hits[..chunk.len()];
+        accel.closest_hits::<I>(chunk, hits);
+        hits.iter().filter(|h| h.is_some()).count()
+    })
+}
+
+/// Traces `rays` `runs` times in parallel, one ray at a time; the best time and the hit count.
+fn time_set(rays: &[Ray], runs: u32, trace: impl Fn(&Ray) -> bool + Sync) -> RaySetResult {
+    time_chunks(rays, runs, 256, |chunk| {
+        chunk.iter().filter(|r| trace(r)).count()
+    })
+}
+
+/// Runs `trace` over `rays` in chunks of `chunk` rays on the thread pool, `runs` times; the
+/// best time and the hits `trace` counted.
+fn time_chunks(
+    rays: &[Ray],
+    runs: u32,
+    chunk: usize,
+    trace: impl Fn(&[Ray]) -> usize + Sync,
+) -> RaySetResult {
     let mut result = RaySetResult {
         rays: rays.len(),
         hits: 0,
@@ -238,36 +264,8 @@ pub fn time_packets<A: Accel, I: Intersector>(accel: &A, rays: &[Ray], runs: u32
     };
     for _ in 0..runs.max(1) {
         let start = Instant::now();
-        let hits: usize = rays
-            .par_chunks(4 * PACKET_SIZE)
-            .map(|chunk| {
-                let mut hits = [None; 4 * PACKET_SIZE];
-                let hits = &mut hits[..chunk.len()];
-                accel.closest_hits::<I>(chunk, hits);
-                hits.iter().filter(|h| h.is_some()).count()
-            })
-            .sum();
+        result.hits = rays.par_chunks(chunk).map(&trace).sum();
         result.best = result.best.min(start.elapsed());
-        result.hits = hits;
-    }
-    result
-}
-
-/// Traces `rays` `runs` times in parallel; the best time and the hit count.
-fn time_set(rays: &[Ray], runs: u32, trace: impl Fn(&Ray) -> bool + Sync) -> RaySetResult {
-    let mut result = RaySetResult {
-        rays: rays.len(),
-        hits: 0,
-        best: Duration::MAX,
-    };
-    for _ in 0..runs {
-        let start = Instant::now();
-        let hits: usize = rays
-            .par_chunks(256)
-            .map(|chunk| chunk.iter().filter(|r| trace(r)).count())
-            .sum();
-        result.best = result.best.min(start.elapsed());
-        result.hits = hits;
     }
     result
 }

@@ -164,7 +164,7 @@ pub fn trace_with<A: Accel, I: Intersector>(
 
 /// A pixel's sample from its primary ray's hit (found with `primary` counting) and, if it
 /// hit, the shadow ray towards the light.
-fn shade<A: Accel, I: Intersector, S: Stats + Default + Into<Counters>>(
+fn shade<A: Accel, I: Intersector, S: Stats + Into<Counters>>(
     accel: &A,
     scene: &Scene,
     ray: &Ray,
