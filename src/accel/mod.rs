@@ -7,11 +7,17 @@ pub mod bvh;
 #[cfg(feature = "embree")]
 pub mod embree;
 pub mod hit;
+pub mod mailbox;
+pub mod outline;
+pub mod report;
 pub mod stats;
 
 pub use brute_force::BruteForce;
 pub use bvh::{BuildParams, Bvh, Strategy, TraversalOrder};
 pub use hit::{BestHit, Hit};
+pub use mailbox::Mailbox;
+pub use outline::{Outline, OutlineNode};
+pub use report::StructureReport;
 pub use stats::{Counter, Counters, NoStats, Stats};
 
 use crate::geometry::{Intersector, Ray};

@@ -4,12 +4,19 @@
 use std::ops::AddAssign;
 
 pub trait Stats: Default {
-    /// A node (or, for brute force, the scene) was taken from the stack and processed.
+    /// Whether this sink records anything: structures skip bookkeeping that only feeds the
+    /// counters (such as noting repeated tests with mailboxing off) when it does not.
+    const COUNTING: bool;
+    /// A traversal step: a node (or, for brute force, the scene; for a grid, a cell) was
+    /// taken and processed.
     fn node_visit(&mut self);
-    /// `n` ray–box slab tests were done.
+    /// `n` ray–box slab tests (or ray–plane distance tests) were done.
     fn box_tests(&mut self, n: u32);
     /// One ray–triangle test was done.
     fn triangle_test(&mut self);
+    /// The triangle about to be tested was tested before by the same ray: a structure that
+    /// references a triangle from several cells repeats the test unless it mailboxes.
+    fn repeated_test(&mut self);
     /// Adds the counts of `other`: a query counts into a sink of its own, which stays in
     /// registers while it runs, and adds it to the caller's once at the end.
     fn absorb(&mut self, other: Self);
@@ -20,6 +27,7 @@ pub trait Stats: Default {
 pub struct NoStats;
 
 impl Stats for NoStats {
+    const COUNTING: bool = false;
     #[inline(always)]
     fn node_visit(&mut self) {}
     #[inline(always)]
@@ -27,18 +35,25 @@ impl Stats for NoStats {
     #[inline(always)]
     fn triangle_test(&mut self) {}
     #[inline(always)]
+    fn repeated_test(&mut self) {}
+    #[inline(always)]
     fn absorb(&mut self, _: NoStats) {}
 }
 
-/// The lecture's three measures of work for one ray (or a sum over many).
+/// The lecture's measures of work for one ray (or a sum over many).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Counters {
     pub nodes_visited: u32,
     pub box_tests: u32,
     pub triangle_tests: u32,
+    /// Triangle tests that repeated a test the same ray had already done (included in
+    /// `triangle_tests`); always 0 for structures that reference each triangle once, and
+    /// for spatial structures with mailboxing on.
+    pub repeated_tests: u32,
 }
 
 impl Stats for Counters {
+    const COUNTING: bool = true;
     #[inline(always)]
     fn node_visit(&mut self) {
         self.nodes_visited += 1;
@@ -50,6 +65,10 @@ impl Stats for Counters {
     #[inline(always)]
     fn triangle_test(&mut self) {
         self.triangle_tests += 1;
+    }
+    #[inline(always)]
+    fn repeated_test(&mut self) {
+        self.repeated_tests += 1;
     }
     #[inline(always)]
     fn absorb(&mut self, other: Counters) {
@@ -69,16 +88,18 @@ impl AddAssign for Counters {
         self.nodes_visited += o.nodes_visited;
         self.box_tests += o.box_tests;
         self.triangle_tests += o.triangle_tests;
+        self.repeated_tests += o.repeated_tests;
     }
 }
 
 impl Counters {
-    /// One of the three counters, chosen by a heatmap mode.
+    /// One of the counters, chosen by a heatmap mode.
     pub fn get(&self, which: Counter) -> u32 {
         match which {
             Counter::NodesVisited => self.nodes_visited,
             Counter::BoxTests => self.box_tests,
             Counter::TriangleTests => self.triangle_tests,
+            Counter::RepeatedTests => self.repeated_tests,
         }
     }
 }
@@ -88,13 +109,15 @@ pub enum Counter {
     NodesVisited,
     BoxTests,
     TriangleTests,
+    RepeatedTests,
 }
 
 impl Counter {
-    pub const ALL: [Counter; 3] = [
+    pub const ALL: [Counter; 4] = [
         Counter::NodesVisited,
         Counter::BoxTests,
         Counter::TriangleTests,
+        Counter::RepeatedTests,
     ];
 
     pub fn label(self) -> &'static str {
@@ -102,6 +125,7 @@ impl Counter {
             Counter::NodesVisited => "nodes visited",
             Counter::BoxTests => "box tests",
             Counter::TriangleTests => "triangle tests",
+            Counter::RepeatedTests => "repeated triangle tests",
         }
     }
 }

@@ -71,7 +71,7 @@ pub struct FrameSummary {
     /// Wall time of tracing (both ray kinds), without colouring.
     pub trace_time: Duration,
     /// `[ray kind][counter]` as in `RayKind` and `Counter::ALL` order.
-    pub counters: [[CounterSummary; 3]; 2],
+    pub counters: [[CounterSummary; Counter::ALL.len()]; 2],
 }
 
 impl FrameSummary {

@@ -1,0 +1,125 @@
+//! Mailboxing: a spatial structure (k-d tree, grid, octree) references a triangle from
+//! every cell it overlaps, so a ray crossing several of those cells would test it several
+//! times. The mailbox is a small per-ray record of the triangles already tested; a triangle
+//! found in it is skipped. With mailboxing off the record still runs when counting, so the
+//! repeated tests it would have saved are counted.
+//!
+//! The record is exact: a small open-addressed table on the stack, spilling into a heap set
+//! only for rays that test very many triangles. Skipping a repeat never changes a hit: a
+//! triangle's test does not depend on the cell it was found in, and a hit beyond the
+//! current cell is kept as the best so far rather than thrown away.
+
+use super::Stats;
+use std::collections::HashSet;
+
+/// Slots of the inline table (a power of two); it spills when three quarters are used.
+const SLOTS: usize = 32;
+const SPILL_AT: usize = SLOTS * 3 / 4;
+const EMPTY: u32 = u32::MAX;
+
+#[derive(Clone, Debug)]
+pub struct Mailbox {
+    /// Skip triangles already tested (the toggle); otherwise only count repeats.
+    enabled: bool,
+    slots: [u32; SLOTS],
+    used: usize,
+    spill: Option<HashSet<u32>>,
+}
+
+impl Mailbox {
+    #[inline(always)]
+    pub fn new(enabled: bool) -> Self {
+        Mailbox {
+            enabled,
+            slots: [EMPTY; SLOTS],
+            used: 0,
+            spill: None,
+        }
+    }
+
+    /// Whether triangle `tri` is to be tested now: false when mailboxing is on and this ray
+    /// tested it already. A test that repeats an earlier one (mailboxing off) is counted.
+    #[inline(always)]
+    pub fn admit<S: Stats>(&mut self, tri: u32, stats: &mut S) -> bool {
+        if !self.enabled && !S::COUNTING {
+            return true;
+        }
+        if self.insert(tri) {
+            return true;
+        }
+        if self.enabled {
+            return false;
+        }
+        stats.repeated_test();
+        true
+    }
+
+    /// Records `tri`; true if it was not recorded before.
+    #[inline(always)]
+    fn insert(&mut self, tri: u32) -> bool {
+        if let Some(set) = &mut self.spill {
+            return set.insert(tri);
+        }
+        // Fibonacci hashing spreads the consecutive ids of neighbouring triangles.
+        let mut i = (tri.wrapping_mul(0x9E37_79B9) >> (32 - SLOTS.trailing_zeros())) as usize;
+        loop {
+            let s = self.slots[i];
+            if s == tri {
+                return false;
+            }
+            if s == EMPTY {
+                break;
+            }
+            i = (i + 1) & (SLOTS - 1);
+        }
+        if self.used == SPILL_AT {
+            let mut set: HashSet<u32> =
+                self.slots.iter().copied().filter(|&s| s != EMPTY).collect();
+            set.insert(tri);
+            self.spill = Some(set);
+            return true;
+        }
+        self.slots[i] = tri;
+        self.used += 1;
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::{Counters, NoStats};
+
+    #[test]
+    fn admits_each_triangle_once_when_enabled_even_past_the_inline_table() {
+        let mut m = Mailbox::new(true);
+        let mut c = Counters::default();
+        let ids: Vec<u32> = (0..500).map(|k| k * 7 + 3).collect();
+        for &t in &ids {
+            assert!(m.admit(t, &mut c));
+        }
+        for &t in ids.iter().rev() {
+            assert!(!m.admit(t, &mut c), "{t} admitted twice");
+        }
+        assert!(m.admit(1, &mut c));
+        assert_eq!(c.repeated_tests, 0);
+    }
+
+    #[test]
+    fn counts_repeats_when_disabled_and_costs_nothing_without_counting() {
+        let mut m = Mailbox::new(false);
+        let mut c = Counters::default();
+        for t in [5, 9, 5, 5, 9, 2] {
+            assert!(m.admit(t, &mut c));
+        }
+        assert_eq!(c.repeated_tests, 3);
+        let mut m = Mailbox::new(false);
+        for t in [5, 5, 5] {
+            assert!(m.admit(t, &mut NoStats));
+        }
+        assert_eq!(
+            m.used, 0,
+            "nothing recorded when neither skipping nor counting"
+        );
+    }
+}
