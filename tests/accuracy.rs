@@ -97,7 +97,7 @@ fn bench_traces_with_the_chosen_intersector() {
             light: scene.light(),
             width: 64,
             height: 48,
-            params: BuildParams::default(),
+            params: Default::default(),
             builds: 1,
             runs: 1,
             intersector: kind,

@@ -22,11 +22,11 @@ fn app(scene: &str) -> Harness<'static, BvhLabApp> {
 #[test]
 fn switching_the_strategy_changes_the_build_report() {
     let mut h = app("soup:3000");
-    let before = h.state().report.clone().expect("built");
+    let before = h.state().bvh_report.clone().expect("built");
     assert_eq!(before.params.strategy, Strategy::SahBinned);
     h.get_by_label("object median").click();
     settle(&mut h);
-    let after = h.state().report.clone().expect("rebuilt");
+    let after = h.state().bvh_report.clone().expect("rebuilt");
     assert_eq!(after.params.strategy, Strategy::ObjectMedian);
     assert_ne!(after.tree.sah_cost, before.tree.sah_cost);
     // The report panel says so too (the radio button is the other match).
@@ -39,7 +39,7 @@ fn moving_the_bucket_slider_rebuilds_with_that_bucket_count() {
     h.get_by_role_and_label(egui::accesskit::Role::Slider, "buckets B")
         .set_value_accesskit(4.0);
     settle(&mut h);
-    let r = h.state().report.clone().expect("rebuilt");
+    let r = h.state().bvh_report.clone().expect("rebuilt");
     assert_eq!(r.params.buckets, 4);
     let expected = build(
         &bvhlab::scene::Scene::load("soup:3000").unwrap().triangles,
@@ -57,7 +57,8 @@ fn moving_the_bucket_slider_rebuilds_with_that_bucket_count() {
 fn stepping_levels_changes_the_overlay() {
     let mut h = app("cornell");
     let plain = h.state().shown.clone().expect("frame").rgba.clone();
-    h.get_by_label("show the boxes of one level").click();
+    h.get_by_label("show the boxes or cells of one level")
+        .click();
     settle(&mut h);
     let level0 = h.state().shown.clone().expect("frame").rgba.clone();
     assert_ne!(plain, level0, "the root box is drawn");

@@ -85,7 +85,7 @@ fn watertight_and_f64_never_leak_on_closed_meshes_at_any_offset_or_scale() {
     let mut mt_leaks = 0;
     for mesh in ClosedMesh::all() {
         for (k, p) in placements(false).into_iter().enumerate() {
-            let case = LeakCase::new(&mesh, p, RAYS, 11 + k as u64)
+            let case = LeakCase::new(&mesh, p, RAYS, 11 + k as u64, &Default::default())
                 .unwrap_or_else(|| panic!("{} at {} is not resolvable", mesh.name, p.label()));
             assert!(
                 case.rays.len() >= RAYS,

@@ -11,6 +11,7 @@ pub mod mailbox;
 pub mod outline;
 pub mod report;
 pub mod stats;
+pub mod structure;
 
 pub use brute_force::BruteForce;
 pub use bvh::{BuildParams, Bvh, Strategy, TraversalOrder};
@@ -19,6 +20,7 @@ pub use mailbox::Mailbox;
 pub use outline::{Outline, OutlineNode};
 pub use report::StructureReport;
 pub use stats::{Counter, Counters, NoStats, Stats};
+pub use structure::{AccelKind, Built, Structure, StructureError, StructureParams};
 
 use crate::geometry::{Intersector, Ray};
 

@@ -10,6 +10,7 @@ mod viewport;
 pub mod worker;
 
 use crate::accel::bvh::BuildReport;
+use crate::accel::{Outline, StructureParams, StructureReport};
 use crate::scene::Scene;
 use eframe::egui;
 use orbit::Orbit;
@@ -18,7 +19,7 @@ use screenshot::ScreenshotPlan;
 use settings::Settings;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
-use worker::{Command, Overlay, RenderJob, Reply, Shown, TreeShape, Worker};
+use worker::{Command, Overlay, RenderJob, Reply, Shown, Worker};
 
 /// How the app starts: normally with the remembered settings; tests and screenshots start
 /// from defaults and remember nothing.
@@ -26,6 +27,8 @@ use worker::{Command, Overlay, RenderJob, Reply, Shown, TreeShape, Worker};
 pub struct Launch {
     /// Overrides the scene to open.
     pub scene: Option<String>,
+    /// Overrides the structure to build.
+    pub accel: Option<crate::accel::AccelKind>,
     /// Start from default settings and do not save them.
     pub fresh: bool,
     pub screenshot: Option<ScreenshotPlan>,
@@ -57,10 +60,13 @@ pub struct BvhLabApp {
     persist: bool,
     pub scene: Option<Arc<Scene>>,
     pub load_error: Option<String>,
-    pub report: Option<BuildReport>,
+    pub report: Option<StructureReport>,
+    /// The BVH's own report (SAH cost, leaf sizes) when the structure is a BVH.
+    pub bvh_report: Option<BuildReport>,
     pub build_error: Option<String>,
     building: bool,
-    pub shape: Arc<TreeShape>,
+    /// The structure's nodes or cells, for the levels view and the tree walk.
+    pub outline: Arc<Outline>,
     pub shown: Option<Arc<Shown>>,
     /// The summary of the newest full frame: quick previews may not count.
     pub full_summary: Option<crate::render::FrameSummary>,
@@ -75,13 +81,16 @@ pub struct BvhLabApp {
     /// SAH cost after each refit since the last build (the first entry is the build's).
     pub sah_history: Vec<f64>,
     pub last_refit: Option<Duration>,
+    /// Under a structure that cannot refit: the last rebuild after a move, and what a BVH
+    /// refit of the same move took.
+    pub last_rebuild: Option<(Duration, Option<Duration>)>,
     /// When the last move was sent, to time move → refitted frame.
     move_sent: Option<Instant>,
     pub drag_latency: Option<Duration>,
     pub walk: Option<u32>,
     viewport_px: [u32; 2],
     last_job: Option<RenderJob>,
-    sent_build: Option<(crate::accel::BuildParams, crate::accel::TraversalOrder)>,
+    sent_build: Option<StructureParams>,
     show_help: bool,
     /// The scene as the worker has it, after moves (see `request_snapshot`).
     pub snapshot: Option<Arc<Scene>>,
@@ -100,28 +109,29 @@ impl BvhLabApp {
         if let Some(scene) = &launch.scene {
             settings.scene = scene.clone();
         }
+        if let Some(accel) = launch.accel {
+            settings.accel = accel;
+        }
         if let Some(plan) = &launch.screenshot {
             plan.apply(&mut settings);
         }
         let ctx = cc.egui_ctx.clone();
         let mut worker = Worker::spawn(move || ctx.request_repaint());
-        worker.send(Command::Build {
-            params: settings.build_params(),
-            order: settings.order(),
-        });
+        worker.send(Command::Build(settings.structure_params()));
         worker.send(Command::Load(settings.scene.clone()));
         cc.egui_ctx.set_zoom_factor(settings.ui_scale);
         BvhLabApp {
-            sent_build: Some((settings.build_params(), settings.order())),
+            sent_build: Some(settings.structure_params()),
             settings,
             worker,
             persist: !launch.fresh,
             scene: None,
             load_error: None,
             report: None,
+            bvh_report: None,
             build_error: None,
             building: true,
-            shape: Arc::new(TreeShape::default()),
+            outline: Arc::new(Outline::default()),
             shown: None,
             full_summary: None,
             texture: None,
@@ -136,6 +146,7 @@ impl BvhLabApp {
             drag: None,
             sah_history: Vec::new(),
             last_refit: None,
+            last_rebuild: None,
             move_sent: None,
             drag_latency: None,
             walk: None,
@@ -165,12 +176,17 @@ impl BvhLabApp {
                     self.building = true;
                 }
                 Reply::LoadFailed { error, .. } => self.load_error = Some(error),
-                Reply::Built { report, shape } => {
-                    self.sah_history = vec![report.tree.sah_cost];
-                    self.settings.level = self.settings.level.min(shape.max_depth);
-                    self.walk = self.walk.filter(|&w| (w as usize) < shape.depth.len());
-                    self.shape = shape;
+                Reply::Built {
+                    report,
+                    bvh_report,
+                    outline,
+                } => {
+                    self.sah_history = bvh_report.iter().map(|r| r.tree.sah_cost).collect();
+                    self.settings.level = self.settings.level.min(outline.max_depth());
+                    self.walk = self.walk.filter(|&w| (w as usize) < outline.nodes.len());
+                    self.outline = outline;
                     self.report = Some(report);
+                    self.bvh_report = bvh_report;
                     self.build_error = None;
                     self.building = false;
                 }
@@ -187,6 +203,10 @@ impl BvhLabApp {
                     self.last_refit = Some(refit_time);
                     self.maybe_auto_rebuild();
                 }
+                Reply::RebuiltAfterMove {
+                    rebuild_time,
+                    bvh_refit_time,
+                } => self.last_rebuild = Some((rebuild_time, bvh_refit_time)),
                 Reply::Frame(shown) => {
                     if let Some(t) = self.move_sent.take() {
                         self.drag_latency = Some(t.elapsed());
@@ -237,16 +257,16 @@ impl BvhLabApp {
 
     /// Sends build parameters when they changed.
     fn sync_build(&mut self) {
-        let wanted = (self.settings.build_params(), self.settings.order());
+        let wanted = self.settings.structure_params();
         if self.sent_build != Some(wanted) {
+            let rebuilds = self
+                .sent_build
+                .is_none_or(|sent| sent.needs_rebuild_for(&wanted));
             self.sent_build = Some(wanted);
-            if wanted.0.validate().is_ok() {
+            if rebuilds && wanted.validate().is_ok() {
                 self.building = true;
             }
-            self.worker.send(Command::Build {
-                params: wanted.0,
-                order: wanted.1,
-            });
+            self.worker.send(Command::Build(wanted));
         }
     }
 

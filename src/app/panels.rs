@@ -3,6 +3,7 @@
 
 use super::settings::{StrategyChoice, ViewMode};
 use super::{BvhLabApp, Tool};
+use crate::accel::AccelKind;
 use crate::accel::bvh::build::{MAX_BUCKETS, MAX_LEAF_SIZE, MIN_BUCKETS};
 use crate::render::Mode;
 use crate::scene::builtin;
@@ -137,35 +138,53 @@ fn build_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         .default_open(true)
         .show(ui, |ui| {
             let s = &mut app.settings;
-            ui.label("split strategy");
-            for (choice, label) in [
-                (StrategyChoice::ObjectMedian, "object median"),
-                (StrategyChoice::SpatialMedian, "spatial median"),
-                (StrategyChoice::SahSweep, "full-sweep SAH"),
-                (StrategyChoice::SahBinned, "binned SAH"),
-            ] {
-                ui.radio_value(&mut s.strategy, choice, label);
+            egui::ComboBox::from_label("structure")
+                .selected_text(s.accel.title())
+                .show_ui(ui, |ui| {
+                    for kind in AccelKind::ALL {
+                        ui.selectable_value(&mut s.accel, kind, kind.title());
+                    }
+                });
+            if s.accel.is_spatial() {
+                ui.checkbox(
+                    &mut s.mailbox,
+                    "mailboxing (test each triangle once per ray)",
+                );
             }
-            ui.add_enabled(
-                s.strategy == StrategyChoice::SahBinned,
-                egui::Slider::new(&mut s.buckets, MIN_BUCKETS..=MAX_BUCKETS)
-                    .logarithmic(true)
-                    .text("buckets B"),
-            );
-            ui.add(
-                egui::Slider::new(&mut s.max_leaf_size, 1..=MAX_LEAF_SIZE.min(64))
-                    .text("max leaf size"),
-            );
-            ui.add(egui::Slider::new(&mut s.c_trav, 0.0..=10.0).text("C_trav"));
-            ui.add(egui::Slider::new(&mut s.c_isect, 0.05..=10.0).text("C_isect"));
-            ui.checkbox(
-                &mut s.naive_order,
-                "naive traversal order (no front-to-back)",
-            );
+            if s.accel == AccelKind::Bvh {
+                bvh_parameters(ui, s);
+            }
             if let Some(e) = &app.build_error {
                 ui.colored_label(ui.visuals().error_fg_color, e);
             }
         });
+}
+
+fn bvh_parameters(ui: &mut egui::Ui, s: &mut super::settings::Settings) {
+    ui.label("split strategy");
+    for (choice, label) in [
+        (StrategyChoice::ObjectMedian, "object median"),
+        (StrategyChoice::SpatialMedian, "spatial median"),
+        (StrategyChoice::SahSweep, "full-sweep SAH"),
+        (StrategyChoice::SahBinned, "binned SAH"),
+    ] {
+        ui.radio_value(&mut s.strategy, choice, label);
+    }
+    ui.add_enabled(
+        s.strategy == StrategyChoice::SahBinned,
+        egui::Slider::new(&mut s.buckets, MIN_BUCKETS..=MAX_BUCKETS)
+            .logarithmic(true)
+            .text("buckets B"),
+    );
+    ui.add(
+        egui::Slider::new(&mut s.max_leaf_size, 1..=MAX_LEAF_SIZE.min(64)).text("max leaf size"),
+    );
+    ui.add(egui::Slider::new(&mut s.c_trav, 0.0..=10.0).text("C_trav"));
+    ui.add(egui::Slider::new(&mut s.c_isect, 0.05..=10.0).text("C_isect"));
+    ui.checkbox(
+        &mut s.naive_order,
+        "naive traversal order (no front-to-back)",
+    );
 }
 
 fn view_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
@@ -209,9 +228,9 @@ fn levels_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 ui.label("building…");
                 return;
             }
-            let max = app.shape.max_depth;
+            let max = app.outline.max_depth();
             let s = &mut app.settings;
-            ui.checkbox(&mut s.show_levels, "show the boxes of one level");
+            ui.checkbox(&mut s.show_levels, "show the boxes or cells of one level");
             ui.add_enabled_ui(s.show_levels, |ui| {
                 ui.horizontal(|ui| {
                     if ui.button("< previous").clicked() {
@@ -228,8 +247,8 @@ fn levels_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                     ui.radio_value(&mut s.color_by_node, false, "depth");
                     ui.radio_value(&mut s.color_by_node, true, "node");
                 });
-                let count = app.shape.depth.iter().filter(|&&d| d == s.level).count();
-                ui.label(format!("{count} nodes at depth {}", s.level));
+                let count = app.outline.level(s.level).count();
+                ui.label(format!("{count} nodes or cells at depth {}", s.level));
             });
         });
 }
@@ -249,13 +268,27 @@ fn walk_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 if ui.button("parent (Up)").clicked() {
                     app.walk_to(Step::Parent);
                 }
-                if ui.button("left child (Left)").clicked() {
+                if ui.button("first child (Left)").clicked() {
                     app.walk_to(Step::Left);
                 }
-                if ui.button("right child (Right)").clicked() {
+                if ui.button("last child (Right)").clicked() {
                     app.walk_to(Step::Right);
                 }
             });
+            let children = app
+                .walk
+                .and_then(|w| app.outline.nodes.get(w as usize))
+                .map_or(0..0, |n| n.children());
+            if children.len() > 2 {
+                ui.horizontal_wrapped(|ui| {
+                    ui.label("child");
+                    for (k, c) in children.enumerate() {
+                        if ui.small_button((k + 1).to_string()).clicked() {
+                            app.walk = Some(c as u32);
+                        }
+                    }
+                });
+            }
             if let Some(info) = app.shown.as_ref().and_then(|s| s.walk.as_ref()) {
                 egui::Grid::new("walk").num_columns(2).show(ui, |ui| {
                     ui.label("node");
@@ -270,7 +303,7 @@ fn walk_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                     ui.label("surface area");
                     ui.label(format!("{:.4}", info.surface_area));
                     ui.end_row();
-                    ui.label(if info.children.is_some() {
+                    ui.label(if !info.children.is_empty() {
                         "SAH cost of split"
                     } else {
                         "leaf cost N·C_isect"
@@ -278,10 +311,10 @@ fn walk_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                     ui.label(format!("{:.3}", info.sah_cost));
                     ui.end_row();
                 });
-                if info.children.is_some() {
+                if info.children.len() == 2 {
                     ui.horizontal(|ui| {
-                        ui.colored_label(egui::Color32::from_rgb(255, 140, 40), "■ left child");
-                        ui.colored_label(egui::Color32::from_rgb(60, 170, 255), "■ right child");
+                        ui.colored_label(egui::Color32::from_rgb(255, 140, 40), "■ first child");
+                        ui.colored_label(egui::Color32::from_rgb(60, 170, 255), "■ second child");
                     });
                 }
             }
@@ -300,16 +333,13 @@ impl BvhLabApp {
     pub fn walk_to(&mut self, step: Step) {
         let Some(node) = self.walk else { return };
         let i = node as usize;
+        let Some(n) = self.outline.nodes.get(i) else {
+            return;
+        };
         let next = match step {
-            Step::Parent => self.shape.parent.get(i).copied().filter(|&p| p != u32::MAX),
-            Step::Left => self.shape.left.get(i).copied().filter(|&l| l != u32::MAX),
-            Step::Right => self
-                .shape
-                .left
-                .get(i)
-                .copied()
-                .filter(|&l| l != u32::MAX)
-                .map(|l| l + 1),
+            Step::Parent => Some(n.parent).filter(|&p| p != u32::MAX),
+            Step::Left => n.children().next().map(|c| c as u32),
+            Step::Right => n.children().last().map(|c| c as u32),
         };
         if let Some(n) = next {
             self.walk = Some(n);
@@ -360,8 +390,21 @@ fn refit_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 );
                 app.settings.auto_rebuild_percent = auto.then_some(p);
             });
-            if let Some(t) = app.last_refit {
-                ui.label(format!("last refit {:.2} ms", t.as_secs_f64() * 1e3));
+            if app.settings.accel.can_refit() {
+                if let Some(t) = app.last_refit {
+                    ui.label(format!("last refit {:.2} ms", t.as_secs_f64() * 1e3));
+                }
+            } else if let Some((rebuild, refit)) = app.last_rebuild {
+                ui.label(format!(
+                    "last move: rebuilt in {:.2} ms",
+                    rebuild.as_secs_f64() * 1e3
+                ));
+                if let Some(r) = refit {
+                    ui.label(format!(
+                        "a BVH would refit it in {:.2} ms: a BVH is simpler to update",
+                        r.as_secs_f64() * 1e3
+                    ));
+                }
             }
             if let Some(t) = app.drag_latency {
                 ui.label(format!(
@@ -389,6 +432,8 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                     ui.end_row();
                 }
             });
+    }
+    if let Some(r) = &app.bvh_report {
         ui.label("leaf sizes");
         let bars: Vec<Bar> = r
             .tree
@@ -406,7 +451,8 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             .x_axis_label("triangles in leaf")
             .y_axis_label("leaves")
             .show(ui, |p| p.bar_chart(BarChart::new("leaves", bars)));
-    } else {
+    }
+    if app.report.is_none() {
         ui.label("building…");
     }
     ui.separator();

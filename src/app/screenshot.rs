@@ -38,6 +38,8 @@ pub struct ScreenshotPlan {
     pub shot: Shot,
     pub width: u32,
     pub height: u32,
+    /// The depth of a levels shot (default 3).
+    pub level: Option<u32>,
     pub result: Outcome,
     stage: Stage,
     started: Instant,
@@ -53,6 +55,7 @@ impl ScreenshotPlan {
             shot,
             width,
             height,
+            level: None,
             result: Arc::new(Mutex::new(None)),
             stage: Stage::Settling,
             started: Instant::now(),
@@ -70,7 +73,7 @@ impl ScreenshotPlan {
         match self.shot {
             Shot::Levels => {
                 s.show_levels = true;
-                s.level = 3;
+                s.level = self.level.unwrap_or(3);
             }
             Shot::Refit => {
                 s.show_levels = true;

@@ -1,8 +1,8 @@
 //! What the app remembers between runs (eframe persistence): the build and view settings,
 //! the UI scale and the recently opened files.
 
-use crate::accel::Counter;
 use crate::accel::bvh::{BuildParams, Strategy, TraversalOrder};
+use crate::accel::{AccelKind, Counter, StructureParams};
 use crate::render::{Mode, RayKind};
 use serde::{Deserialize, Serialize};
 
@@ -89,6 +89,10 @@ impl From<StrategyChoice> for Strategy {
 #[serde(default)]
 pub struct Settings {
     pub scene: String,
+    /// The structure the app builds.
+    pub accel: AccelKind,
+    /// Mailboxing in the spatial structures.
+    pub mailbox: bool,
     pub strategy: StrategyChoice,
     pub buckets: u32,
     pub max_leaf_size: u32,
@@ -116,6 +120,8 @@ impl Default for Settings {
         let p = BuildParams::default();
         Settings {
             scene: "cornell".into(),
+            accel: AccelKind::Bvh,
+            mailbox: true,
             strategy: StrategyChoice::SahBinned,
             buckets: p.buckets,
             max_leaf_size: p.max_leaf_size,
@@ -145,6 +151,16 @@ impl Settings {
             max_leaf_size: self.max_leaf_size,
             c_trav: self.c_trav,
             c_isect: self.c_isect,
+        }
+    }
+
+    /// Everything the worker needs to build the chosen structure.
+    pub fn structure_params(&self) -> StructureParams {
+        StructureParams {
+            kind: self.accel,
+            bvh: self.build_params(),
+            order: self.order(),
+            mailbox: self.mailbox,
         }
     }
 

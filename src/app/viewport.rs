@@ -194,7 +194,7 @@ impl BvhLabApp {
             s.level = s.level.saturating_sub(1);
         }
         if pressed(Key::CloseBracket) {
-            s.level = (s.level + 1).min(self.shape.max_depth);
+            s.level = (s.level + 1).min(self.outline.max_depth());
         }
         if pressed(Key::O) && !ctrl {
             self.tool = Tool::Orbit;

@@ -1,5 +1,6 @@
-//! The worker thread: it owns the scene and its BVH, takes commands from the UI (load,
-//! build, render a view, move triangles, undo) and answers with results. The UI thread never
+//! The worker thread: it owns the scene and its acceleration structure (whichever the user
+//! chose), takes commands from the UI (load, build, render a view, move triangles, undo)
+//! and answers with results. The UI thread never
 //! builds or traces. Commands that pile up while the worker is busy are taken together, and
 //! only the newest render request among them is rendered.
 //!
@@ -8,7 +9,9 @@
 //! traced frame.
 
 use crate::accel::bvh::refit::RefitIndex;
-use crate::accel::bvh::{BuildParams, BuildReport, Bvh, TraversalOrder, build_with_progress};
+use crate::accel::bvh::{self, BuildReport, Bvh};
+use crate::accel::structure::{self, Structure, StructureParams};
+use crate::accel::{Outline, StructureReport};
 use crate::render::overlay::{OutlinedBox, outline_boxes, palette, tint_triangles};
 use crate::render::{Frame, Mode, RenderSettings, colorize, trace};
 use crate::scene::{Camera, Scene};
@@ -24,7 +27,7 @@ use std::time::{Duration, Instant};
 pub struct Overlay {
     /// Tint these triangles: the selection of the move tool.
     pub selected: Option<Arc<Vec<u32>>>,
-    /// Outline every node at this depth.
+    /// Outline every node (or cell) at this depth, and a k-d tree's split planes there.
     pub level: Option<u32>,
     /// The node of the tree walk: its box, its children's boxes, their triangles tinted.
     pub walk: Option<u32>,
@@ -48,12 +51,11 @@ pub struct RenderJob {
 pub enum Command {
     /// A built-in scene name or an OBJ path.
     Load(String),
-    Build {
-        params: BuildParams,
-        order: TraversalOrder,
-    },
+    /// Build the structure these parameters name (traversal settings alone rebuild
+    /// nothing).
+    Build(StructureParams),
     Render(RenderJob),
-    /// Move these scene triangles by `delta` and refit.
+    /// Move these scene triangles by `delta`, and refit (BVH) or rebuild the structure.
     Move {
         triangles: Arc<Vec<u32>>,
         delta: Vec3,
@@ -67,16 +69,6 @@ pub enum Command {
     Undo,
 }
 
-/// The shape of a tree, for the UI's node walk: parents, children, depths.
-#[derive(Clone, Debug, Default)]
-pub struct TreeShape {
-    pub parent: Vec<u32>,
-    /// Left child index, `u32::MAX` for leaves (the right child is `left + 1`).
-    pub left: Vec<u32>,
-    pub depth: Vec<u32>,
-    pub max_depth: u32,
-}
-
 /// What the walk's current node is, in the lecture's terms.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct WalkInfo {
@@ -84,10 +76,10 @@ pub struct WalkInfo {
     pub depth: u32,
     pub triangles: usize,
     pub surface_area: f32,
-    /// For an interior node, C = C_trav + S_A/S_N·N_A·C_isect + S_B/S_N·N_B·C_isect; for a
-    /// leaf, N·C_isect.
+    /// For an interior node, C = C_trav + Σ S_child/S_N·N_child·C_isect; for a leaf,
+    /// N·C_isect.
     pub sah_cost: f32,
-    pub children: Option<[usize; 2]>,
+    pub children: Vec<usize>,
 }
 
 /// A frame as the UI shows it.
@@ -111,14 +103,22 @@ pub enum Reply {
         error: String,
     },
     Built {
-        report: BuildReport,
-        shape: Arc<TreeShape>,
+        report: StructureReport,
+        /// The BVH's own report (SAH cost, leaf sizes), for a BVH.
+        bvh_report: Option<BuildReport>,
+        outline: Arc<Outline>,
     },
     BuildFailed(String),
     Refitted {
         sah_before: f64,
         sah_after: f64,
         refit_time: Duration,
+    },
+    /// A structure that cannot refit was rebuilt after a move; beside it, what refitting a
+    /// BVH over the same triangles took.
+    RebuiltAfterMove {
+        rebuild_time: Duration,
+        bvh_refit_time: Option<Duration>,
     },
     Frame(Arc<Shown>),
     Snapshot(Arc<Scene>),
@@ -149,10 +149,10 @@ impl Worker {
             wake: Box::new(wake),
             progress: progress.clone(),
             scene: None,
-            bvh: None,
-            params: BuildParams::default(),
-            order: TraversalOrder::default(),
-            shape: Arc::new(TreeShape::default()),
+            structure: None,
+            params: StructureParams::default(),
+            outline: Arc::new(Outline::default()),
+            reference_bvh: None,
             version: 0,
             traced: None,
             last_job: None,
@@ -248,10 +248,12 @@ struct State {
     wake: Box<dyn Fn() + Send>,
     progress: Arc<(AtomicUsize, AtomicUsize)>,
     scene: Option<Scene>,
-    bvh: Option<Bvh>,
-    params: BuildParams,
-    order: TraversalOrder,
-    shape: Arc<TreeShape>,
+    structure: Option<Structure>,
+    params: StructureParams,
+    outline: Arc<Outline>,
+    /// Under a structure that cannot refit: a BVH over the same triangles, refitted on every
+    /// move only to show what a refit would have cost. Made at the first move.
+    reference_bvh: Option<(Bvh, RefitIndex)>,
     /// Changes whenever the scene's triangles or the tree change.
     version: u64,
     traced: Option<(TraceKey, Arc<Frame>)>,
@@ -321,7 +323,8 @@ impl State {
                         scene: Arc::new(scene.clone()),
                     });
                     self.scene = Some(scene);
-                    self.bvh = None;
+                    self.structure = None;
+                    self.reference_bvh = None;
                     self.gesture.clear();
                     self.undo.clear();
                     self.version += 1;
@@ -332,17 +335,17 @@ impl State {
                     error: e.to_string(),
                 }),
             },
-            Command::Build { params, order } => {
-                let (old_params, old_order) = (self.params, self.order);
+            Command::Build(params) => {
+                let old = self.params;
                 self.params = params;
-                self.order = order;
-                if params != old_params || self.bvh.is_none() {
+                if old.needs_rebuild_for(&params) || self.structure.is_none() {
                     if !self.rebuild() {
-                        self.params = old_params;
+                        self.params = old;
                     }
-                } else if order != old_order {
-                    if let Some(b) = &mut self.bvh {
-                        b.order = order;
+                } else if params != old {
+                    if let Some(s) = &mut self.structure {
+                        s.set_order(params.order);
+                        s.set_mailbox(params.mailbox);
                     }
                     self.version += 1;
                 }
@@ -381,8 +384,8 @@ impl State {
         }
     }
 
-    /// Builds the tree for the current scene and parameters; false (and the old tree kept)
-    /// if the parameters are rejected.
+    /// Builds the structure for the current scene and parameters; false (and the old one
+    /// kept) if the parameters are rejected.
     fn rebuild(&mut self) -> bool {
         let Some(scene) = &self.scene else {
             return true;
@@ -391,16 +394,16 @@ impl State {
         self.progress
             .1
             .store(scene.triangles.len(), Ordering::Relaxed);
-        match build_with_progress(&scene.triangles, &self.params, &self.progress.0) {
-            Ok((mut bvh, report)) => {
-                bvh.order = self.order;
+        match structure::build(&scene.triangles, &self.params, &self.progress.0) {
+            Ok(built) => {
                 self.refit_index = None;
-                self.shape = Arc::new(tree_shape(&bvh));
-                self.bvh = Some(bvh);
+                self.outline = Arc::new(built.structure.outline());
+                self.structure = Some(built.structure);
                 self.version += 1;
                 self.reply(Reply::Built {
-                    report,
-                    shape: self.shape.clone(),
+                    report: built.report,
+                    bvh_report: built.bvh_report,
+                    outline: self.outline.clone(),
                 });
                 true
             }
@@ -412,7 +415,7 @@ impl State {
     }
 
     fn move_triangles(&mut self, triangles: &[u32], delta: Vec3) {
-        let (Some(scene), Some(bvh)) = (&mut self.scene, &mut self.bvh) else {
+        let (Some(scene), Some(structure)) = (&mut self.scene, &mut self.structure) else {
             return;
         };
         for &t in triangles {
@@ -423,21 +426,49 @@ impl State {
             }
         }
         let start = Instant::now();
-        // Only the moved triangles' leaves and their ancestors change.
-        let index = self.refit_index.get_or_insert_with(|| RefitIndex::new(bvh));
-        let p = &self.params;
-        if let Ok(r) = bvh.refit_moved(index, &scene.triangles, triangles, p.c_trav, p.c_isect) {
-            self.version += 1;
-            self.reply(Reply::Refitted {
-                sah_before: r.sah_before,
-                sah_after: r.sah_after,
-                refit_time: start.elapsed(),
-            });
+        let p = &self.params.bvh;
+        if let Some(bvh) = structure.as_bvh_mut() {
+            // Only the moved triangles' leaves and their ancestors change.
+            let index = self.refit_index.get_or_insert_with(|| RefitIndex::new(bvh));
+            if let Ok(r) = bvh.refit_moved(index, &scene.triangles, triangles, p.c_trav, p.c_isect)
+            {
+                self.version += 1;
+                self.reply(Reply::Refitted {
+                    sah_before: r.sah_before,
+                    sah_after: r.sah_after,
+                    refit_time: start.elapsed(),
+                });
+            }
+            return;
         }
+        // A spatial structure has no boxes to stretch: it is built again.
+        let Ok(built) = structure::build(&scene.triangles, &self.params, &Default::default())
+        else {
+            return;
+        };
+        let rebuild_time = start.elapsed();
+        *structure = built.structure;
+        self.outline = Arc::new(structure.outline());
+        self.version += 1;
+        if self.reference_bvh.is_none()
+            && let Ok((bvh, _)) = bvh::build(&scene.triangles, &bvh::BuildParams::default())
+        {
+            let index = RefitIndex::new(&bvh);
+            self.reference_bvh = Some((bvh, index));
+        }
+        let bvh_refit_time = self.reference_bvh.as_mut().map(|(bvh, index)| {
+            let start = Instant::now();
+            let _ = bvh.refit_moved(index, &scene.triangles, triangles, p.c_trav, p.c_isect);
+            start.elapsed()
+        });
+        self.reply(Reply::RebuiltAfterMove {
+            rebuild_time,
+            bvh_refit_time,
+        });
     }
 
     fn render(&mut self, job: RenderJob) {
-        let (Some(scene), Some(bvh)) = (&self.scene, &self.bvh) else {
+        let (Some(scene), Some(structure)) = (&self.scene, &self.structure) else {
             return;
         };
         self.last_job = Some(job.clone());
@@ -462,7 +493,7 @@ impl State {
                     // A shaded preview shows no counts: it skips counting too.
                     counters: !job.preview || matches!(job.mode, Mode::Heatmap(..)),
                 };
-                let f = Arc::new(trace(bvh, scene, &settings));
+                let f = Arc::new(trace(structure, scene, &settings));
                 self.traced = Some((key, f.clone()));
                 (f, true)
             }
@@ -480,7 +511,7 @@ impl State {
     }
 
     fn draw_overlay(&self, frame: &Frame, rgba: &mut [u8], job: &RenderJob) -> Option<WalkInfo> {
-        let bvh = self.bvh.as_ref()?;
+        let outline = &self.outline;
         let o = &job.overlay;
         let triangle_count = self.scene.as_ref().map_or(0, |s| s.triangles.len());
         if let Some(sel) = &o.selected {
@@ -496,10 +527,10 @@ impl State {
             });
         }
         if let Some(level) = o.level {
-            let boxes: Vec<OutlinedBox> = (0..bvh.nodes.len())
-                .filter(|&i| self.shape.depth.get(i) == Some(&level))
+            let mut boxes: Vec<OutlinedBox> = outline
+                .level(level)
                 .map(|i| OutlinedBox {
-                    bounds: bvh.nodes[i].bounds(),
+                    bounds: outline.nodes[i].bounds,
                     color: if o.color_by_node {
                         palette(i)
                     } else {
@@ -507,80 +538,91 @@ impl State {
                     },
                 })
                 .collect();
+            // A k-d tree's split planes at this depth, in white over their cells.
+            boxes.extend(outline.level(level).filter_map(|i| {
+                outline.nodes[i].plane.map(|bounds| OutlinedBox {
+                    bounds,
+                    color: [255, 255, 255, 230],
+                })
+            }));
             outline_boxes(frame, rgba, &job.camera, &boxes, o.see_through);
         }
         let node = o.walk? as usize;
-        if node >= bvh.nodes.len() {
-            return None;
-        }
-        let n = &bvh.nodes[node];
+        let n = outline.nodes.get(node)?;
         let mut info = WalkInfo {
             node: node as u32,
-            depth: self.shape.depth.get(node).copied().unwrap_or(0),
-            surface_area: n.bounds().surface_area(),
+            depth: n.depth,
+            surface_area: n.bounds.surface_area(),
             triangles: 0,
             sah_cost: 0.0,
-            children: None,
+            children: n.children().collect(),
         };
-        const LEFT: [u8; 4] = [255, 140, 40, 150];
-        const RIGHT: [u8; 4] = [60, 170, 255, 150];
+        const FIRST: [u8; 4] = [255, 140, 40, 150];
+        const SECOND: [u8; 4] = [60, 170, 255, 150];
+        let child_color = |k: usize, count: usize| match (k, count) {
+            (0, _) => FIRST,
+            (1, 2) => SECOND,
+            _ => {
+                let [r, g, b, _] = palette(k);
+                [r, g, b, 150]
+            }
+        };
         let mut boxes = vec![OutlinedBox {
-            bounds: n.bounds(),
+            bounds: n.bounds,
             color: [255, 255, 255, 255],
         }];
-        let p = &self.params;
+        let p = &self.params.bvh;
         if n.is_leaf() {
-            info.triangles = n.count as usize;
-            info.sah_cost = p.c_isect * n.count as f32;
-            let under: std::collections::HashSet<u32> =
-                bvh.triangles_under(node).into_iter().collect();
-            tint_triangles(frame, rgba, |t| under.contains(&t).then_some(LEFT));
+            let under = outline.triangles_under(node);
+            info.triangles = under.len();
+            info.sah_cost = p.c_isect * under.len() as f32;
+            let mut mark = vec![false; triangle_count];
+            for &t in &under {
+                if let Some(m) = mark.get_mut(t as usize) {
+                    *m = true;
+                }
+            }
+            tint_triangles(frame, rgba, |t| {
+                (mark.get(t as usize) == Some(&true)).then_some(FIRST)
+            });
         } else {
-            let l = n.left_first as usize;
-            let (a, b) = (bvh.triangles_under(l), bvh.triangles_under(l + 1));
-            info.triangles = a.len() + b.len();
-            info.children = Some([l, l + 1]);
             let area = info.surface_area.max(f32::MIN_POSITIVE);
-            let child = |k: usize| bvh.nodes[k].bounds().surface_area() / area;
-            info.sah_cost = p.c_trav
-                + child(l) * a.len() as f32 * p.c_isect
-                + child(l + 1) * b.len() as f32 * p.c_isect;
-            let mut side = vec![0u8; triangle_count];
-            for &t in &a {
-                side[t as usize] = 1;
+            let count = info.children.len();
+            // Which child a triangle lies under (the last one wins where cells share it).
+            let mut side = vec![u8::MAX; triangle_count];
+            let mut all = std::collections::HashSet::new();
+            info.sah_cost = p.c_trav;
+            for (k, &c) in info.children.iter().enumerate() {
+                let under = outline.triangles_under(c);
+                let child = &outline.nodes[c];
+                info.sah_cost +=
+                    child.bounds.surface_area() / area * under.len() as f32 * p.c_isect;
+                for &t in &under {
+                    if let Some(s) = side.get_mut(t as usize) {
+                        *s = k as u8;
+                    }
+                }
+                all.extend(under);
+                let [r, g, b, _] = child_color(k, count);
+                boxes.push(OutlinedBox {
+                    bounds: child.bounds,
+                    color: [r, g, b, 255],
+                });
             }
-            for &t in &b {
-                side[t as usize] = 2;
-            }
+            info.triangles = all.len();
             tint_triangles(frame, rgba, |t| match side.get(t as usize) {
-                Some(1) => Some(LEFT),
-                Some(2) => Some(RIGHT),
+                Some(&k) if k != u8::MAX => Some(child_color(k as usize, count)),
                 _ => None,
             });
-            for (k, c) in [(l, LEFT), (l + 1, RIGHT)] {
+            if let Some(plane) = n.plane {
                 boxes.push(OutlinedBox {
-                    bounds: bvh.nodes[k].bounds(),
-                    color: [c[0], c[1], c[2], 255],
+                    bounds: plane,
+                    color: [255, 255, 255, 255],
                 });
             }
         }
         outline_boxes(frame, rgba, &job.camera, &boxes, true);
         Some(info)
-    }
-}
-
-fn tree_shape(bvh: &Bvh) -> TreeShape {
-    let depth = bvh.node_depths();
-    let left = bvh
-        .nodes
-        .iter()
-        .map(|n| if n.is_leaf() { u32::MAX } else { n.left_first })
-        .collect();
-    TreeShape {
-        parent: bvh.parents(),
-        left,
-        max_depth: depth.iter().copied().max().unwrap_or(0),
-        depth,
     }
 }
 

@@ -3,8 +3,7 @@
 //! from a drag's move command to the refitted frame (the latency a user feels while
 //! dragging).
 
-use crate::accel::Counter;
-use crate::accel::bvh::{BuildParams, TraversalOrder};
+use crate::accel::{Counter, StructureParams};
 use crate::app::worker::{Command, Overlay, RenderJob, Reply, Worker};
 use crate::render::{Mode, RayKind};
 use crate::scene::Camera;
@@ -33,13 +32,14 @@ pub struct FrameReport {
     pub moved: usize,
 }
 
-/// A drag step: from a move of the dragged triangles to the refitted preview frame.
+/// A drag step: from a move of the dragged triangles to the refitted (or, for a structure
+/// that cannot refit, rebuilt) preview frame.
 #[derive(Clone, Debug)]
 pub struct DragTime {
     pub mode: Mode,
     pub median: Duration,
     pub fps: f64,
-    /// Medians of the two parts of a step: the refit, and tracing the new frame.
+    /// Medians of the two parts of a step: the refit or rebuild, and tracing the new frame.
     pub refit: Duration,
     pub trace: Duration,
 }
@@ -59,6 +59,7 @@ fn frame_after(worker: &mut Worker) -> Option<Step> {
         match r {
             Reply::Frame(f) => step.trace = Some(f.frame.summary.trace_time),
             Reply::Refitted { refit_time, .. } => step.refit += refit_time,
+            Reply::RebuiltAfterMove { rebuild_time, .. } => step.refit += rebuild_time,
             _ => {}
         }
     }
@@ -74,15 +75,13 @@ fn median(mut v: Vec<Duration>) -> Duration {
 /// should be a preview, as while dragging. `sizes` are (width, height, preview).
 pub fn run(
     spec: &str,
+    params: &StructureParams,
     camera: Option<Camera>,
     sizes: &[(u32, u32, bool)],
     runs: usize,
 ) -> Result<FrameReport, String> {
     let mut worker = Worker::spawn(|| {});
-    worker.send(Command::Build {
-        params: BuildParams::default(),
-        order: TraversalOrder::FrontToBack,
-    });
+    worker.send(Command::Build(*params));
     worker.send(Command::Load(spec.to_string()));
     let mut scene = None;
     for r in worker.wait_idle(Duration::from_secs(300)) {

@@ -1,5 +1,6 @@
-//! The benchmark behind `bvhlab bench`: best-of-several build times and SAH cost, then
-//! Mrays/s on the standard primary, shadow and diffuse ray sets of a view.
+//! The benchmark behind `bvhlab bench`: best-of-several build times, memory and (for a
+//! BVH) SAH cost, then Mrays/s and the mean work per ray on the standard primary, shadow
+//! and diffuse ray sets of a view, for one structure or every structure on the same rays.
 
 pub mod accuracy;
 pub mod compare;
@@ -8,9 +9,10 @@ pub mod plot;
 pub mod rays;
 pub mod stress;
 
+use crate::accel::bvh::BuildReport;
 use crate::accel::bvh::packet::PACKET_SIZE;
-use crate::accel::bvh::{BuildError, BuildReport, build};
-use crate::accel::{Accel, BuildParams, Bvh, NoStats};
+use crate::accel::structure::{self, AccelKind, Built, Structure, StructureError};
+use crate::accel::{Accel, Counters, NoStats, StructureParams, StructureReport};
 #[cfg(feature = "embree")]
 use crate::geometry::Watertight;
 use crate::geometry::{Intersector, IntersectorKind, Ray};
@@ -26,7 +28,8 @@ pub struct BenchConfig {
     pub light: Vec3,
     pub width: u32,
     pub height: u32,
-    pub params: BuildParams,
+    /// The structure (`params.kind`) and the parameters of every structure.
+    pub params: StructureParams,
     /// Builds to time (the best counts).
     pub builds: u32,
     /// Runs over each ray set (the best counts).
@@ -41,7 +44,7 @@ pub struct BenchConfig {
 #[derive(Debug, thiserror::Error)]
 pub enum BenchError {
     #[error(transparent)]
-    Build(#[from] BuildError),
+    Build(#[from] StructureError),
     #[error("{0}")]
     Peer(String),
 }
@@ -52,6 +55,17 @@ pub struct RaySetResult {
     /// Hits for closest-hit sets, occluded rays for the shadow set.
     pub hits: usize,
     pub best: Duration,
+    /// Mean counters per ray (from one counting pass, not timed); `None` where not counted.
+    pub mean: Option<MeanWork>,
+}
+
+/// The mean work per ray of a ray set.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MeanWork {
+    pub nodes: f64,
+    pub box_tests: f64,
+    pub triangle_tests: f64,
+    pub repeated_tests: f64,
 }
 
 impl RaySetResult {
@@ -71,7 +85,12 @@ pub struct BenchResult {
     pub triangles: usize,
     pub threads: usize,
     pub intersector: IntersectorKind,
-    pub report: BuildReport,
+    pub params: StructureParams,
+    pub report: StructureReport,
+    /// The BVH's own report (SAH cost), for a BVH.
+    pub bvh_report: Option<BuildReport>,
+    /// Brute force over a large scene traces every `sampled`-th ray of each set only.
+    pub sampled: usize,
     pub primary: RaySetResult,
     /// The primary rays again, traced in packets of 8 × 8 pixels.
     pub primary_packets: RaySetResult,
@@ -98,36 +117,163 @@ pub struct PeerResult {
     pub differing_primary_hits: usize,
 }
 
-/// Runs the benchmark on the current rayon thread pool.
+/// Runs the benchmark of `cfg.params.kind` on the current rayon thread pool.
 pub fn run(scene: &Scene, cfg: &BenchConfig) -> Result<BenchResult, BenchError> {
-    let (bvh, report) = best_build(
-        cfg.builds,
-        || build(&scene.triangles, &cfg.params),
-        |(_, report)| report.build_time,
-    )?;
-    let sets = RaySets::standard(&bvh, scene, &cfg.camera, cfg.light, cfg.width, cfg.height);
-    let [primary, diffuse, shadow] =
-        crate::with_intersector!(cfg.intersector, I => time_sets::<_, I>(&bvh, &sets, cfg.runs));
-    let primary_packets = crate::with_intersector!(cfg.intersector, I => {
-        time_packets::<_, I>(&bvh, &sets.primary_tiles, cfg.runs)
-    });
-    let peer = if cfg.embree {
-        Some(run_embree(&bvh, scene, cfg, &sets)?)
-    } else {
-        None
+    let built = timed_build(scene, cfg, &cfg.params)?;
+    let sets = RaySets::standard(
+        &built.structure,
+        scene,
+        &cfg.camera,
+        cfg.light,
+        cfg.width,
+        cfg.height,
+    );
+    let mut result = measure(scene, cfg, &cfg.params, &built, &sets);
+    if cfg.embree {
+        result.peer = Some(run_embree(&built.structure, scene, cfg, &sets)?);
+    }
+    Ok(result)
+}
+
+/// Runs the benchmark of every structure in `kinds` on the same ray sets (made with a BVH
+/// built with `cfg.params.bvh`), calling `done` after each.
+pub fn run_all(
+    scene: &Scene,
+    cfg: &BenchConfig,
+    kinds: &[AccelKind],
+    done: &mut dyn FnMut(&BenchResult),
+) -> Result<Vec<BenchResult>, BenchError> {
+    let bvh_params = StructureParams {
+        kind: AccelKind::Bvh,
+        ..cfg.params
     };
-    Ok(BenchResult {
+    let bvh = structure::build(&scene.triangles, &bvh_params, &Default::default())?;
+    let sets = RaySets::standard(
+        &bvh.structure,
+        scene,
+        &cfg.camera,
+        cfg.light,
+        cfg.width,
+        cfg.height,
+    );
+    drop(bvh);
+    let mut out = Vec::new();
+    for &kind in kinds {
+        let params = StructureParams { kind, ..cfg.params };
+        let built = timed_build(scene, cfg, &params)?;
+        let result = measure(scene, cfg, &params, &built, &sets);
+        done(&result);
+        out.push(result);
+    }
+    Ok(out)
+}
+
+/// The best of `cfg.builds` builds of the structure `params` names.
+fn timed_build(
+    scene: &Scene,
+    cfg: &BenchConfig,
+    params: &StructureParams,
+) -> Result<Built, BenchError> {
+    let builds = if params.kind.is_brute_force() {
+        1
+    } else {
+        cfg.builds
+    };
+    Ok(best_build(
+        builds,
+        || structure::build(&scene.triangles, params, &Default::default()),
+        |b| b.report.build_time,
+    )?)
+}
+
+/// Brute force tests every triangle for every ray: over a large scene it traces every k-th
+/// ray only, so that no set takes more than about this many triangle tests.
+const BRUTE_FORCE_TESTS: usize = 1 << 31;
+
+/// Times the ray sets through `built` and counts the mean work per ray.
+fn measure(
+    scene: &Scene,
+    cfg: &BenchConfig,
+    params: &StructureParams,
+    built: &Built,
+    full: &RaySets,
+) -> BenchResult {
+    let accel = &built.structure;
+    let sampled = if params.kind.is_brute_force() {
+        (scene.triangles.len() * full.primary.len()).div_ceil(BRUTE_FORCE_TESTS)
+    } else {
+        1
+    }
+    .max(1);
+    let subset;
+    let sets = if sampled > 1 {
+        subset = full.every(sampled);
+        &subset
+    } else {
+        full
+    };
+    let [mut primary, mut diffuse, mut shadow] =
+        crate::with_intersector!(cfg.intersector, I => time_sets::<_, I>(accel, sets, cfg.runs));
+    let primary_packets = crate::with_intersector!(cfg.intersector, I => {
+        time_packets::<_, I>(accel, &sets.primary_tiles, cfg.runs)
+    });
+    let [p, d, s] = mean_work(accel, sets);
+    primary.mean = Some(p);
+    diffuse.mean = Some(d);
+    shadow.mean = Some(s);
+    BenchResult {
         scene: scene.name.clone(),
         triangles: scene.triangles.len(),
         threads: rayon::current_num_threads(),
         intersector: cfg.intersector,
-        report,
+        params: *params,
+        report: built.report.clone(),
+        bvh_report: built.bvh_report.clone(),
+        sampled,
         primary,
         primary_packets,
         diffuse,
         shadow,
-        peer,
-    })
+        peer: None,
+    }
+}
+
+/// The mean counters per ray of the primary, diffuse and shadow sets (one counting pass).
+pub fn mean_work(accel: &Structure, sets: &RaySets) -> [MeanWork; 3] {
+    let mean = |rays: &[Ray], any: bool| {
+        let sum = rays
+            .par_chunks(256)
+            .map(|chunk| {
+                let mut c = Counters::default();
+                for r in chunk {
+                    if any {
+                        accel.any_hit::<crate::geometry::Watertight, _>(r, &mut c);
+                    } else {
+                        accel.closest_hit::<crate::geometry::Watertight, _>(r, &mut c);
+                    }
+                }
+                [
+                    c.nodes_visited,
+                    c.box_tests,
+                    c.triangle_tests,
+                    c.repeated_tests,
+                ]
+                .map(u64::from)
+            })
+            .reduce(|| [0; 4], |a, b| std::array::from_fn(|k| a[k] + b[k]));
+        let n = rays.len().max(1) as f64;
+        MeanWork {
+            nodes: sum[0] as f64 / n,
+            box_tests: sum[1] as f64 / n,
+            triangle_tests: sum[2] as f64 / n,
+            repeated_tests: sum[3] as f64 / n,
+        }
+    };
+    [
+        mean(&sets.primary, false),
+        mean(&sets.diffuse, false),
+        mean(&sets.shadow, true),
+    ]
 }
 
 /// The fastest of `builds` (at least one) builds, by the time `took` reads off each.
@@ -153,14 +299,19 @@ pub const EMBREE_MISSING: &str = "this bvhlab was built without Embree: install 
      and build with `cargo build --release --features embree`";
 
 #[cfg(not(feature = "embree"))]
-fn run_embree(_: &Bvh, _: &Scene, _: &BenchConfig, _: &RaySets) -> Result<PeerResult, BenchError> {
+fn run_embree(
+    _: &Structure,
+    _: &Scene,
+    _: &BenchConfig,
+    _: &RaySets,
+) -> Result<PeerResult, BenchError> {
     Err(BenchError::Peer(EMBREE_MISSING.into()))
 }
 
 /// Embree on the same ray sets, with as many build and trace threads as bvhlab had.
 #[cfg(feature = "embree")]
 fn run_embree(
-    bvh: &Bvh,
+    ours: &Structure,
     scene: &Scene,
     cfg: &BenchConfig,
     sets: &RaySets,
@@ -178,7 +329,7 @@ fn run_embree(
         .primary
         .par_iter()
         .map(|r| {
-            let ours = bvh.closest_hit::<Watertight, _>(r, &mut NoStats);
+            let ours = ours.closest_hit::<Watertight, _>(r, &mut NoStats);
             let theirs = embree.closest_hit::<Watertight, _>(r, &mut NoStats);
             match (ours, theirs) {
                 (Some(a), Some(b)) if a.triangle == b.triangle => (0, 0),
@@ -261,6 +412,7 @@ fn time_chunks(
         rays: rays.len(),
         hits: 0,
         best: Duration::MAX,
+        mean: None,
     };
     for _ in 0..runs.max(1) {
         let start = Instant::now();
@@ -273,26 +425,41 @@ fn time_chunks(
 impl BenchResult {
     pub fn to_json(&self) -> serde_json::Value {
         let set = |r: &RaySetResult, hits: &str| {
-            serde_json::json!({
+            let mut v = serde_json::json!({
                 "rays": r.rays,
                 hits: r.hits,
                 "mrays_per_s": round3(r.mrays_per_s()),
-            })
+            });
+            if let Some(m) = &r.mean {
+                v["mean_nodes"] = round3(m.nodes).into();
+                v["mean_box_tests"] = round3(m.box_tests).into();
+                v["mean_triangle_tests"] = round3(m.triangle_tests).into();
+                v["mean_repeated_tests"] = round3(m.repeated_tests).into();
+            }
+            v
         };
-        let t = &self.report.tree;
+        let r = &self.report;
+        let b = &self.params.bvh;
         serde_json::json!({
             "scene": self.scene,
+            "accel": self.params.kind.label(),
             "triangles": self.triangles,
             "threads": self.threads,
             "intersector": self.intersector.label(),
-            "builder": self.report.params.strategy.label(),
-            "buckets": self.report.params.buckets,
-            "max_leaf_size": self.report.params.max_leaf_size,
-            "build_ms": round3(self.report.build_ms()),
-            "sah_cost": round3(t.sah_cost),
-            "nodes": t.nodes,
-            "leaves": t.leaves,
-            "max_leaf_depth": t.max_leaf_depth,
+            "builder": b.strategy.label(),
+            "buckets": b.buckets,
+            "max_leaf_size": b.max_leaf_size,
+            "mailbox": self.params.mailbox,
+            "build_ms": round3(r.build_ms()),
+            "bytes": r.bytes,
+            "sah_cost": self.bvh_report.as_ref().map(|b| round3(b.tree.sah_cost)),
+            "nodes": r.nodes,
+            "leaves": r.leaves,
+            "empty_leaves": r.empty_leaves,
+            "max_leaf_depth": r.max_depth,
+            "references_per_triangle": round3(r.references_per_triangle()),
+            "largest_leaf": r.largest_leaf,
+            "sampled_every": self.sampled,
             "primary": set(&self.primary, "hits"),
             "primary_packets": set(&self.primary_packets, "hits"),
             "diffuse": set(&self.diffuse, "hits"),

@@ -70,6 +70,26 @@ impl RaySets {
     }
 }
 
+impl RaySets {
+    /// Every `k`-th ray of each set (whole 8 × 8 tiles for the packet set).
+    pub fn every(&self, k: usize) -> RaySets {
+        let k = k.max(1);
+        let pick = |rays: &[Ray]| rays.iter().step_by(k).copied().collect();
+        RaySets {
+            primary: pick(&self.primary),
+            primary_tiles: self
+                .primary_tiles
+                .chunks(64)
+                .step_by(k)
+                .flatten()
+                .copied()
+                .collect(),
+            shadow: pick(&self.shadow),
+            diffuse: pick(&self.diffuse),
+        }
+    }
+}
+
 /// A direction on the hemisphere around the unit normal `n`, with density ∝ cos θ, from a
 /// deterministic hash of `key` (the same rays every run).
 pub fn cosine_direction(n: Vec3, key: u64) -> Vec3 {

@@ -1,7 +1,7 @@
 //! `bvhlab` (no command) and `bvhlab app`: the explorer window; `bvhlab screenshot`: the same
 //! window in a given state, saved to a PNG.
 
-use super::check_size;
+use super::{AccelArg, check_size};
 use anyhow::Result;
 use bvhlab::app::screenshot::{ScreenshotPlan, Shot};
 use bvhlab::app::{Launch, run as run_app};
@@ -16,11 +16,15 @@ pub struct AppArgs {
     /// Start from the default settings and remember nothing.
     #[arg(long)]
     pub fresh: bool,
+    /// The structure to build (default: the last one).
+    #[arg(long, value_enum)]
+    pub accel: Option<AccelArg>,
 }
 
 pub fn run(args: AppArgs) -> Result<()> {
     run_app(Launch {
         scene: args.scene,
+        accel: args.accel.map(AccelArg::kind).transpose()?,
         fresh: args.fresh,
         screenshot: None,
     })
@@ -57,6 +61,12 @@ pub struct ScreenshotArgs {
     /// Window height in pixels.
     #[arg(long, default_value_t = 860)]
     pub height: u32,
+    /// The structure to build.
+    #[arg(long, value_enum, default_value_t = AccelArg::Bvh)]
+    pub accel: AccelArg,
+    /// For `--mode levels`: the depth shown (default 3).
+    #[arg(long)]
+    pub level: Option<u32>,
 }
 
 pub fn screenshot(args: ScreenshotArgs) -> Result<()> {
@@ -71,9 +81,13 @@ pub fn screenshot(args: ScreenshotArgs) -> Result<()> {
     };
     // Fail before opening a window when the scene cannot load.
     bvhlab::scene::Scene::load(&args.scene)?;
+    let accel = args.accel.kind()?;
+    let mut plan = ScreenshotPlan::new(args.out, shot, args.width, args.height);
+    plan.level = args.level;
     run_app(Launch {
         scene: Some(args.scene),
+        accel: Some(accel),
         fresh: true,
-        screenshot: Some(ScreenshotPlan::new(args.out, shot, args.width, args.height)),
+        screenshot: Some(plan),
     })
 }

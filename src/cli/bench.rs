@@ -2,6 +2,7 @@
 
 use super::{BuildArgs, IntersectorArg, ViewArgs, check_size, load_scene, thread_pool};
 use anyhow::{Context, Result};
+use bvhlab::accel::AccelKind;
 use bvhlab::bench::accuracy::{self, AccuracyConfig};
 use bvhlab::bench::{self, BenchConfig};
 use bvhlab::scene::Scene;
@@ -69,16 +70,28 @@ pub fn run(args: BenchArgs) -> Result<()> {
         light: args.view.light(&scene),
         width: args.width,
         height: args.height,
-        params: args.build.params(),
+        params: args.build.structure_params_for(match args.build.accel {
+            super::AccelArg::All => AccelKind::Bvh,
+            a => a.kind()?,
+        }),
         builds: args.builds,
         runs: args.runs,
         intersector: args.intersector.kind(),
         embree: args.embree,
     };
+    let all = args.build.accel == super::AccelArg::All;
+    if all && (args.embree || args.accuracy) {
+        anyhow::bail!(
+            "--accel all times bvhlab's structures only: leave out --embree and --accuracy"
+        );
+    }
     cfg.params.validate()?;
     let pool = thread_pool(args.threads)?;
     if args.accuracy {
         return run_accuracy(&args, &scene, &cfg, &pool);
+    }
+    if all {
+        return run_all(&args, &scene, &cfg, &pool);
     }
     let result = pool.install(|| bench::run(&scene, &cfg))?;
     if args.json {
@@ -86,29 +99,45 @@ pub fn run(args: BenchArgs) -> Result<()> {
         return Ok(());
     }
     let r = &result;
+    let what = match &r.bvh_report {
+        Some(b) => format!("BVH2, {}", b.params.strategy.label()),
+        None => r.params.kind.title().to_string(),
+    };
     out!(
-        "{}: {} triangles, {} threads, {}, {} intersector",
+        "{}: {} triangles, {} threads, {what}, {} intersector",
         r.scene,
         r.triangles,
         r.threads,
-        r.report.params.strategy.label(),
         r.intersector.label()
     );
+    let sah = r.bvh_report.as_ref().map_or(String::new(), |b| {
+        format!(", SAH cost {:.2}", b.tree.sah_cost)
+    });
     out!(
-        "  build {:.2} ms (best of {}), SAH cost {:.2}, {} nodes",
+        "  build {:.2} ms (best of {}){sah}, {} nodes, {:.2} MiB, {:.2} references per triangle",
         r.report.build_ms(),
         cfg.builds.max(1),
-        r.report.tree.sah_cost,
-        r.report.tree.nodes
+        r.report.nodes,
+        r.report.mib(),
+        r.report.references_per_triangle()
     );
+    if r.sampled > 1 {
+        out!("  (brute force: every {}th ray of each set)", r.sampled);
+    }
     for (name, set, what) in [
         ("primary", &r.primary, "hits"),
         ("primary in 8×8 packets", &r.primary_packets, "hits"),
         ("diffuse", &r.diffuse, "hits"),
         ("shadow", &r.shadow, "occluded"),
     ] {
+        let work = set.mean.map_or(String::new(), |m| {
+            format!(
+                "  {:>8.1} nodes {:>8.1} triangle tests per ray",
+                m.nodes, m.triangle_tests
+            )
+        });
         out!(
-            "  {name:<22} {:>9} rays  {:>9} {what:<8}  {:>7.2} Mrays/s",
+            "  {name:<22} {:>9} rays  {:>9} {what:<8}  {:>7.2} Mrays/s{work}",
             set.rays,
             set.hits,
             set.mrays_per_s()
@@ -116,6 +145,80 @@ pub fn run(args: BenchArgs) -> Result<()> {
     }
     if let Some(p) = &r.peer {
         print_peer(r, p)?;
+    }
+    Ok(())
+}
+
+/// `--accel all`: every structure on the same ray sets, as one table (or one JSON object
+/// with a `structures` array).
+fn run_all(
+    args: &BenchArgs,
+    scene: &Scene,
+    cfg: &BenchConfig,
+    pool: &rayon::ThreadPool,
+) -> Result<()> {
+    let quiet = args.json;
+    let results = pool.install(|| {
+        bench::run_all(scene, cfg, &AccelKind::ALL, &mut |r| {
+            if !quiet {
+                eprintln!("  done: {}", r.params.kind.label());
+            }
+        })
+    })?;
+    if args.json {
+        let structures: Vec<serde_json::Value> = results.iter().map(|r| r.to_json()).collect();
+        out!(
+            "{}",
+            serde_json::json!({
+                "scene": scene.name,
+                "triangles": scene.triangles.len(),
+                "threads": results.first().map_or(0, |r| r.threads),
+                "structures": structures,
+            })
+        );
+        return Ok(());
+    }
+    out!(
+        "{}: {} triangles, {} threads, {}×{} ray sets (Mrays/s; mean nodes visited / triangle tests per ray)",
+        scene.name,
+        scene.triangles.len(),
+        results.first().map_or(0, |r| r.threads),
+        cfg.width,
+        cfg.height
+    );
+    out!(
+        "  {:<17} {:>9} {:>8} {:>23} {:>23} {:>23}",
+        "structure",
+        "build ms",
+        "MiB",
+        "primary",
+        "diffuse",
+        "shadow"
+    );
+    for r in &results {
+        let cell = |s: &bench::RaySetResult| {
+            let m = s.mean.unwrap_or_default();
+            format!(
+                "{:>7.2} {:>7.1} /{:>7.1}",
+                s.mrays_per_s(),
+                m.nodes,
+                m.triangle_tests
+            )
+        };
+        let note = if r.sampled > 1 {
+            format!("  (every {}th ray)", r.sampled)
+        } else {
+            String::new()
+        };
+        out!(
+            "  {:<17} {:>9.2} {:>8.2} {:>23} {:>23} {:>23}{note}",
+            r.params.kind.label(),
+            r.report.build_ms(),
+            r.report.mib(),
+            cell(&r.primary),
+            cell(&r.diffuse),
+            cell(&r.shadow)
+        );
     }
     Ok(())
 }

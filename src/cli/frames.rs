@@ -1,7 +1,7 @@
 //! `bvhlab frames`: frame times of the explorer app's worker (no window), at preview and
 //! full resolution, and the drag-to-refitted-frame time.
 
-use super::{ViewArgs, load_scene};
+use super::{BuildArgs, ViewArgs, load_scene};
 use anyhow::{Result, anyhow};
 use bvhlab::bench::frames;
 use clap::Args;
@@ -16,6 +16,8 @@ pub struct FramesArgs {
     /// Frames per measurement (the median is reported).
     #[arg(long, default_value_t = 15)]
     pub runs: usize,
+    #[command(flatten)]
+    pub build: BuildArgs,
 }
 
 pub fn run(args: FramesArgs) -> Result<()> {
@@ -24,11 +26,15 @@ pub fn run(args: FramesArgs) -> Result<()> {
         .then(|| args.view.camera(&scene))
         .transpose()?;
     let sizes = [(640, 360, true), (640, 360, false), (1280, 720, false)];
-    let r = frames::run(&args.scene, camera, &sizes, args.runs.max(1)).map_err(|e| anyhow!(e))?;
+    let params = args.build.structure_params()?;
+    params.validate()?;
+    let r = frames::run(&args.scene, &params, camera, &sizes, args.runs.max(1))
+        .map_err(|e| anyhow!(e))?;
     out!(
-        "{}: {} triangles, {} threads",
+        "{}: {} triangles, {}, {} threads",
         r.scene,
         r.triangles,
+        params.kind.title(),
         rayon::current_num_threads()
     );
     for f in &r.frames {
@@ -44,16 +50,21 @@ pub fn run(args: FramesArgs) -> Result<()> {
     }
     for d in &r.drags {
         out!(
-            "  drag, {:<30} {:>7.1} ms/step   ({:.1} frames/s; refit {:.1} ms, trace {:.1} ms)",
+            "  drag, {:<30} {:>7.1} ms/step   ({:.1} frames/s; {} {:.1} ms, trace {:.1} ms)",
             d.mode.label(),
             d.median.as_secs_f64() * 1e3,
             d.fps,
+            if params.kind.can_refit() {
+                "refit"
+            } else {
+                "rebuild"
+            },
             d.refit.as_secs_f64() * 1e3,
             d.trace.as_secs_f64() * 1e3
         );
     }
     out!(
-        "  (a drag step moves {} triangles, refits and traces the {}×{} preview)",
+        "  (a drag step moves {} triangles, refits or rebuilds, and traces the {}×{} preview)",
         r.moved,
         sizes[0].0,
         sizes[0].1

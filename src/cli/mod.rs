@@ -10,13 +10,22 @@ pub mod trace;
 
 use anyhow::{Context, Result, bail};
 use bvhlab::accel::bvh::{BuildParams, Strategy, TraversalOrder};
+use bvhlab::accel::structure::{self, AccelKind, Built, StructureParams};
 use bvhlab::geometry::IntersectorKind;
 use bvhlab::scene::{Camera, Scene};
 use clap::{Args, ValueEnum};
 use glam::Vec3;
 
+/// The structure and its build parameters, shared by every subcommand that builds one.
 #[derive(Args, Clone)]
 pub struct BuildArgs {
+    /// Acceleration structure (`all`: every structure, `bench` only).
+    #[arg(long, value_enum, default_value_t = AccelArg::Bvh)]
+    pub accel: AccelArg,
+    /// Spatial structures: test a triangle once per ray even if several cells hold it
+    /// (`--mailbox false` to see the repeats).
+    #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
+    pub mailbox: bool,
     /// Split strategy.
     #[arg(long, value_enum, default_value_t = BuilderArg::SahBinned)]
     pub builder: BuilderArg,
@@ -51,14 +60,28 @@ pub enum OrderArg {
     Naive,
 }
 
-#[derive(ValueEnum, Clone, Copy)]
+#[derive(ValueEnum, Clone, Copy, PartialEq)]
 pub enum AccelArg {
-    /// The BVH built with the --builder parameters.
+    /// The BVH2 built with the --builder parameters.
     Bvh,
     /// Every triangle for every ray.
     BruteForce,
-    /// Every triangle, after testing the scene's bounding box.
+    /// Every triangle whose own box the ray pierces, after the scene's box.
     BruteForceBbox,
+    /// Every structure in turn (bench only).
+    All,
+}
+
+impl AccelArg {
+    /// The structure this names; `all` is for `bench` only.
+    pub fn kind(self) -> Result<AccelKind> {
+        Ok(match self {
+            AccelArg::Bvh => AccelKind::Bvh,
+            AccelArg::BruteForce => AccelKind::BruteForce,
+            AccelArg::BruteForceBbox => AccelKind::BruteForceBbox,
+            AccelArg::All => bail!("--accel all is only for `bvhlab bench`; name one structure"),
+        })
+    }
 }
 
 /// The ray–triangle test (see `bvhlab::geometry::IntersectorKind`).
@@ -116,6 +139,35 @@ impl BuildArgs {
             OrderArg::FrontToBack => TraversalOrder::FrontToBack,
             OrderArg::Naive => TraversalOrder::Naive,
         }
+    }
+
+    /// The parameters of every structure, for the structure `kind`.
+    pub fn structure_params_for(&self, kind: AccelKind) -> StructureParams {
+        StructureParams {
+            kind,
+            bvh: self.params(),
+            order: self.order(),
+            mailbox: self.mailbox,
+        }
+    }
+
+    /// The parameters of the one structure `--accel` names.
+    pub fn structure_params(&self) -> Result<StructureParams> {
+        Ok(self.structure_params_for(self.accel.kind()?))
+    }
+
+    /// Builds the structure `--accel` names and says so on stderr.
+    pub fn build(&self, triangles: &[bvhlab::geometry::Triangle]) -> Result<Built> {
+        let params = self.structure_params()?;
+        let built = structure::build(triangles, &params, &Default::default())
+            .with_context(|| format!("cannot build the {}", params.kind.title()))?;
+        eprintln!(
+            "built {} over {} triangles in {:.2} ms",
+            built.report.structure,
+            built.report.triangles,
+            built.report.build_ms()
+        );
+        Ok(built)
     }
 }
 

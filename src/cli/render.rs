@@ -1,9 +1,8 @@
 //! `bvhlab render`: a scene through the CPU ray tracer into a PNG.
 
-use super::{AccelArg, BuildArgs, IntersectorArg, ModeArg, ViewArgs, check_size, load_scene};
+use super::{BuildArgs, IntersectorArg, ModeArg, ViewArgs, check_size, load_scene};
 use anyhow::{Context, Result, bail};
-use bvhlab::accel::bvh::build;
-use bvhlab::accel::{BruteForce, Counter};
+use bvhlab::accel::Counter;
 use bvhlab::render::{self, Mode, RayKind, RenderSettings};
 use bvhlab::with_intersector;
 use clap::Args;
@@ -34,9 +33,6 @@ pub struct RenderArgs {
     pub fov: Option<f32>,
     #[command(flatten)]
     pub view: ViewArgs,
-    /// Acceleration structure.
-    #[arg(long, value_enum, default_value_t = AccelArg::Bvh)]
-    pub accel: AccelArg,
     /// Ray–triangle test used by every ray.
     #[arg(long, value_enum, default_value_t = IntersectorArg::Watertight)]
     pub intersector: IntersectorArg,
@@ -78,26 +74,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
         counters: true,
     };
     let kind = args.intersector.kind();
-    let frame = match args.accel {
-        AccelArg::Bvh => {
-            let (mut bvh, report) = build(&scene.triangles, &args.build.params())?;
-            bvh.order = args.build.order();
-            eprintln!(
-                "built {} over {} triangles in {:.2} ms",
-                report.params.strategy.label(),
-                report.triangles,
-                report.build_ms()
-            );
-            with_intersector!(kind, I => render::render_with::<_, I>(&bvh, &scene, &settings))
-        }
-        AccelArg::BruteForce | AccelArg::BruteForceBbox => {
-            let accel = BruteForce::new(
-                &scene.triangles,
-                matches!(args.accel, AccelArg::BruteForceBbox),
-            );
-            with_intersector!(kind, I => render::render_with::<_, I>(&accel, &scene, &settings))
-        }
-    };
+    let built = args.build.build(&scene.triangles)?;
+    let frame = with_intersector!(kind, I => render::render_with::<_, I>(&built.structure, &scene, &settings));
     let out = args.out.unwrap_or_else(|| {
         let name = format!("bvhlab-{}.png", sanitize(&scene.name));
         PathBuf::from(name)
@@ -119,7 +97,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     for rays in [RayKind::Primary, RayKind::Shadow] {
         let c = |k| s.counter(rays, k);
         out!(
-            "  {:<13} mean (max): {:.1} ({}) nodes visited, {:.1} ({}) box tests, {:.1} ({}) triangle tests",
+            "  {:<13} mean (max): {:.1} ({}) nodes visited, {:.1} ({}) box tests, {:.1} ({}) triangle tests, {:.1} ({}) repeated",
             rays.label(),
             c(Counter::NodesVisited).mean,
             c(Counter::NodesVisited).max,
@@ -127,6 +105,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
             c(Counter::BoxTests).max,
             c(Counter::TriangleTests).mean,
             c(Counter::TriangleTests).max,
+            c(Counter::RepeatedTests).mean,
+            c(Counter::RepeatedTests).max,
         );
     }
     if let Some(max) = frame.heat_max {

@@ -1,8 +1,7 @@
-//! `bvhlab stats`: the build report of a BVH as a table.
+//! `bvhlab stats`: the build report of a structure as a table.
 
 use super::{BuildArgs, load_scene};
 use anyhow::Result;
-use bvhlab::accel::bvh::build;
 use clap::Args;
 
 #[derive(Args)]
@@ -16,7 +15,7 @@ pub struct StatsArgs {
 
 pub fn run(args: StatsArgs) -> Result<()> {
     let scene = load_scene(&args.scene)?;
-    let (_, report) = build(&scene.triangles, &args.build.params())?;
+    let report = args.build.build(&scene.triangles)?.report;
     out!("scene: {} ({} objects)", scene.name, scene.objects.len());
     let width = report
         .rows()

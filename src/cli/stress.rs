@@ -2,7 +2,7 @@
 //! the slab test against exact arithmetic, degenerate and grazing triangles, agreement with
 //! the f64 reference, shadow-ray self-intersection). Exits non-zero on any failure.
 
-use super::{load_scene, thread_pool};
+use super::{BuildArgs, load_scene, thread_pool};
 use anyhow::{Result, bail};
 use bvhlab::accel::bvh::{BuildParams, build};
 use bvhlab::accel::{Accel, Counters, NoStats};
@@ -54,6 +54,9 @@ pub struct StressArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// The structure under test (and its parameters); the f64 reference runs through a BVH.
+    #[command(flatten)]
+    pub build: BuildArgs,
 }
 
 pub fn run(args: StressArgs) -> Result<()> {
@@ -72,6 +75,8 @@ pub fn run(args: StressArgs) -> Result<()> {
     if let Some(s) = args.seed {
         cfg.seed = s;
     }
+    cfg.structure = args.build.structure_params()?;
+    cfg.structure.validate()?;
     let mut specs: Vec<String> = args.scenes.clone();
     if specs.is_empty() {
         specs.extend(BUILTIN.iter().map(|s| s.to_string()));
@@ -94,12 +99,12 @@ pub fn run(args: StressArgs) -> Result<()> {
             if !quiet {
                 eprintln!("  done: {line}");
             }
-        });
+        })?;
         // Time traversal on the largest scene.
         let largest = scenes.iter().max_by_key(|s| s.triangles.len());
         let timing = largest.map(axis_parallel_timing).unwrap_or_default();
-        (report, timing)
-    });
+        anyhow::Ok((report, timing))
+    })?;
     if args.json {
         let mut json = report.to_json();
         json["timing"] = serde_json::json!({
@@ -235,11 +240,12 @@ fn print_summary(r: &StressReport, timing: &Timing) -> Result<()> {
     for (k, kind) in kinds.iter().enumerate() {
         let t = &totals[k];
         out!(
-            "  {:<16} {:>10} rays  leaks: {} closest, {} any-hit (BVH); {} of {} (brute force)",
+            "  {:<16} {:>10} rays  leaks: {} closest, {} any-hit ({}); {} of {} (brute force)",
             kind.label(),
             t.rays,
             t.bvh_closest,
             t.bvh_any,
+            r.config.structure.kind.label(),
             t.brute_closest,
             t.brute_rays
         );

@@ -2,10 +2,9 @@
 //! file, traces every ray (closest hit, or occlusion with --any) and writes the answers in
 //! input order; the formats are those of `bvhlab::geometry::rayfile`.
 
-use super::{AccelArg, BuildArgs, IntersectorArg, load_scene, thread_pool};
+use super::{BuildArgs, IntersectorArg, load_scene, thread_pool};
 use anyhow::{Context, Result};
-use bvhlab::accel::bvh::build;
-use bvhlab::accel::{Accel, BruteForce, NoStats};
+use bvhlab::accel::{Accel, NoStats};
 use bvhlab::geometry::{Intersector, Ray, rayfile};
 use bvhlab::with_intersector;
 use clap::Args;
@@ -35,9 +34,6 @@ pub struct TraceArgs {
     /// Occlusion only: one byte per ray.
     #[arg(long)]
     pub any: bool,
-    /// Acceleration structure.
-    #[arg(long, value_enum, default_value_t = AccelArg::Bvh)]
-    pub accel: AccelArg,
     /// Ray–triangle test.
     #[arg(long, value_enum, default_value_t = IntersectorArg::Watertight)]
     pub intersector: IntersectorArg,
@@ -57,18 +53,9 @@ pub fn run(args: TraceArgs) -> Result<()> {
     let pool = thread_pool(args.threads)?;
     let start = Instant::now();
     let (output, answered) = pool.install(|| -> Result<(Vec<u8>, usize)> {
-        Ok(match args.accel {
-            AccelArg::Bvh => {
-                let (mut bvh, _) = build(&scene.triangles, &args.build.params())?;
-                bvh.order = args.build.order();
-                with_intersector!(args.intersector.kind(), I => trace_all::<_, I>(&bvh, &rays, args.any))
-            }
-            AccelArg::BruteForce | AccelArg::BruteForceBbox => {
-                let brute =
-                    BruteForce::new(&scene.triangles, matches!(args.accel, AccelArg::BruteForceBbox));
-                with_intersector!(args.intersector.kind(), I => trace_all::<_, I>(&brute, &rays, args.any))
-            }
-        })
+        let built = args.build.build(&scene.triangles)?;
+        let s = &built.structure;
+        Ok(with_intersector!(args.intersector.kind(), I => trace_all::<_, I>(s, &rays, args.any)))
     })?;
     let elapsed = start.elapsed();
     std::fs::write(&args.out, &output)

@@ -17,7 +17,7 @@ pub fn launch(
             Launch {
                 scene: Some(scene),
                 fresh: true,
-                screenshot: None,
+                ..Default::default()
             },
         )
     });

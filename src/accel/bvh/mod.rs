@@ -132,3 +132,34 @@ impl Bvh {
             + self.prim_indices.len() * std::mem::size_of::<u32>()
     }
 }
+
+impl Bvh {
+    /// The tree for the explorer: outline node i is BVH node i (parents precede children
+    /// and siblings are adjacent), leaves reference scene triangles.
+    pub fn outline(&self) -> crate::accel::Outline {
+        let depth = self.node_depths();
+        let parent = self.parents();
+        let nodes = self
+            .nodes
+            .iter()
+            .enumerate()
+            .map(|(i, n)| crate::accel::OutlineNode {
+                bounds: n.bounds(),
+                depth: depth[i],
+                parent: parent[i],
+                first_child: if n.is_leaf() { 0 } else { n.left_first },
+                child_count: if n.is_leaf() { 0 } else { 2 },
+                refs: if n.is_leaf() {
+                    (n.left_first, n.count)
+                } else {
+                    (0, 0)
+                },
+                plane: None,
+            })
+            .collect();
+        crate::accel::Outline {
+            nodes,
+            refs: self.prim_indices.clone(),
+        }
+    }
+}

@@ -109,3 +109,37 @@ impl BuildReport {
         rows
     }
 }
+
+impl BuildReport {
+    /// The measures every structure reports, with this report's rows as details.
+    pub fn summary(&self, bvh: &Bvh) -> crate::accel::StructureReport {
+        let t = &self.tree;
+        let empty = t.leaf_size_histogram.first().copied().unwrap_or(0);
+        let rows = self.rows();
+        let skip = [
+            "triangles",
+            "build time",
+            "memory",
+            "nodes",
+            "leaves",
+            "max leaf depth",
+        ];
+        crate::accel::StructureReport {
+            structure: "bvh",
+            triangles: self.triangles,
+            build_time: self.build_time,
+            bytes: t.bytes,
+            nodes: t.nodes,
+            leaves: t.leaves,
+            empty_leaves: empty,
+            max_depth: t.max_leaf_depth,
+            references: bvh.prim_indices.len(),
+            largest_leaf: t.leaf_size_histogram.len().saturating_sub(1),
+            details: rows
+                .into_iter()
+                .filter(|(k, _)| !skip.contains(&k.as_str()))
+                .collect(),
+            caps_hit: Vec::new(),
+        }
+    }
+}

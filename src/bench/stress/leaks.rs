@@ -4,8 +4,8 @@
 
 use super::Rng;
 use super::meshes::{ClosedMesh, F32_INTS, PlacedMesh, Placement, exact_in_f32};
-use crate::accel::bvh::{BuildParams, build};
-use crate::accel::{Accel, BruteForce, Bvh, NoStats};
+use crate::accel::structure::{self, Structure};
+use crate::accel::{Accel, BruteForce, NoStats, StructureParams};
 use crate::geometry::{Intersector, Ray};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -199,9 +199,9 @@ fn round(p: DVec3) -> [i64; 3] {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Leaks {
     pub rays: u64,
-    /// Closest-hit queries through the BVH that returned no hit.
+    /// Closest-hit queries through the structure under test that returned no hit.
     pub bvh_closest: u64,
-    /// Any-hit queries through the BVH that returned "not occluded".
+    /// Any-hit queries through the structure under test that returned "not occluded".
     pub bvh_any: u64,
     /// Rays also traced by brute force (with the bounding-box early out), and its misses.
     pub brute_rays: u64,
@@ -222,10 +222,10 @@ impl Leaks {
     }
 }
 
-/// Traces `rays` through `bvh` (closest and any hit) and the first `brute_rays` of them by
-/// brute force, counting the rays that found nothing.
+/// Traces `rays` through `bvh`, the structure under test (closest and any hit), and the
+/// first `brute_rays` of them by brute force, counting the rays that found nothing.
 pub fn count_leaks<I: Intersector>(
-    bvh: &Bvh,
+    bvh: &Structure,
     brute: &BruteForce,
     rays: &[Ray],
     brute_rays: usize,
@@ -255,19 +255,28 @@ pub fn count_leaks<I: Intersector>(
 /// One mesh in one placement, with its structures and rays.
 pub struct LeakCase {
     pub placed: PlacedMesh,
-    pub bvh: Bvh,
+    /// The structure under test (a BVH unless the suite is told otherwise).
+    pub bvh: Structure,
     pub brute: BruteForce,
     pub rays: Vec<Ray>,
 }
 
 impl LeakCase {
     /// `None` when the placement is too coarse for the mesh to keep an interior.
-    pub fn new(mesh: &ClosedMesh, placement: Placement, rays: usize, seed: u64) -> Option<Self> {
+    pub fn new(
+        mesh: &ClosedMesh,
+        placement: Placement,
+        rays: usize,
+        seed: u64,
+        params: &StructureParams,
+    ) -> Option<Self> {
         let placed = PlacedMesh::new(mesh, placement);
         if !placed.resolvable() {
             return None;
         }
-        let (bvh, _) = build(&placed.triangles, &BuildParams::default()).ok()?;
+        let bvh = structure::build(&placed.triangles, params, &Default::default())
+            .ok()?
+            .structure;
         let brute = BruteForce::new(&placed.triangles, true);
         let rays = RayMaker::new(&placed).rays(rays, seed);
         Some(LeakCase {

@@ -10,6 +10,8 @@ use super::meshes::ClosedMesh;
 use super::shadow::{self, ShadowReport};
 use super::slab::{self, SlabReport};
 use crate::accel::bvh::{BuildParams, build};
+use crate::accel::structure;
+use crate::accel::{StructureError, StructureParams};
 use crate::bench::compare::{self, Agreement};
 use crate::geometry::{IntersectorKind, Ray};
 use crate::scene::Scene;
@@ -33,6 +35,8 @@ pub struct StressConfig {
     /// rays whose hits spawn shadow and bounce rays.
     pub scene_rays: usize,
     pub seed: u64,
+    /// The structure under test; the f64 reference always runs through a BVH.
+    pub structure: StructureParams,
 }
 
 impl StressConfig {
@@ -47,6 +51,7 @@ impl StressConfig {
             grazing_rays: 3_000_000,
             scene_rays: 1_000_000,
             seed: 1,
+            structure: StructureParams::default(),
         }
     }
 
@@ -61,6 +66,7 @@ impl StressConfig {
             grazing_rays: 200_000,
             scene_rays: 100_000,
             seed: 2,
+            structure: StructureParams::default(),
         }
     }
 }
@@ -101,15 +107,21 @@ fn per_intersector<T>(mut f: impl FnMut(IntersectorKind) -> T) -> PerIntersector
     IntersectorKind::ALL.map(&mut f)
 }
 
-/// Runs the suite; `log` receives one line per finished part.
-pub fn run(scenes: &[Scene], cfg: &StressConfig, log: &mut dyn FnMut(&str)) -> StressReport {
+/// Runs the suite; `log` receives one line per finished part. Fails only when the structure
+/// under test cannot be built over a scene.
+pub fn run(
+    scenes: &[Scene],
+    cfg: &StressConfig,
+    log: &mut dyn FnMut(&str),
+) -> Result<StressReport, StructureError> {
     let start = Instant::now();
     let mut leak_cases = Vec::new();
     for mesh in ClosedMesh::all() {
         let mut rays = 0;
         for (k, placement) in placements(cfg.full_grid).into_iter().enumerate() {
             let seed = cfg.seed ^ (k as u64) << 32;
-            let Some(case) = LeakCase::new(&mesh, placement, cfg.leak_rays, seed) else {
+            let Some(case) = LeakCase::new(&mesh, placement, cfg.leak_rays, seed, &cfg.structure)
+            else {
                 continue;
             };
             let leaks = per_intersector(|kind| {
@@ -141,10 +153,10 @@ pub fn run(scenes: &[Scene], cfg: &StressConfig, log: &mut dyn FnMut(&str)) -> S
     log("degenerate and grazing triangles");
     let mut scene_results = Vec::new();
     for scene in scenes {
-        scene_results.push(run_scene(scene, cfg));
+        scene_results.push(run_scene(scene, cfg)?);
         log(&format!("scene {}", scene.name));
     }
-    StressReport {
+    Ok(StressReport {
         config: cfg.clone(),
         leak_cases,
         slab,
@@ -152,32 +164,33 @@ pub fn run(scenes: &[Scene], cfg: &StressConfig, log: &mut dyn FnMut(&str)) -> S
         grazing,
         scenes: scene_results,
         elapsed: start.elapsed(),
-    }
+    })
 }
 
-/// Crossings, agreement and shadow rays on one scene.
-pub fn run_scene(scene: &Scene, cfg: &StressConfig) -> SceneResult {
+/// Crossings, agreement and shadow rays on one scene, through the structure under test.
+pub fn run_scene(scene: &Scene, cfg: &StressConfig) -> Result<SceneResult, StructureError> {
     let tris = &scene.triangles;
     let Ok((bvh, _)) = build(tris, &BuildParams::default()) else {
         unreachable!("scenes hold finite triangles and the default parameters are valid")
     };
+    let s = &structure::build(tris, &cfg.structure, &Default::default())?.structure;
     let topology = Topology::new(tris);
     let crossings = topology.crossings(tris, cfg.scene_rays, cfg.seed);
     let crossings = per_intersector(
-        |kind| with_intersector!(kind, I => crossing::count::<_, I>(&bvh, tris, &crossings)),
+        |kind| with_intersector!(kind, I => crossing::count::<_, I>(s, tris, &crossings)),
     );
     let rays = compare::random_rays(tris, &scene.bounds(), cfg.scene_rays, cfg.seed);
     let reference = compare::reference_hits(&bvh, &rays);
     let agreement = per_intersector(
-        |kind| with_intersector!(kind, I => compare::agreement::<_, _, I>(&bvh, &bvh, tris, &rays, &reference)),
+        |kind| with_intersector!(kind, I => compare::agreement::<_, _, I>(s, &bvh, tris, &rays, &reference)),
     );
     drop(reference);
     let primary = view_and_random_rays(scene, cfg.scene_rays, cfg.seed);
     let light = scene.light();
     let shadow = per_intersector(
-        |kind| with_intersector!(kind, I => shadow::run::<_, I>(&bvh, tris, &primary, light)),
+        |kind| with_intersector!(kind, I => shadow::run::<_, I>(s, tris, &primary, light)),
     );
-    SceneResult {
+    Ok(SceneResult {
         name: scene.name.clone(),
         triangles: tris.len(),
         shared_edges: topology.edges(),
@@ -185,7 +198,7 @@ pub fn run_scene(scene: &Scene, cfg: &StressConfig) -> SceneResult {
         crossings,
         agreement,
         shadow,
-    }
+    })
 }
 
 /// Half pixel-centre rays of the scene's view (4:3), half random rays.

@@ -1,0 +1,240 @@
+//! Every structure behind the selector against brute force, through the one runtime type
+//! the app, the CLI and the bench use: the same closest hits (lowest triangle on equal t)
+//! with mailboxing on and off, any hit agreeing with closest hit, counting changing no hit,
+//! and exactly the BVH2's hit counts on the standard views of the shared scenes.
+
+mod common;
+
+use bvhlab::accel::structure::{self, AccelKind, Structure, StructureParams};
+use bvhlab::accel::{Accel, BruteForce, Counters, NoStats};
+use bvhlab::bench::rays::RaySets;
+use bvhlab::geometry::{Aabb, Ray, Triangle, Watertight};
+use bvhlab::scene::{Scene, builtin};
+use common::{rays, same_hit, shared_scenes, soup};
+
+fn bounds(tris: &[Triangle]) -> Aabb {
+    tris.iter().fold(Aabb::EMPTY, |b, t| b.union(t.bounds()))
+}
+
+fn build(tris: &[Triangle], kind: AccelKind, mailbox: bool) -> Structure {
+    let params = StructureParams {
+        mailbox,
+        ..StructureParams::of_kind(kind)
+    };
+    let built = structure::build(tris, &params, &Default::default())
+        .unwrap_or_else(|e| panic!("{}: {e}", kind.label()));
+    assert_eq!(built.structure.kind(), kind);
+    assert_eq!(built.report.triangles, tris.len());
+    built
+        .structure
+        .outline()
+        .validate()
+        .unwrap_or_else(|e| panic!("{}: outline: {e}", kind.label()));
+    built.structure
+}
+
+/// Closest hits equal brute force exactly, any hit agrees, and counting changes nothing.
+fn assert_matches_brute_force(s: &Structure, brute: &BruteForce, rays: &[Ray], what: &str) {
+    for (i, ray) in rays.iter().enumerate() {
+        let expected = brute.closest_hit::<Watertight, _>(ray, &mut NoStats);
+        let got = s.closest_hit::<Watertight, _>(ray, &mut NoStats);
+        assert!(
+            same_hit(got, expected),
+            "{what}: ray {i} {ray:?}: got {got:?}, brute force {expected:?}"
+        );
+        let counted = s.closest_hit::<Watertight, _>(ray, &mut Counters::default());
+        assert!(
+            same_hit(counted, got),
+            "{what}: ray {i}: counting changed the hit"
+        );
+        let occluded = s.any_hit::<Watertight, _>(ray, &mut NoStats);
+        assert_eq!(
+            occluded,
+            expected.is_some(),
+            "{what}: any hit of ray {i} {ray:?}"
+        );
+    }
+}
+
+#[test]
+fn every_structure_matches_brute_force_on_random_soups() {
+    for seed in 0..3 {
+        let tris = soup(1500, seed);
+        let brute = BruteForce::new(&tris, false);
+        let rays = rays(&bounds(&tris), 1500, seed + 10);
+        for kind in AccelKind::ALL {
+            for mailbox in [true, false] {
+                let s = build(&tris, kind, mailbox);
+                let what = format!("{} mailbox {mailbox} soup {seed}", kind.label());
+                assert_matches_brute_force(&s, &brute, &rays, &what);
+            }
+        }
+    }
+}
+
+#[test]
+fn every_structure_matches_brute_force_on_every_builtin_scene() {
+    for name in builtin::NAMES {
+        let spec = match *name {
+            "grass" | "soup" | "sphere" | "walls" | "walls-rotated" => format!("{name}:3000"),
+            "same-centroid" | "same-bbox" => format!("{name}:300"),
+            _ => name.to_string(),
+        };
+        let scene = Scene::load(&spec).unwrap();
+        let tris = &scene.triangles;
+        let brute = BruteForce::new(tris, false);
+        let mut rays = rays(&scene.bounds(), 600, 7);
+        let cam = scene.camera().rays(24, 18);
+        rays.extend(
+            (0..18)
+                .flat_map(|y| (0..24).map(move |x| (x, y)))
+                .map(|(x, y)| cam.pixel_center(x, y)),
+        );
+        for kind in AccelKind::ALL {
+            for mailbox in [true, false] {
+                let s = build(tris, kind, mailbox);
+                let what = format!("{} mailbox {mailbox} on {spec}", kind.label());
+                assert_matches_brute_force(&s, &brute, &rays, &what);
+            }
+        }
+    }
+}
+
+#[test]
+fn degenerate_scenes_build_and_trace_with_every_structure() {
+    let one = Triangle::new(glam::Vec3::ZERO, glam::Vec3::X, glam::Vec3::Y);
+    // Every triangle in the plane z = 0: a scene with zero extent on an axis.
+    let flat: Vec<Triangle> = soup(400, 3)
+        .into_iter()
+        .map(|t| Triangle::new(t.v[0].with_z(0.0), t.v[1].with_z(0.0), t.v[2].with_z(0.0)))
+        .collect();
+    let cases: Vec<(&str, Vec<Triangle>)> = vec![
+        ("empty", Vec::new()),
+        ("one triangle", vec![one]),
+        ("flat", flat),
+        (
+            "same centroid",
+            Scene::load("same-centroid:200").unwrap().triangles,
+        ),
+        ("same box", Scene::load("same-bbox:200").unwrap().triangles),
+    ];
+    for (what, tris) in cases {
+        let brute = BruteForce::new(&tris, false);
+        let b = if tris.is_empty() {
+            Aabb::new(glam::Vec3::splat(-1.0), glam::Vec3::ONE)
+        } else {
+            bounds(&tris)
+        };
+        let rays = rays(&b, 500, 3);
+        for kind in AccelKind::ALL {
+            let s = build(&tris, kind, true);
+            assert_matches_brute_force(&s, &brute, &rays, &format!("{} on {what}", kind.label()));
+        }
+    }
+}
+
+#[test]
+fn plain_brute_force_tests_every_triangle_and_the_early_out_tests_pierced_boxes() {
+    let scene = Scene::load("soup:500").unwrap();
+    let plain = build(&scene.triangles, AccelKind::BruteForce, true);
+    let early = build(&scene.triangles, AccelKind::BruteForceBbox, true);
+    let rays = rays(&scene.bounds(), 200, 4);
+    let mut fewer = 0;
+    for ray in &rays {
+        let mut a = Counters::default();
+        plain.closest_hit::<Watertight, _>(ray, &mut a);
+        assert_eq!(
+            a.triangle_tests, 500,
+            "plain brute force tests every triangle"
+        );
+        assert_eq!(a.box_tests, 0);
+        let mut b = Counters::default();
+        early.closest_hit::<Watertight, _>(ray, &mut b);
+        // One test of the scene's box, then one per triangle unless the scene box is missed.
+        assert!(b.box_tests == 1 || b.box_tests == 501, "{b:?}");
+        assert!(b.triangle_tests <= b.box_tests.saturating_sub(1));
+        fewer += usize::from(b.triangle_tests < 500);
+    }
+    assert!(
+        fewer > rays.len() / 2,
+        "the early out spared tests on only {fewer} rays"
+    );
+}
+
+#[test]
+fn traversal_settings_change_no_hit_and_need_no_rebuild() {
+    let a = StructureParams::default();
+    let b = StructureParams {
+        mailbox: false,
+        order: bvhlab::accel::TraversalOrder::Naive,
+        ..a
+    };
+    assert!(!a.needs_rebuild_for(&b));
+    for kind in AccelKind::ALL {
+        assert!(a.needs_rebuild_for(&StructureParams { kind, ..a }) == (kind != a.kind));
+    }
+}
+
+/// Every structure gives exactly the BVH2's primary, diffuse and shadow hit counts (and the
+/// same hits) on the standard view of each shared scene.
+#[test]
+fn every_structure_gives_the_bvh_hits_on_the_standard_views() {
+    let Some(dir) = shared_scenes() else {
+        eprintln!("BVHLAB_SCENES not set: skipping the shared scenes");
+        return;
+    };
+    for (file, eye, look, light) in [
+        ("cornell-box.obj", None, None, None),
+        (
+            "sponza.obj",
+            Some([-14.0, 3.0, 0.0]),
+            Some([10.0, 5.0, 0.0]),
+            Some([0.0, 14.0, 0.0]),
+        ),
+    ] {
+        let scene = Scene::load(dir.join(file).to_str().unwrap()).unwrap();
+        let mut cam = scene.camera();
+        if let (Some(e), Some(l)) = (eye, look) {
+            cam.eye = e.into();
+            cam.look_at = l.into();
+        }
+        let light = light.map_or(scene.light(), Into::into);
+        let bvh = build(&scene.triangles, AccelKind::Bvh, true);
+        let sets = RaySets::standard(&bvh, &scene, &cam, light, 256, 192);
+        let expect_closest = |rays: &[Ray]| -> Vec<_> {
+            rays.iter()
+                .map(|r| bvh.closest_hit::<Watertight, _>(r, &mut NoStats))
+                .collect()
+        };
+        let (primary, diffuse) = (expect_closest(&sets.primary), expect_closest(&sets.diffuse));
+        let shadow: Vec<bool> = sets
+            .shadow
+            .iter()
+            .map(|r| bvh.any_hit::<Watertight, _>(r, &mut NoStats))
+            .collect();
+        for kind in AccelKind::ALL.into_iter().filter(|k| !k.is_brute_force()) {
+            let s = build(&scene.triangles, kind, true);
+            for (name, rays, expected) in [
+                ("primary", &sets.primary, &primary),
+                ("diffuse", &sets.diffuse, &diffuse),
+            ] {
+                for (i, (r, e)) in rays.iter().zip(expected).enumerate() {
+                    let got = s.closest_hit::<Watertight, _>(r, &mut NoStats);
+                    assert!(
+                        same_hit(got, *e),
+                        "{} {file} {name} ray {i}: {got:?} vs {e:?}",
+                        kind.label()
+                    );
+                }
+            }
+            for (i, (r, &e)) in sets.shadow.iter().zip(&shadow).enumerate() {
+                assert_eq!(
+                    s.any_hit::<Watertight, _>(r, &mut NoStats),
+                    e,
+                    "{} {file} shadow ray {i}",
+                    kind.label()
+                );
+            }
+        }
+    }
+}
