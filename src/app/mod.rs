@@ -185,8 +185,8 @@ impl BvhLabApp {
                     self.settings.level = self.settings.level.min(outline.max_depth());
                     self.walk = self.walk.filter(|&w| (w as usize) < outline.nodes.len());
                     self.outline = outline;
-                    self.report = Some(report);
-                    self.bvh_report = bvh_report;
+                    self.report = Some(*report);
+                    self.bvh_report = bvh_report.map(|b| *b);
                     self.build_error = None;
                     self.building = false;
                 }

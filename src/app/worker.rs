@@ -103,9 +103,9 @@ pub enum Reply {
         error: String,
     },
     Built {
-        report: StructureReport,
+        report: Box<StructureReport>,
         /// The BVH's own report (SAH cost, leaf sizes), for a BVH.
-        bvh_report: Option<BuildReport>,
+        bvh_report: Option<Box<BuildReport>>,
         outline: Arc<Outline>,
     },
     BuildFailed(String),
@@ -401,8 +401,8 @@ impl State {
                 self.structure = Some(built.structure);
                 self.version += 1;
                 self.reply(Reply::Built {
-                    report: built.report,
-                    bvh_report: built.bvh_report,
+                    report: Box::new(built.report),
+                    bvh_report: built.bvh_report.map(Box::new),
                     outline: self.outline.clone(),
                 });
                 true
