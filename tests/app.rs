@@ -207,3 +207,53 @@ fn dropping_an_obj_on_the_window_loads_it_and_remembers_it() {
     );
     std::fs::remove_file(&path).ok();
 }
+
+/// Chooses `title` in the structure selector.
+fn choose_structure(h: &mut Harness<'static, BvhLabApp>, title: &str) {
+    h.get_by_role_and_label(egui::accesskit::Role::ComboBox, "structure")
+        .click();
+    h.run_steps(2);
+    h.get_by_label(title).click();
+    settle(h);
+}
+
+#[test]
+fn the_structure_selector_rebuilds_keeps_the_camera_and_each_structure_draws_its_levels() {
+    let mut h = app("soup:300");
+    let camera = h.state().shown.clone().unwrap().job.camera;
+    let expected_scene = bvhlab::scene::Scene::load("soup:300").unwrap();
+    for kind in bvhlab::accel::AccelKind::ALL {
+        choose_structure(&mut h, kind.title());
+        let app = h.state();
+        let report = app.report.clone().expect("built");
+        assert_eq!(
+            report.structure,
+            kind.label(),
+            "report of the chosen structure"
+        );
+        assert_eq!(
+            app.bvh_report.is_some(),
+            kind == bvhlab::accel::AccelKind::Bvh
+        );
+        let shown = app.shown.clone().unwrap();
+        assert_eq!(shown.job.camera, camera, "switching keeps the camera");
+        // The explorer draws the new structure's own outline.
+        let params = bvhlab::accel::StructureParams::of_kind(kind);
+        let built = bvhlab::accel::structure::build(
+            &expected_scene.triangles,
+            &params,
+            &Default::default(),
+        )
+        .unwrap();
+        assert_eq!(
+            app.outline.nodes.len(),
+            built.structure.outline().nodes.len()
+        );
+    }
+    // The last structure's levels draw something.
+    let plain = h.state().shown.clone().unwrap().rgba.clone();
+    h.get_by_label("show the boxes or cells of one level")
+        .click();
+    settle(&mut h);
+    assert_ne!(plain, h.state().shown.clone().unwrap().rgba);
+}

@@ -587,8 +587,8 @@ pub fn help_window(app: &mut BvhLabApp, ctx: &egui::Context) {
                         ("R", "back to the scene's own view"),
                         ("O / M", "orbit tool / move-triangles tool"),
                         (
-                            "1 … 6",
-                            "shaded, normals, depth, nodes, box tests, triangle tests",
+                            "1 … 7",
+                            "shaded, normals, depth, nodes, box tests, triangle tests, repeated tests",
                         ),
                         ("S", "heatmaps of shadow rays on/off"),
                         ("L", "level boxes on/off"),
@@ -596,9 +596,9 @@ pub fn help_window(app: &mut BvhLabApp, ctx: &egui::Context) {
                         ("W", "tree walk on/off"),
                         (
                             "Up / Left / Right",
-                            "walk to parent / left child / right child",
+                            "walk to parent / first child / last child",
                         ),
-                        ("B", "rebuild the tree"),
+                        ("B", "rebuild the structure"),
                         ("Ctrl+Z", "undo the last move"),
                         ("Ctrl+O", "open an OBJ file (or drop one on the window)"),
                         ("F1", "this help"),

@@ -19,16 +19,19 @@ pub enum ViewMode {
     Nodes,
     Boxes,
     Triangles,
+    /// Triangle tests a ray repeated: spatial structures without mailboxing.
+    Repeated,
 }
 
 impl ViewMode {
-    pub const ALL: [ViewMode; 6] = [
+    pub const ALL: [ViewMode; 7] = [
         ViewMode::Shaded,
         ViewMode::Normals,
         ViewMode::Depth,
         ViewMode::Nodes,
         ViewMode::Boxes,
         ViewMode::Triangles,
+        ViewMode::Repeated,
     ];
 
     pub fn label(self) -> &'static str {
@@ -39,13 +42,14 @@ impl ViewMode {
             ViewMode::Nodes => "nodes visited",
             ViewMode::Boxes => "box tests",
             ViewMode::Triangles => "triangle tests",
+            ViewMode::Repeated => "repeated tests",
         }
     }
 
     pub fn is_heatmap(self) -> bool {
         matches!(
             self,
-            ViewMode::Nodes | ViewMode::Boxes | ViewMode::Triangles
+            ViewMode::Nodes | ViewMode::Boxes | ViewMode::Triangles | ViewMode::Repeated
         )
     }
 
@@ -62,6 +66,7 @@ impl ViewMode {
             ViewMode::Nodes => Mode::Heatmap(Counter::NodesVisited, rays),
             ViewMode::Boxes => Mode::Heatmap(Counter::BoxTests, rays),
             ViewMode::Triangles => Mode::Heatmap(Counter::TriangleTests, rays),
+            ViewMode::Repeated => Mode::Heatmap(Counter::RepeatedTests, rays),
         }
     }
 }

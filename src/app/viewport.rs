@@ -54,21 +54,25 @@ fn pixel_at(app: &BvhLabApp, rect: egui::Rect, pos: egui::Pos2) -> Option<(u32, 
 
 fn pixel_report(app: &BvhLabApp, rect: egui::Rect, pos: egui::Pos2) -> Option<String> {
     let (x, y) = pixel_at(app, rect, pos)?;
-    if app.shown.as_ref()?.frame.summary.counters[0][1].total == 0 {
-        // Every primary ray tests the root box, so no box test means nothing was counted.
+    if !app.shown.as_ref()?.frame.summary.counted() {
         return Some("preview: the counts come with the full frame".into());
     }
     let s = app.shown.as_ref()?.frame.sample(x, y)?;
-    let mut text = format!(
-        "pixel ({x}, {y})\nprimary: {} nodes, {} box tests, {} triangle tests",
-        s.primary.nodes_visited, s.primary.box_tests, s.primary.triangle_tests
-    );
+    let work = |c: &crate::accel::Counters| {
+        let mut t = format!(
+            "{} nodes, {} box tests, {} triangle tests",
+            c.nodes_visited, c.box_tests, c.triangle_tests
+        );
+        if c.repeated_tests > 0 {
+            t += &format!(" ({} repeated)", c.repeated_tests);
+        }
+        t
+    };
+    let mut text = format!("pixel ({x}, {y})\nprimary: {}", work(&s.primary));
     if s.is_hit() {
         text += &format!(
-            "\nshadow: {} nodes, {} box tests, {} triangle tests ({})\nhit triangle {} at t = {:.4}",
-            s.shadow.nodes_visited,
-            s.shadow.box_tests,
-            s.shadow.triangle_tests,
+            "\nshadow: {} ({})\nhit triangle {} at t = {:.4}",
+            work(&s.shadow),
             if s.lit { "lit" } else { "in shadow" },
             s.triangle,
             s.t
@@ -176,6 +180,7 @@ impl BvhLabApp {
             Key::Num4,
             Key::Num5,
             Key::Num6,
+            Key::Num7,
         ]
         .into_iter()
         .zip(ViewMode::ALL)

@@ -116,6 +116,8 @@ pub enum ModeArg {
     Boxes,
     /// Heatmap of ray–triangle tests.
     Triangles,
+    /// Heatmap of repeated triangle tests (spatial structures with --mailbox false).
+    Repeated,
 }
 
 impl BuildArgs {

@@ -62,6 +62,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         ModeArg::Nodes => Mode::Heatmap(Counter::NodesVisited, rays),
         ModeArg::Boxes => Mode::Heatmap(Counter::BoxTests, rays),
         ModeArg::Triangles => Mode::Heatmap(Counter::TriangleTests, rays),
+        ModeArg::Repeated => Mode::Heatmap(Counter::RepeatedTests, rays),
     };
     let settings = RenderSettings {
         width: args.width,

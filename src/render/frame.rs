@@ -88,6 +88,11 @@ impl FrameSummary {
         }
     }
 
+    /// Whether the frame was traced with counting (a quick preview may not count).
+    pub fn counted(&self) -> bool {
+        self.counters.iter().flatten().any(|c| c.total > 0)
+    }
+
     pub fn counter(&self, rays: RayKind, which: Counter) -> &CounterSummary {
         let k = Counter::ALL.iter().position(|&c| c == which).unwrap_or(0);
         &self.counters[rays as usize][k]
