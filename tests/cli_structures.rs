@@ -1,0 +1,170 @@
+//! The structure selector on the command line: `--accel` on every subcommand that builds,
+//! `bench --accel all` as one table or one JSON object over every structure, and clear
+//! errors for what a subcommand cannot do.
+
+use bvhlab::accel::AccelKind;
+use std::process::Command;
+
+fn bvhlab(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_bvhlab"))
+        .args(args)
+        .env_remove("RUST_BACKTRACE")
+        .output()
+        .expect("bvhlab runs")
+}
+
+const SMALL_BENCH: [&str; 10] = [
+    "--width",
+    "32",
+    "--height",
+    "24",
+    "--builds",
+    "1",
+    "--runs",
+    "1",
+    "--threads",
+    "2",
+];
+
+#[test]
+fn bench_accel_all_reports_every_structure_on_the_same_rays() {
+    let mut args = vec!["bench", "--scene", "soup:400", "--accel", "all", "--json"];
+    args.extend(SMALL_BENCH);
+    let out = bvhlab(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
+    let structures = json["structures"].as_array().expect("a structures array");
+    assert_eq!(structures.len(), AccelKind::ALL.len());
+    let hits = |s: &serde_json::Value, set: &str, key: &str| s[set][key].as_u64().unwrap();
+    for (s, kind) in structures.iter().zip(AccelKind::ALL) {
+        assert_eq!(s["accel"], kind.label());
+        for key in ["build_ms", "bytes", "nodes", "references_per_triangle"] {
+            assert!(s[key].is_number(), "{}: {key}", kind.label());
+        }
+        for set in ["primary", "diffuse", "shadow"] {
+            for key in ["mrays_per_s", "mean_nodes", "mean_triangle_tests"] {
+                assert!(s[set][key].is_number(), "{} {set} {key}", kind.label());
+            }
+        }
+        // Same rays, same closest-hit rule: the same hit counts everywhere.
+        assert_eq!(
+            hits(s, "primary", "hits"),
+            hits(&structures[0], "primary", "hits")
+        );
+        assert_eq!(
+            hits(s, "diffuse", "hits"),
+            hits(&structures[0], "diffuse", "hits")
+        );
+        assert_eq!(
+            hits(s, "shadow", "occluded"),
+            hits(&structures[0], "shadow", "occluded")
+        );
+    }
+    let brute = &structures[AccelKind::ALL
+        .iter()
+        .position(|k| *k == AccelKind::BruteForce)
+        .unwrap()];
+    assert_eq!(
+        brute["primary"]["mean_triangle_tests"].as_f64(),
+        Some(400.0)
+    );
+
+    let mut args = vec!["bench", "--scene", "soup:400", "--accel", "all"];
+    args.extend(SMALL_BENCH);
+    let table = String::from_utf8(bvhlab(&args).stdout).unwrap();
+    for kind in AccelKind::ALL {
+        assert!(
+            table.contains(kind.label()),
+            "the table names {}",
+            kind.label()
+        );
+    }
+}
+
+#[test]
+fn single_structure_bench_json_keeps_its_keys_and_adds_the_structure() {
+    for kind in AccelKind::ALL {
+        let mut args = vec![
+            "bench",
+            "--scene",
+            "sphere:500",
+            "--accel",
+            kind.label(),
+            "--json",
+        ];
+        args.extend(SMALL_BENCH);
+        let out = bvhlab(&args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(json["accel"], kind.label());
+        for key in [
+            "scene",
+            "triangles",
+            "threads",
+            "build_ms",
+            "bytes",
+            "primary",
+            "primary_packets",
+            "diffuse",
+            "shadow",
+        ] {
+            assert!(!json[key].is_null(), "{}: {key}", kind.label());
+        }
+        assert_eq!(json["sah_cost"].is_number(), kind == AccelKind::Bvh);
+    }
+}
+
+#[test]
+fn every_building_subcommand_takes_accel_and_all_is_for_bench_only() {
+    let dir = std::env::temp_dir().join(format!("bvhlab-cli-structures-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for kind in AccelKind::ALL {
+        let out = bvhlab(&["stats", "--scene", "soup:300", "--accel", kind.label()]);
+        assert!(out.status.success());
+        let text = String::from_utf8(out.stdout).unwrap();
+        assert!(text.contains("references per triangle"), "{text}");
+        let png = dir.join(format!("{}.png", kind.label()));
+        let out = bvhlab(&[
+            "render",
+            "--scene",
+            "soup:300",
+            "--accel",
+            kind.label(),
+            "--mode",
+            "triangles",
+            "--width",
+            "40",
+            "--height",
+            "30",
+            "--out",
+            png.to_str().unwrap(),
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(png.exists());
+    }
+    for cmd in ["render", "stats", "trace", "frames"] {
+        let mut args = vec![cmd, "--scene", "soup:300", "--accel", "all"];
+        if cmd == "trace" {
+            args.extend(["--rays", "none.bin", "--out", "none.out"]);
+        }
+        let out = bvhlab(&args);
+        assert!(!out.status.success(), "{cmd} --accel all must fail");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains("--accel all is only for `bvhlab bench`") || cmd == "trace",
+            "{cmd}: {err}"
+        );
+    }
+}
