@@ -392,3 +392,72 @@ fn spawned_origins_lie_strictly_on_the_side_they_leave_to() {
     }
     assert!(checked >= RAYS * 9 / 10, "{checked}");
 }
+
+/// The suite's scene and leak parts through every structure of the selector: no leaks at
+/// shared edges and vertices, at any offset or scale, no mismatch against the f64 reference
+/// (which runs through a BVH) and no shadow ray hitting its own surface.
+#[test]
+fn every_structure_passes_the_stress_suite_on_scenes_and_closed_meshes() {
+    use bvhlab::accel::{AccelKind, StructureParams};
+    use bvhlab::bench::stress::suite::{self, StressConfig};
+    let scenes: Vec<Scene> = [
+        "cornell",
+        "sphere:5000",
+        "teapot-in-stadium",
+        "walls-rotated:2000",
+    ]
+    .iter()
+    .map(|s| Scene::load(s).unwrap())
+    .collect();
+    for kind in AccelKind::ALL.into_iter().filter(|k| !k.is_brute_force()) {
+        let cfg = StressConfig {
+            scene_rays: 20_000,
+            structure: StructureParams::of_kind(kind),
+            ..StressConfig::tests()
+        };
+        for scene in &scenes {
+            let r = suite::run_scene(scene, &cfg).unwrap();
+            // Watertight and f64 (index 1 is Möller–Trumbore, only measured).
+            for k in [0, 2] {
+                assert_eq!(
+                    r.crossings[k].leaks(),
+                    0,
+                    "{} on {}: {:?}",
+                    kind.label(),
+                    r.name,
+                    r.crossings[k]
+                );
+                assert_eq!(
+                    r.agreement[k].mismatches,
+                    0,
+                    "{} on {}",
+                    kind.label(),
+                    r.name
+                );
+                assert_eq!(r.shadow[k].self_hits(), 0, "{} on {}", kind.label(), r.name);
+            }
+        }
+        for mesh in ClosedMesh::all() {
+            for (k, p) in placements(false).into_iter().enumerate() {
+                let case = LeakCase::new(&mesh, p, 5_000, 31 + k as u64, &cfg.structure)
+                    .unwrap_or_else(|| panic!("{} at {}", mesh.name, p.label()));
+                let w = count_leaks::<Watertight>(&case.bvh, &case.brute, &case.rays, 0);
+                assert_eq!(
+                    w.total(),
+                    0,
+                    "{} watertight leaks on {}: {w:?}",
+                    kind.label(),
+                    case.label()
+                );
+                let f = count_leaks::<ReferenceF64>(&case.bvh, &case.brute, &case.rays, 0);
+                assert_eq!(
+                    f.total(),
+                    0,
+                    "{} f64 leaks on {}: {f:?}",
+                    kind.label(),
+                    case.label()
+                );
+            }
+        }
+    }
+}

@@ -188,7 +188,7 @@ fn timed_build(
 
 /// Brute force tests every triangle for every ray: over a large scene it traces every k-th
 /// ray only, so that no set takes more than about this many triangle tests.
-const BRUTE_FORCE_TESTS: usize = 1 << 31;
+const BRUTE_FORCE_TESTS: usize = 1 << 28;
 
 /// Times the ray sets through `built` and counts the mean work per ray.
 fn measure(

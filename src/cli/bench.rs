@@ -122,7 +122,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         r.report.references_per_triangle()
     );
     if r.sampled > 1 {
-        out!("  (brute force: every {}th ray of each set)", r.sampled);
+        out!("  (brute force: 1 in {} rays of each set)", r.sampled);
     }
     for (name, set, what) in [
         ("primary", &r.primary, "hits"),
@@ -206,7 +206,7 @@ fn run_all(
             )
         };
         let note = if r.sampled > 1 {
-            format!("  (every {}th ray)", r.sampled)
+            format!("  (1 in {} rays)", r.sampled)
         } else {
             String::new()
         };
