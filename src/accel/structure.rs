@@ -65,6 +65,12 @@ impl AccelKind {
         matches!(self, AccelKind::BruteForce | AccelKind::BruteForceBbox)
     }
 
+    /// Whether a ray walks the structure's cells in order (the grid's 3D-DDA), so the app
+    /// can show the cells under the pointer.
+    pub fn walks_cells(self) -> bool {
+        false
+    }
+
     /// Whether the structure can be refitted after motion (rather than rebuilt).
     pub fn can_refit(self) -> bool {
         self == AccelKind::Bvh
@@ -229,6 +235,11 @@ impl Structure {
     /// Memory of the structure, its copy of the triangles included.
     pub fn bytes(&self) -> usize {
         with_structure!(self, a => a.bytes())
+    }
+
+    /// The cells a ray walks through, in order, for structures that walk cells.
+    pub fn cells_along(&self, _ray: &Ray) -> Option<Vec<crate::geometry::Aabb>> {
+        None
     }
 
     /// Turns mailboxing on or off (spatial structures; no rebuild).

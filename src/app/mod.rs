@@ -88,6 +88,8 @@ pub struct BvhLabApp {
     move_sent: Option<Instant>,
     pub drag_latency: Option<Duration>,
     pub walk: Option<u32>,
+    /// The pointer over the view (0..1 across and down), when it is there.
+    pub probe: Option<[f32; 2]>,
     viewport_px: [u32; 2],
     last_job: Option<RenderJob>,
     sent_build: Option<StructureParams>,
@@ -150,6 +152,7 @@ impl BvhLabApp {
             move_sent: None,
             drag_latency: None,
             walk: None,
+            probe: None,
             viewport_px: [0, 0],
             last_job: None,
             show_help: false,
@@ -293,6 +296,9 @@ impl BvhLabApp {
                 selected: self.selected_set.as_ref().map(|(.., set)| set.clone()),
                 level: s.show_levels.then_some(s.level),
                 walk: self.walk,
+                probe: self
+                    .probe
+                    .filter(|_| s.accel.walks_cells() && s.show_levels),
                 see_through: s.see_through,
                 color_by_node: s.color_by_node,
             },

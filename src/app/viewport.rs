@@ -26,6 +26,12 @@ pub fn show(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         painter.image(tex.id(), rect, uv, egui::Color32::WHITE);
     }
     handle_input(app, ui, &response, rect);
+    app.probe = response.hover_pos().map(|p| {
+        [
+            (p.x - rect.min.x) / rect.width(),
+            (p.y - rect.min.y) / rect.height(),
+        ]
+    });
     if let Some(shown) = &app.shown
         && let Some(max) = shown.heat_max
     {

@@ -31,6 +31,9 @@ pub struct Overlay {
     pub level: Option<u32>,
     /// The node of the tree walk: its box, its children's boxes, their triangles tinted.
     pub walk: Option<u32>,
+    /// A point of the view (0..1 across and down): the cells the ray through it walks are
+    /// outlined, for structures that walk cells (the grid).
+    pub probe: Option<[f32; 2]>,
     pub see_through: bool,
     /// Colour level boxes by node instead of by depth.
     pub color_by_node: bool,
@@ -546,6 +549,24 @@ impl State {
                 })
             }));
             outline_boxes(frame, rgba, &job.camera, &boxes, o.see_through);
+        }
+        if let (Some([u, v]), Some(s)) = (o.probe, &self.structure) {
+            let (w, h) = (frame.width, frame.height);
+            let (x, y) = ((u * w as f32) as u32, (v * h as f32) as u32);
+            let ray = job
+                .camera
+                .rays(w, h)
+                .pixel_center(x.min(w - 1), y.min(h - 1));
+            if let Some(cells) = s.cells_along(&ray) {
+                let boxes: Vec<OutlinedBox> = cells
+                    .into_iter()
+                    .map(|bounds| OutlinedBox {
+                        bounds,
+                        color: [255, 230, 80, 255],
+                    })
+                    .collect();
+                outline_boxes(frame, rgba, &job.camera, &boxes, true);
+            }
         }
         let node = o.walk? as usize;
         let n = outline.nodes.get(node)?;
