@@ -7,6 +7,7 @@ pub mod bvh;
 #[cfg(feature = "embree")]
 pub mod embree;
 pub mod hit;
+pub mod kdtree;
 pub mod mailbox;
 pub mod outline;
 pub mod report;
@@ -16,6 +17,7 @@ pub mod structure;
 pub use brute_force::BruteForce;
 pub use bvh::{BuildParams, Bvh, Strategy, TraversalOrder};
 pub use hit::{BestHit, Hit};
+pub use kdtree::{KdParams, KdSplit, KdTree};
 pub use mailbox::Mailbox;
 pub use outline::{Outline, OutlineNode};
 pub use report::StructureReport;

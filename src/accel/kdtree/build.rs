@@ -1,0 +1,284 @@
+//! k-d tree construction: a pure function of (triangles, parameters) → tree + report.
+//!
+//! The recursion of the lecture: find the cheapest plane by the SAH, make a leaf if no plane
+//! is cheaper than testing every triangle (allowing a few "bad refines" that may pay off
+//! deeper, as pbrt does), else send each reference to the side(s) it touches, clipping the
+//! triangles that straddle the plane to each child's cell, and recurse. A depth bound
+//! (≤ 64, so the recursion and the traversal stack stay small) and a cap on the total
+//! number of references stop it on any input.
+
+use super::clip::clipped_bounds;
+use super::node::KdNode;
+use super::split::{KdRef, Split, best_split};
+use super::{KdError, KdParams, KdTree, MAX_TRIANGLES};
+use crate::accel::StructureReport;
+use crate::geometry::{Aabb, Triangle};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+/// Subtrees over at least this many references are built in parallel.
+const PARALLEL_SUBTREE: usize = 4096;
+/// pbrt's allowance of splits that cost more than a leaf on one path down the tree.
+const MAX_BAD_REFINES: u32 = 3;
+
+/// Builds a k-d tree over `triangles`. Triangle indices in hits are indices into `triangles`.
+pub fn build(
+    triangles: &[Triangle],
+    params: &KdParams,
+) -> Result<(KdTree, StructureReport), KdError> {
+    params.validate()?;
+    if triangles.len() > MAX_TRIANGLES {
+        return Err(KdError::TooMany(triangles.len()));
+    }
+    if let Some(i) = triangles.par_iter().position_any(|t| !t.is_finite()) {
+        return Err(KdError::NonFinite(i));
+    }
+    let start = Instant::now();
+    let n = triangles.len();
+    let refs: Vec<KdRef> = triangles
+        .par_iter()
+        .enumerate()
+        .map(|(i, t)| KdRef {
+            bounds: t.bounds(),
+            tri: i as u32,
+        })
+        .collect();
+    let bounds = refs.iter().fold(Aabb::EMPTY, |b, r| b.union(r.bounds));
+    let builder = Builder {
+        triangles,
+        params,
+        max_depth: params.depth_bound(n),
+        depth_cap_hit: AtomicBool::new(false),
+        refs_cap_hit: AtomicBool::new(false),
+    };
+    let budget = ((params.max_references_factor as f64 * n as f64) as usize).max(n);
+    let tree = builder.subtree(refs, bounds, 0, 0, budget);
+    let (nodes, leaf_refs) = flatten(&tree);
+    drop_in_background(tree);
+    let kd = KdTree {
+        nodes,
+        refs: leaf_refs,
+        triangles: triangles.to_vec(),
+        bounds,
+        mailbox: params.mailbox,
+        c_trav: params.c_trav,
+        c_isect: params.c_isect,
+    };
+    let build_time = start.elapsed();
+    let mut caps_hit = Vec::new();
+    if builder.depth_cap_hit.load(Ordering::Relaxed) {
+        caps_hit.push(format!(
+            "depth bound {} stopped a split the SAH wanted",
+            builder.max_depth
+        ));
+    }
+    if builder.refs_cap_hit.load(Ordering::Relaxed) {
+        caps_hit.push(format!(
+            "reference cap {:.1} × triangles ({budget}) stopped a split",
+            params.max_references_factor
+        ));
+    }
+    let report = kd.report(params, builder.max_depth, build_time, caps_hit);
+    Ok((kd, report))
+}
+
+/// Dropping the temporary tree frees many small vectors; it need not delay the caller.
+fn drop_in_background(tree: Tmp) {
+    rayon::spawn(move || drop(tree));
+}
+
+/// The tree as the recursion produces it, before it is laid out in compact nodes.
+enum Tmp {
+    Leaf(Vec<u32>),
+    Interior {
+        axis: usize,
+        pos: f32,
+        children: Box<[Tmp; 2]>,
+    },
+}
+
+struct Builder<'a> {
+    triangles: &'a [Triangle],
+    params: &'a KdParams,
+    max_depth: u32,
+    depth_cap_hit: AtomicBool,
+    refs_cap_hit: AtomicBool,
+}
+
+impl Builder<'_> {
+    /// The subtree over `refs` in `cell`. `budget` is the most references its leaves may
+    /// hold in total: a share of the global cap proportional to its references, so the cap
+    /// holds and the tree does not depend on the order parallel subtrees finish in.
+    fn subtree(
+        &self,
+        refs: Vec<KdRef>,
+        cell: Aabb,
+        depth: u32,
+        bad_refines: u32,
+        budget: usize,
+    ) -> Tmp {
+        let n = refs.len();
+        let p = self.params;
+        if n <= p.max_leaf_size as usize {
+            return leaf(refs);
+        }
+        let Some(split) = best_split(&refs, &cell, p) else {
+            return leaf(refs);
+        };
+        let leaf_cost = p.c_isect as f64 * n as f64;
+        let mut bad_refines = bad_refines;
+        if split.cost > leaf_cost {
+            bad_refines += 1;
+            if (split.cost > 4.0 * leaf_cost && n < 16) || bad_refines >= MAX_BAD_REFINES {
+                return leaf(refs);
+            }
+        }
+        if depth >= self.max_depth {
+            self.depth_cap_hit.store(true, Ordering::Relaxed);
+            return leaf(refs);
+        }
+        let (mut below_cell, mut above_cell) = (cell, cell);
+        below_cell.max[split.axis] = split.pos;
+        above_cell.min[split.axis] = split.pos;
+        let (below, above) = self.classify(&refs, &split, &below_cell, &above_cell);
+        let total = below.len() + above.len();
+        if total > budget {
+            self.refs_cap_hit.store(true, Ordering::Relaxed);
+            return leaf(refs);
+        }
+        drop(refs);
+        let below_budget = ((budget as u128 * below.len() as u128) / total as u128) as usize;
+        let above_budget = budget - below_budget;
+        let below_n = below.len();
+        let build_below = move || {
+            self.subtree(
+                below,
+                below_cell,
+                depth + 1,
+                bad_refines,
+                below_budget.max(below_n),
+            )
+        };
+        let above_n = above.len();
+        let build_above = move || {
+            self.subtree(
+                above,
+                above_cell,
+                depth + 1,
+                bad_refines,
+                above_budget.max(above_n),
+            )
+        };
+        let children = if n >= PARALLEL_SUBTREE {
+            rayon::join(build_below, build_above)
+        } else {
+            (build_below(), build_above())
+        };
+        Tmp::Interior {
+            axis: split.axis,
+            pos: split.pos,
+            children: Box::new([children.0, children.1]),
+        }
+    }
+
+    /// Sends each reference to the side(s) of the plane its clipped bounds touch: one that
+    /// ends or starts on the plane goes to the side it lies on, one lying in the plane to
+    /// the side the SAH chose, and one straddling the plane to both, clipped to each cell.
+    fn classify(
+        &self,
+        refs: &[KdRef],
+        split: &Split,
+        below_cell: &Aabb,
+        above_cell: &Aabb,
+    ) -> (Vec<KdRef>, Vec<KdRef>) {
+        let (axis, pos) = (split.axis, split.pos);
+        let mut below = Vec::with_capacity(refs.len());
+        let mut above = Vec::with_capacity(refs.len());
+        for r in refs {
+            let (lo, hi) = (r.bounds.min[axis], r.bounds.max[axis]);
+            if lo == pos && hi == pos {
+                if split.planar_below {
+                    below.push(*r);
+                } else {
+                    above.push(*r);
+                }
+            } else if hi <= pos {
+                below.push(*r);
+            } else if lo >= pos {
+                above.push(*r);
+            } else {
+                let tri = &self.triangles[r.tri as usize];
+                let b = clipped_bounds(tri, below_cell);
+                let a = clipped_bounds(tri, above_cell);
+                match (b, a) {
+                    (None, None) => {
+                        // The clip found the triangle in neither cell though its bounds
+                        // straddle the plane; keep it on both sides rather than lose it.
+                        below.push(clamp_ref(r, below_cell));
+                        above.push(clamp_ref(r, above_cell));
+                    }
+                    _ => {
+                        if let Some(bounds) = b {
+                            below.push(KdRef { bounds, tri: r.tri });
+                        }
+                        if let Some(bounds) = a {
+                            above.push(KdRef { bounds, tri: r.tri });
+                        }
+                    }
+                }
+            }
+        }
+        (below, above)
+    }
+}
+
+fn clamp_ref(r: &KdRef, cell: &Aabb) -> KdRef {
+    KdRef {
+        bounds: Aabb::new(r.bounds.min.max(cell.min), r.bounds.max.min(cell.max)),
+        tri: r.tri,
+    }
+}
+
+fn leaf(refs: Vec<KdRef>) -> Tmp {
+    Tmp::Leaf(refs.iter().map(|r| r.tri).collect())
+}
+
+/// Lays the tree out depth first: a node's below child right after it, the above child
+/// wherever its subtree starts; each leaf's references contiguous, one reference inline.
+fn flatten(root: &Tmp) -> (Vec<KdNode>, Vec<u32>) {
+    let mut nodes = Vec::new();
+    let mut refs = Vec::new();
+    let mut stack: Vec<(&Tmp, Option<usize>)> = vec![(root, None)];
+    while let Some((t, parent)) = stack.pop() {
+        let index = nodes.len();
+        if let Some(p) = parent {
+            let n: &mut KdNode = &mut nodes[p];
+            *n = KdNode::interior(n.axis(), n.split(), index as u32);
+        }
+        match t {
+            Tmp::Leaf(tris) => {
+                let node = match tris.len() {
+                    0 => KdNode::leaf(0, 0),
+                    1 => KdNode::leaf(tris[0], 1),
+                    k => {
+                        let first = refs.len() as u32;
+                        refs.extend_from_slice(tris);
+                        KdNode::leaf(first, k as u32)
+                    }
+                };
+                nodes.push(node);
+            }
+            Tmp::Interior {
+                axis,
+                pos,
+                children,
+            } => {
+                nodes.push(KdNode::interior(*axis, *pos, 0));
+                stack.push((&children[1], Some(index)));
+                stack.push((&children[0], None));
+            }
+        }
+    }
+    (nodes, refs)
+}

@@ -1,0 +1,179 @@
+//! The SAH k-d tree: axis-aligned split planes chosen by the surface area heuristic among
+//! the "perfect splits" (the bounds of each triangle clipped to the node's cell), a bonus
+//! for cutting off empty space, front-to-back traversal over t intervals, and mailboxing
+//! for the triangles that several cells reference.
+
+mod build;
+mod clip;
+mod node;
+mod outline;
+mod split;
+mod traverse;
+
+pub use build::build;
+pub use node::KdNode;
+
+use crate::geometry::{Aabb, Triangle};
+
+/// How a node's split plane is searched for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum KdSplit {
+    /// Every perfect-split candidate, by sorting the clipped bounds' start, end and planar
+    /// events along each axis and sweeping them once (Wald & Havran 2006).
+    Sweep,
+    /// The boundaries between this many equal-width bins of the node's cell on each axis.
+    Binned(u32),
+}
+
+impl KdSplit {
+    pub fn label(self) -> String {
+        match self {
+            KdSplit::Sweep => "perfect splits, event sweep".to_string(),
+            KdSplit::Binned(b) => format!("binned, {b} bins"),
+        }
+    }
+}
+
+/// Plain-data build parameters, shared by the app, the CLI and the tests.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct KdParams {
+    /// Cost of one traversal step (a node and its plane distance).
+    pub c_trav: f32,
+    /// Cost of one ray–triangle test.
+    pub c_isect: f32,
+    /// A split with one empty side costs (1 − empty_bonus) times its SAH cost: cutting off
+    /// empty space lets rays skip it in one step.
+    pub empty_bonus: f32,
+    /// Deepest leaf; 0 = automatic, 8 + 1.3·log2 N (pbrt), at most `MAX_DEPTH`.
+    pub max_depth: u32,
+    /// A node with this many references or fewer becomes a leaf.
+    pub max_leaf_size: u32,
+    pub split: KdSplit,
+    /// Traversal skips triangles the ray has tested already (a toggle, no rebuild).
+    pub mailbox: bool,
+    /// The build stops splitting before the leaves hold more than this many references
+    /// per triangle in total.
+    pub max_references_factor: f32,
+}
+
+impl Default for KdParams {
+    fn default() -> Self {
+        KdParams {
+            c_trav: 1.0,
+            c_isect: 20.0,
+            empty_bonus: 0.5,
+            max_depth: 0,
+            max_leaf_size: 2,
+            split: KdSplit::Sweep,
+            mailbox: true,
+            max_references_factor: 4.0,
+        }
+    }
+}
+
+/// Bound on any tree's depth: the build recursion and the traversal stack stay this small.
+pub const MAX_DEPTH: u32 = 64;
+pub const MAX_LEAF_SIZE: u32 = 4096;
+pub const MIN_BINS: u32 = 2;
+pub const MAX_BINS: u32 = 1024;
+/// Leaves store their reference count in 30 bits; the triangle count is limited well below.
+pub const MAX_TRIANGLES: usize = 1 << 28;
+
+impl KdParams {
+    pub fn validate(&self) -> Result<(), KdError> {
+        for (name, value) in [("C_trav", self.c_trav), ("C_isect", self.c_isect)] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(KdError::Cost { name, value });
+            }
+        }
+        if self.c_isect == 0.0 {
+            return Err(KdError::Cost {
+                name: "C_isect",
+                value: 0.0,
+            });
+        }
+        if !(0.0..1.0).contains(&self.empty_bonus) {
+            return Err(KdError::EmptyBonus(self.empty_bonus));
+        }
+        if self.max_depth > MAX_DEPTH {
+            return Err(KdError::Depth(self.max_depth));
+        }
+        if !(1..=MAX_LEAF_SIZE).contains(&self.max_leaf_size) {
+            return Err(KdError::LeafSize(self.max_leaf_size));
+        }
+        if let KdSplit::Binned(b) = self.split
+            && !(MIN_BINS..=MAX_BINS).contains(&b)
+        {
+            return Err(KdError::Bins(b));
+        }
+        if !(self.max_references_factor.is_finite() && self.max_references_factor >= 1.0) {
+            return Err(KdError::ReferencesFactor(self.max_references_factor));
+        }
+        Ok(())
+    }
+
+    /// The depth bound for `n` triangles.
+    pub fn depth_bound(&self, n: usize) -> u32 {
+        if self.max_depth != 0 {
+            return self.max_depth;
+        }
+        let auto = 8.0 + 1.3 * (n.max(1) as f64).log2();
+        (auto.round() as u32).min(MAX_DEPTH)
+    }
+}
+
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum KdError {
+    #[error("{name} = {value} must be finite and non-negative (C_isect positive)")]
+    Cost { name: &'static str, value: f32 },
+    #[error("empty bonus {0} is outside [0, 1)")]
+    EmptyBonus(f32),
+    #[error("maximum depth {0} is more than {MAX_DEPTH} (0 chooses it from the triangle count)")]
+    Depth(u32),
+    #[error("maximum leaf size {0} is outside 1..={MAX_LEAF_SIZE}")]
+    LeafSize(u32),
+    #[error("bin count {0} is outside {MIN_BINS}..={MAX_BINS}")]
+    Bins(u32),
+    #[error("reference cap factor {0} must be finite and at least 1")]
+    ReferencesFactor(f32),
+    #[error("triangle {0} has a NaN or infinite vertex")]
+    NonFinite(usize),
+    #[error("{0} triangles is more than a k-d tree can hold ({MAX_TRIANGLES})")]
+    TooMany(usize),
+}
+
+/// A k-d tree over a copy of the scene's triangles (indexed as in the scene).
+#[derive(Clone, Debug)]
+pub struct KdTree {
+    /// Node 0 is the root; an interior node's below child follows it, the above child is
+    /// stored in the node.
+    pub nodes: Vec<KdNode>,
+    /// The leaves' triangle references (scene indices), each leaf's contiguous.
+    pub refs: Vec<u32>,
+    pub triangles: Vec<Triangle>,
+    /// The root cell: the triangles' bounds.
+    pub bounds: Aabb,
+    /// Skip triangles the ray has tested already; flipping it needs no rebuild.
+    pub mailbox: bool,
+    c_trav: f32,
+    c_isect: f32,
+}
+
+impl KdTree {
+    /// Memory of the structure: nodes, references and the triangles.
+    pub fn bytes(&self) -> usize {
+        std::mem::size_of::<Self>()
+            + self.nodes.len() * std::mem::size_of::<KdNode>()
+            + self.refs.len() * std::mem::size_of::<u32>()
+            + self.triangles.len() * std::mem::size_of::<Triangle>()
+    }
+
+    /// References in all leaves (one-triangle leaves hold theirs inline).
+    pub fn references(&self) -> usize {
+        self.nodes
+            .iter()
+            .filter(|n| n.is_leaf())
+            .map(|n| n.count() as usize)
+            .sum()
+    }
+}

@@ -1,0 +1,271 @@
+//! Where to split a k-d tree node: the surface area heuristic over candidate planes, with
+//! the empty-space bonus. The sweep evaluates every perfect split (each reference's clipped
+//! bounds, sorted as end, planar and start events per axis; Wald & Havran 2006); the binned
+//! variant evaluates only the boundaries of equal-width bins, counting in O(N) per node.
+
+use super::{KdParams, KdSplit};
+use crate::geometry::Aabb;
+use rayon::prelude::*;
+
+/// A triangle as a node sees it: its scene index and its bounds clipped to the node's cell.
+#[derive(Clone, Copy, Debug)]
+pub struct KdRef {
+    pub bounds: Aabb,
+    pub tri: u32,
+}
+
+/// A candidate split plane and its SAH cost (relative to a leaf's C_isect·N).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Split {
+    pub axis: usize,
+    pub pos: f32,
+    /// Triangles lying in the plane go to the below side (else above).
+    pub planar_below: bool,
+    pub cost: f64,
+}
+
+/// Sorting the events of nodes at least this large is split across threads.
+const PARALLEL_SORT: usize = 1 << 16;
+
+/// The SAH cost model of one node's cell.
+struct Sah<'a> {
+    params: &'a KdParams,
+    cell: &'a Aabb,
+    inv_area: f64,
+}
+
+impl<'a> Sah<'a> {
+    fn new(params: &'a KdParams, cell: &'a Aabb) -> Option<Self> {
+        let area = area(cell.min.to_array(), cell.max.to_array());
+        (area > 0.0).then(|| Sah {
+            params,
+            cell,
+            inv_area: 1.0 / area,
+        })
+    }
+
+    /// C_trav + C_isect·(1 − bonus)·(P_below·N_below + P_above·N_above), with P the ratio of
+    /// a child's surface area to the cell's: the chance a ray through the cell enters it.
+    fn cost(&self, axis: usize, pos: f32, below: usize, above: usize) -> f64 {
+        let (min, max) = (self.cell.min.to_array(), self.cell.max.to_array());
+        let (mut below_max, mut above_min) = (max, min);
+        below_max[axis] = pos;
+        above_min[axis] = pos;
+        let p_below = area(min, below_max) * self.inv_area;
+        let p_above = area(above_min, max) * self.inv_area;
+        let bonus = if below == 0 || above == 0 {
+            self.params.empty_bonus as f64
+        } else {
+            0.0
+        };
+        self.params.c_trav as f64
+            + self.params.c_isect as f64
+                * (1.0 - bonus)
+                * (p_below * below as f64 + p_above * above as f64)
+    }
+
+    /// Offers the plane at `pos` with `below` and `above` references besides `planar` ones
+    /// lying in it, which go to whichever side is cheaper.
+    fn offer(&self, best: &mut Option<Split>, axis: usize, pos: f32, c: Counts) {
+        if !(pos > self.cell.min[axis] && pos < self.cell.max[axis]) {
+            return;
+        }
+        let mut consider = |cost: f64, planar_below: bool| {
+            if best.is_none_or(|b| cost < b.cost) {
+                *best = Some(Split {
+                    axis,
+                    pos,
+                    planar_below,
+                    cost,
+                });
+            }
+        };
+        consider(self.cost(axis, pos, c.below + c.planar, c.above), true);
+        if c.planar > 0 {
+            consider(self.cost(axis, pos, c.below, c.above + c.planar), false);
+        }
+    }
+}
+
+#[derive(Clone, Copy)]
+struct Counts {
+    below: usize,
+    planar: usize,
+    above: usize,
+}
+
+fn area(min: [f32; 3], max: [f32; 3]) -> f64 {
+    let e = [0, 1, 2].map(|k| (max[k] as f64 - min[k] as f64).max(0.0));
+    2.0 * (e[0] * e[1] + e[1] * e[2] + e[2] * e[0])
+}
+
+/// The cheapest split of the node over `refs` with cell `cell`, or `None` if its cell has no
+/// area or no candidate lies strictly inside it.
+pub fn best_split(refs: &[KdRef], cell: &Aabb, params: &KdParams) -> Option<Split> {
+    let sah = Sah::new(params, cell)?;
+    let mut best = None;
+    match params.split {
+        KdSplit::Sweep => {
+            let mut events = Vec::with_capacity(2 * refs.len());
+            for axis in 0..3 {
+                sweep(refs, axis, &sah, &mut events, &mut best);
+            }
+        }
+        KdSplit::Binned(bins) => {
+            for axis in 0..3 {
+                binned(refs, axis, bins as usize, &sah, &mut best);
+            }
+        }
+    }
+    best
+}
+
+// Events at one position sort as end, planar, start: the sweep then sees, at each position,
+// the references ending there, lying in the plane, and starting there, in that order.
+const END: u64 = 0;
+const PLANAR: u64 = 1;
+const START: u64 = 2;
+
+/// An f32 as a u32 that sorts in the same order (for non-NaN values).
+fn order_key(x: f32) -> u64 {
+    let b = x.to_bits();
+    (if b >> 31 == 1 { !b } else { b | 1 << 31 }) as u64
+}
+
+fn from_order_key(k: u64) -> f32 {
+    let k = k as u32;
+    f32::from_bits(if k >> 31 == 1 { k & !(1 << 31) } else { !k })
+}
+
+/// The exact sweep along `axis`: every clipped bound is a candidate, and the counts below and
+/// above each are read off the sorted events in one pass.
+fn sweep(refs: &[KdRef], axis: usize, sah: &Sah, events: &mut Vec<u64>, best: &mut Option<Split>) {
+    events.clear();
+    for r in refs {
+        let (lo, hi) = (r.bounds.min[axis], r.bounds.max[axis]);
+        if lo == hi {
+            events.push(order_key(lo) << 2 | PLANAR);
+        } else {
+            events.push(order_key(lo) << 2 | START);
+            events.push(order_key(hi) << 2 | END);
+        }
+    }
+    if events.len() >= PARALLEL_SORT {
+        events.par_sort_unstable();
+    } else {
+        events.sort_unstable();
+    }
+    // Below: references starting before the plane (or lying in an earlier one); above:
+    // references ending after it.
+    let (mut below, mut above) = (0, refs.len());
+    let mut i = 0;
+    while i < events.len() {
+        let key = events[i] >> 2;
+        let mut count = [0usize; 3];
+        while i < events.len() && events[i] >> 2 == key {
+            count[(events[i] & 3) as usize] += 1;
+            i += 1;
+        }
+        let [ending, planar, starting] = count;
+        above -= ending + planar;
+        let c = Counts {
+            below,
+            planar,
+            above,
+        };
+        sah.offer(best, axis, from_order_key(key), c);
+        below += starting + planar;
+    }
+}
+
+/// The binned search along `axis`: references counted into the bins their clipped bounds
+/// start and end in; candidates are the bin boundaries.
+fn binned(refs: &[KdRef], axis: usize, bins: usize, sah: &Sah, best: &mut Option<Split>) {
+    let (min, max) = (sah.cell.min[axis], sah.cell.max[axis]);
+    let extent = max - min;
+    if extent <= 0.0 {
+        return;
+    }
+    let scale = bins as f32 / extent;
+    // A start on a boundary counts in the bin above it, an end on one in the bin below, as
+    // the final classification has them (a reference touching a plane is on one side).
+    let start_bin = |x: f32| (((x - min) * scale) as usize).min(bins - 1);
+    let end_bin = |x: f32| ((((x - min) * scale).ceil() as usize).max(1) - 1).min(bins - 1);
+    let mut starts = vec![0usize; bins];
+    let mut ends = vec![0usize; bins];
+    for r in refs {
+        let (lo, hi) = (r.bounds.min[axis], r.bounds.max[axis]);
+        // A reference lying in a boundary plane goes below it, as `planar_below` says.
+        starts[if lo == hi { end_bin(lo) } else { start_bin(lo) }] += 1;
+        ends[end_bin(hi)] += 1;
+    }
+    // Below boundary b: references starting in bins < b; above it: ending in bins ≥ b.
+    let (mut below, mut above) = (0, refs.len());
+    for b in 1..bins {
+        below += starts[b - 1];
+        above -= ends[b - 1];
+        let pos = min + extent * (b as f32 / bins as f32);
+        let c = Counts {
+            below,
+            planar: 0,
+            above,
+        };
+        sah.offer(best, axis, pos, c);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    fn r(lo: f32, hi: f32, tri: u32) -> KdRef {
+        KdRef {
+            bounds: Aabb::new(Vec3::new(lo, 0.0, 0.0), Vec3::new(hi, 1.0, 1.0)),
+            tri,
+        }
+    }
+
+    #[test]
+    fn order_keys_sort_like_floats() {
+        let xs = [-3.5f32, -1.0, -0.0, 0.0, 1e-30, 0.5, 7.0];
+        for w in xs.windows(2) {
+            assert!(order_key(w[0]) <= order_key(w[1]));
+            assert_eq!(from_order_key(order_key(w[0])).to_bits(), w[0].to_bits());
+        }
+    }
+
+    #[test]
+    fn the_sweep_cuts_off_empty_space_next_to_a_cluster() {
+        // Ten references in x ∈ [0, 1] of a cell [0, 10]: the best plane is x = 1.
+        let refs: Vec<KdRef> = (0..10).map(|i| r(0.0, 1.0, i)).collect();
+        let cell = Aabb::new(Vec3::ZERO, Vec3::new(10.0, 1.0, 1.0));
+        let p = KdParams::default();
+        let s = best_split(&refs, &cell, &p).expect("a split");
+        assert_eq!((s.axis, s.pos), (0, 1.0));
+        let binned = KdParams {
+            split: KdSplit::Binned(10),
+            ..p
+        };
+        let s = best_split(&refs, &cell, &binned).expect("a split");
+        assert_eq!((s.axis, s.pos), (0, 1.0));
+    }
+
+    #[test]
+    fn planar_references_go_to_the_cheaper_side() {
+        // Five references in the plane x = 2 and one in [2, 3]... with cell [0, 3]: putting
+        // the planar ones above (with the other) leaves the below side empty.
+        let mut refs: Vec<KdRef> = (0..5).map(|i| r(2.0, 2.0, i)).collect();
+        refs.push(r(2.0, 3.0, 5));
+        let cell = Aabb::new(Vec3::ZERO, Vec3::new(3.0, 1.0, 1.0));
+        let s = best_split(&refs, &cell, &KdParams::default()).expect("a split");
+        assert_eq!((s.axis, s.pos, s.planar_below), (0, 2.0, false));
+    }
+
+    #[test]
+    fn no_candidate_inside_a_cell_that_is_one_triangle_s_bounds() {
+        let refs = vec![r(0.0, 1.0, 0), r(0.0, 1.0, 1)];
+        let cell = Aabb::new(Vec3::ZERO, Vec3::ONE);
+        assert_eq!(best_split(&refs, &cell, &KdParams::default()), None);
+    }
+}

@@ -1,0 +1,311 @@
+//! k-d tree traversal front to back: each node's [t_entry, t_exit] interval is cut at the
+//! split plane's distance, the near child is taken first and the far one kept on a stack
+//! with its interval. A hit found in a cell is kept as the best so far even if it lies
+//! beyond the cell (with mailboxing the triangle will not be tested again), and the search
+//! stops once no remaining cell starts before the best hit.
+//!
+//! Every interval is widened by the relative rounding error of its plane distance, so
+//! rounding can only make the traversal visit more cells, never fewer: a hit on a split
+//! plane, or a few ulps beyond a cell, is found in either cell.
+
+use super::{KdTree, MAX_DEPTH};
+use crate::accel::bvh::traverse::T_SCALE;
+use crate::accel::{Accel, BestHit, Hit, Mailbox, Stats};
+use crate::geometry::aabb::SlabRay;
+use crate::geometry::{Intersector, Ray};
+
+/// The stack holds at most one cell per level below the root.
+const STACK_SIZE: usize = MAX_DEPTH as usize + 1;
+const INV_T_SCALE: f32 = 1.0 / T_SCALE;
+
+/// A computed distance (three roundings: o − split, 1/d and the product) moved up past any
+/// exact value it may stand for.
+#[inline(always)]
+fn round_up(t: f32) -> f32 {
+    if t > 0.0 {
+        t * T_SCALE
+    } else {
+        t * INV_T_SCALE
+    }
+}
+
+/// The same moved down.
+#[inline(always)]
+fn round_down(t: f32) -> f32 {
+    if t > 0.0 {
+        t * INV_T_SCALE
+    } else {
+        t * T_SCALE
+    }
+}
+
+/// Per-ray values of the plane distance tests, indexed by axis.
+struct PlaneRay {
+    origin: [f32; 3],
+    inv_dir: [f32; 3],
+    /// Whether the ray meets the below side of a plane first: the direction is positive
+    /// (+0 included). With a zero component the ray never crosses the plane, and the
+    /// distance's sign (±∞) leaves it on the side of its origin.
+    below_first: [bool; 3],
+}
+
+impl PlaneRay {
+    fn new(slab: &SlabRay) -> Self {
+        PlaneRay {
+            origin: slab.origin.to_array(),
+            inv_dir: slab.inv_dir.to_array(),
+            below_first: slab.near.map(|n| n == 0),
+        }
+    }
+}
+
+/// What to do at an interior node: the first and second child with the second's interval
+/// start, and which of them the ray's interval reaches.
+enum Step {
+    First(usize, f32),
+    Second(usize, f32),
+    Both {
+        first: usize,
+        first_tmax: f32,
+        second: usize,
+        second_tmin: f32,
+    },
+}
+
+impl KdTree {
+    /// The ray's interval inside the root cell, widened for rounding, or `None` if it
+    /// misses the tree's bounds within (tmin, tmax).
+    #[inline(always)]
+    fn root_interval(&self, ray: &Ray, slab: &SlabRay) -> Option<(f32, f32)> {
+        let entry = self.bounds.slab_test(slab, ray.tmin, ray.tmax);
+        if entry == f32::INFINITY {
+            return None;
+        }
+        let corners = [self.bounds.min, self.bounds.max];
+        let mut exit = ray.tmax;
+        for k in 0..3 {
+            let far = corners[(slab.near[k] ^ 1) & 1][k];
+            let t = round_up((far - slab.origin[k]) * slab.inv_dir[k]);
+            // A NaN (the ray lies in the face plane) never wins: the cell is closed.
+            if t < exit {
+                exit = t;
+            }
+        }
+        Some((ray.tmin.max(round_down(entry)), exit))
+    }
+
+    /// Where the ray goes at interior node `index`, with interval [tmin, tmax]; `reach` is
+    /// how far a cell may start and still be worth visiting.
+    #[inline(always)]
+    fn step(&self, index: usize, ray: &PlaneRay, tmin: f32, tmax: f32, reach: f32) -> Option<Step> {
+        let node = &self.nodes[index];
+        let axis = node.axis();
+        let t_plane = (node.split() - ray.origin[axis]) * ray.inv_dir[axis];
+        let (below, above) = (index + 1, node.above_child());
+        let (first, second) = if ray.below_first[axis] {
+            (below, above)
+        } else {
+            (above, below)
+        };
+        if t_plane.is_nan() {
+            // The ray lies in the plane (0 · ∞): it touches both cells all along.
+            return Some(Step::Both {
+                first,
+                first_tmax: tmax,
+                second,
+                second_tmin: tmin,
+            });
+        }
+        let (up, down) = (round_up(t_plane), round_down(t_plane));
+        let first_reached = up >= tmin;
+        let second_reached = down <= tmax && down <= reach;
+        match (first_reached, second_reached) {
+            (true, true) => Some(Step::Both {
+                first,
+                first_tmax: tmax.min(up),
+                second,
+                second_tmin: tmin.max(down),
+            }),
+            (true, false) => Some(Step::First(first, tmax.min(up))),
+            (false, true) => Some(Step::Second(second, tmin.max(down))),
+            (false, false) => None,
+        }
+    }
+
+    /// Closest hit, counting into a local sink (kept in registers) added to `stats` once.
+    fn closest<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
+        let mut local = S::default();
+        let hit = self.closest_counted::<I, S>(ray, &mut local);
+        stats.absorb(local);
+        hit
+    }
+
+    #[inline(always)]
+    fn closest_counted<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
+        let slab = SlabRay::new(ray);
+        stats.box_tests(1);
+        let (t0, t1) = self.root_interval(ray, &slab)?;
+        let plane_ray = PlaneRay::new(&slab);
+        let data = I::prepare(ray);
+        let mut best = BestHit::new(ray);
+        // A cell entered beyond this cannot hold a hit closer than the best.
+        let mut reach = ray.tmax * T_SCALE;
+        let mut mailbox = Mailbox::new(self.mailbox);
+        let mut stack = [(0u32, 0.0f32, 0.0f32); STACK_SIZE];
+        let mut sp = 0;
+        let (mut index, mut tmin, mut tmax) = (0usize, t0, t1);
+        loop {
+            stats.node_visit();
+            let node = &self.nodes[index];
+            if !node.is_leaf() {
+                stats.box_tests(1);
+                match self.step(index, &plane_ray, tmin, tmax, reach) {
+                    Some(Step::First(c, t)) => {
+                        index = c;
+                        tmax = t;
+                        continue;
+                    }
+                    Some(Step::Second(c, t)) => {
+                        index = c;
+                        tmin = t;
+                        continue;
+                    }
+                    Some(Step::Both {
+                        first,
+                        first_tmax,
+                        second,
+                        second_tmin,
+                    }) => {
+                        stack[sp] = (second as u32, second_tmin, tmax);
+                        sp += 1;
+                        index = first;
+                        tmax = first_tmax;
+                        continue;
+                    }
+                    None => {}
+                }
+            } else {
+                for &tri in node.leaf_refs(&self.refs) {
+                    if !mailbox.admit(tri, stats) {
+                        continue;
+                    }
+                    stats.triangle_test();
+                    let t = &self.triangles[tri as usize];
+                    if let Some(h) = I::intersect(&data, ray, t, ray.tmin, best.limit) {
+                        best.offer(h, tri);
+                        reach = best.t * T_SCALE;
+                    }
+                }
+            }
+            // The next cell that starts before the best hit.
+            loop {
+                if sp == 0 {
+                    return best.hit();
+                }
+                sp -= 1;
+                let (next, start, end) = stack[sp];
+                if start <= reach {
+                    (index, tmin, tmax) = (next as usize, start, end);
+                    break;
+                }
+            }
+        }
+    }
+
+    /// Any hit, counting like `closest`.
+    fn occluded<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
+        let mut local = S::default();
+        let hit = self.occluded_counted::<I, S>(ray, &mut local);
+        stats.absorb(local);
+        hit
+    }
+
+    #[inline(always)]
+    fn occluded_counted<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
+        let slab = SlabRay::new(ray);
+        stats.box_tests(1);
+        let Some((t0, t1)) = self.root_interval(ray, &slab) else {
+            return false;
+        };
+        let plane_ray = PlaneRay::new(&slab);
+        let data = I::prepare(ray);
+        let reach = f32::INFINITY;
+        let mut mailbox = Mailbox::new(self.mailbox);
+        let mut stack = [(0u32, 0.0f32, 0.0f32); STACK_SIZE];
+        let mut sp = 0;
+        let (mut index, mut tmin, mut tmax) = (0usize, t0, t1);
+        loop {
+            stats.node_visit();
+            let node = &self.nodes[index];
+            if !node.is_leaf() {
+                stats.box_tests(1);
+                match self.step(index, &plane_ray, tmin, tmax, reach) {
+                    Some(Step::First(c, t)) => {
+                        index = c;
+                        tmax = t;
+                        continue;
+                    }
+                    Some(Step::Second(c, t)) => {
+                        index = c;
+                        tmin = t;
+                        continue;
+                    }
+                    Some(Step::Both {
+                        first,
+                        first_tmax,
+                        second,
+                        second_tmin,
+                    }) => {
+                        stack[sp] = (second as u32, second_tmin, tmax);
+                        sp += 1;
+                        index = first;
+                        tmax = first_tmax;
+                        continue;
+                    }
+                    None => {}
+                }
+            } else {
+                for &tri in node.leaf_refs(&self.refs) {
+                    if !mailbox.admit(tri, stats) {
+                        continue;
+                    }
+                    stats.triangle_test();
+                    let t = &self.triangles[tri as usize];
+                    if I::intersect(&data, ray, t, ray.tmin, ray.tmax).is_some() {
+                        return true;
+                    }
+                }
+            }
+            if sp == 0 {
+                return false;
+            }
+            sp -= 1;
+            (index, tmin, tmax) = (stack[sp].0 as usize, stack[sp].1, stack[sp].2);
+        }
+    }
+}
+
+impl Accel for KdTree {
+    fn closest_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
+        self.closest::<I, S>(ray, stats)
+    }
+
+    fn any_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
+        self.occluded::<I, S>(ray, stats)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rounding_moves_distances_outward_whatever_their_sign() {
+        for t in [1.0f32, 1e-30, 123.456, -2.0, -1e-30] {
+            assert!(round_up(t) > t && round_down(t) < t, "{t}");
+        }
+        assert_eq!(round_up(0.0), 0.0);
+        assert_eq!(round_up(f32::INFINITY), f32::INFINITY);
+        assert_eq!(round_down(f32::NEG_INFINITY), f32::NEG_INFINITY);
+    }
+}
