@@ -6,6 +6,7 @@ pub mod brute_force;
 pub mod bvh;
 #[cfg(feature = "embree")]
 pub mod embree;
+pub mod grid;
 pub mod hit;
 pub mod mailbox;
 pub mod outline;
