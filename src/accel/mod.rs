@@ -9,6 +9,7 @@ pub mod embree;
 pub mod grid;
 pub mod hit;
 pub mod mailbox;
+pub mod octree;
 pub mod outline;
 pub mod report;
 pub mod stats;
