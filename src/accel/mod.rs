@@ -6,9 +6,11 @@ pub mod brute_force;
 pub mod bvh;
 #[cfg(feature = "embree")]
 pub mod embree;
+pub mod grid;
 pub mod hit;
 pub mod kdtree;
 pub mod mailbox;
+pub mod octree;
 pub mod outline;
 pub mod report;
 pub mod stats;

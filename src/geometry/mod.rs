@@ -4,6 +4,7 @@
 pub mod aabb;
 pub mod frustum;
 pub mod intersect;
+pub mod overlap;
 pub mod ray;
 pub mod rayfile;
 pub mod spawn;

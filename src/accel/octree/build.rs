@@ -1,0 +1,261 @@
+//! Octree construction, top down: a cell holding more than `max_leaf_size` triangles is cut
+//! at its centre into eight octants, each triangle listed in the octants it really overlaps
+//! (exact triangle–box test, only where its bounding box straddles a mid plane), and only
+//! the non-empty octants are kept.
+
+use super::{MAX_REFERENCES_PER_TRIANGLE, Node, Octree, OctreeError, OctreeParams};
+use crate::accel::StructureReport;
+use crate::accel::grid::PAD;
+use crate::geometry::overlap::TriangleSat;
+use crate::geometry::{Aabb, Triangle};
+use glam::DVec3;
+use rayon::prelude::*;
+use std::time::Instant;
+
+pub fn build(
+    triangles: &[Triangle],
+    params: &OctreeParams,
+) -> Result<(Octree, StructureReport), OctreeError> {
+    params.validate()?;
+    if triangles.len() >= u32::MAX as usize {
+        return Err(OctreeError::TooMany(triangles.len()));
+    }
+    if let Some(i) = triangles.par_iter().position_any(|t| !t.is_finite()) {
+        return Err(OctreeError::NonFinite(i));
+    }
+    let start = Instant::now();
+    let bounds = triangles
+        .par_iter()
+        .map(|t| t.bounds())
+        .reduce(|| Aabb::EMPTY, Aabb::union);
+    let (root_min, root_size) = if bounds.is_empty() {
+        (DVec3::ZERO, 0.0)
+    } else {
+        (
+            bounds.min.as_dvec3(),
+            bounds.extent().as_dvec3().max_element(),
+        )
+    };
+    let mut b = Builder {
+        triangles,
+        params,
+        pad: root_size * PAD,
+        nodes: vec![Node {
+            first: 0,
+            count: 0,
+            mask: 0,
+        }],
+        refs: Vec::new(),
+        live_refs: triangles.len(),
+        budget: MAX_REFERENCES_PER_TRIANGLE * triangles.len() + 4096,
+        caps: Caps::default(),
+    };
+    b.node(
+        0,
+        root_min,
+        root_size,
+        (0..triangles.len() as u32).collect(),
+        0,
+    );
+    let (nodes, refs, caps) = (b.nodes, b.refs, b.caps);
+    let max = root_min + root_size;
+    // The f32 cube rounded outwards, so the entry test never rejects a ray the f64 cube
+    // admits.
+    let up = |x: f64| {
+        let f = x as f32;
+        if f64::from(f) < x { f.next_up() } else { f }
+    };
+    let octree = Octree {
+        root_min,
+        root_size,
+        bounds: if bounds.is_empty() {
+            Aabb::EMPTY
+        } else {
+            Aabb::new(bounds.min, glam::Vec3::new(up(max.x), up(max.y), up(max.z)))
+        },
+        nodes,
+        refs,
+        triangles: triangles.to_vec(),
+        mailbox: params.mailbox,
+    };
+    let build_time = start.elapsed();
+    let report = report(&octree, params, &caps, build_time);
+    Ok((octree, report))
+}
+
+#[derive(Default)]
+struct Caps {
+    /// Leaves at the depth bound still above the leaf size.
+    depth: usize,
+    /// Leaves kept whole because splitting separated nothing: every non-empty octant (two
+    /// or more) would have held all the cell's triangles.
+    unsplittable: usize,
+    /// Leaves kept whole because the reference budget ran out.
+    budget: usize,
+    /// Empty octants of split cells (not stored).
+    empty_octants: usize,
+    max_depth: u32,
+}
+
+struct Builder<'a> {
+    triangles: &'a [Triangle],
+    params: &'a OctreeParams,
+    pad: f64,
+    nodes: Vec<Node>,
+    refs: Vec<u32>,
+    /// References in the leaves so far plus the cells still to be built.
+    live_refs: usize,
+    budget: usize,
+    caps: Caps,
+}
+
+impl Builder<'_> {
+    /// Builds node `index`, the cube at `min` with side `size`, over `tris`. The recursion
+    /// is at most `MAX_DEPTH` + 1 deep.
+    fn node(&mut self, index: usize, min: DVec3, size: f64, tris: Vec<u32>, depth: u32) {
+        let n = tris.len();
+        if n <= self.params.max_leaf_size as usize {
+            return self.leaf(index, tris, depth);
+        }
+        if depth >= self.params.max_depth {
+            self.caps.depth += 1;
+            return self.leaf(index, tris, depth);
+        }
+        let half = size * 0.5;
+        let octants = self.split(&tris, min, half);
+        let sizes = octants.each_ref().map(Vec::len);
+        let non_empty = sizes.iter().filter(|&&s| s > 0).count();
+        let total: usize = sizes.iter().sum();
+        if non_empty >= 2 && sizes.iter().all(|&s| s == 0 || s == n) {
+            self.caps.unsplittable += 1;
+            return self.leaf(index, tris, depth);
+        }
+        if self.live_refs - n + total > self.budget {
+            self.caps.budget += 1;
+            return self.leaf(index, tris, depth);
+        }
+        drop(tris);
+        self.live_refs = self.live_refs - n + total;
+        self.caps.empty_octants += 8 - non_empty;
+        let first = self.nodes.len();
+        let mut mask = 0u8;
+        for (o, s) in sizes.iter().enumerate() {
+            if *s > 0 {
+                mask |= 1 << o;
+            }
+        }
+        self.nodes[index] = Node {
+            first: first as u32,
+            count: 0,
+            mask,
+        };
+        self.nodes.resize(first + non_empty, self.nodes[index]);
+        let mut child = first;
+        for (o, list) in octants.into_iter().enumerate() {
+            if list.is_empty() {
+                continue;
+            }
+            let corner = DVec3::new((o & 1) as f64, (o >> 1 & 1) as f64, (o >> 2 & 1) as f64);
+            self.node(child, min + corner * half, half, list, depth + 1);
+            child += 1;
+        }
+    }
+
+    fn leaf(&mut self, index: usize, tris: Vec<u32>, depth: u32) {
+        self.caps.max_depth = self.caps.max_depth.max(depth);
+        self.nodes[index] = Node {
+            first: self.refs.len() as u32,
+            count: tris.len() as u32,
+            mask: 0,
+        };
+        self.refs.extend_from_slice(&tris);
+    }
+
+    /// The triangles of each octant of the cube at `min` with side 2·`half`.
+    fn split(&self, tris: &[u32], min: DVec3, half: f64) -> [Vec<u32>; 8] {
+        let mid = min + half;
+        let mut out: [Vec<u32>; 8] = Default::default();
+        let pad = self.pad;
+        for &t in tris {
+            let tri = &self.triangles[t as usize];
+            let b = tri.bounds();
+            let (lo, hi) = (b.min.as_dvec3() - pad, b.max.as_dvec3() + pad);
+            // Per axis: may the triangle reach the lower half (bit 0), the upper (bit 1)?
+            let sides =
+                [0, 1, 2].map(|k| u8::from(lo[k] <= mid[k]) | u8::from(hi[k] >= mid[k]) << 1);
+            let single = sides.iter().all(|&s| s != 3);
+            if single {
+                // On one side of every mid plane: the triangle overlaps this cell, so it
+                // overlaps that octant.
+                let o = (0..3).fold(0, |o, k| o | usize::from(sides[k] == 2) << k);
+                out[o].push(t);
+                continue;
+            }
+            let sat = TriangleSat::new(tri);
+            for (o, list) in out.iter_mut().enumerate() {
+                let bit = |k: usize| o >> k & 1;
+                if (0..3).any(|k| sides[k] >> bit(k) & 1 == 0) {
+                    continue;
+                }
+                let corner = DVec3::new(bit(0) as f64, bit(1) as f64, bit(2) as f64);
+                let cmin = min + corner * half;
+                if sat.overlaps(cmin - pad, cmin + half + pad) {
+                    list.push(t);
+                }
+            }
+        }
+        out
+    }
+}
+
+fn report(
+    octree: &Octree,
+    params: &OctreeParams,
+    caps: &Caps,
+    build_time: std::time::Duration,
+) -> StructureReport {
+    let leaves: Vec<&Node> = octree.nodes.iter().filter(|n| n.is_leaf()).collect();
+    let stored_empty = leaves.iter().filter(|n| n.count == 0).count();
+    let mut caps_hit = Vec::new();
+    if caps.depth > 0 {
+        caps_hit.push(format!(
+            "{} leaves at the depth bound {} hold more than {} triangles",
+            caps.depth, params.max_depth, params.max_leaf_size
+        ));
+    }
+    if caps.unsplittable > 0 {
+        caps_hit.push(format!(
+            "{} leaves hold more than {} triangles: splitting them would put all of them \
+             in every non-empty octant",
+            caps.unsplittable, params.max_leaf_size
+        ));
+    }
+    if caps.budget > 0 {
+        caps_hit.push(format!(
+            "{} leaves left unsplit: the tree reached {} references per triangle",
+            caps.budget, MAX_REFERENCES_PER_TRIANGLE
+        ));
+    }
+    StructureReport {
+        structure: "octree",
+        triangles: octree.triangles.len(),
+        build_time,
+        bytes: octree.bytes(),
+        nodes: octree.nodes.len(),
+        leaves: leaves.len() + caps.empty_octants,
+        empty_leaves: stored_empty + caps.empty_octants,
+        max_depth: caps.max_depth,
+        references: octree.refs.len(),
+        largest_leaf: leaves.iter().map(|n| n.count as usize).max().unwrap_or(0),
+        details: vec![
+            ("max leaf size".into(), params.max_leaf_size.to_string()),
+            ("depth bound".into(), params.max_depth.to_string()),
+            ("root cube side".into(), format!("{:.4}", octree.root_size)),
+            (
+                "empty octants (not stored)".into(),
+                caps.empty_octants.to_string(),
+            ),
+        ],
+        caps_hit,
+    }
+}

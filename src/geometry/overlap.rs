@@ -1,0 +1,280 @@
+//! Triangle–box overlap by separating axes (Akenine-Möller 2001): how a spatial structure
+//! (grid, octree) decides which cells really hold a triangle, rather than every cell its
+//! bounding box touches. Closed boxes: a triangle touching a face, edge or corner overlaps.
+//!
+//! Two convex sets are disjoint exactly when some axis separates their projections; for a
+//! triangle and a box it suffices to try 13: the box's three face normals, the triangle's
+//! normal, and the nine cross products of a triangle edge with a box axis. A degenerate
+//! triangle (a segment or a point) is covered by the same axes: its normal is zero, which
+//! separates nothing, and the other twelve are those of a segment or a point against a box.
+//! Everything is computed in f64 from the f32 inputs.
+
+use super::{Aabb, Triangle};
+use glam::DVec3;
+
+/// A triangle prepared for many box tests: vertices, edges and normal in f64.
+#[derive(Clone, Copy, Debug)]
+pub struct TriangleSat {
+    v: [DVec3; 3],
+    e: [DVec3; 3],
+    n: DVec3,
+}
+
+impl TriangleSat {
+    pub fn new(tri: &Triangle) -> Self {
+        let v = tri.v.map(|p| p.as_dvec3());
+        let e = [v[1] - v[0], v[2] - v[1], v[0] - v[2]];
+        TriangleSat {
+            v,
+            e,
+            n: e[0].cross(e[1]),
+        }
+    }
+
+    /// Whether the triangle overlaps the closed box [min, max].
+    #[inline]
+    pub fn overlaps(&self, min: DVec3, max: DVec3) -> bool {
+        let c = (min + max) * 0.5;
+        let h = (max - min) * 0.5;
+        let v = [self.v[0] - c, self.v[1] - c, self.v[2] - c];
+        // Box face normals: the bounding boxes must overlap.
+        for k in 0..3 {
+            let lo = v[0][k].min(v[1][k]).min(v[2][k]);
+            let hi = v[0][k].max(v[1][k]).max(v[2][k]);
+            if lo > h[k] || hi < -h[k] {
+                return false;
+            }
+        }
+        // The triangle's plane against the box: the box's projection on n is ±h·|n|.
+        let r = h.dot(self.n.abs());
+        if self.n.dot(v[0]).abs() > r {
+            return false;
+        }
+        // Edge × axis: a = e × u_k; the projections of the two vertices on the edge agree,
+        // but computing all three keeps the code uniform and a segment's third vertex in.
+        for e in &self.e {
+            for k in 0..3 {
+                let a = match k {
+                    0 => DVec3::new(0.0, -e.z, e.y),
+                    1 => DVec3::new(e.z, 0.0, -e.x),
+                    _ => DVec3::new(-e.y, e.x, 0.0),
+                };
+                let p = [a.dot(v[0]), a.dot(v[1]), a.dot(v[2])];
+                let r = h.dot(a.abs());
+                let lo = p[0].min(p[1]).min(p[2]);
+                let hi = p[0].max(p[1]).max(p[2]);
+                if lo > r || hi < -r {
+                    return false;
+                }
+            }
+        }
+        true
+    }
+}
+
+/// Whether `tri` overlaps the closed box `b`.
+pub fn triangle_box_overlap(tri: &Triangle, b: &Aabb) -> bool {
+    if b.is_empty() {
+        return false;
+    }
+    TriangleSat::new(tri).overlaps(b.min.as_dvec3(), b.max.as_dvec3())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::{Vec3, vec3};
+
+    /// The independent check: clip the triangle (as a polygon) against the six closed
+    /// half-spaces of the box; it overlaps if anything is left.
+    fn clip_overlaps(tri: &Triangle, min: DVec3, max: DVec3) -> bool {
+        let mut poly: Vec<DVec3> = tri.v.iter().map(|p| p.as_dvec3()).collect();
+        for k in 0..3 {
+            for (sign, bound) in [(1.0, max[k]), (-1.0, min[k])] {
+                // Keep sign·(p_k − bound) ≤ 0.
+                let d = |p: DVec3| sign * (p[k] - bound);
+                let mut out = Vec::new();
+                for i in 0..poly.len() {
+                    let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
+                    let (da, db) = (d(a), d(b));
+                    if da <= 0.0 {
+                        out.push(a);
+                    }
+                    if (da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0) {
+                        let mut p = a + (b - a) * (da / (da - db));
+                        p[k] = bound;
+                        out.push(p);
+                    }
+                }
+                poly = out;
+                if poly.is_empty() {
+                    return false;
+                }
+            }
+        }
+        true
+    }
+
+    fn unit() -> Aabb {
+        Aabb::new(Vec3::ZERO, Vec3::ONE)
+    }
+
+    fn both(tri: Triangle, b: Aabb, expected: bool, what: &str) {
+        assert_eq!(triangle_box_overlap(&tri, &b), expected, "SAT: {what}");
+        assert_eq!(
+            clip_overlaps(&tri, b.min.as_dvec3(), b.max.as_dvec3()),
+            expected,
+            "clipping: {what}"
+        );
+    }
+
+    #[test]
+    fn touching_counts_at_a_face_an_edge_and_a_corner() {
+        let b = unit();
+        // A triangle lying in the face plane x = 1, overlapping the face.
+        both(
+            Triangle::new(vec3(1., 0.5, 0.5), vec3(1., 2., 0.5), vec3(1., 0.5, 2.)),
+            b,
+            true,
+            "in a face plane",
+        );
+        // A triangle outside whose vertex touches the face x = 1.
+        both(
+            Triangle::new(vec3(1., 0.5, 0.5), vec3(2., 0.5, 0.5), vec3(2., 0.6, 0.7)),
+            b,
+            true,
+            "vertex on a face",
+        );
+        // A vertex exactly on the corner (1, 1, 1), the triangle pointing away.
+        both(
+            Triangle::new(vec3(1., 1., 1.), vec3(2., 1., 2.), vec3(2., 2., 1.)),
+            b,
+            true,
+            "vertex on a corner",
+        );
+        // An edge crossing the box edge x = 1, y = 1 from outside (the triangle lies in
+        // the plane x + y = 2, touching the box only along that edge).
+        both(
+            Triangle::new(vec3(2., 0., -1.), vec3(0., 2., -1.), vec3(1., 1., 3.)),
+            b,
+            true,
+            "plane touching an edge",
+        );
+        // The plane x + y + z = 3 touches the box only at the corner (1, 1, 1).
+        both(
+            Triangle::new(vec3(3., 0., 0.), vec3(0., 3., 0.), vec3(0., 0., 3.)),
+            b,
+            true,
+            "plane touching a corner",
+        );
+        // Just beyond: x + y + z = 3 + 1/64.
+        let s = 3.0 + 1.0 / 64.0;
+        both(
+            Triangle::new(vec3(s, 0., 0.), vec3(0., s, 0.), vec3(0., 0., s)),
+            b,
+            false,
+            "plane past a corner",
+        );
+        // A vertex a little outside the face.
+        both(
+            Triangle::new(
+                vec3(1. + 1. / 1024., 0.5, 0.5),
+                vec3(2., 0.5, 0.5),
+                vec3(2., 0.6, 0.7),
+            ),
+            b,
+            false,
+            "vertex off a face",
+        );
+    }
+
+    #[test]
+    fn separated_by_an_edge_axis_though_the_boxes_overlap() {
+        // The triangle's bounding box contains the box's corner region, its plane cuts the
+        // box's bounding planes, yet an edge cross product separates them: the triangle's
+        // long edge passes by the corner (1, 1, ·) at x + y = 2.25.
+        let tri = Triangle::new(vec3(2.25, 0., 0.5), vec3(0., 2.25, 0.5), vec3(3., 3., 0.5));
+        both(tri, unit(), false, "edge axis separates");
+        let tri = Triangle::new(vec3(2., 0., 0.5), vec3(0., 2., 0.5), vec3(3., 3., 0.5));
+        both(tri, unit(), true, "edge touches the box edge");
+    }
+
+    #[test]
+    fn degenerate_triangles_a_point_a_segment_zero_area() {
+        let b = unit();
+        let p = |x: f32, y: f32, z: f32| Triangle::new(vec3(x, y, z), vec3(x, y, z), vec3(x, y, z));
+        both(p(0.5, 0.5, 0.5), b, true, "point inside");
+        both(p(1.0, 1.0, 0.0), b, true, "point on an edge");
+        both(p(1.0, 1.0, 1.0), b, true, "point on a corner");
+        both(p(1.0, 1.5, 0.5), b, false, "point outside");
+        let seg = |a: Vec3, c: Vec3| Triangle::new(a, (a + c) * 0.5, c);
+        both(
+            seg(vec3(-1., 0.5, 0.5), vec3(2., 0.5, 0.5)),
+            b,
+            true,
+            "segment through",
+        );
+        both(
+            seg(vec3(0., 2., 0.5), vec3(2., 0., 0.5)),
+            b,
+            true,
+            "segment touching at an edge",
+        );
+        both(
+            seg(vec3(0., 2.5, 0.5), vec3(2.5, 0., 0.5)),
+            b,
+            false,
+            "segment passing a corner",
+        );
+        // A segment given by a repeated vertex.
+        both(
+            Triangle::new(vec3(0., 2.5, 0.5), vec3(2.5, 0., 0.5), vec3(2.5, 0., 0.5)),
+            b,
+            false,
+            "segment with a repeated vertex",
+        );
+        both(
+            Triangle::new(vec3(1., 1., 2.), vec3(1., 1., -1.), vec3(1., 1., -1.)),
+            b,
+            true,
+            "segment along an edge",
+        );
+    }
+
+    #[test]
+    fn agrees_with_clipping_on_random_triangles_and_boxes() {
+        let mut s = 0x1234_5678_9abc_def0u64;
+        let mut rnd = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f32 / (1u64 << 53) as f32
+        };
+        let mut counts = [0usize; 2];
+        for i in 0..200_000 {
+            let mut v = || vec3(rnd() * 3. - 1., rnd() * 3. - 1., rnd() * 3. - 1.);
+            let mut tri = Triangle::new(v(), v(), v());
+            if i % 10 == 0 {
+                tri.v[2] = tri.v[0] + (tri.v[1] - tri.v[0]) * 0.25; // collinear
+            }
+            let lo = vec3(rnd(), rnd(), rnd()) * 0.8;
+            let b = Aabb::new(lo, lo + vec3(rnd(), rnd(), rnd()) * 0.6);
+            // Only where a tiny change of the box does not change the answer.
+            let e = DVec3::splat(1e-7);
+            let (min, max) = (b.min.as_dvec3(), b.max.as_dvec3());
+            let inner = clip_overlaps(&tri, min + e, max - e);
+            let outer = clip_overlaps(&tri, min - e, max + e);
+            if inner == outer {
+                assert_eq!(triangle_box_overlap(&tri, &b), inner, "{tri:?} {b:?}");
+                counts[usize::from(inner)] += 1;
+            }
+        }
+        assert!(counts[0] > 10_000 && counts[1] > 10_000, "{counts:?}");
+    }
+
+    #[test]
+    fn empty_box_overlaps_nothing() {
+        let t = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y);
+        assert!(!triangle_box_overlap(&t, &Aabb::EMPTY));
+    }
+}

@@ -1,0 +1,487 @@
+//! The uniform grid against brute force: the same closest hits, bit for bit, with mailboxing
+//! on and off, for every λ, on random soups, on every built-in scene and on lattice scenes
+//! whose hits lie exactly on cell faces, edges and corners; errors for bad parameters;
+//! counting changes no hit; degenerate and very large inputs.
+
+mod common;
+
+use bvhlab::accel::grid::{GridError, GridParams, MAX_CELLS, build};
+use bvhlab::accel::{Accel, BruteForce, Counters, NoStats};
+use bvhlab::geometry::{Aabb, Ray, Triangle, Watertight};
+use bvhlab::scene::Scene;
+use common::{Rng, rays, same_hit, soup};
+use glam::{Vec3, vec3};
+
+fn bounds(tris: &[Triangle]) -> Aabb {
+    tris.iter().fold(Aabb::EMPTY, |b, t| b.union(t.bounds()))
+}
+
+fn params(lambda: f32, mailbox: bool) -> GridParams {
+    GridParams { lambda, mailbox }
+}
+
+/// Closest and any hits of the grid over `tris` equal brute force on `rays`, with the
+/// mailbox on and off.
+fn check(tris: &[Triangle], lambda: f32, rays: &[Ray], what: &str) {
+    let brute = BruteForce::new(tris, false);
+    let (mut grid, report) = build(tris, &params(lambda, true)).expect("builds");
+    assert_eq!(report.structure, "grid");
+    assert_eq!(report.triangles, tris.len());
+    grid.outline().validate().expect("valid outline");
+    let expected: Vec<_> = rays
+        .iter()
+        .map(|r| brute.closest_hit::<Watertight, _>(r, &mut NoStats))
+        .collect();
+    for mailbox in [true, false] {
+        grid.mailbox = mailbox;
+        for (i, (ray, want)) in rays.iter().zip(&expected).enumerate() {
+            let got = grid.closest_hit::<Watertight, _>(ray, &mut NoStats);
+            assert!(
+                same_hit(got, *want),
+                "{what} λ={lambda} mailbox={mailbox}: ray {i} {ray:?}: grid {got:?}, brute force {want:?}"
+            );
+            let mut c = Counters::default();
+            let counted = grid.closest_hit::<Watertight, _>(ray, &mut c);
+            assert!(same_hit(got, counted), "{what}: counting changed ray {i}");
+            if mailbox {
+                assert_eq!(c.repeated_tests, 0);
+            }
+            assert_eq!(
+                grid.any_hit::<Watertight, _>(ray, &mut NoStats),
+                want.is_some(),
+                "{what} λ={lambda} mailbox={mailbox}: any hit of ray {i} {ray:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn matches_brute_force_on_random_soups_for_every_lambda() {
+    for (seed, n) in [(1, 1), (2, 7), (3, 100), (4, 2000)] {
+        let tris = soup(n, seed);
+        let rays = rays(&bounds(&tris), 500, seed + 100);
+        for lambda in [1.0 / 16.0, 1.0, 8.0, 64.0] {
+            check(&tris, lambda, &rays, &format!("soup {n}"));
+        }
+    }
+}
+
+const SMALL_BUILTINS: &[&str] = &[
+    "cornell",
+    "teapot-in-stadium",
+    "grass:2000",
+    "walls",
+    "walls-rotated",
+    "same-centroid:1500",
+    "same-bbox:1500",
+    "soup:3000",
+    "sphere:3000",
+];
+
+#[test]
+fn matches_brute_force_on_every_builtin_scene() {
+    for name in SMALL_BUILTINS {
+        let scene = Scene::load(name).expect("built-in scene");
+        let mut rays = rays(&scene.bounds(), 300, 7);
+        let cam = scene.camera().rays(16, 12);
+        rays.extend(
+            (0..12)
+                .flat_map(|y| (0..16).map(move |x| (x, y)))
+                .map(|(x, y)| cam.pixel_center(x, y)),
+        );
+        for lambda in [1.0, 4.0] {
+            check(&scene.triangles, lambda, &rays, name);
+        }
+    }
+}
+
+/// 512 triangles with integer vertices in [0, 8]³ (the two pinning the corners first): with
+/// λ = 1 the grid is 8 × 8 × 8 cells of side 1, so every integer plane is a cell face.
+fn lattice_scene(seed: u64) -> Vec<Triangle> {
+    let mut rng = Rng::new(seed);
+    let mut tris = vec![
+        Triangle::new(vec3(0., 0., 0.), vec3(1., 0., 0.), vec3(0., 1., 0.)),
+        Triangle::new(vec3(8., 8., 8.), vec3(7., 8., 8.), vec3(8., 7., 8.)),
+    ];
+    let mut int = |lo: i32, hi: i32| lo + rng.below((hi - lo + 1) as usize) as i32;
+    while tris.len() < 512 {
+        let a = vec3(int(0, 8) as f32, int(0, 8) as f32, int(0, 8) as f32);
+        let mut near = || {
+            let p = a + vec3(int(-2, 2) as f32, int(-2, 2) as f32, int(-2, 2) as f32);
+            p.clamp(Vec3::ZERO, Vec3::splat(8.))
+        };
+        let (b, c) = (near(), near());
+        tris.push(Triangle::new(a, b, c));
+    }
+    tris
+}
+
+/// Rays through lattice points, cell edges and faces: integer and half-integer origins,
+/// small integer directions with signed zeros (rays in face planes and along edges), and
+/// rays aimed at the triangles' vertices and edge midpoints from outside.
+fn lattice_rays(tris: &[Triangle], seed: u64) -> Vec<Ray> {
+    let mut rng = Rng::new(seed);
+    let mut out = Vec::new();
+    let dirs = [-2.0f32, -1.0, -0.0, 0.0, 1.0, 2.0];
+    for i in 0..3000 {
+        let coord = |rng: &mut Rng| {
+            let c = rng.below(11) as f32 - 1.0;
+            if i % 3 == 0 && rng.f32() < 0.5 {
+                c + 0.5
+            } else {
+                c
+            }
+        };
+        let o = vec3(coord(&mut rng), coord(&mut rng), coord(&mut rng));
+        let d = vec3(dirs[rng.below(6)], dirs[rng.below(6)], dirs[rng.below(6)]);
+        if d != Vec3::ZERO {
+            out.push(Ray::new(o, d));
+        }
+    }
+    for (i, t) in tris.iter().enumerate() {
+        let targets = [t.v[0], (t.v[0] + t.v[1]) * 0.5, t.v[2]];
+        let target = targets[i % 3];
+        for d in [
+            vec3(1., 0., 0.),
+            vec3(0., -1., 0.),
+            vec3(-0., 0., 1.),
+            vec3(1., 1., 0.),
+            vec3(1., -1., 1.),
+            vec3(2., 1., -1.),
+        ] {
+            out.push(Ray::new(target - d * 12.0, d));
+            out.push(Ray::new(target + d * 12.0, -d));
+        }
+    }
+    out
+}
+
+#[test]
+fn hits_exactly_on_cell_faces_edges_and_corners_match_brute_force() {
+    for seed in 0..4 {
+        let tris = lattice_scene(seed);
+        let (grid, _) = build(&tris, &GridParams::default()).expect("builds");
+        assert_eq!(grid.resolution(), [8, 8, 8]);
+        let rays = lattice_rays(&tris, seed + 10);
+        check(&tris, 1.0, &rays, &format!("lattice {seed}"));
+    }
+}
+
+#[test]
+fn only_hit_on_a_cell_face_edge_or_corner() {
+    // Two pinning triangles far off the rays' paths, and one target whose only contact with
+    // the ray is a point on a face (x = 4), an edge (x = y = 4) or a corner (4, 4, 4).
+    let pins = [
+        Triangle::new(vec3(0., 0., 0.), vec3(0.5, 0., 0.), vec3(0., 0.5, 0.)),
+        Triangle::new(vec3(8., 8., 8.), vec3(7.5, 8., 8.), vec3(8., 7.5, 8.)),
+    ];
+    let targets = [
+        // In the face plane x = 4.
+        Triangle::new(vec3(4., 2., 2.), vec3(4., 6., 2.), vec3(4., 2., 6.)),
+        // A vertex at the corner (4, 4, 4), reaching into one cell only.
+        Triangle::new(vec3(4., 4., 4.), vec3(5., 4.5, 4.5), vec3(4.5, 5., 4.5)),
+        // An edge along the cell edge x = y = 4.
+        Triangle::new(vec3(4., 4., 1.), vec3(4., 4., 7.), vec3(6., 5., 4.)),
+        // A vertex on the face x = 4 at (4, 4.5, 4.5), reaching into x < 4.
+        Triangle::new(vec3(4., 4.5, 4.5), vec3(3., 4., 4.), vec3(3., 5., 4.5)),
+    ];
+    let aims = [
+        vec3(4., 3., 3.),
+        vec3(4., 4., 4.),
+        vec3(4., 4., 2.5),
+        vec3(4., 4.5, 4.5),
+    ];
+    let dirs = [
+        vec3(1., 0., 0.),
+        vec3(-1., 0., 0.),
+        vec3(0., 1., 0.),
+        vec3(0., 0., -1.),
+        vec3(1., 1., 1.),
+        vec3(-1., 1., -1.),
+        vec3(1., 2., 3.),
+        vec3(0., 1., 1.),
+        vec3(-0., 1., -1.),
+    ];
+    for target in targets {
+        let mut tris = pins.to_vec();
+        // Fill up to 512 triangles with copies of the pins so the grid is 8 × 8 × 8.
+        while tris.len() < 511 {
+            tris.push(pins[tris.len() % 2]);
+        }
+        tris.push(target);
+        let mut rays = Vec::new();
+        for aim in aims {
+            for d in dirs {
+                rays.push(Ray::new(aim - d * 10.0, d));
+                // From the aim point's own cell and from the far side.
+                rays.push(Ray::new(aim - d * 0.25, d));
+                rays.push(Ray::new(aim + d * 10.0, -d));
+            }
+        }
+        let (grid, _) = build(&tris, &GridParams::default()).expect("builds");
+        assert_eq!(grid.resolution(), [8, 8, 8]);
+        let brute = BruteForce::new(&tris, false);
+        let hits = rays
+            .iter()
+            .filter(|r| {
+                brute
+                    .closest_hit::<Watertight, _>(r, &mut NoStats)
+                    .is_some()
+            })
+            .count();
+        assert!(hits > rays.len() / 3, "{hits} of {} rays hit", rays.len());
+        check(&tris, 1.0, &rays, &format!("target {target:?}"));
+    }
+}
+
+#[test]
+fn lambda_out_of_range_and_too_many_cells_are_clear_errors() {
+    let tris = soup(100, 3);
+    for lambda in [0.0, 1.0 / 32.0, 64.5, -1.0, f32::NAN, f32::INFINITY] {
+        let err = build(&tris, &params(lambda, true)).expect_err("λ out of range");
+        assert!(matches!(err, GridError::Lambda(_)), "{err}");
+        assert!(err.to_string().contains("1/16..=64"), "{err}");
+    }
+    // 64 cells per triangle over 2^21 tiny triangles: 2^27 cells.
+    let n = 1 << 21;
+    let tris: Vec<Triangle> = (0..n)
+        .map(|i| {
+            let p = vec3(
+                (i % 128) as f32,
+                ((i / 128) % 128) as f32,
+                (i / 16384) as f32,
+            );
+            Triangle::new(p, p + Vec3::X * 0.01, p + Vec3::Y * 0.01)
+        })
+        .collect();
+    let err = build(&tris, &params(64.0, true)).expect_err("too many cells");
+    match &err {
+        GridError::TooManyCells { cells, .. } => assert!(*cells > MAX_CELLS as u64),
+        e => panic!("{e}"),
+    }
+    assert!(err.to_string().contains(&MAX_CELLS.to_string()), "{err}");
+    let bad = [Triangle::new(Vec3::ZERO, Vec3::X, vec3(f32::NAN, 0., 0.))];
+    assert_eq!(
+        build(&bad, &GridParams::default()).expect_err("NaN"),
+        GridError::NonFinite(0)
+    );
+}
+
+#[test]
+fn mailboxing_removes_repeated_tests_and_changes_no_hit() {
+    // Large triangles across the unit cube, each in many cells.
+    let mut rng = Rng::new(5);
+    let tris: Vec<Triangle> = (0..300)
+        .map(|_| {
+            let c = vec3(rng.f32(), rng.f32(), rng.f32());
+            Triangle::new(
+                c + rng.unit_vector() * 0.5,
+                c + rng.unit_vector() * 0.5,
+                c + rng.unit_vector() * 0.5,
+            )
+        })
+        .collect();
+    let rays = rays(&bounds(&tris), 400, 6);
+    let (mut grid, report) = build(&tris, &params(8.0, true)).expect("builds");
+    assert!(report.references_per_triangle() > 10.0, "{report:?}");
+    let mut totals = [Counters::default(); 2];
+    for (m, mailbox) in [true, false].into_iter().enumerate() {
+        grid.mailbox = mailbox;
+        for ray in &rays {
+            let a = grid.closest_hit::<Watertight, _>(ray, &mut totals[m]);
+            let b = grid.closest_hit::<Watertight, _>(ray, &mut NoStats);
+            assert!(same_hit(a, b));
+        }
+    }
+    assert_eq!(totals[0].repeated_tests, 0);
+    assert!(totals[1].repeated_tests > 0, "{:?}", totals[1]);
+    assert!(totals[1].triangle_tests > totals[0].triangle_tests);
+    assert_eq!(totals[0].nodes_visited, totals[1].nodes_visited);
+    check(&tris, 8.0, &rays, "large triangles");
+}
+
+#[test]
+fn degenerate_scenes_build_and_match_brute_force() {
+    let empty: Vec<Triangle> = Vec::new();
+    let (grid, report) = build(&empty, &GridParams::default()).expect("empty scene builds");
+    assert_eq!(report.references, 0);
+    let r = Ray::new(Vec3::ZERO, Vec3::X);
+    assert!(
+        grid.closest_hit::<Watertight, _>(&r, &mut NoStats)
+            .is_none()
+    );
+    assert!(!grid.any_hit::<Watertight, _>(&r, &mut NoStats));
+    assert!(grid.cells_along(&r).is_empty());
+    grid.outline().validate().expect("valid outline");
+
+    let one = vec![Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y)];
+    let mut cases: Vec<(&str, Vec<Triangle>)> = vec![("one triangle", one)];
+    // Every triangle in one cell (λ = 1/16 over 8 triangles: one cell).
+    cases.push(("one cell", soup(8, 3)));
+    // Flat scenes: zero extent on z, and on y and z (all on a line).
+    let mut rng = Rng::new(9);
+    let flat: Vec<Triangle> = (0..500)
+        .map(|_| {
+            let c = vec3(rng.f32(), rng.f32(), 0.5);
+            Triangle::new(c, c + vec3(0.05, 0., 0.), c + vec3(0., 0.05, 0.))
+        })
+        .collect();
+    cases.push(("flat", flat));
+    let line: Vec<Triangle> = (0..200)
+        .map(|i| {
+            let x = i as f32 * 0.01;
+            Triangle::new(
+                vec3(x, 1., 2.),
+                vec3(x + 0.02, 1., 2.),
+                vec3(x + 0.01, 1., 2.),
+            )
+        })
+        .collect();
+    cases.push(("line", line));
+    let point = vec![Triangle::new(Vec3::ONE, Vec3::ONE, Vec3::ONE); 10];
+    cases.push(("point", point));
+    for spec in ["same-centroid:500", "same-bbox:500"] {
+        cases.push((spec, Scene::load(spec).expect("scene").triangles));
+    }
+    for (what, tris) in &cases {
+        let b = bounds(tris);
+        let mut rays = rays(&b, 400, 11);
+        // Rays in the flat scenes' planes and along their axes.
+        let c = b.center();
+        for d in [
+            Vec3::X,
+            Vec3::Y,
+            Vec3::Z,
+            vec3(1., 1., 0.),
+            vec3(-1., 0., -0.),
+        ] {
+            rays.push(Ray::new(c - d * 3.0, d));
+            rays.push(Ray::new(b.min - d * 3.0, d));
+        }
+        for lambda in [1.0 / 16.0, 1.0, 64.0] {
+            check(tris, lambda, &rays, what);
+        }
+    }
+    let (grid, _) = build(&cases[1].1, &params(1.0 / 16.0, true)).expect("builds");
+    assert_eq!(grid.resolution(), [1, 1, 1]);
+    let (grid, _) = build(&cases[2].1, &params(1.0, true)).expect("builds");
+    assert_eq!(grid.resolution()[2], 1, "flat axis gets one cell");
+}
+
+#[test]
+fn resolution_follows_lambda_with_cubical_cells() {
+    // A 4 × 2 × 1 box: cells ≈ λN, per-axis counts in ratio 4 : 2 : 1.
+    let mut tris = vec![
+        Triangle::new(Vec3::ZERO, vec3(0.1, 0., 0.), vec3(0., 0.1, 0.)),
+        Triangle::new(vec3(4., 2., 1.), vec3(3.9, 2., 1.), vec3(4., 1.9, 1.)),
+    ];
+    tris.resize(1000, tris[1]);
+    let (grid, report) = build(&tris, &params(8.0, true)).expect("builds");
+    // 8000 cells over a volume of 8: side³ = 8 / 8000, side = 0.1, so 40 × 20 × 10.
+    assert_eq!(grid.resolution(), [40, 20, 10]);
+    assert_eq!(report.nodes, 8000);
+    assert!(
+        report
+            .details
+            .iter()
+            .any(|(k, v)| k == "resolution" && v == "40 × 20 × 10")
+    );
+}
+
+#[test]
+fn cells_along_a_ray_follow_the_dda() {
+    let tris = lattice_scene(1);
+    let (grid, _) = build(&tris, &GridParams::default()).expect("builds");
+    // Along x through the middle of cells (y, z) = (2, 5): eight cells in order.
+    let cells = grid.cells_along(&Ray::new(vec3(-1., 2.5, 5.5), Vec3::X));
+    assert_eq!(cells.len(), 8);
+    for (i, c) in cells.iter().enumerate() {
+        assert_eq!(c.min, vec3(i as f32, 2., 5.));
+        assert_eq!(c.max, vec3(i as f32 + 1., 3., 6.));
+    }
+    // A segment ending inside cell 3.
+    let seg = Ray::segment(vec3(-1., 2.5, 5.5), Vec3::X, 0.0, 4.5);
+    assert_eq!(grid.cells_along(&seg).len(), 4);
+    // A diagonal through cell corners visits connected cells only.
+    let cells = grid.cells_along(&Ray::new(vec3(-1., -1., -1.), Vec3::ONE));
+    assert!(cells.len() >= 8);
+    for w in cells.windows(2) {
+        let shared = (w[0].min - w[1].min).abs().max_element();
+        assert!(shared <= 1.0, "{w:?}");
+    }
+}
+
+#[test]
+fn ten_million_triangles_build_within_memory() {
+    // 10^7 copies of one tiny triangle, each moved to its own point of a 216³ lattice: the
+    // grid has about 10^7 cells and each copy lands in one, so the build does no overlap
+    // tests and stores one id per triangle (about 40 bytes each with the offsets and ids,
+    // next to the 36 of the triangle itself).
+    let n = 10_000_000;
+    let tris: Vec<Triangle> = (0..n)
+        .map(|i| {
+            let p = vec3(
+                (i % 216) as f32,
+                ((i / 216) % 216) as f32,
+                (i / 46656) as f32,
+            );
+            Triangle::new(p, p + vec3(0.3, 0., 0.1), p + vec3(0., 0.3, 0.2))
+        })
+        .collect();
+    let (grid, report) = build(&tris, &GridParams::default()).expect("builds");
+    assert_eq!(report.triangles, n);
+    assert!(report.references <= 2 * n, "{report:?}");
+    assert!(
+        grid.bytes() <= n * (36 + 4 * 2 + 4 * 2) + 4096,
+        "{} bytes",
+        grid.bytes()
+    );
+    let brute = BruteForce::new(&tris, true);
+    for ray in rays(&bounds(&tris), 6, 12) {
+        let a = grid.closest_hit::<Watertight, _>(&ray, &mut NoStats);
+        let b = brute.closest_hit::<Watertight, _>(&ray, &mut NoStats);
+        assert!(same_hit(a, b), "{ray:?}: {a:?} vs {b:?}");
+    }
+    drop((grid, brute));
+    // The same tiny triangle 10^7 times in one place: each copy would fill thousands of
+    // cells; the build stops with an error instead of running out of memory.
+    let same = vec![tris[0]; n];
+    let err = build(&same, &GridParams::default()).expect_err("too many references");
+    assert!(matches!(err, GridError::TooManyReferences { .. }), "{err}");
+}
+
+#[test]
+fn shared_meshes_agree_with_the_bvh() {
+    let Some(dir) = common::shared_scenes() else {
+        return;
+    };
+    for file in ["cornell-box.obj", "teapot.obj", "bunny.obj"] {
+        let path = dir.join(file);
+        if !path.exists() {
+            continue;
+        }
+        let scene = Scene::load(path.to_str().expect("utf-8 path")).expect("loads");
+        let tris = &scene.triangles;
+        let (bvh, _) = bvhlab::accel::bvh::build(tris, &Default::default()).expect("bvh builds");
+        let (mut grid, _) = build(tris, &GridParams::default()).expect("grid builds");
+        let mut rays = rays(&scene.bounds(), 3000, 21);
+        let cam = scene.camera().rays(32, 24);
+        rays.extend(
+            (0..24)
+                .flat_map(|y| (0..32).map(move |x| (x, y)))
+                .map(|(x, y)| cam.pixel_center(x, y)),
+        );
+        for mailbox in [true, false] {
+            grid.mailbox = mailbox;
+            for ray in &rays {
+                let a = grid.closest_hit::<Watertight, _>(ray, &mut NoStats);
+                let b = bvh.closest_hit::<Watertight, _>(ray, &mut NoStats);
+                assert!(same_hit(a, b), "{file}: {ray:?}: grid {a:?}, bvh {b:?}");
+                assert_eq!(
+                    grid.any_hit::<Watertight, _>(ray, &mut NoStats),
+                    b.is_some()
+                );
+            }
+        }
+    }
+}

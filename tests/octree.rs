@@ -1,0 +1,470 @@
+//! The sparse octree against brute force: the same closest hits, bit for bit, with
+//! mailboxing on and off, for several leaf sizes and depth bounds, on random soups, on every
+//! built-in scene and on lattice scenes whose hits lie exactly on cell faces, edges and
+//! corners; parameter errors; counting changes no hit; degenerate and very large inputs.
+
+mod common;
+
+use bvhlab::accel::octree::{Octree, OctreeError, OctreeParams, build};
+use bvhlab::accel::{Accel, BruteForce, Counters, NoStats};
+use bvhlab::geometry::{Aabb, Ray, Triangle, Watertight};
+use bvhlab::scene::Scene;
+use common::{Rng, rays, same_hit, soup};
+use glam::{Vec3, vec3};
+
+fn bounds(tris: &[Triangle]) -> Aabb {
+    tris.iter().fold(Aabb::EMPTY, |b, t| b.union(t.bounds()))
+}
+
+fn params(max_leaf_size: u32, max_depth: u32) -> OctreeParams {
+    OctreeParams {
+        max_leaf_size,
+        max_depth,
+        mailbox: true,
+    }
+}
+
+fn built(tris: &[Triangle], p: &OctreeParams) -> Octree {
+    let (octree, report) = build(tris, p).expect("builds");
+    assert_eq!(report.structure, "octree");
+    assert_eq!(report.triangles, tris.len());
+    assert!(report.max_depth <= p.max_depth);
+    let outline = octree.outline();
+    outline.validate().expect("valid outline");
+    // Every triangle is in some leaf (an empty scene has none).
+    assert_eq!(outline.triangles_under(0).len(), tris.len());
+    octree
+}
+
+/// Closest and any hits of the octree equal brute force on `rays`, mailbox on and off.
+fn check(tris: &[Triangle], p: &OctreeParams, rays: &[Ray], what: &str) {
+    let brute = BruteForce::new(tris, false);
+    let mut octree = built(tris, p);
+    let expected: Vec<_> = rays
+        .iter()
+        .map(|r| brute.closest_hit::<Watertight, _>(r, &mut NoStats))
+        .collect();
+    for mailbox in [true, false] {
+        octree.mailbox = mailbox;
+        for (i, (ray, want)) in rays.iter().zip(&expected).enumerate() {
+            let got = octree.closest_hit::<Watertight, _>(ray, &mut NoStats);
+            assert!(
+                same_hit(got, *want),
+                "{what} {p:?} mailbox={mailbox}: ray {i} {ray:?}: octree {got:?}, brute force {want:?}"
+            );
+            let mut c = Counters::default();
+            let counted = octree.closest_hit::<Watertight, _>(ray, &mut c);
+            assert!(same_hit(got, counted), "{what}: counting changed ray {i}");
+            if mailbox {
+                assert_eq!(c.repeated_tests, 0);
+            }
+            assert_eq!(
+                octree.any_hit::<Watertight, _>(ray, &mut NoStats),
+                want.is_some(),
+                "{what} {p:?} mailbox={mailbox}: any hit of ray {i} {ray:?}"
+            );
+        }
+    }
+}
+
+const SHAPES: [(u32, u32); 5] = [(8, 10), (1, 16), (4, 3), (32, 10), (8, 0)];
+
+#[test]
+fn matches_brute_force_on_random_soups() {
+    for (seed, n) in [(1, 1), (2, 7), (3, 100), (4, 2000)] {
+        let tris = soup(n, seed);
+        let rays = rays(&bounds(&tris), 500, seed + 100);
+        for (leaf, depth) in SHAPES {
+            check(&tris, &params(leaf, depth), &rays, &format!("soup {n}"));
+        }
+    }
+}
+
+const SMALL_BUILTINS: &[&str] = &[
+    "cornell",
+    "teapot-in-stadium",
+    "grass:2000",
+    "walls",
+    "walls-rotated",
+    "same-centroid:1500",
+    "same-bbox:1500",
+    "soup:3000",
+    "sphere:3000",
+];
+
+#[test]
+fn matches_brute_force_on_every_builtin_scene() {
+    for name in SMALL_BUILTINS {
+        let scene = Scene::load(name).expect("built-in scene");
+        let mut rays = rays(&scene.bounds(), 300, 7);
+        let cam = scene.camera().rays(16, 12);
+        rays.extend(
+            (0..12)
+                .flat_map(|y| (0..16).map(move |x| (x, y)))
+                .map(|(x, y)| cam.pixel_center(x, y)),
+        );
+        for (leaf, depth) in [(8, 10), (2, 16)] {
+            check(&scene.triangles, &params(leaf, depth), &rays, name);
+        }
+    }
+}
+
+/// 512 triangles with integer vertices in [0, 8]³, the first two pinning the corners: the
+/// root is [0, 8]³ and every cell face down to depth 3 lies on an integer plane.
+fn lattice_scene(seed: u64) -> Vec<Triangle> {
+    let mut rng = Rng::new(seed);
+    let mut tris = vec![
+        Triangle::new(vec3(0., 0., 0.), vec3(1., 0., 0.), vec3(0., 1., 0.)),
+        Triangle::new(vec3(8., 8., 8.), vec3(7., 8., 8.), vec3(8., 7., 8.)),
+    ];
+    let mut int = |lo: i32, hi: i32| lo + rng.below((hi - lo + 1) as usize) as i32;
+    while tris.len() < 512 {
+        let a = vec3(int(0, 8) as f32, int(0, 8) as f32, int(0, 8) as f32);
+        let mut near = || {
+            let p = a + vec3(int(-2, 2) as f32, int(-2, 2) as f32, int(-2, 2) as f32);
+            p.clamp(Vec3::ZERO, Vec3::splat(8.))
+        };
+        let (b, c) = (near(), near());
+        tris.push(Triangle::new(a, b, c));
+    }
+    tris
+}
+
+/// Rays through lattice points, cell edges and faces, in face planes and along edges (signed
+/// zero components), and rays aimed at the triangles' vertices and edge midpoints.
+fn lattice_rays(tris: &[Triangle], seed: u64) -> Vec<Ray> {
+    let mut rng = Rng::new(seed);
+    let mut out = Vec::new();
+    let dirs = [-2.0f32, -1.0, -0.0, 0.0, 1.0, 2.0];
+    for i in 0..3000 {
+        let coord = |rng: &mut Rng| {
+            let c = rng.below(11) as f32 - 1.0;
+            if i % 3 == 0 && rng.f32() < 0.5 {
+                c + 0.5
+            } else {
+                c
+            }
+        };
+        let o = vec3(coord(&mut rng), coord(&mut rng), coord(&mut rng));
+        let d = vec3(dirs[rng.below(6)], dirs[rng.below(6)], dirs[rng.below(6)]);
+        if d != Vec3::ZERO {
+            out.push(Ray::new(o, d));
+        }
+    }
+    for (i, t) in tris.iter().enumerate() {
+        let target = [t.v[0], (t.v[0] + t.v[1]) * 0.5, t.v[2]][i % 3];
+        for d in [
+            vec3(1., 0., 0.),
+            vec3(0., -1., 0.),
+            vec3(-0., 0., 1.),
+            vec3(1., 1., 0.),
+            vec3(1., -1., 1.),
+            vec3(2., 1., -1.),
+        ] {
+            out.push(Ray::new(target - d * 12.0, d));
+            out.push(Ray::new(target + d * 12.0, -d));
+        }
+    }
+    out
+}
+
+#[test]
+fn hits_exactly_on_cell_faces_edges_and_corners_match_brute_force() {
+    for seed in 0..4 {
+        let tris = lattice_scene(seed);
+        let rays = lattice_rays(&tris, seed + 10);
+        for (leaf, depth) in [(1, 3), (8, 10), (2, 16)] {
+            check(
+                &tris,
+                &params(leaf, depth),
+                &rays,
+                &format!("lattice {seed}"),
+            );
+        }
+    }
+}
+
+#[test]
+fn only_hit_on_a_cell_face_edge_or_corner() {
+    let pins = [
+        Triangle::new(vec3(0., 0., 0.), vec3(0.5, 0., 0.), vec3(0., 0.5, 0.)),
+        Triangle::new(vec3(8., 8., 8.), vec3(7.5, 8., 8.), vec3(8., 7.5, 8.)),
+    ];
+    let targets = [
+        Triangle::new(vec3(4., 2., 2.), vec3(4., 6., 2.), vec3(4., 2., 6.)),
+        Triangle::new(vec3(4., 4., 4.), vec3(5., 4.5, 4.5), vec3(4.5, 5., 4.5)),
+        Triangle::new(vec3(4., 4., 1.), vec3(4., 4., 7.), vec3(6., 5., 4.)),
+        Triangle::new(vec3(4., 4.5, 4.5), vec3(3., 4., 4.), vec3(3., 5., 4.5)),
+    ];
+    let aims = [
+        vec3(4., 3., 3.),
+        vec3(4., 4., 4.),
+        vec3(4., 4., 2.5),
+        vec3(4., 4.5, 4.5),
+    ];
+    let dirs = [
+        vec3(1., 0., 0.),
+        vec3(-1., 0., 0.),
+        vec3(0., 1., 0.),
+        vec3(0., 0., -1.),
+        vec3(1., 1., 1.),
+        vec3(-1., 1., -1.),
+        vec3(1., 2., 3.),
+        vec3(0., 1., 1.),
+        vec3(-0., 1., -1.),
+    ];
+    for target in targets {
+        // Many small triangles near the target force splits down to cells meeting at the
+        // target point, at (4, 4, 4) the root's centre.
+        let mut tris = pins.to_vec();
+        for k in 0..40 {
+            let p = vec3(
+                3.75 + (k % 4) as f32 * 0.125,
+                3.5,
+                3.5 + (k / 4) as f32 * 0.1,
+            );
+            tris.push(Triangle::new(p, p + Vec3::X * 0.05, p + Vec3::Z * 0.05));
+        }
+        tris.push(target);
+        let mut rays = Vec::new();
+        for aim in aims {
+            for d in dirs {
+                rays.push(Ray::new(aim - d * 10.0, d));
+                rays.push(Ray::new(aim - d * 0.25, d));
+                rays.push(Ray::new(aim + d * 10.0, -d));
+            }
+        }
+        for (leaf, depth) in [(1, 3), (1, 10), (8, 10)] {
+            check(
+                &tris,
+                &params(leaf, depth),
+                &rays,
+                &format!("target {target:?}"),
+            );
+        }
+    }
+}
+
+#[test]
+fn parameter_errors_are_clear() {
+    let tris = soup(10, 1);
+    let e = build(&tris, &params(0, 10)).expect_err("leaf size 0");
+    assert_eq!(e, OctreeError::LeafSize(0));
+    assert!(e.to_string().contains("1..=65536"), "{e}");
+    let e = build(&tris, &params(8, 17)).expect_err("depth 17");
+    assert_eq!(e, OctreeError::Depth(17));
+    assert!(e.to_string().contains("16"), "{e}");
+    let bad = [Triangle::new(
+        Vec3::ZERO,
+        Vec3::X,
+        vec3(0., f32::INFINITY, 0.),
+    )];
+    assert_eq!(
+        build(&bad, &OctreeParams::default()).expect_err("infinite vertex"),
+        OctreeError::NonFinite(0)
+    );
+}
+
+#[test]
+fn mailboxing_removes_repeated_tests_and_changes_no_hit() {
+    let mut rng = Rng::new(5);
+    let tris: Vec<Triangle> = (0..300)
+        .map(|_| {
+            let c = vec3(rng.f32(), rng.f32(), rng.f32());
+            Triangle::new(
+                c + rng.unit_vector() * 0.5,
+                c + rng.unit_vector() * 0.5,
+                c + rng.unit_vector() * 0.5,
+            )
+        })
+        .collect();
+    let rays = rays(&bounds(&tris), 400, 6);
+    let p = params(4, 6);
+    let (mut octree, report) = build(&tris, &p).expect("builds");
+    assert!(report.references_per_triangle() > 3.0, "{report:?}");
+    let mut totals = [Counters::default(); 2];
+    for (m, mailbox) in [true, false].into_iter().enumerate() {
+        octree.mailbox = mailbox;
+        for ray in &rays {
+            let a = octree.closest_hit::<Watertight, _>(ray, &mut totals[m]);
+            let b = octree.closest_hit::<Watertight, _>(ray, &mut NoStats);
+            assert!(same_hit(a, b));
+        }
+    }
+    assert_eq!(totals[0].repeated_tests, 0);
+    assert!(totals[1].repeated_tests > 0, "{:?}", totals[1]);
+    assert_eq!(totals[0].nodes_visited, totals[1].nodes_visited);
+    check(&tris, &p, &rays, "large triangles");
+}
+
+#[test]
+fn adapts_to_the_teapot_in_the_stadium_and_reports_caps() {
+    let scene = Scene::load("teapot-in-stadium").expect("scene");
+    let (_, report) = build(&scene.triangles, &OctreeParams::default()).expect("builds");
+    assert!(report.max_depth >= 6, "{report:?}");
+    assert!(report.empty_leaves > 0);
+    // A depth bound of 2 leaves big leaves, and the report says so.
+    let (_, report) = build(&scene.triangles, &params(8, 2)).expect("builds");
+    assert!(
+        report.caps_hit.iter().any(|c| c.contains("depth bound 2")),
+        "{report:?}"
+    );
+    // Copies of one triangle cannot be separated: one leaf, reported.
+    let copies = vec![scene.triangles[0]; 200];
+    let (octree, report) = build(&copies, &OctreeParams::default()).expect("builds");
+    assert_eq!(octree.outline().nodes.len(), 1, "{report:?}");
+    assert!(
+        report
+            .caps_hit
+            .iter()
+            .any(|c| c.contains("every non-empty octant"))
+    );
+    // Triangles sharing one box, all crossing every cell: the reference budget stops the
+    // splitting, and the report says so.
+    let same = Scene::load("same-bbox:2000").expect("scene").triangles;
+    let (_, report) = build(&same, &OctreeParams::default()).expect("builds");
+    assert!(report.references <= 16 * 2000 + 4096, "{report:?}");
+    assert!(
+        report
+            .caps_hit
+            .iter()
+            .any(|c| c.contains("references per triangle")),
+        "{report:?}"
+    );
+}
+
+#[test]
+fn degenerate_scenes_build_and_match_brute_force() {
+    let empty: Vec<Triangle> = Vec::new();
+    let (octree, report) = build(&empty, &OctreeParams::default()).expect("empty scene");
+    assert_eq!(report.references, 0);
+    let r = Ray::new(Vec3::ZERO, Vec3::X);
+    assert!(
+        octree
+            .closest_hit::<Watertight, _>(&r, &mut NoStats)
+            .is_none()
+    );
+    assert!(!octree.any_hit::<Watertight, _>(&r, &mut NoStats));
+    octree.outline().validate().expect("valid outline");
+
+    let mut cases: Vec<(&str, Vec<Triangle>)> = vec![(
+        "one triangle",
+        vec![Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y)],
+    )];
+    let mut rng = Rng::new(9);
+    let flat: Vec<Triangle> = (0..500)
+        .map(|_| {
+            let c = vec3(rng.f32(), rng.f32(), 0.5);
+            Triangle::new(c, c + vec3(0.05, 0., 0.), c + vec3(0., 0.05, 0.))
+        })
+        .collect();
+    cases.push(("flat", flat));
+    let line: Vec<Triangle> = (0..200)
+        .map(|i| {
+            let x = i as f32 * 0.01;
+            Triangle::new(
+                vec3(x, 1., 2.),
+                vec3(x + 0.02, 1., 2.),
+                vec3(x + 0.01, 1., 2.),
+            )
+        })
+        .collect();
+    cases.push(("line", line));
+    cases.push((
+        "point",
+        vec![Triangle::new(Vec3::ONE, Vec3::ONE, Vec3::ONE); 50],
+    ));
+    // All in one cell: 50 copies of one tiny triangle.
+    let tiny = Triangle::new(Vec3::ZERO, vec3(1e-3, 0., 0.), vec3(0., 1e-3, 1e-3));
+    cases.push(("one cell", vec![tiny; 50]));
+    for spec in ["same-centroid:500", "same-bbox:500"] {
+        cases.push((spec, Scene::load(spec).expect("scene").triangles));
+    }
+    for (what, tris) in &cases {
+        let b = bounds(tris);
+        let mut rays = rays(&b, 400, 11);
+        let c = b.center();
+        for d in [
+            Vec3::X,
+            Vec3::Y,
+            Vec3::Z,
+            vec3(1., 1., 0.),
+            vec3(-1., 0., -0.),
+        ] {
+            rays.push(Ray::new(c - d * 3.0, d));
+            rays.push(Ray::new(b.min - d * 3.0, d));
+        }
+        for (leaf, depth) in SHAPES {
+            check(tris, &params(leaf, depth), &rays, what);
+        }
+    }
+}
+
+#[test]
+fn ten_million_triangles_build_within_memory() {
+    // 10^7 copies of one tiny triangle, each moved to its own point of a 216³ lattice: about
+    // eight levels of cells with a few copies each; then the same copy 10^7 times in one
+    // place, which no split separates: one leaf.
+    let n = 10_000_000;
+    let tris: Vec<Triangle> = (0..n)
+        .map(|i| {
+            let p = vec3(
+                (i % 216) as f32,
+                ((i / 216) % 216) as f32,
+                (i / 46656) as f32,
+            );
+            Triangle::new(p, p + vec3(0.3, 0., 0.1), p + vec3(0., 0.3, 0.2))
+        })
+        .collect();
+    let (octree, report) = build(&tris, &OctreeParams::default()).expect("builds");
+    assert_eq!(report.triangles, n);
+    assert!(report.references <= 2 * n, "{report:?}");
+    assert!(octree.bytes() <= n * 80, "{} bytes", octree.bytes());
+    let brute = BruteForce::new(&tris, true);
+    for ray in rays(&bounds(&tris), 6, 12) {
+        let a = octree.closest_hit::<Watertight, _>(&ray, &mut NoStats);
+        let b = brute.closest_hit::<Watertight, _>(&ray, &mut NoStats);
+        assert!(same_hit(a, b), "{ray:?}: {a:?} vs {b:?}");
+    }
+    drop((octree, brute));
+    let same = vec![tris[0]; n];
+    let (octree, report) = build(&same, &OctreeParams::default()).expect("builds");
+    assert_eq!(report.references, n);
+    assert!(octree.outline().nodes.len() <= 9);
+}
+
+#[test]
+fn shared_meshes_agree_with_the_bvh() {
+    let Some(dir) = common::shared_scenes() else {
+        return;
+    };
+    for file in ["cornell-box.obj", "teapot.obj", "bunny.obj"] {
+        let path = dir.join(file);
+        if !path.exists() {
+            continue;
+        }
+        let scene = Scene::load(path.to_str().expect("utf-8 path")).expect("loads");
+        let tris = &scene.triangles;
+        let (bvh, _) = bvhlab::accel::bvh::build(tris, &Default::default()).expect("bvh");
+        let mut octree = built(tris, &OctreeParams::default());
+        let mut rays = rays(&scene.bounds(), 3000, 21);
+        let cam = scene.camera().rays(32, 24);
+        rays.extend(
+            (0..24)
+                .flat_map(|y| (0..32).map(move |x| (x, y)))
+                .map(|(x, y)| cam.pixel_center(x, y)),
+        );
+        for mailbox in [true, false] {
+            octree.mailbox = mailbox;
+            for ray in &rays {
+                let a = octree.closest_hit::<Watertight, _>(ray, &mut NoStats);
+                let b = bvh.closest_hit::<Watertight, _>(ray, &mut NoStats);
+                assert!(same_hit(a, b), "{file}: {ray:?}: octree {a:?}, bvh {b:?}");
+                assert_eq!(
+                    octree.any_hit::<Watertight, _>(ray, &mut NoStats),
+                    b.is_some()
+                );
+            }
+        }
+    }
+}
