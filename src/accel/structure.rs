@@ -8,6 +8,9 @@
 //! parameters in `StructureParams`, and one arm in each `match` below.
 
 use super::bvh::{self, BuildError, BuildReport, Bvh};
+use super::grid::{self, Grid, GridError, GridParams};
+use super::kdtree::{self, KdError, KdParams, KdTree};
+use super::octree::{self, Octree, OctreeError, OctreeParams};
 use super::outline::Outline;
 use super::report::StructureReport;
 use super::{Accel, BruteForce, BuildParams, Hit, Stats, TraversalOrder};
@@ -22,13 +25,19 @@ use std::time::Instant;
 pub enum AccelKind {
     #[default]
     Bvh,
+    KdTree,
+    Grid,
+    Octree,
     BruteForce,
     BruteForceBbox,
 }
 
 impl AccelKind {
-    pub const ALL: [AccelKind; 3] = [
+    pub const ALL: [AccelKind; 6] = [
         AccelKind::Bvh,
+        AccelKind::KdTree,
+        AccelKind::Grid,
+        AccelKind::Octree,
         AccelKind::BruteForce,
         AccelKind::BruteForceBbox,
     ];
@@ -37,6 +46,9 @@ impl AccelKind {
     pub fn label(self) -> &'static str {
         match self {
             AccelKind::Bvh => "bvh",
+            AccelKind::KdTree => "kdtree",
+            AccelKind::Grid => "grid",
+            AccelKind::Octree => "octree",
             AccelKind::BruteForce => "brute-force",
             AccelKind::BruteForceBbox => "brute-force-bbox",
         }
@@ -46,6 +58,9 @@ impl AccelKind {
     pub fn title(self) -> &'static str {
         match self {
             AccelKind::Bvh => "BVH2",
+            AccelKind::KdTree => "k-d tree",
+            AccelKind::Grid => "uniform grid",
+            AccelKind::Octree => "octree",
             AccelKind::BruteForce => "brute force",
             AccelKind::BruteForceBbox => "brute force + box early out",
         }
@@ -58,7 +73,10 @@ impl AccelKind {
     /// Whether the structure references a triangle from several cells, so mailboxing
     /// applies to it.
     pub fn is_spatial(self) -> bool {
-        false
+        matches!(
+            self,
+            AccelKind::KdTree | AccelKind::Grid | AccelKind::Octree
+        )
     }
 
     pub fn is_brute_force(self) -> bool {
@@ -68,7 +86,7 @@ impl AccelKind {
     /// Whether a ray walks the structure's cells in order (the grid's 3D-DDA), so the app
     /// can show the cells under the pointer.
     pub fn walks_cells(self) -> bool {
-        false
+        self == AccelKind::Grid
     }
 
     /// Whether the structure can be refitted after motion (rather than rebuilt).
@@ -85,7 +103,11 @@ pub struct StructureParams {
     pub bvh: BuildParams,
     /// BVH child order: a traversal setting, changed without a rebuild.
     pub order: TraversalOrder,
-    /// Mailboxing of the spatial structures: a traversal setting, changed without a rebuild.
+    pub kdtree: KdParams,
+    pub grid: GridParams,
+    pub octree: OctreeParams,
+    /// Mailboxing of the spatial structures: a traversal setting, changed without a rebuild
+    /// (it overrides the `mailbox` of their own parameters).
     pub mailbox: bool,
 }
 
@@ -95,6 +117,9 @@ impl Default for StructureParams {
             kind: AccelKind::Bvh,
             bvh: BuildParams::default(),
             order: TraversalOrder::FrontToBack,
+            kdtree: KdParams::default(),
+            grid: GridParams::default(),
+            octree: OctreeParams::default(),
             mailbox: true,
         }
     }
@@ -112,6 +137,9 @@ impl StructureParams {
     pub fn validate(&self) -> Result<(), StructureError> {
         match self.kind {
             AccelKind::Bvh => self.bvh.validate()?,
+            AccelKind::KdTree => self.kdtree.validate()?,
+            AccelKind::Grid => self.grid.validate()?,
+            AccelKind::Octree => self.octree.validate()?,
             AccelKind::BruteForce | AccelKind::BruteForceBbox => {}
         }
         Ok(())
@@ -120,15 +148,22 @@ impl StructureParams {
     /// Whether a structure built with `self` must be built again to match `other`
     /// (traversal settings alone never need a build).
     pub fn needs_rebuild_for(&self, other: &StructureParams) -> bool {
-        let strip = |p: &StructureParams| StructureParams {
-            order: TraversalOrder::FrontToBack,
-            mailbox: true,
-            ..*p
+        let strip = |p: &StructureParams| {
+            let mut p = *p;
+            p.order = TraversalOrder::FrontToBack;
+            p.mailbox = true;
+            p.kdtree.mailbox = true;
+            p.grid.mailbox = true;
+            p.octree.mailbox = true;
+            p
         };
         let (a, b) = (strip(self), strip(other));
         a.kind != b.kind
             || match a.kind {
                 AccelKind::Bvh => a.bvh != b.bvh,
+                AccelKind::KdTree => a.kdtree != b.kdtree,
+                AccelKind::Grid => a.grid != b.grid,
+                AccelKind::Octree => a.octree != b.octree,
                 AccelKind::BruteForce | AccelKind::BruteForceBbox => false,
             }
     }
@@ -138,11 +173,20 @@ impl StructureParams {
 pub enum StructureError {
     #[error(transparent)]
     Bvh(#[from] BuildError),
+    #[error(transparent)]
+    KdTree(#[from] KdError),
+    #[error(transparent)]
+    Grid(#[from] GridError),
+    #[error(transparent)]
+    Octree(#[from] OctreeError),
 }
 
 /// A built structure.
 pub enum Structure {
     Bvh(Bvh),
+    KdTree(KdTree),
+    Grid(Grid),
+    Octree(Octree),
     BruteForce(BruteForce),
 }
 
@@ -160,6 +204,9 @@ macro_rules! with_structure {
     ($s:expr, $a:ident => $body:expr) => {
         match $s {
             $crate::accel::structure::Structure::Bvh($a) => $body,
+            $crate::accel::structure::Structure::KdTree($a) => $body,
+            $crate::accel::structure::Structure::Grid($a) => $body,
+            $crate::accel::structure::Structure::Octree($a) => $body,
             $crate::accel::structure::Structure::BruteForce($a) => $body,
         }
     };
@@ -182,6 +229,33 @@ pub fn build(
                 report: report.summary(&bvh),
                 structure: Structure::Bvh(bvh),
                 bvh_report: Some(report),
+            }
+        }
+        AccelKind::KdTree => {
+            let (tree, report) = kdtree::build(triangles, &params.kdtree)?;
+            progress.store(triangles.len(), Ordering::Relaxed);
+            Built {
+                structure: Structure::KdTree(tree),
+                report,
+                bvh_report: None,
+            }
+        }
+        AccelKind::Grid => {
+            let (grid, report) = grid::build(triangles, &params.grid)?;
+            progress.store(triangles.len(), Ordering::Relaxed);
+            Built {
+                structure: Structure::Grid(grid),
+                report,
+                bvh_report: None,
+            }
+        }
+        AccelKind::Octree => {
+            let (octree, report) = octree::build(triangles, &params.octree)?;
+            progress.store(triangles.len(), Ordering::Relaxed);
+            Built {
+                structure: Structure::Octree(octree),
+                report,
+                bvh_report: None,
             }
         }
         AccelKind::BruteForce | AccelKind::BruteForceBbox => {
@@ -222,6 +296,9 @@ impl Structure {
     pub fn kind(&self) -> AccelKind {
         match self {
             Structure::Bvh(_) => AccelKind::Bvh,
+            Structure::KdTree(_) => AccelKind::KdTree,
+            Structure::Grid(_) => AccelKind::Grid,
+            Structure::Octree(_) => AccelKind::Octree,
             Structure::BruteForce(b) if b.early_out() => AccelKind::BruteForceBbox,
             Structure::BruteForce(_) => AccelKind::BruteForce,
         }
@@ -238,12 +315,22 @@ impl Structure {
     }
 
     /// The cells a ray walks through, in order, for structures that walk cells.
-    pub fn cells_along(&self, _ray: &Ray) -> Option<Vec<crate::geometry::Aabb>> {
-        None
+    pub fn cells_along(&self, ray: &Ray) -> Option<Vec<crate::geometry::Aabb>> {
+        match self {
+            Structure::Grid(g) => Some(g.cells_along(ray)),
+            _ => None,
+        }
     }
 
     /// Turns mailboxing on or off (spatial structures; no rebuild).
-    pub fn set_mailbox(&mut self, _on: bool) {}
+    pub fn set_mailbox(&mut self, on: bool) {
+        match self {
+            Structure::KdTree(t) => t.mailbox = on,
+            Structure::Grid(g) => g.mailbox = on,
+            Structure::Octree(o) => o.mailbox = on,
+            Structure::Bvh(_) | Structure::BruteForce(_) => {}
+        }
+    }
 
     /// Sets the BVH's child order (no rebuild).
     pub fn set_order(&mut self, order: TraversalOrder) {

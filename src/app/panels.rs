@@ -5,6 +5,8 @@ use super::settings::{StrategyChoice, ViewMode};
 use super::{BvhLabApp, Tool};
 use crate::accel::AccelKind;
 use crate::accel::bvh::build::{MAX_BUCKETS, MAX_LEAF_SIZE, MIN_BUCKETS};
+use crate::accel::kdtree::{MAX_DEPTH as KD_MAX_DEPTH, MIN_BINS as KD_MIN_BINS};
+use crate::accel::octree::MAX_DEPTH as OCTREE_MAX_DEPTH;
 use crate::render::Mode;
 use crate::scene::builtin;
 use eframe::egui::{self, RichText};
@@ -151,13 +153,61 @@ fn build_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                     "mailboxing (test each triangle once per ray)",
                 );
             }
-            if s.accel == AccelKind::Bvh {
-                bvh_parameters(ui, s);
+            match s.accel {
+                AccelKind::Bvh => bvh_parameters(ui, s),
+                AccelKind::KdTree => kdtree_parameters(ui, s),
+                AccelKind::Grid => {
+                    ui.add(
+                        egui::Slider::new(&mut s.grid_lambda, 1.0 / 16.0..=64.0)
+                            .logarithmic(true)
+                            .text("λ (cells ≈ λ·N)"),
+                    );
+                }
+                AccelKind::Octree => {
+                    ui.add(
+                        egui::Slider::new(&mut s.octree_max_leaf_size, 1..=64)
+                            .text("max leaf size"),
+                    );
+                    ui.add(
+                        egui::Slider::new(&mut s.octree_max_depth, 0..=OCTREE_MAX_DEPTH)
+                            .text("max depth"),
+                    );
+                }
+                AccelKind::BruteForce | AccelKind::BruteForceBbox => {}
             }
             if let Some(e) = &app.build_error {
                 ui.colored_label(ui.visuals().error_fg_color, e);
             }
         });
+}
+
+fn kdtree_parameters(ui: &mut egui::Ui, s: &mut super::settings::Settings) {
+    ui.add(egui::Slider::new(&mut s.kd_c_trav, 0.0..=10.0).text("C_trav"));
+    ui.add(
+        egui::Slider::new(&mut s.kd_c_isect, 0.05..=100.0)
+            .logarithmic(true)
+            .text("C_isect"),
+    );
+    ui.add(egui::Slider::new(&mut s.kd_empty_bonus, 0.0..=0.95).text("empty bonus"));
+    ui.add(
+        egui::Slider::new(&mut s.kd_max_depth, 0..=KD_MAX_DEPTH)
+            .text("depth bound (0: 8 + 1.3 log2 N)"),
+    );
+    ui.add(egui::Slider::new(&mut s.kd_max_leaf_size, 1..=64).text("max leaf size"));
+    let mut sweep = s.kd_bins == 0;
+    if ui
+        .checkbox(&mut sweep, "perfect splits by exact event sweep")
+        .changed()
+    {
+        s.kd_bins = if sweep { 0 } else { 32 };
+    }
+    if !sweep {
+        ui.add(
+            egui::Slider::new(&mut s.kd_bins, KD_MIN_BINS..=256)
+                .logarithmic(true)
+                .text("bins"),
+        );
+    }
 }
 
 fn bvh_parameters(ui: &mut egui::Ui, s: &mut super::settings::Settings) {

@@ -2,6 +2,9 @@
 //! the UI scale and the recently opened files.
 
 use crate::accel::bvh::{BuildParams, Strategy, TraversalOrder};
+use crate::accel::grid::GridParams;
+use crate::accel::kdtree::{KdParams, KdSplit};
+use crate::accel::octree::OctreeParams;
 use crate::accel::{AccelKind, Counter, StructureParams};
 use crate::render::{Mode, RayKind};
 use serde::{Deserialize, Serialize};
@@ -98,6 +101,18 @@ pub struct Settings {
     pub accel: AccelKind,
     /// Mailboxing in the spatial structures.
     pub mailbox: bool,
+    pub kd_c_trav: f32,
+    pub kd_c_isect: f32,
+    pub kd_empty_bonus: f32,
+    /// 0 = automatic (8 + 1.3·log2 N).
+    pub kd_max_depth: u32,
+    pub kd_max_leaf_size: u32,
+    /// 0 = the exact sweep; otherwise binned with this many bins.
+    pub kd_bins: u32,
+    /// Grid cells ≈ λ · triangles.
+    pub grid_lambda: f32,
+    pub octree_max_leaf_size: u32,
+    pub octree_max_depth: u32,
     pub strategy: StrategyChoice,
     pub buckets: u32,
     pub max_leaf_size: u32,
@@ -123,10 +138,21 @@ pub struct Settings {
 impl Default for Settings {
     fn default() -> Self {
         let p = BuildParams::default();
+        let kd = KdParams::default();
+        let oct = OctreeParams::default();
         Settings {
             scene: "cornell".into(),
             accel: AccelKind::Bvh,
             mailbox: true,
+            kd_c_trav: kd.c_trav,
+            kd_c_isect: kd.c_isect,
+            kd_empty_bonus: kd.empty_bonus,
+            kd_max_depth: kd.max_depth,
+            kd_max_leaf_size: kd.max_leaf_size,
+            kd_bins: 0,
+            grid_lambda: GridParams::default().lambda,
+            octree_max_leaf_size: oct.max_leaf_size,
+            octree_max_depth: oct.max_depth,
             strategy: StrategyChoice::SahBinned,
             buckets: p.buckets,
             max_leaf_size: p.max_leaf_size,
@@ -165,6 +191,27 @@ impl Settings {
             kind: self.accel,
             bvh: self.build_params(),
             order: self.order(),
+            kdtree: KdParams {
+                c_trav: self.kd_c_trav,
+                c_isect: self.kd_c_isect,
+                empty_bonus: self.kd_empty_bonus,
+                max_depth: self.kd_max_depth,
+                max_leaf_size: self.kd_max_leaf_size,
+                split: match self.kd_bins {
+                    0 => KdSplit::Sweep,
+                    b => KdSplit::Binned(b),
+                },
+                ..KdParams::default()
+            },
+            grid: GridParams {
+                lambda: self.grid_lambda,
+                ..GridParams::default()
+            },
+            octree: OctreeParams {
+                max_leaf_size: self.octree_max_leaf_size,
+                max_depth: self.octree_max_depth,
+                ..OctreeParams::default()
+            },
             mailbox: self.mailbox,
         }
     }

@@ -10,6 +10,9 @@ pub mod trace;
 
 use anyhow::{Context, Result, bail};
 use bvhlab::accel::bvh::{BuildParams, Strategy, TraversalOrder};
+use bvhlab::accel::grid::GridParams;
+use bvhlab::accel::kdtree::{KdParams, KdSplit};
+use bvhlab::accel::octree::OctreeParams;
 use bvhlab::accel::structure::{self, AccelKind, Built, StructureParams};
 use bvhlab::geometry::IntersectorKind;
 use bvhlab::scene::{Camera, Scene};
@@ -44,6 +47,34 @@ pub struct BuildArgs {
     /// Child order in closest-hit traversal.
     #[arg(long, value_enum, default_value_t = OrderArg::FrontToBack)]
     pub order: OrderArg,
+    /// k-d tree: SAH cost of a traversal step.
+    #[arg(long, default_value_t = KdParams::default().c_trav)]
+    pub kd_c_trav: f32,
+    /// k-d tree: SAH cost of a ray–triangle test.
+    #[arg(long, default_value_t = KdParams::default().c_isect)]
+    pub kd_c_isect: f32,
+    /// k-d tree: a split with an empty side costs (1 − bonus) × its SAH cost (0..1).
+    #[arg(long, default_value_t = KdParams::default().empty_bonus)]
+    pub empty_bonus: f32,
+    /// k-d tree: depth bound (0 = 8 + 1.3·log2 N).
+    #[arg(long, default_value_t = KdParams::default().max_depth)]
+    pub kd_max_depth: u32,
+    /// k-d tree: nodes with this many references or fewer become leaves.
+    #[arg(long, default_value_t = KdParams::default().max_leaf_size)]
+    pub kd_max_leaf: u32,
+    /// k-d tree: split candidates from B bins per axis instead of the exact event sweep
+    /// (0 = the sweep).
+    #[arg(long, default_value_t = 0)]
+    pub kd_bins: u32,
+    /// Uniform grid: cells ≈ λ · triangles (1/16..=64).
+    #[arg(long, default_value_t = GridParams::default().lambda)]
+    pub lambda: f32,
+    /// Octree: a cell holding more triangles than this is split.
+    #[arg(long, default_value_t = OctreeParams::default().max_leaf_size)]
+    pub octree_max_leaf: u32,
+    /// Octree: cells at this depth are not split.
+    #[arg(long, default_value_t = OctreeParams::default().max_depth)]
+    pub octree_max_depth: u32,
 }
 
 #[derive(ValueEnum, Clone, Copy)]
@@ -64,6 +95,12 @@ pub enum OrderArg {
 pub enum AccelArg {
     /// The BVH2 built with the --builder parameters.
     Bvh,
+    /// SAH k-d tree with perfect splits (--kd-* parameters, --empty-bonus).
+    Kdtree,
+    /// Uniform grid of about λ·N cells (--lambda).
+    Grid,
+    /// Sparse adaptive octree (--octree-* parameters).
+    Octree,
     /// Every triangle for every ray.
     BruteForce,
     /// Every triangle whose own box the ray pierces, after the scene's box.
@@ -77,6 +114,9 @@ impl AccelArg {
     pub fn kind(self) -> Result<AccelKind> {
         Ok(match self {
             AccelArg::Bvh => AccelKind::Bvh,
+            AccelArg::Kdtree => AccelKind::KdTree,
+            AccelArg::Grid => AccelKind::Grid,
+            AccelArg::Octree => AccelKind::Octree,
             AccelArg::BruteForce => AccelKind::BruteForce,
             AccelArg::BruteForceBbox => AccelKind::BruteForceBbox,
             AccelArg::All => bail!("--accel all is only for `bvhlab bench`; name one structure"),
@@ -149,6 +189,27 @@ impl BuildArgs {
             kind,
             bvh: self.params(),
             order: self.order(),
+            kdtree: KdParams {
+                c_trav: self.kd_c_trav,
+                c_isect: self.kd_c_isect,
+                empty_bonus: self.empty_bonus,
+                max_depth: self.kd_max_depth,
+                max_leaf_size: self.kd_max_leaf,
+                split: match self.kd_bins {
+                    0 => KdSplit::Sweep,
+                    b => KdSplit::Binned(b),
+                },
+                ..KdParams::default()
+            },
+            grid: GridParams {
+                lambda: self.lambda,
+                ..GridParams::default()
+            },
+            octree: OctreeParams {
+                max_leaf_size: self.octree_max_leaf,
+                max_depth: self.octree_max_depth,
+                ..OctreeParams::default()
+            },
             mailbox: self.mailbox,
         }
     }
