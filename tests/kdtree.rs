@@ -92,11 +92,7 @@ fn check_shape(kd: &KdTree, report: &StructureReport, n: usize) {
             (true, None) => {}
             (false, Some(p)) => {
                 assert!(o.bounds.contains(&p));
-                assert_eq!(
-                    (0..3).filter(|&k| p.min[k] == p.max[k]).count() >= 1,
-                    true,
-                    "plane is flat"
-                );
+                assert!((0..3).any(|k| p.min[k] == p.max[k]), "plane is flat");
                 let children = o.children();
                 let below = &outline.nodes[children.start].bounds;
                 let above = &outline.nodes[children.start + 1].bounds;

@@ -41,20 +41,24 @@ fn round_down(t: f32) -> f32 {
 
 /// Per-ray values of the plane distance tests, indexed by axis.
 struct PlaneRay {
-    origin: [f32; 3],
-    inv_dir: [f32; 3],
+    /// Four entries so that indexing by a node's two-bit axis needs no bounds check.
+    origin: [f32; 4],
+    inv_dir: [f32; 4],
     /// Whether the ray meets the below side of a plane first: the direction is positive
     /// (+0 included). With a zero component the ray never crosses the plane, and the
     /// distance's sign (±∞) leaves it on the side of its origin.
-    below_first: [bool; 3],
+    below_first: [bool; 4],
 }
 
 impl PlaneRay {
     fn new(slab: &SlabRay) -> Self {
+        let [ox, oy, oz] = slab.origin.to_array();
+        let [ix, iy, iz] = slab.inv_dir.to_array();
+        let [nx, ny, nz] = slab.near.map(|n| n == 0);
         PlaneRay {
-            origin: slab.origin.to_array(),
-            inv_dir: slab.inv_dir.to_array(),
-            below_first: slab.near.map(|n| n == 0),
+            origin: [ox, oy, oz, 0.0],
+            inv_dir: [ix, iy, iz, 0.0],
+            below_first: [nx, ny, nz, false],
         }
     }
 }
@@ -99,7 +103,7 @@ impl KdTree {
     #[inline(always)]
     fn step(&self, index: usize, ray: &PlaneRay, tmin: f32, tmax: f32, reach: f32) -> Option<Step> {
         let node = &self.nodes[index];
-        let axis = node.axis();
+        let axis = node.axis() & 3;
         let t_plane = (node.split() - ray.origin[axis]) * ray.inv_dir[axis];
         let (below, above) = (index + 1, node.above_child());
         let (first, second) = if ray.below_first[axis] {
@@ -107,15 +111,6 @@ impl KdTree {
         } else {
             (above, below)
         };
-        if t_plane.is_nan() {
-            // The ray lies in the plane (0 · ∞): it touches both cells all along.
-            return Some(Step::Both {
-                first,
-                first_tmax: tmax,
-                second,
-                second_tmin: tmin,
-            });
-        }
         let (up, down) = (round_up(t_plane), round_down(t_plane));
         let first_reached = up >= tmin;
         let second_reached = down <= tmax && down <= reach;
@@ -128,6 +123,14 @@ impl KdTree {
             }),
             (true, false) => Some(Step::First(first, tmax.min(up))),
             (false, true) => Some(Step::Second(second, tmin.max(down))),
+            // A NaN distance fails both tests: the ray lies in the plane (0 · ∞) and
+            // touches both cells all along.
+            (false, false) if t_plane.is_nan() => Some(Step::Both {
+                first,
+                first_tmax: tmax,
+                second,
+                second_tmin: tmin,
+            }),
             (false, false) => None,
         }
     }
