@@ -63,19 +63,6 @@ impl PlaneRay {
     }
 }
 
-/// What to do at an interior node: the first and second child with the second's interval
-/// start, and which of them the ray's interval reaches.
-enum Step {
-    First(usize, f32),
-    Second(usize, f32),
-    Both {
-        first: usize,
-        first_tmax: f32,
-        second: usize,
-        second_tmin: f32,
-    },
-}
-
 impl KdTree {
     /// The ray's interval inside the root cell, widened for rounding, or `None` if it
     /// misses the tree's bounds within (tmin, tmax).
@@ -98,10 +85,19 @@ impl KdTree {
         Some((ray.tmin.max(round_down(entry)), exit))
     }
 
-    /// Where the ray goes at interior node `index`, with interval [tmin, tmax]; `reach` is
-    /// how far a cell may start and still be worth visiting.
+    /// One step down from interior node `index`, whose cell the ray crosses over [tmin,
+    /// tmax]: the child to take next with its interval, and the other child with its
+    /// interval if that one is to be visited later. `reach` bounds where a cell may start
+    /// and still be worth visiting (it is at least `tmin`).
     #[inline(always)]
-    fn step(&self, index: usize, ray: &PlaneRay, tmin: f32, tmax: f32, reach: f32) -> Option<Step> {
+    fn step(
+        &self,
+        index: usize,
+        ray: &PlaneRay,
+        tmin: f32,
+        tmax: f32,
+        reach: f32,
+    ) -> ((usize, f32, f32), Option<(u32, f32, f32)>) {
         let node = &self.nodes[index];
         let axis = node.axis() & 3;
         let t_plane = (node.split() - ray.origin[axis]) * ray.inv_dir[axis];
@@ -112,27 +108,19 @@ impl KdTree {
             (above, below)
         };
         let (up, down) = (round_up(t_plane), round_down(t_plane));
-        let first_reached = up >= tmin;
-        let second_reached = down <= tmax && down <= reach;
-        match (first_reached, second_reached) {
-            (true, true) => Some(Step::Both {
-                first,
-                first_tmax: tmax.min(up),
-                second,
-                second_tmin: tmin.max(down),
-            }),
-            (true, false) => Some(Step::First(first, tmax.min(up))),
-            (false, true) => Some(Step::Second(second, tmin.max(down))),
-            // A NaN distance fails both tests: the ray lies in the plane (0 · ∞) and
-            // touches both cells all along.
-            (false, false) if t_plane.is_nan() => Some(Step::Both {
-                first,
-                first_tmax: tmax,
-                second,
-                second_tmin: tmin,
-            }),
-            (false, false) => None,
+        if up < tmin {
+            // The plane lies before the interval: only the second cell (down < tmin ≤ reach).
+            return ((second, tmin.max(down), tmax), None);
         }
+        if down > tmax || down > reach {
+            return ((first, tmin, tmax.min(up)), None);
+        }
+        // Both cells. A NaN distance (the ray lies in the plane, 0 · ∞) fails every test
+        // above and comes here too, and `max`/`min` ignore it: both cells, all along.
+        (
+            (first, tmin, tmax.min(up)),
+            Some((second as u32, tmin.max(down), tmax)),
+        )
     }
 
     /// Closest hit, counting into a local sink (kept in registers) added to `stats` once.
@@ -162,31 +150,13 @@ impl KdTree {
             let node = &self.nodes[index];
             if !node.is_leaf() {
                 stats.box_tests(1);
-                match self.step(index, &plane_ray, tmin, tmax, reach) {
-                    Some(Step::First(c, t)) => {
-                        index = c;
-                        tmax = t;
-                        continue;
-                    }
-                    Some(Step::Second(c, t)) => {
-                        index = c;
-                        tmin = t;
-                        continue;
-                    }
-                    Some(Step::Both {
-                        first,
-                        first_tmax,
-                        second,
-                        second_tmin,
-                    }) => {
-                        stack[sp] = (second as u32, second_tmin, tmax);
-                        sp += 1;
-                        index = first;
-                        tmax = first_tmax;
-                        continue;
-                    }
-                    None => {}
+                let (next, later) = self.step(index, &plane_ray, tmin, tmax, reach);
+                if let Some(entry) = later {
+                    stack[sp] = entry;
+                    sp += 1;
                 }
+                (index, tmin, tmax) = next;
+                continue;
             } else {
                 for &tri in node.leaf_refs(&self.refs) {
                     if !mailbox.admit(tri, stats) {
@@ -242,31 +212,13 @@ impl KdTree {
             let node = &self.nodes[index];
             if !node.is_leaf() {
                 stats.box_tests(1);
-                match self.step(index, &plane_ray, tmin, tmax, reach) {
-                    Some(Step::First(c, t)) => {
-                        index = c;
-                        tmax = t;
-                        continue;
-                    }
-                    Some(Step::Second(c, t)) => {
-                        index = c;
-                        tmin = t;
-                        continue;
-                    }
-                    Some(Step::Both {
-                        first,
-                        first_tmax,
-                        second,
-                        second_tmin,
-                    }) => {
-                        stack[sp] = (second as u32, second_tmin, tmax);
-                        sp += 1;
-                        index = first;
-                        tmax = first_tmax;
-                        continue;
-                    }
-                    None => {}
+                let (next, later) = self.step(index, &plane_ray, tmin, tmax, reach);
+                if let Some(entry) = later {
+                    stack[sp] = entry;
+                    sp += 1;
                 }
+                (index, tmin, tmax) = next;
+                continue;
             } else {
                 for &tri in node.leaf_refs(&self.refs) {
                     if !mailbox.admit(tri, stats) {
