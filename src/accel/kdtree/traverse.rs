@@ -39,6 +39,11 @@ fn round_down(t: f32) -> f32 {
     }
 }
 
+/// A cell to visit: node index and the ray's interval [tmin, tmax] in it.
+type Cell = (usize, f32, f32);
+/// The same as kept on the stack.
+type Pending = (u32, f32, f32);
+
 /// Per-ray values of the plane distance tests, indexed by axis.
 struct PlaneRay {
     /// Four entries so that indexing by a node's two-bit axis needs no bounds check.
@@ -97,7 +102,7 @@ impl KdTree {
         tmin: f32,
         tmax: f32,
         reach: f32,
-    ) -> ((usize, f32, f32), Option<(u32, f32, f32)>) {
+    ) -> (Cell, Option<Pending>) {
         let node = &self.nodes[index];
         let axis = node.axis() & 3;
         let t_plane = (node.split() - ray.origin[axis]) * ray.inv_dir[axis];
@@ -142,7 +147,7 @@ impl KdTree {
         // A cell entered beyond this cannot hold a hit closer than the best.
         let mut reach = ray.tmax * T_SCALE;
         let mut mailbox = Mailbox::new(self.mailbox);
-        let mut stack = [(0u32, 0.0f32, 0.0f32); STACK_SIZE];
+        let mut stack: [Pending; STACK_SIZE] = [(0, 0.0, 0.0); STACK_SIZE];
         let mut sp = 0;
         let (mut index, mut tmin, mut tmax) = (0usize, t0, t1);
         loop {
@@ -204,7 +209,7 @@ impl KdTree {
         let data = I::prepare(ray);
         let reach = f32::INFINITY;
         let mut mailbox = Mailbox::new(self.mailbox);
-        let mut stack = [(0u32, 0.0f32, 0.0f32); STACK_SIZE];
+        let mut stack: [Pending; STACK_SIZE] = [(0, 0.0, 0.0); STACK_SIZE];
         let mut sp = 0;
         let (mut index, mut tmin, mut tmax) = (0usize, t0, t1);
         loop {
