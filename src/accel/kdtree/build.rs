@@ -52,7 +52,10 @@ pub fn build(
         depth_cap_hit: AtomicBool::new(false),
         refs_cap_hit: AtomicBool::new(false),
     };
-    let budget = ((params.max_references_factor as f64 * n as f64) as usize).max(n);
+    // Leaves address their references with 32-bit offsets.
+    let budget = ((params.max_references_factor as f64 * n as f64) as usize)
+        .min(u32::MAX as usize)
+        .max(n);
     let (tree, _) = builder.subtree(refs, bounds, 0, 0, budget);
     let (nodes, leaf_refs) = flatten(&tree);
     drop_in_background(tree);
