@@ -52,8 +52,11 @@ pub fn build(
         depth_cap_hit: AtomicBool::new(false),
         refs_cap_hit: AtomicBool::new(false),
     };
-    let budget = ((params.max_references_factor as f64 * n as f64) as usize).max(n);
-    let tree = builder.subtree(refs, bounds, 0, 0, budget);
+    // Leaves address their references with 32-bit offsets.
+    let budget = ((params.max_references_factor as f64 * n as f64) as usize)
+        .min(u32::MAX as usize)
+        .max(n);
+    let (tree, _) = builder.subtree(refs, bounds, 0, 0, budget);
     let (nodes, leaf_refs) = flatten(&tree);
     drop_in_background(tree);
     let kd = KdTree {
@@ -107,9 +110,10 @@ struct Builder<'a> {
 }
 
 impl Builder<'_> {
-    /// The subtree over `refs` in `cell`. `budget` is the most references its leaves may
-    /// hold in total: a share of the global cap proportional to its references, so the cap
-    /// holds and the tree does not depend on the order parallel subtrees finish in.
+    /// The subtree over `refs` in `cell`, and the references its leaves hold. `budget` is
+    /// the most they may hold: a share of the global cap proportional to the subtree's
+    /// references, plus what its below sibling left unused when the two are built one after
+    /// the other. The tree does not depend on the order parallel subtrees finish in.
     fn subtree(
         &self,
         refs: Vec<KdRef>,
@@ -117,7 +121,7 @@ impl Builder<'_> {
         depth: u32,
         bad_refines: u32,
         budget: usize,
-    ) -> Tmp {
+    ) -> (Tmp, usize) {
         let n = refs.len();
         let p = self.params;
         if n <= p.max_leaf_size as usize {
@@ -148,38 +152,29 @@ impl Builder<'_> {
             return leaf(refs);
         }
         drop(refs);
+        // At most budget − |above|, so the above side always gets its own references.
         let below_budget = ((budget as u128 * below.len() as u128) / total as u128) as usize;
-        let above_budget = budget - below_budget;
-        let below_n = below.len();
-        let build_below = move || {
-            self.subtree(
-                below,
-                below_cell,
-                depth + 1,
-                bad_refines,
-                below_budget.max(below_n),
+        let next = depth + 1;
+        let ((b, used_below), (a, used_above)) = if n >= PARALLEL_SUBTREE {
+            let above_budget = budget - below_budget;
+            rayon::join(
+                move || self.subtree(below, below_cell, next, bad_refines, below_budget),
+                move || self.subtree(above, above_cell, next, bad_refines, above_budget),
             )
-        };
-        let above_n = above.len();
-        let build_above = move || {
-            self.subtree(
-                above,
-                above_cell,
-                depth + 1,
-                bad_refines,
-                above_budget.max(above_n),
-            )
-        };
-        let children = if n >= PARALLEL_SUBTREE {
-            rayon::join(build_below, build_above)
         } else {
-            (build_below(), build_above())
+            let b = self.subtree(below, below_cell, next, bad_refines, below_budget);
+            let above_budget = budget - b.1;
+            (
+                b,
+                self.subtree(above, above_cell, next, bad_refines, above_budget),
+            )
         };
-        Tmp::Interior {
+        let tree = Tmp::Interior {
             axis: split.axis,
             pos: split.pos,
-            children: Box::new([children.0, children.1]),
-        }
+            children: Box::new([b, a]),
+        };
+        (tree, used_below + used_above)
     }
 
     /// Sends each reference to the side(s) of the plane its clipped bounds touch: one that
@@ -240,8 +235,8 @@ fn clamp_ref(r: &KdRef, cell: &Aabb) -> KdRef {
     }
 }
 
-fn leaf(refs: Vec<KdRef>) -> Tmp {
-    Tmp::Leaf(refs.iter().map(|r| r.tri).collect())
+fn leaf(refs: Vec<KdRef>) -> (Tmp, usize) {
+    (Tmp::Leaf(refs.iter().map(|r| r.tri).collect()), refs.len())
 }
 
 /// Lays the tree out depth first: a node's below child right after it, the above child

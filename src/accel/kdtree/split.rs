@@ -26,33 +26,42 @@ pub struct Split {
 
 /// Sorting the events of nodes at least this large is split across threads.
 const PARALLEL_SORT: usize = 1 << 16;
+/// Nodes with at least this many references search their three axes in parallel.
+const PARALLEL_AXES: usize = 1 << 14;
 
 /// The SAH cost model of one node's cell.
 struct Sah<'a> {
     params: &'a KdParams,
     cell: &'a Aabb,
     inv_area: f64,
+    /// The cell's extents.
+    extent: [f64; 3],
 }
 
 impl<'a> Sah<'a> {
     fn new(params: &'a KdParams, cell: &'a Aabb) -> Option<Self> {
-        let area = area(cell.min.to_array(), cell.max.to_array());
+        let extent = [0, 1, 2].map(|k| (cell.max[k] as f64 - cell.min[k] as f64).max(0.0));
+        let [x, y, z] = extent;
+        let area = 2.0 * (x * y + y * z + z * x);
         (area > 0.0).then(|| Sah {
             params,
             cell,
             inv_area: 1.0 / area,
+            extent,
         })
     }
 
     /// C_trav + C_isect·(1 − bonus)·(P_below·N_below + P_above·N_above), with P the ratio of
     /// a child's surface area to the cell's: the chance a ray through the cell enters it.
+    #[inline(always)]
     fn cost(&self, axis: usize, pos: f32, below: usize, above: usize) -> f64 {
-        let (min, max) = (self.cell.min.to_array(), self.cell.max.to_array());
-        let (mut below_max, mut above_min) = (max, min);
-        below_max[axis] = pos;
-        above_min[axis] = pos;
-        let p_below = area(min, below_max) * self.inv_area;
-        let p_above = area(above_min, max) * self.inv_area;
+        // A child of length l along `axis` has area 2·(e_b·e_c + (e_b + e_c)·l).
+        let (eb, ec) = (self.extent[(axis + 1) % 3], self.extent[(axis + 2) % 3]);
+        let (cap, side) = (eb * ec, eb + ec);
+        let below_len = pos as f64 - self.cell.min[axis] as f64;
+        let above_len = self.cell.max[axis] as f64 - pos as f64;
+        let p_below = 2.0 * (cap + side * below_len) * self.inv_area;
+        let p_above = 2.0 * (cap + side * above_len) * self.inv_area;
         let bonus = if below == 0 || above == 0 {
             self.params.empty_bonus as f64
         } else {
@@ -94,28 +103,37 @@ struct Counts {
     above: usize,
 }
 
-fn area(min: [f32; 3], max: [f32; 3]) -> f64 {
-    let e = [0, 1, 2].map(|k| (max[k] as f64 - min[k] as f64).max(0.0));
-    2.0 * (e[0] * e[1] + e[1] * e[2] + e[2] * e[0])
-}
-
 /// The cheapest split of the node over `refs` with cell `cell`, or `None` if its cell has no
 /// area or no candidate lies strictly inside it.
 pub fn best_split(refs: &[KdRef], cell: &Aabb, params: &KdParams) -> Option<Split> {
     let sah = Sah::new(params, cell)?;
+    let search = |axis: usize, events: &mut Vec<u64>, best: &mut Option<Split>| match params.split {
+        KdSplit::Sweep => sweep(refs, axis, &sah, events, best),
+        KdSplit::Binned(bins) => binned(refs, axis, bins as usize, &sah, best),
+    };
+    if refs.len() >= PARALLEL_AXES {
+        // The axes on separate threads; the same choice as one after the other (the first
+        // axis wins a tie).
+        let per_axis: Vec<Option<Split>> = (0..3)
+            .into_par_iter()
+            .map(|axis| {
+                let mut best = None;
+                search(axis, &mut Vec::new(), &mut best);
+                best
+            })
+            .collect();
+        return per_axis
+            .into_iter()
+            .flatten()
+            .fold(None, |acc: Option<Split>, s| match acc {
+                Some(a) if a.cost <= s.cost => Some(a),
+                _ => Some(s),
+            });
+    }
     let mut best = None;
-    match params.split {
-        KdSplit::Sweep => {
-            let mut events = Vec::with_capacity(2 * refs.len());
-            for axis in 0..3 {
-                sweep(refs, axis, &sah, &mut events, &mut best);
-            }
-        }
-        KdSplit::Binned(bins) => {
-            for axis in 0..3 {
-                binned(refs, axis, bins as usize, &sah, &mut best);
-            }
-        }
+    let mut events = Vec::new();
+    for axis in 0..3 {
+        search(axis, &mut events, &mut best);
     }
     best
 }

@@ -39,37 +39,33 @@ fn round_down(t: f32) -> f32 {
     }
 }
 
+/// A cell to visit: node index and the ray's interval [tmin, tmax] in it.
+type Cell = (usize, f32, f32);
+/// The same as kept on the stack.
+type Pending = (u32, f32, f32);
+
 /// Per-ray values of the plane distance tests, indexed by axis.
 struct PlaneRay {
-    origin: [f32; 3],
-    inv_dir: [f32; 3],
+    /// Four entries so that indexing by a node's two-bit axis needs no bounds check.
+    origin: [f32; 4],
+    inv_dir: [f32; 4],
     /// Whether the ray meets the below side of a plane first: the direction is positive
     /// (+0 included). With a zero component the ray never crosses the plane, and the
     /// distance's sign (±∞) leaves it on the side of its origin.
-    below_first: [bool; 3],
+    below_first: [bool; 4],
 }
 
 impl PlaneRay {
     fn new(slab: &SlabRay) -> Self {
+        let [ox, oy, oz] = slab.origin.to_array();
+        let [ix, iy, iz] = slab.inv_dir.to_array();
+        let [nx, ny, nz] = slab.near.map(|n| n == 0);
         PlaneRay {
-            origin: slab.origin.to_array(),
-            inv_dir: slab.inv_dir.to_array(),
-            below_first: slab.near.map(|n| n == 0),
+            origin: [ox, oy, oz, 0.0],
+            inv_dir: [ix, iy, iz, 0.0],
+            below_first: [nx, ny, nz, false],
         }
     }
-}
-
-/// What to do at an interior node: the first and second child with the second's interval
-/// start, and which of them the ray's interval reaches.
-enum Step {
-    First(usize, f32),
-    Second(usize, f32),
-    Both {
-        first: usize,
-        first_tmax: f32,
-        second: usize,
-        second_tmin: f32,
-    },
 }
 
 impl KdTree {
@@ -94,12 +90,21 @@ impl KdTree {
         Some((ray.tmin.max(round_down(entry)), exit))
     }
 
-    /// Where the ray goes at interior node `index`, with interval [tmin, tmax]; `reach` is
-    /// how far a cell may start and still be worth visiting.
+    /// One step down from interior node `index`, whose cell the ray crosses over [tmin,
+    /// tmax]: the child to take next with its interval, and the other child with its
+    /// interval if that one is to be visited later. `reach` bounds where a cell may start
+    /// and still be worth visiting (it is at least `tmin`).
     #[inline(always)]
-    fn step(&self, index: usize, ray: &PlaneRay, tmin: f32, tmax: f32, reach: f32) -> Option<Step> {
+    fn step(
+        &self,
+        index: usize,
+        ray: &PlaneRay,
+        tmin: f32,
+        tmax: f32,
+        reach: f32,
+    ) -> (Cell, Option<Pending>) {
         let node = &self.nodes[index];
-        let axis = node.axis();
+        let axis = node.axis() & 3;
         let t_plane = (node.split() - ray.origin[axis]) * ray.inv_dir[axis];
         let (below, above) = (index + 1, node.above_child());
         let (first, second) = if ray.below_first[axis] {
@@ -107,29 +112,20 @@ impl KdTree {
         } else {
             (above, below)
         };
-        if t_plane.is_nan() {
-            // The ray lies in the plane (0 · ∞): it touches both cells all along.
-            return Some(Step::Both {
-                first,
-                first_tmax: tmax,
-                second,
-                second_tmin: tmin,
-            });
-        }
         let (up, down) = (round_up(t_plane), round_down(t_plane));
-        let first_reached = up >= tmin;
-        let second_reached = down <= tmax && down <= reach;
-        match (first_reached, second_reached) {
-            (true, true) => Some(Step::Both {
-                first,
-                first_tmax: tmax.min(up),
-                second,
-                second_tmin: tmin.max(down),
-            }),
-            (true, false) => Some(Step::First(first, tmax.min(up))),
-            (false, true) => Some(Step::Second(second, tmin.max(down))),
-            (false, false) => None,
+        if up < tmin {
+            // The plane lies before the interval: only the second cell (down < tmin ≤ reach).
+            return ((second, tmin.max(down), tmax), None);
         }
+        if down > tmax || down > reach {
+            return ((first, tmin, tmax.min(up)), None);
+        }
+        // Both cells. A NaN distance (the ray lies in the plane, 0 · ∞) fails every test
+        // above and comes here too, and `max`/`min` ignore it: both cells, all along.
+        (
+            (first, tmin, tmax.min(up)),
+            Some((second as u32, tmin.max(down), tmax)),
+        )
     }
 
     /// Closest hit, counting into a local sink (kept in registers) added to `stats` once.
@@ -151,7 +147,7 @@ impl KdTree {
         // A cell entered beyond this cannot hold a hit closer than the best.
         let mut reach = ray.tmax * T_SCALE;
         let mut mailbox = Mailbox::new(self.mailbox);
-        let mut stack = [(0u32, 0.0f32, 0.0f32); STACK_SIZE];
+        let mut stack: [Pending; STACK_SIZE] = [(0, 0.0, 0.0); STACK_SIZE];
         let mut sp = 0;
         let (mut index, mut tmin, mut tmax) = (0usize, t0, t1);
         loop {
@@ -159,31 +155,13 @@ impl KdTree {
             let node = &self.nodes[index];
             if !node.is_leaf() {
                 stats.box_tests(1);
-                match self.step(index, &plane_ray, tmin, tmax, reach) {
-                    Some(Step::First(c, t)) => {
-                        index = c;
-                        tmax = t;
-                        continue;
-                    }
-                    Some(Step::Second(c, t)) => {
-                        index = c;
-                        tmin = t;
-                        continue;
-                    }
-                    Some(Step::Both {
-                        first,
-                        first_tmax,
-                        second,
-                        second_tmin,
-                    }) => {
-                        stack[sp] = (second as u32, second_tmin, tmax);
-                        sp += 1;
-                        index = first;
-                        tmax = first_tmax;
-                        continue;
-                    }
-                    None => {}
+                let (next, later) = self.step(index, &plane_ray, tmin, tmax, reach);
+                if let Some(entry) = later {
+                    stack[sp] = entry;
+                    sp += 1;
                 }
+                (index, tmin, tmax) = next;
+                continue;
             } else {
                 for &tri in node.leaf_refs(&self.refs) {
                     if !mailbox.admit(tri, stats) {
@@ -231,7 +209,7 @@ impl KdTree {
         let data = I::prepare(ray);
         let reach = f32::INFINITY;
         let mut mailbox = Mailbox::new(self.mailbox);
-        let mut stack = [(0u32, 0.0f32, 0.0f32); STACK_SIZE];
+        let mut stack: [Pending; STACK_SIZE] = [(0, 0.0, 0.0); STACK_SIZE];
         let mut sp = 0;
         let (mut index, mut tmin, mut tmax) = (0usize, t0, t1);
         loop {
@@ -239,31 +217,13 @@ impl KdTree {
             let node = &self.nodes[index];
             if !node.is_leaf() {
                 stats.box_tests(1);
-                match self.step(index, &plane_ray, tmin, tmax, reach) {
-                    Some(Step::First(c, t)) => {
-                        index = c;
-                        tmax = t;
-                        continue;
-                    }
-                    Some(Step::Second(c, t)) => {
-                        index = c;
-                        tmin = t;
-                        continue;
-                    }
-                    Some(Step::Both {
-                        first,
-                        first_tmax,
-                        second,
-                        second_tmin,
-                    }) => {
-                        stack[sp] = (second as u32, second_tmin, tmax);
-                        sp += 1;
-                        index = first;
-                        tmax = first_tmax;
-                        continue;
-                    }
-                    None => {}
+                let (next, later) = self.step(index, &plane_ray, tmin, tmax, reach);
+                if let Some(entry) = later {
+                    stack[sp] = entry;
+                    sp += 1;
                 }
+                (index, tmin, tmax) = next;
+                continue;
             } else {
                 for &tri in node.leaf_refs(&self.refs) {
                     if !mailbox.admit(tri, stats) {
