@@ -257,7 +257,10 @@ pub fn pareto_plot(rows: &[AccuracyRow]) -> Figure {
         Series {
             name: "Pareto front".into(),
             color: [0, 0, 0],
-            points: plot::pareto_front(&all).into_iter().map(|i| all[i]).collect(),
+            points: plot::pareto_front(&all)
+                .into_iter()
+                .map(|i| all[i])
+                .collect(),
             mark: Mark::Rings,
             labels: Vec::new(),
         },

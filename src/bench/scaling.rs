@@ -20,9 +20,7 @@ pub const SCENES: [&str; 4] = ["soup", "sphere", "grass", "teapot-in-stadium"];
 /// takes at most about this many triangle tests (its means per ray stay exact).
 pub const BRUTE_FORCE_TESTS: usize = 1 << 28;
 
-pub const DEFAULT_SIZES: [usize; 7] = [
-    1_000, 3_000, 10_000, 30_000, 100_000, 300_000, 1_000_000,
-];
+pub const DEFAULT_SIZES: [usize; 7] = [1_000, 3_000, 10_000, 30_000, 100_000, 300_000, 1_000_000];
 
 #[derive(Clone, Debug)]
 pub struct ScalingConfig {
@@ -123,14 +121,20 @@ pub struct Slopes {
 pub fn sized_spec(scene: &str, triangles: usize) -> Result<String, ScalingError> {
     match scene {
         "soup" | "sphere" | "teapot-in-stadium" => Ok(format!("{scene}:{triangles}")),
-        "grass" => Ok(format!("grass:{}", triangles.saturating_sub(2).div_ceil(2).max(1))),
+        "grass" => Ok(format!(
+            "grass:{}",
+            triangles.saturating_sub(2).div_ceil(2).max(1)
+        )),
         _ => Err(ScalingError::NotScalable(scene.to_string())),
     }
 }
 
 /// The sizes to run, in increasing order, with a note when some had to change: the teapot
 /// alone has more triangles than the smallest sizes, so those become the plainest stadium.
-pub fn plan_sizes(scene: &str, sizes: &[usize]) -> Result<(Vec<usize>, Option<String>), ScalingError> {
+pub fn plan_sizes(
+    scene: &str,
+    sizes: &[usize],
+) -> Result<(Vec<usize>, Option<String>), ScalingError> {
     sized_spec(scene, 1)?;
     let mut out: Vec<usize> = sizes.to_vec();
     let mut note = None;
@@ -343,7 +347,10 @@ pub fn figure(rows: &[ScalingRow]) -> Figure {
             })
             .collect(),
     };
-    let mut notes = vec!["slope of log cost / log N".to_string(), "(tests, nodes, ns):".into()];
+    let mut notes = vec![
+        "slope of log cost / log N".to_string(),
+        "(tests, nodes, ns):".into(),
+    ];
     for s in slopes(rows) {
         notes.push(format!(
             "  {}: {}, {}, {}",
@@ -356,15 +363,24 @@ pub fn figure(rows: &[ScalingRow]) -> Figure {
     notes.push(String::new());
     notes.push("1: ~N    1/3: ~N^(1/3)".into());
     notes.push("near 0: ~log N or flat".into());
-    if let Some(k) = rows.iter().filter(|r| r.sampled > 1).map(|r| r.sampled).max() {
+    if let Some(k) = rows
+        .iter()
+        .filter(|r| r.sampled > 1)
+        .map(|r| r.sampled)
+        .max()
+    {
         notes.push(String::new());
         notes.push("brute force at large N traces".into());
-        notes.push(format!("  every {k}th ray or fewer"));
+        notes.push(format!("  1 ray in k, k up to {k}"));
     }
     Figure {
         title: format!("{scene}: cost per primary ray against scene size"),
         charts: vec![
-            panel(Metric::TriangleTests, "triangle tests", "mean triangle tests per ray"),
+            panel(
+                Metric::TriangleTests,
+                "triangle tests",
+                "mean triangle tests per ray",
+            ),
             panel(Metric::Nodes, "nodes visited", "mean nodes visited per ray"),
             panel(
                 Metric::NsPerRay,
@@ -421,7 +437,10 @@ mod tests {
     #[test]
     fn slopes_of_power_laws() {
         let line = |k: f64| -> Vec<(f64, f64)> {
-            [1e3, 1e4, 1e5, 1e6].iter().map(|&n| (n, 3.0 * f64::powf(n, k))).collect()
+            [1e3, 1e4, 1e5, 1e6]
+                .iter()
+                .map(|&n| (n, 3.0 * f64::powf(n, k)))
+                .collect()
         };
         for k in [1.0, 1.0 / 3.0, 0.0] {
             let s = log_log_slope(&line(k)).unwrap();

@@ -398,7 +398,9 @@ fn run_scaling(args: &BenchArgs, width: u32, height: u32) -> Result<()> {
         anyhow::bail!("--scaling always runs every structure: leave out --accel all");
     }
     if args.view.eye.is_some() || args.view.look.is_some() || args.view.light.is_some() {
-        anyhow::bail!("--scaling traces each scene's own view: leave out --eye, --look and --light");
+        anyhow::bail!(
+            "--scaling traces each scene's own view: leave out --eye, --look and --light"
+        );
     }
     let name = args.scene.as_str();
     let sizes = args
@@ -435,11 +437,7 @@ fn run_scaling(args: &BenchArgs, width: u32, height: u32) -> Result<()> {
     let rows = pool.install(|| {
         scaling::run(&cfg, &mut |r| {
             if !quiet {
-                eprintln!(
-                    "  done: {} triangles, {}",
-                    r.triangles,
-                    r.kind.label()
-                );
+                eprintln!("  done: {} triangles, {}", r.triangles, r.kind.label());
             }
         })
     })?;
@@ -490,7 +488,7 @@ fn run_scaling(args: &BenchArgs, width: u32, height: u32) -> Result<()> {
     );
     for r in &rows {
         let note = if r.sampled > 1 {
-            format!("  ({} of {} rays: every {}th)", r.traced, r.rays, r.sampled)
+            format!("  ({} of {} rays: 1 in {})", r.traced, r.rays, r.sampled)
         } else {
             String::new()
         };

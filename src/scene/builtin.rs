@@ -470,7 +470,14 @@ fn split_quad(a: Vec3, b: Vec3, c: Vec3, d: Vec3, blocks: usize) -> Vec<Triangle
         }
     };
     (0..blocks)
-        .flat_map(|k| quad(lerp(a, b, k), lerp(a, b, k + 1), lerp(d, c, k + 1), lerp(d, c, k)))
+        .flat_map(|k| {
+            quad(
+                lerp(a, b, k),
+                lerp(a, b, k + 1),
+                lerp(d, c, k + 1),
+                lerp(d, c, k),
+            )
+        })
         .collect()
 }
 
@@ -591,7 +598,10 @@ mod tests {
         assert_eq!(plain.triangles.len(), TEAPOT_IN_STADIUM_MIN_TRIANGLES);
         for n in [30_000, 100_000, 1_000_000] {
             let scene = by_name(&format!("teapot-in-stadium:{n}")).unwrap().unwrap();
-            assert!(scene.triangles.len().abs_diff(n) <= STADIUM_PER_BLOCK / 2, "{n}");
+            assert!(
+                scene.triangles.len().abs_diff(n) <= STADIUM_PER_BLOCK / 2,
+                "{n}"
+            );
             // The teapot and the view are the same at every size.
             assert_eq!(scene.objects[0].range(), plain.objects[0].range());
             assert_eq!(scene.view, plain.view);
