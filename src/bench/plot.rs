@@ -26,7 +26,7 @@ pub enum Scale {
 }
 
 impl Scale {
-    fn to_axis(self, v: f64) -> Option<f64> {
+    fn position(self, v: f64) -> Option<f64> {
         let t = match self {
             Scale::Linear => v,
             Scale::Log if v > 0.0 => v.log10(),
@@ -36,7 +36,7 @@ impl Scale {
         t.is_finite().then_some(t)
     }
 
-    fn from_axis(self, t: f64) -> f64 {
+    fn value_at(self, t: f64) -> f64 {
         match self {
             Scale::Linear => t,
             Scale::Log => 10f64.powf(t),
@@ -473,7 +473,7 @@ fn draw_chart<DB: DrawingBackend>(
         .map(|s| {
             s.points
                 .iter()
-                .map(|&(x, y)| Some((sx.to_axis(x)?, sy.to_axis(y)?)))
+                .map(|&(x, y)| Some((sx.position(x)?, sy.position(y)?)))
                 .collect()
         })
         .collect();
@@ -506,8 +506,8 @@ fn draw_chart<DB: DrawingBackend>(
             },
         )
         .map_err(draw_err)?;
-    let x_fmt = |t: &f64| format_tick(sx.from_axis(*t));
-    let y_fmt = |t: &f64| format_tick(sy.from_axis(*t));
+    let x_fmt = |t: &f64| format_tick(sx.value_at(*t));
+    let y_fmt = |t: &f64| format_tick(sy.value_at(*t));
     ctx.configure_mesh()
         .x_desc(chart.x.label.clone())
         .y_desc(chart.y.label.clone())
@@ -862,7 +862,7 @@ mod tests {
         let (bold, _) = ticks(Scale::Log, 3.0, 6.0);
         let labels: Vec<String> = bold
             .iter()
-            .map(|&t| format_tick(Scale::Log.from_axis(t)))
+            .map(|&t| format_tick(Scale::Log.value_at(t)))
             .collect();
         assert_eq!(labels, ["1k", "10k", "100k", "1M"]);
         assert_eq!(format_tick(0.5), "0.5");

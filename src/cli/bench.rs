@@ -48,8 +48,8 @@ pub struct BenchArgs {
     #[arg(long)]
     pub accuracy: bool,
     /// How the cost per primary ray grows with the scene: every structure on the scene's own
-    /// view at sizes from 10^3 to 10^6 triangles (soup, sphere, grass or teapot-in-stadium);
-    /// writes a CSV and log-log plots and prints the slopes.
+    /// view at sizes from 10^3 to 10^6 triangles (soup, sphere, grass or teapot-in-stadium),
+    /// one build per point; writes a CSV and log-log plots and prints the slopes.
     #[arg(long)]
     pub scaling: bool,
     /// With --scaling: the triangle counts, comma-separated (default:
