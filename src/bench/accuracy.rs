@@ -282,8 +282,8 @@ pub fn pareto_plot(rows: &[AccuracyRow]) -> Figure {
         notes: [
             "lower left is better",
             "",
-            "obj, spa: object and",
-            "    spatial median",
+            "obj: object median",
+            "spa: spatial median",
             "sweep: full-sweep SAH",
             "Bn: binned SAH, n buckets",
         ]

@@ -1,7 +1,6 @@
-//! The charts `bvhlab bench` writes: scatter and line plots over the `plotters` crate, each saved
-//! as a PNG and an SVG beside it. Linear, log and symmetric-log axes (log10(1 + y), so that zero
-//! errors have a place), a legend beside the plot area, point labels that never overlap, and
-//! text in the font the binary already embeds for egui: no system fonts.
+//! The charts `bvhlab bench` writes (the Pareto front, cost against N on log–log axes): scatter
+//! and line plots over `plotters`, saved as PNG with an SVG beside it, with labels that never
+//! overlap, in the font the binary already embeds for egui (no system fonts).
 
 use plotters::coord::Shift;
 use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint};

@@ -353,7 +353,7 @@ pub fn figure(rows: &[ScalingRow]) -> Figure {
     ];
     for s in slopes(rows) {
         notes.push(format!(
-            "  {}: {}, {}, {}",
+            "{}: {}, {}, {}",
             s.kind.label(),
             fmt_slope(s.all[0]),
             fmt_slope(s.all[1]),
@@ -361,7 +361,7 @@ pub fn figure(rows: &[ScalingRow]) -> Figure {
         ));
     }
     notes.push(String::new());
-    notes.push("1: ~N    1/3: ~N^(1/3)".into());
+    notes.push("1: ~N;  1/3: ~N^(1/3)".into());
     notes.push("near 0: ~log N or flat".into());
     if let Some(k) = rows
         .iter()
@@ -371,7 +371,7 @@ pub fn figure(rows: &[ScalingRow]) -> Figure {
     {
         notes.push(String::new());
         notes.push("brute force at large N traces".into());
-        notes.push(format!("  1 ray in k, k up to {k}"));
+        notes.push(format!("1 ray in k, k up to {k}"));
     }
     Figure {
         title: format!("{scene}: cost per primary ray against scene size"),
