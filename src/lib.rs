@@ -12,8 +12,8 @@
 //! - `accel`: brute force and the BVH (build strategies, traversal, refit);
 //! - `render`: the tile-parallel CPU renderer, its shading and heatmap modes;
 //! - `bench`: the standard ray sets and the benchmark behind `bvhlab bench`, the stress
-//!   suite behind `bvhlab stress`, run time against error (`bench --accuracy`) and the app's
-//!   frame times;
+//!   suite behind `bvhlab stress`, run time against error (`bench --accuracy`), cost against
+//!   scene size (`bench --scaling`), the app's frame times, and the charts (over `plotters`);
 //! - `app`: the egui explorer over all of it, with a worker thread that owns scene and tree.
 
 pub mod accel;

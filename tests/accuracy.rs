@@ -7,7 +7,7 @@ mod common;
 use bvhlab::accel::bvh::{BuildParams, Strategy, build};
 use bvhlab::accel::{Accel, BruteForce, NoStats};
 use bvhlab::bench::accuracy::{self, AccuracyConfig, CSV_HEADER};
-use bvhlab::bench::plot::{Point, pareto_front};
+use bvhlab::bench::plot::{self, pareto_front};
 use bvhlab::bench::{self, BenchConfig};
 use bvhlab::geometry::{Intersector, IntersectorKind, MollerTrumbore, ReferenceF64, Watertight};
 use bvhlab::scene::Scene;
@@ -182,24 +182,12 @@ fn accuracy_matrix_covers_every_builder_and_intersector() {
     assert_eq!(lines.len(), 28);
     let columns = CSV_HEADER.split(',').count();
     assert!(lines.iter().all(|l| l.split(',').count() == columns));
-    let png = accuracy::pareto_plot(&rows);
+    let png = plot::render_png(&accuracy::pareto_plot(&rows)).unwrap();
     assert_eq!((png.width(), png.height()), (1100, 620));
 }
 
 #[test]
 fn pareto_front_keeps_the_points_nothing_beats() {
-    let p = |x: f64, y: f64| Point {
-        x,
-        y,
-        color: [0; 3],
-        label: String::new(),
-    };
-    let points = [
-        p(1.0, 10.0),
-        p(2.0, 0.0),
-        p(3.0, 5.0),
-        p(0.5, 20.0),
-        p(2.5, 0.0),
-    ];
+    let points = [(1.0, 10.0), (2.0, 0.0), (3.0, 5.0), (0.5, 20.0), (2.5, 0.0)];
     assert_eq!(pareto_front(&points), vec![3, 0, 1]);
 }

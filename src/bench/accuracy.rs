@@ -3,7 +3,7 @@
 //! cost, Mrays/s, leak and mismatch rates; written as CSV and as a Pareto plot.
 
 use super::compare::{self, Agreement};
-use super::plot::{self, Color, Point, ScatterPlot};
+use super::plot::{self, Axis, Chart, Color, Figure, Mark, Scale, Series};
 use super::rays::RaySets;
 use super::stress::crossing::{self, CrossingReport, Topology};
 use super::{RaySetResult, time_sets};
@@ -232,41 +232,63 @@ pub fn color(kind: IntersectorKind) -> Color {
     }
 }
 
-/// The Pareto plot of one scene's rows: ns per ray against errors per million rays.
-pub fn pareto_plot(rows: &[AccuracyRow]) -> image::RgbImage {
+/// The Pareto plot of one scene's rows: ns per ray against errors per million rays, a colour
+/// per intersector, a label per builder, the Pareto front as a ringed line.
+pub fn pareto_plot(rows: &[AccuracyRow]) -> Figure {
     let scene = rows.first().map_or("", |r| r.scene.as_str());
     let threads = rows.first().map_or(1, |r| r.threads);
-    let plot = ScatterPlot {
+    let point = |r: &AccuracyRow| (r.ns_per_ray(), r.errors_per_million());
+    let mut series: Vec<Series> = IntersectorKind::ALL
+        .iter()
+        .map(|&k| {
+            let of_kind: Vec<&AccuracyRow> = rows.iter().filter(|r| r.intersector == k).collect();
+            Series {
+                name: k.label().to_string(),
+                color: color(k),
+                points: of_kind.iter().map(|r| point(r)).collect(),
+                mark: Mark::Points,
+                labels: of_kind.iter().map(|r| r.builder.short.clone()).collect(),
+            }
+        })
+        .collect();
+    let all: Vec<(f64, f64)> = rows.iter().map(point).collect();
+    series.insert(
+        0,
+        Series {
+            name: "Pareto front".into(),
+            color: [0, 0, 0],
+            points: plot::pareto_front(&all)
+                .into_iter()
+                .map(|i| all[i])
+                .collect(),
+            mark: Mark::Rings,
+            labels: Vec::new(),
+        },
+    );
+    Figure {
         title: format!("{scene}: run time against error"),
-        x_label: format!(
-            "ns per ray (primary + diffuse + shadow sets, {threads} threads)  -  lower is faster"
-        ),
-        y_label: "leaks + mismatches per million rays (0 at the bottom)".into(),
-        points: rows
-            .iter()
-            .map(|r| Point {
-                x: r.ns_per_ray(),
-                y: r.errors_per_million(),
-                color: color(r.intersector),
-                label: r.builder.short.clone(),
-            })
-            .collect(),
-        legend: IntersectorKind::ALL
-            .iter()
-            .map(|&k| (k.label().to_string(), Some(color(k))))
-            .chain(
-                [
-                    "",
-                    "obj, spa: object and",
-                    "  spatial median",
-                    "sweep: full-sweep SAH",
-                    "Bn: binned SAH, n buckets",
-                ]
-                .map(|s| (s.to_string(), None)),
-            )
-            .collect(),
-        symlog_y: true,
-        log_x: true,
-    };
-    plot::render(&plot, 1100, 620)
+        charts: vec![Chart {
+            title: String::new(),
+            x: Axis {
+                label: format!("ns per ray (primary + diffuse + shadow sets, {threads} threads)"),
+                scale: Scale::Log,
+            },
+            y: Axis {
+                label: "leaks + mismatches per million rays".into(),
+                scale: Scale::SymLog,
+            },
+            series,
+        }],
+        notes: [
+            "lower left is better",
+            "",
+            "obj: object median",
+            "spa: spatial median",
+            "sweep: full-sweep SAH",
+            "Bn: binned SAH, n buckets",
+        ]
+        .map(String::from)
+        .to_vec(),
+        size: (1100, 620),
+    }
 }

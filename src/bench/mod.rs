@@ -7,6 +7,7 @@ pub mod compare;
 pub mod frames;
 pub mod plot;
 pub mod rays;
+pub mod scaling;
 pub mod stress;
 
 use crate::accel::bvh::BuildReport;
@@ -394,7 +395,11 @@ pub fn time_packets<A: Accel, I: Intersector>(accel: &A, rays: &[Ray], runs: u32
 }
 
 /// Traces `rays` `runs` times in parallel, one ray at a time; the best time and the hit count.
-fn time_set(rays: &[Ray], runs: u32, trace: impl Fn(&Ray) -> bool + Sync) -> RaySetResult {
+pub(crate) fn time_set(
+    rays: &[Ray],
+    runs: u32,
+    trace: impl Fn(&Ray) -> bool + Sync,
+) -> RaySetResult {
     time_chunks(rays, runs, 256, |chunk| {
         chunk.iter().filter(|r| trace(r)).count()
     })

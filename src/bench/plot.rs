@@ -1,314 +1,877 @@
-//! A small scatter plot drawn straight into a PNG, for the Pareto plot of time against error:
-//! no plotting stack and no system fonts (text uses `font8x8`'s public-domain bitmap font).
+//! The charts `bvhlab bench` writes (the Pareto front, cost against N on log–log axes): scatter
+//! and line plots over `plotters`, saved as PNG with an SVG beside it, with labels that never
+//! overlap, in the font the binary already embeds for egui (no system fonts).
 
-use image::{Rgb, RgbImage};
+use plotters::coord::Shift;
+use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint};
+use plotters::prelude::*;
+use plotters::style::Color as _;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+use plotters::style::{FontStyle, register_font};
+use std::path::{Path, PathBuf};
+use std::sync::Once;
 
 pub type Color = [u8; 3];
 
-#[derive(Clone, Debug)]
-pub struct Point {
-    pub x: f64,
-    pub y: f64,
-    pub color: Color,
-    pub label: String,
+/// How an axis maps values to positions.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Scale {
+    #[default]
+    Linear,
+    /// log10(v); values that are not positive are left out.
+    Log,
+    /// log10(1 + v) for v ≥ 0, so 0 sits at the bottom and large values read as on a log axis.
+    SymLog,
+}
+
+impl Scale {
+    fn position(self, v: f64) -> Option<f64> {
+        let t = match self {
+            Scale::Linear => v,
+            Scale::Log if v > 0.0 => v.log10(),
+            Scale::Log => return None,
+            Scale::SymLog => (1.0 + v.max(0.0)).log10(),
+        };
+        t.is_finite().then_some(t)
+    }
+
+    fn value_at(self, t: f64) -> f64 {
+        match self {
+            Scale::Linear => t,
+            Scale::Log => 10f64.powf(t),
+            Scale::SymLog => 10f64.powf(t) - 1.0,
+        }
+    }
 }
 
 #[derive(Clone, Debug, Default)]
-pub struct ScatterPlot {
-    pub title: String,
-    pub x_label: String,
-    pub y_label: String,
-    pub points: Vec<Point>,
-    /// (name, colour) entries of the legend; without a colour, a line of text.
-    pub legend: Vec<(String, Option<Color>)>,
-    /// The y axis is log10(1 + y), so that 0 has a place at the bottom.
-    pub symlog_y: bool,
-    /// The x axis is logarithmic (all x must be positive).
-    pub log_x: bool,
+pub struct Axis {
+    pub label: String,
+    pub scale: Scale,
 }
 
-const WHITE: Color = [255, 255, 255];
-const BLACK: Color = [0, 0, 0];
-const GREY: Color = [215, 215, 215];
+/// How a series is drawn.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Mark {
+    /// Filled dots.
+    #[default]
+    Points,
+    /// A line through the points, with dots.
+    Line,
+    /// A thin line through the points with a ring around each (to mark chosen points of
+    /// other series, as a Pareto front).
+    Rings,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct Series {
+    /// The legend entry; an empty name keeps the series out of the legend.
+    pub name: String,
+    pub color: Color,
+    pub points: Vec<(f64, f64)>,
+    pub mark: Mark,
+    /// A short text beside each point (none if empty).
+    pub labels: Vec<String>,
+}
+
+/// One plot area with its axes.
+#[derive(Clone, Debug, Default)]
+pub struct Chart {
+    pub title: String,
+    pub x: Axis,
+    pub y: Axis,
+    pub series: Vec<Series>,
+}
+
+/// One or more charts side by side under a title, with one legend at the right (entries by
+/// series name, over all charts) and lines of notes under it.
+#[derive(Clone, Debug, Default)]
+pub struct Figure {
+    pub title: String,
+    pub charts: Vec<Chart>,
+    pub notes: Vec<String>,
+    /// The whole picture, in pixels.
+    pub size: (u32, u32),
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    #[error("cannot draw the chart: {0}")]
+    Draw(String),
+    #[error("cannot write {path}: {source}")]
+    Write {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("cannot write {path}: {source}")]
+    Png {
+        path: PathBuf,
+        source: image::ImageError,
+    },
+}
+
+fn draw_err<E: std::fmt::Debug>(e: E) -> PlotError {
+    PlotError::Draw(format!("{e:?}"))
+}
+
+/// The font family every text uses: egui's Ubuntu Light, embedded in the binary, under the
+/// generic name an SVG viewer also understands.
+const FONT: &str = "sans-serif";
+
+fn register_fonts() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        // The bytes are a font egui ships and loads itself; only a broken build could fail.
+        let _ = register_font(FONT, FontStyle::Normal, epaint_default_fonts::UBUNTU_LIGHT);
+    });
+}
+
+fn font(size: f64) -> TextStyle<'static> {
+    (FONT, size).into_font().color(&BLACK)
+}
+
+fn rgb(c: Color) -> RGBColor {
+    RGBColor(c[0], c[1], c[2])
+}
 
 /// Indices of the points no other point beats on both axes (smaller x and smaller y are
 /// better), in order of x.
-pub fn pareto_front(points: &[Point]) -> Vec<usize> {
+pub fn pareto_front(points: &[(f64, f64)]) -> Vec<usize> {
     let mut order: Vec<usize> = (0..points.len()).collect();
     order.sort_by(|&a, &b| {
         points[a]
-            .x
-            .total_cmp(&points[b].x)
-            .then(points[a].y.total_cmp(&points[b].y))
+            .0
+            .total_cmp(&points[b].0)
+            .then(points[a].1.total_cmp(&points[b].1))
     });
     let mut front = Vec::new();
     let mut best = f64::INFINITY;
     for i in order {
-        if points[i].y < best {
-            best = points[i].y;
+        if points[i].1 < best {
+            best = points[i].1;
             front.push(i);
         }
     }
     front
 }
 
-/// Draws `text` with its top-left corner at (x, y), each font pixel `scale` pixels wide.
-pub fn draw_text(img: &mut RgbImage, x: i64, y: i64, text: &str, scale: i64, color: Color) {
-    for (k, ch) in text.chars().enumerate() {
-        let glyph = font8x8::legacy::BASIC_LEGACY
-            .get(ch as usize)
-            .copied()
-            .unwrap_or([0; 8]);
-        for (row, bits) in glyph.iter().enumerate() {
-            for col in 0..8 {
-                if bits & (1 << col) != 0 {
-                    let px = x + (k as i64 * 8 + col) * scale;
-                    let py = y + row as i64 * scale;
-                    fill_rect(img, px, py, scale, scale, color);
-                }
-            }
+/// Draws `figure` into a PNG at `png` and an SVG beside it (same stem, `.svg`); returns the
+/// SVG's path.
+pub fn save(figure: &Figure, png: &Path) -> Result<PathBuf, PlotError> {
+    let image = render_png(figure)?;
+    image.save(png).map_err(|source| PlotError::Png {
+        path: png.to_path_buf(),
+        source,
+    })?;
+    let svg_path = png.with_extension("svg");
+    std::fs::write(&svg_path, render_svg(figure)?).map_err(|source| PlotError::Write {
+        path: svg_path.clone(),
+        source,
+    })?;
+    Ok(svg_path)
+}
+
+/// The figure as an RGB image.
+pub fn render_png(figure: &Figure) -> Result<image::RgbImage, PlotError> {
+    let (w, h) = figure.size;
+    let mut buf = vec![0u8; w as usize * h as usize * 3];
+    {
+        let root = bitmap_text::GlyphText(BitMapBackend::with_buffer(&mut buf, (w, h)))
+            .into_drawing_area();
+        draw(figure, &root)?;
+        root.present().map_err(draw_err)?;
+    }
+    image::RgbImage::from_raw(w, h, buf)
+        .ok_or_else(|| PlotError::Draw("the pixel buffer has the wrong size".into()))
+}
+
+/// The figure as an SVG document (text as `<text>` elements).
+pub fn render_svg(figure: &Figure) -> Result<String, PlotError> {
+    let mut out = String::new();
+    {
+        let root = SVGBackend::with_string(&mut out, figure.size).into_drawing_area();
+        draw(figure, &root)?;
+        root.present().map_err(draw_err)?;
+    }
+    Ok(out)
+}
+
+/// A rectangle in pixels: left, top, width, height.
+type Rect = (i32, i32, i32, i32);
+
+/// Whether `a` and `b` come within 2 pixels of each other.
+fn overlaps(a: Rect, b: Rect) -> bool {
+    const GAP: i32 = 2;
+    a.0 < b.0 + b.2 + GAP && b.0 < a.0 + a.2 + GAP && a.1 < b.1 + b.3 + GAP && b.1 < a.1 + a.3 + GAP
+}
+
+/// The legend entries: each series name once, in order of first appearance.
+fn legend(figure: &Figure) -> Vec<(String, Color, Mark)> {
+    let mut out: Vec<(String, Color, Mark)> = Vec::new();
+    for s in figure.charts.iter().flat_map(|c| &c.series) {
+        if !s.name.is_empty() && !out.iter().any(|(n, _, _)| *n == s.name) {
+            out.push((s.name.clone(), s.color, s.mark));
         }
-    }
-}
-
-/// Width in pixels of `text` at `scale`.
-pub fn text_width(text: &str, scale: i64) -> i64 {
-    text.chars().count() as i64 * 8 * scale
-}
-
-fn put(img: &mut RgbImage, x: i64, y: i64, color: Color) {
-    if x >= 0 && y >= 0 && (x as u32) < img.width() && (y as u32) < img.height() {
-        img.put_pixel(x as u32, y as u32, Rgb(color));
-    }
-}
-
-fn fill_rect(img: &mut RgbImage, x: i64, y: i64, w: i64, h: i64, color: Color) {
-    for yy in y..y + h {
-        for xx in x..x + w {
-            put(img, xx, yy, color);
-        }
-    }
-}
-
-fn line(img: &mut RgbImage, (x0, y0): (i64, i64), (x1, y1): (i64, i64), color: Color) {
-    let steps = (x1 - x0).abs().max((y1 - y0).abs()).max(1);
-    for s in 0..=steps {
-        let x = x0 + (x1 - x0) * s / steps;
-        let y = y0 + (y1 - y0) * s / steps;
-        put(img, x, y, color);
-    }
-}
-
-fn disc(img: &mut RgbImage, cx: i64, cy: i64, r: i64, color: Color) {
-    for y in -r..=r {
-        for x in -r..=r {
-            if x * x + y * y <= r * r {
-                put(img, cx + x, cy + y, color);
-            }
-        }
-    }
-}
-
-/// "Nice" tick positions covering [lo, hi]: steps of 1, 2 or 5 × 10^k.
-fn ticks(lo: f64, hi: f64, target: usize) -> Vec<f64> {
-    let span = (hi - lo).max(1e-12);
-    let raw = span / target.max(1) as f64;
-    let mag = 10f64.powf(raw.log10().floor());
-    let step = [1.0, 2.0, 5.0, 10.0]
-        .iter()
-        .map(|m| m * mag)
-        .find(|s| span / s <= target as f64)
-        .unwrap_or(10.0 * mag);
-    let mut t = (lo / step).ceil() * step;
-    let mut out = Vec::new();
-    while t <= hi + step * 1e-9 {
-        out.push(t);
-        t += step;
     }
     out
 }
 
-fn format_tick(v: f64) -> String {
-    if v == 0.0 {
-        "0".into()
-    } else if v.abs() >= 1e4 {
-        format!("1e{}", v.log10().round() as i32)
-    } else if v.fract().abs() < 1e-9 {
-        format!("{}", v as i64)
+fn draw<DB: DrawingBackend>(
+    figure: &Figure,
+    root: &DrawingArea<DB, Shift>,
+) -> Result<(), PlotError> {
+    register_fonts();
+    root.fill(&WHITE).map_err(draw_err)?;
+    let (w, _) = figure.size;
+    let title_font = font(22.0);
+    let text_width = |text: &str, style: &TextStyle| {
+        root.estimate_text_size(text, style)
+            .map(|(tw, _)| tw as i32)
+            .unwrap_or(text.chars().count() as i32 * 8)
+    };
+
+    // The legend column at the right, as wide as its longest line.
+    let entries = legend(figure);
+    let legend_font = font(15.0);
+    let note_font = font(14.0);
+    let legend_w = entries
+        .iter()
+        .map(|(n, _, _)| 34 + text_width(n, &legend_font))
+        .chain(figure.notes.iter().map(|n| text_width(n, &note_font)))
+        .max()
+        .unwrap_or(0)
+        + 30;
+    let (top, plots) = root.split_vertically(44);
+    top.draw(&Text::new(
+        figure.title.clone(),
+        (20, 12),
+        title_font.pos(Pos::new(HPos::Left, VPos::Top)),
+    ))
+    .map_err(draw_err)?;
+    let (plots, side) = plots.split_horizontally(w as i32 - legend_w.min(w as i32 / 2));
+
+    let mut y = 40;
+    for (name, color, mark) in &entries {
+        let c = rgb(*color);
+        match mark {
+            Mark::Points => {
+                side.draw(&Circle::new((14, y), 5, c.filled()))
+                    .map_err(draw_err)?;
+            }
+            Mark::Line => {
+                side.draw(&PathElement::new(vec![(2, y), (26, y)], c.stroke_width(2)))
+                    .map_err(draw_err)?;
+                side.draw(&Circle::new((14, y), 4, c.filled()))
+                    .map_err(draw_err)?;
+            }
+            Mark::Rings => {
+                side.draw(&PathElement::new(vec![(2, y), (26, y)], c.stroke_width(1)))
+                    .map_err(draw_err)?;
+                side.draw(&Circle::new((14, y), 7, c.stroke_width(2)))
+                    .map_err(draw_err)?;
+            }
+        }
+        side.draw(&Text::new(
+            name.clone(),
+            (34, y),
+            legend_font.pos(Pos::new(HPos::Left, VPos::Center)),
+        ))
+        .map_err(draw_err)?;
+        y += 24;
+    }
+    y += 12;
+    for note in &figure.notes {
+        side.draw(&Text::new(
+            note.clone(),
+            (4, y),
+            note_font.pos(Pos::new(HPos::Left, VPos::Center)),
+        ))
+        .map_err(draw_err)?;
+        y += 20;
+    }
+
+    let n = figure.charts.len().max(1);
+    let panels = plots.split_evenly((1, n));
+    for (chart, area) in figure.charts.iter().zip(&panels) {
+        draw_chart(chart, area, root)?;
+    }
+    Ok(())
+}
+
+/// The range of an axis over `values` (already mapped to the axis), padded a little; zero
+/// stays the bottom of a symmetric-log axis.
+fn axis_range(scale: Scale, values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+        (lo.min(v), hi.max(v))
+    });
+    let (lo, hi) = if lo.is_finite() && hi.is_finite() {
+        (lo, hi)
     } else {
-        let s = format!("{v:.2}");
-        s.trim_end_matches('0').trim_end_matches('.').to_string()
+        (0.0, 1.0)
+    };
+    let span = hi - lo;
+    let pad = if span > 0.0 {
+        span * 0.06
+    } else if scale == Scale::Linear {
+        lo.abs().max(1.0) * 0.1
+    } else {
+        0.5
+    };
+    match scale {
+        // Always room up to 1 (log10 2), and nothing below 0.
+        Scale::SymLog => (0.0, (hi + pad).max(0.35)),
+        Scale::Linear if lo >= 0.0 && lo - pad < 0.0 => (0.0, hi + pad),
+        _ => (lo - pad, hi + pad),
     }
 }
 
-/// Renders the plot; the Pareto front is drawn as a line through its points, which get a
-/// black ring.
-pub fn render(plot: &ScatterPlot, width: u32, height: u32) -> RgbImage {
-    let mut img = RgbImage::from_pixel(width, height, Rgb(WHITE));
-    let (w, h) = (width as i64, height as i64);
-    let (left, right, top, bottom) = (90i64, 300i64, 50i64, 70i64);
-    let (pw, ph) = (w - left - right, h - top - bottom);
-    let ty = |y: f64| {
-        if plot.symlog_y {
-            (1.0 + y.max(0.0)).log10()
-        } else {
-            y
+/// Tick positions on the axis (in axis units) with their labels, and the positions of the
+/// light grid lines between them.
+fn ticks(scale: Scale, lo: f64, hi: f64) -> (Vec<f64>, Vec<f64>) {
+    let inside = |t: f64| t >= lo - 1e-9 && t <= hi + 1e-9;
+    match scale {
+        Scale::Linear => {
+            let step = nice_step(hi - lo, 6);
+            let light = step / 5.0;
+            let along = |step: f64| {
+                let first = (lo / step).ceil() as i64;
+                let last = (hi / step).floor() as i64;
+                (first..=last).map(move |k| k as f64 * step)
+            };
+            (along(step).collect(), along(light).collect())
         }
-    };
-    let tx = |x: f64| if plot.log_x { x.max(1e-300).log10() } else { x };
-    let xs: Vec<f64> = plot.points.iter().map(|p| tx(p.x)).collect();
-    let ys: Vec<f64> = plot.points.iter().map(|p| ty(p.y)).collect();
-    let fold = |v: &[f64], f: fn(f64, f64) -> f64, init: f64| v.iter().copied().fold(init, f);
-    let (mut x0, mut x1) = (
-        fold(&xs, f64::min, f64::INFINITY),
-        fold(&xs, f64::max, f64::NEG_INFINITY),
-    );
-    if !x0.is_finite() || !x1.is_finite() {
-        (x0, x1) = (0.0, 1.0);
-    }
-    let pad = ((x1 - x0) * 0.06).max(x1.abs() * 0.01).max(1e-9);
-    let (x0, x1) = (x0 - pad, x1 + pad);
-    let (x0, x1) = if plot.log_x {
-        (x0, x1)
-    } else {
-        (x0.max(0.0), x1)
-    };
-    let y1 = fold(&ys, f64::max, 0.0).max(if plot.symlog_y { 1.0 } else { 1e-9 }) * 1.1;
-    let y0 = 0.0;
-    let px = |x: f64| left + ((x - x0) / (x1 - x0) * pw as f64).round() as i64;
-    let py = |y: f64| top + ph - ((y - y0) / (y1 - y0) * ph as f64).round() as i64;
-
-    // Grid and ticks.
-    let x_ticks: Vec<(f64, String)> = if plot.log_x {
-        let (lo, hi) = (10f64.powf(x0), 10f64.powf(x1));
-        // Every integer mantissa when the axis spans about a decade, else 1, 2, 5.
-        let mantissas: &[f64] = if x1 - x0 < 1.3 {
-            &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0]
-        } else {
-            &[1.0, 2.0, 5.0]
-        };
-        let mut out = Vec::new();
-        for k in (lo.log10().floor() as i32)..=(hi.log10().ceil() as i32) {
-            for &m in mantissas {
-                let v = m * 10f64.powi(k);
-                if v >= lo && v <= hi {
-                    out.push((v.log10(), format_tick(v)));
+        Scale::Log => {
+            let decades = hi - lo;
+            let mantissas: &[f64] = if decades <= 1.2 {
+                &[1.0, 2.0, 3.0, 5.0]
+            } else if decades <= 2.5 {
+                &[1.0, 2.0, 5.0]
+            } else {
+                &[1.0]
+            };
+            // At most about 8 decade labels.
+            let every = (decades / 8.0).ceil().max(1.0) as i64;
+            let (mut bold, mut light) = (Vec::new(), Vec::new());
+            for k in (lo.floor() as i64)..=(hi.ceil() as i64) {
+                for m in 1..10 {
+                    let t = (m as f64).log10() + k as f64;
+                    if !inside(t) {
+                        continue;
+                    }
+                    if mantissas.contains(&(m as f64)) && k.rem_euclid(every) == 0 {
+                        bold.push(t);
+                    } else if decades <= 6.0 {
+                        light.push(t);
+                    }
                 }
             }
+            (bold, light)
         }
-        out
-    } else {
-        ticks(x0, x1, 8)
-            .into_iter()
-            .map(|v| (v, format_tick(v)))
-            .collect()
-    };
-    for (t, label) in x_ticks {
-        let x = px(t);
-        line(&mut img, (x, top), (x, top + ph), GREY);
-        draw_text(
-            &mut img,
-            x - text_width(&label, 1) / 2,
-            top + ph + 8,
-            &label,
-            1,
-            BLACK,
-        );
+        Scale::SymLog => {
+            let mut bold = vec![0.0];
+            let mut light = Vec::new();
+            for k in 0..=12 {
+                let base = 10f64.powi(k);
+                let t = (1.0 + base).log10();
+                if inside(t) {
+                    bold.push(t);
+                }
+                for m in 2..10 {
+                    let t = (1.0 + m as f64 * base).log10();
+                    if inside(t) {
+                        light.push(t);
+                    }
+                }
+            }
+            (bold, light)
+        }
     }
-    let y_ticks: Vec<(f64, String)> = if plot.symlog_y {
-        (0..=9)
-            .map(|k| if k == 0 { 0.0 } else { 10f64.powi(k - 1) })
-            .filter(|&v| ty(v) <= y1)
-            .map(|v| (ty(v), format_tick(v)))
-            .collect()
-    } else {
-        ticks(y0, y1, 6)
-            .into_iter()
-            .map(|v| (v, format_tick(v)))
-            .collect()
-    };
-    for (v, label) in y_ticks {
-        let y = py(v);
-        line(&mut img, (left, y), (left + pw, y), GREY);
-        draw_text(
-            &mut img,
-            left - 8 - text_width(&label, 1),
-            y - 4,
-            &label,
-            1,
-            BLACK,
-        );
-    }
-    line(&mut img, (left, top + ph), (left + pw, top + ph), BLACK);
-    line(&mut img, (left, top), (left, top + ph), BLACK);
+}
 
-    // Pareto front, then the points and their labels.
-    let front = pareto_front(&plot.points);
-    for pair in front.windows(2) {
-        let (a, b) = (&plot.points[pair[0]], &plot.points[pair[1]]);
-        line(
-            &mut img,
-            (px(tx(a.x)), py(ty(a.y))),
-            (px(tx(b.x)), py(ty(b.y))),
-            BLACK,
-        );
-    }
-    // Labels go to the first nearby spot that overlaps no earlier label.
-    let mut placed: Vec<(i64, i64, i64, i64)> = Vec::new();
-    for (i, p) in plot.points.iter().enumerate() {
-        let (x, y) = (px(tx(p.x)), py(ty(p.y)));
-        if front.contains(&i) {
-            disc(&mut img, x, y, 6, BLACK);
+/// A step of 1, 2 or 5 × 10^k giving at most about `target` intervals over `span`.
+fn nice_step(span: f64, target: usize) -> f64 {
+    let span = if span > 0.0 { span } else { 1.0 };
+    let raw = span / target.max(1) as f64;
+    let mag = 10f64.powf(raw.log10().floor());
+    [1.0, 2.0, 5.0, 10.0]
+        .iter()
+        .map(|m| m * mag)
+        .find(|s| span / s <= target as f64)
+        .unwrap_or(10.0 * mag)
+}
+
+/// A tick value as a short label: 0.5, 20, 3k, 10k, 1M, 2e-5.
+pub fn format_tick(v: f64) -> String {
+    let trim = |s: String| {
+        if s.contains('.') {
+            s.trim_end_matches('0').trim_end_matches('.').to_string()
+        } else {
+            s
         }
-        disc(&mut img, x, y, 4, p.color);
-        let w = text_width(&p.label, 1);
-        let spots = [
-            (7, -10),
-            (7, 4),
-            (7, -20),
-            (7, 14),
-            (-w - 7, -10),
-            (-w - 7, 4),
-            (7, -30),
-            (7, 24),
-        ];
-        let overlaps = |r: (i64, i64, i64, i64)| {
-            placed
-                .iter()
-                .any(|q| r.0 < q.0 + q.2 && q.0 < r.0 + r.2 && r.1 < q.1 + q.3 && q.1 < r.1 + r.3)
+    };
+    let a = v.abs();
+    if a < 1e-12 {
+        "0".into()
+    } else if a >= 1e9 {
+        format!("{}G", trim(format!("{:.2}", v / 1e9)))
+    } else if a >= 1e6 {
+        format!("{}M", trim(format!("{:.2}", v / 1e6)))
+    } else if a >= 1e3 {
+        format!("{}k", trim(format!("{:.2}", v / 1e3)))
+    } else if a >= 0.01 {
+        trim(format!("{v:.3}"))
+    } else {
+        format!("{v:.0e}")
+    }
+}
+
+/// A linear axis in axis units (log10 for a log axis) with our own tick and grid positions.
+struct AxisCoord {
+    range: std::ops::Range<f64>,
+    bold: Vec<f64>,
+    light: Vec<f64>,
+}
+
+impl Ranged for AxisCoord {
+    type FormatOption = DefaultFormatting;
+    type ValueType = f64;
+
+    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
+        let span = self.range.end - self.range.start;
+        let f = if span > 0.0 {
+            (value - self.range.start) / span
+        } else {
+            0.5
         };
-        let (dx, dy) = spots
-            .iter()
-            .copied()
-            .find(|&(dx, dy)| !overlaps((x + dx, y + dy, w, 9)))
-            .unwrap_or(spots[0]);
-        placed.push((x + dx, y + dy, w, 9));
-        draw_text(&mut img, x + dx, y + dy, &p.label, 1, p.color);
+        limit.0 + (f * (limit.1 - limit.0) as f64).round() as i32
     }
 
-    // Title, axis labels, legend (entries without a colour are notes).
-    draw_text(&mut img, left, 8, &plot.title, 2, BLACK);
-    let xl = &plot.x_label;
-    draw_text(
-        &mut img,
-        left + pw / 2 - text_width(xl, 1) / 2,
-        h - 30,
-        xl,
-        1,
-        BLACK,
-    );
-    draw_text(&mut img, 8, top - 16, &plot.y_label, 1, BLACK);
-    let lx = left + pw + 20;
-    for (k, (name, color)) in plot.legend.iter().enumerate() {
-        let y = top + 10 + k as i64 * 18;
-        if let Some(color) = color {
-            disc(&mut img, lx + 5, y + 4, 5, *color);
+    fn key_points<Hint: KeyPointHint>(&self, hint: Hint) -> Vec<f64> {
+        if hint.weight().allow_light_points() {
+            self.light.clone()
+        } else {
+            self.bold.clone()
         }
-        draw_text(&mut img, lx + 16, y, name, 1, BLACK);
     }
-    let y = top + 10 + plot.legend.len() as i64 * 18 + 10;
-    disc(&mut img, lx + 5, y + 4, 6, BLACK);
-    disc(&mut img, lx + 5, y + 4, 4, WHITE);
-    draw_text(&mut img, lx + 16, y, "Pareto front", 1, BLACK);
-    img
+
+    fn range(&self) -> std::ops::Range<f64> {
+        self.range.clone()
+    }
+}
+
+fn draw_chart<DB: DrawingBackend>(
+    chart: &Chart,
+    area: &DrawingArea<DB, Shift>,
+    root: &DrawingArea<DB, Shift>,
+) -> Result<(), PlotError> {
+    let (sx, sy) = (chart.x.scale, chart.y.scale);
+    // Every point mapped to the axes; points a log axis cannot show are left out.
+    let mapped: Vec<Vec<Option<(f64, f64)>>> = chart
+        .series
+        .iter()
+        .map(|s| {
+            s.points
+                .iter()
+                .map(|&(x, y)| Some((sx.position(x)?, sy.position(y)?)))
+                .collect()
+        })
+        .collect();
+    let all = || mapped.iter().flatten().flatten();
+    let (x0, x1) = axis_range(sx, all().map(|p| p.0));
+    let (y0, y1) = axis_range(sy, all().map(|p| p.1));
+    let (x_bold, x_light) = ticks(sx, x0, x1);
+    let (y_bold, y_light) = ticks(sy, y0, y1);
+
+    let mut builder = ChartBuilder::on(area);
+    builder
+        .margin(12)
+        .margin_right(24)
+        .x_label_area_size(52)
+        .y_label_area_size(64);
+    if !chart.title.is_empty() {
+        builder.caption(chart.title.clone(), font(17.0));
+    }
+    let mut ctx = builder
+        .build_cartesian_2d(
+            AxisCoord {
+                range: x0..x1,
+                bold: x_bold,
+                light: x_light,
+            },
+            AxisCoord {
+                range: y0..y1,
+                bold: y_bold,
+                light: y_light,
+            },
+        )
+        .map_err(draw_err)?;
+    let x_fmt = |t: &f64| format_tick(sx.value_at(*t));
+    let y_fmt = |t: &f64| format_tick(sy.value_at(*t));
+    ctx.configure_mesh()
+        .x_desc(chart.x.label.clone())
+        .y_desc(chart.y.label.clone())
+        .x_label_formatter(&x_fmt)
+        .y_label_formatter(&y_fmt)
+        .label_style(font(14.0))
+        .axis_desc_style(font(15.0))
+        .bold_line_style(RGBColor(200, 200, 200).stroke_width(1))
+        .light_line_style(RGBColor(236, 236, 236).stroke_width(1))
+        .draw()
+        .map_err(draw_err)?;
+
+    for (s, pts) in chart.series.iter().zip(&mapped) {
+        let c = rgb(s.color);
+        let pts: Vec<(f64, f64)> = pts.iter().flatten().copied().collect();
+        match s.mark {
+            Mark::Points => {}
+            Mark::Line => {
+                ctx.draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))
+                    .map_err(draw_err)?;
+            }
+            Mark::Rings => {
+                ctx.draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(1)))
+                    .map_err(draw_err)?;
+                ctx.draw_series(pts.iter().map(|&p| Circle::new(p, 7, c.stroke_width(2))))
+                    .map_err(draw_err)?;
+                continue;
+            }
+        }
+        ctx.draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled())))
+            .map_err(draw_err)?;
+    }
+
+    // Point labels: each at the first spot near its point that covers no other label, no
+    // point and nothing outside the plot area.
+    let label_font = font(13.0);
+    let plot = ctx.plotting_area();
+    let ((px0, py0), (px1, py1)) = {
+        let r = plot.get_pixel_range();
+        ((r.0.start, r.1.start), (r.0.end, r.1.end))
+    };
+    let dots: Vec<Rect> = chart
+        .series
+        .iter()
+        .zip(&mapped)
+        .flat_map(|(s, pts)| {
+            let r = if s.mark == Mark::Rings { 8 } else { 4 };
+            pts.iter().flatten().map(move |&p| (p, r))
+        })
+        .map(|(p, r)| {
+            let (x, y) = ctx.backend_coord(&p);
+            (x - r, y - r, 2 * r + 1, 2 * r + 1)
+        })
+        .collect();
+    let mut placed: Vec<Rect> = Vec::new();
+    for (s, pts) in chart.series.iter().zip(&mapped) {
+        for (label, p) in s.labels.iter().zip(pts) {
+            let (Some(p), false) = (p, label.is_empty()) else {
+                continue;
+            };
+            let (x, y) = ctx.backend_coord(p);
+            let (tw, th) = root
+                .estimate_text_size(label, &label_font)
+                .map(|(a, b)| (a as i32, b as i32))
+                .unwrap_or((label.len() as i32 * 7, 13));
+            let spots = [
+                (7, -th - 2),
+                (7, 3),
+                (-tw - 7, -th - 2),
+                (-tw - 7, 3),
+                (-tw / 2, -th - 8),
+                (-tw / 2, 8),
+                (9, -th / 2),
+                (-tw - 9, -th / 2),
+                (7, -2 * th - 4),
+                (7, th + 6),
+                (-tw - 7, -2 * th - 4),
+                (-tw - 7, th + 6),
+            ];
+            let fits = |r: Rect| {
+                r.0 >= px0
+                    && r.1 >= py0
+                    && r.0 + r.2 <= px1
+                    && r.1 + r.3 <= py1
+                    && !placed.iter().any(|&q| overlaps(r, q))
+                    && !dots.iter().any(|&d| overlaps(r, d))
+            };
+            let Some(r) = spots
+                .iter()
+                .map(|&(dx, dy)| (x + dx, y + dy, tw, th))
+                .find(|&r| fits(r))
+            else {
+                // Nowhere free: leave this label out rather than draw it over another.
+                continue;
+            };
+            placed.push(r);
+            root.draw(&Text::new(
+                label.clone(),
+                (r.0, r.1),
+                label_font
+                    .color(&rgb(s.color))
+                    .pos(Pos::new(HPos::Left, VPos::Top)),
+            ))
+            .map_err(draw_err)?;
+        }
+    }
+    Ok(())
+}
+
+/// Text for the bitmap backend.
+mod bitmap_text {
+    use plotters_backend::text_anchor::{HPos, VPos};
+    use plotters_backend::{
+        BackendColor, BackendCoord, BackendStyle, BackendTextStyle, DrawingBackend,
+        DrawingErrorKind,
+    };
+
+    /// A bitmap backend whose text is rasterised here, glyph by glyph at its own side bearing:
+    /// plotters' own bitmap text drops the bearings and so spaces letters unevenly. Everything
+    /// else goes to the inner backend. Text is always in `FONT`, which this draws from the same
+    /// bytes; sizes are laid out by plotters from the same font, so both agree on widths.
+    pub(super) struct GlyphText<B>(pub(super) B);
+
+    impl<B: DrawingBackend> DrawingBackend for GlyphText<B> {
+        type ErrorType = B::ErrorType;
+
+        fn get_size(&self) -> (u32, u32) {
+            self.0.get_size()
+        }
+
+        fn ensure_prepared(&mut self) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+            self.0.ensure_prepared()
+        }
+
+        fn present(&mut self) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+            self.0.present()
+        }
+
+        fn draw_pixel(
+            &mut self,
+            point: BackendCoord,
+            color: BackendColor,
+        ) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+            self.0.draw_pixel(point, color)
+        }
+
+        fn draw_line<S: BackendStyle>(
+            &mut self,
+            from: BackendCoord,
+            to: BackendCoord,
+            style: &S,
+        ) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+            self.0.draw_line(from, to, style)
+        }
+
+        fn draw_rect<S: BackendStyle>(
+            &mut self,
+            upper_left: BackendCoord,
+            bottom_right: BackendCoord,
+            style: &S,
+            fill: bool,
+        ) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+            self.0.draw_rect(upper_left, bottom_right, style, fill)
+        }
+
+        fn draw_path<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(
+            &mut self,
+            path: I,
+            style: &S,
+        ) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+            self.0.draw_path(path, style)
+        }
+
+        fn draw_circle<S: BackendStyle>(
+            &mut self,
+            center: BackendCoord,
+            radius: u32,
+            style: &S,
+            fill: bool,
+        ) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+            self.0.draw_circle(center, radius, style, fill)
+        }
+
+        fn fill_polygon<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(
+            &mut self,
+            vert: I,
+            style: &S,
+        ) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+            self.0.fill_polygon(vert, style)
+        }
+
+        fn draw_text<S: BackendTextStyle>(
+            &mut self,
+            text: &str,
+            style: &S,
+            pos: BackendCoord,
+        ) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+            use ab_glyph::{Font, FontRef, ScaleFont, point};
+            let color = style.color();
+            if color.alpha == 0.0 {
+                return Ok(());
+            }
+            let font = FontRef::try_from_slice(epaint_default_fonts::UBUNTU_LIGHT)
+                .map_err(|e| DrawingErrorKind::FontError(Box::new(e)))?;
+            let size = style.size() as f32;
+            let scaled = font.as_scaled(size);
+            let ((min_x, min_y), (max_x, max_y)) = style
+                .layout_box(text)
+                .map_err(|e| DrawingErrorKind::FontError(Box::new(e)))?;
+            let (width, height) = (max_x - min_x, max_y - min_y);
+            let dx = match style.anchor().h_pos {
+                HPos::Left => 0,
+                HPos::Right => -width,
+                HPos::Center => -width / 2,
+            };
+            let dy = match style.anchor().v_pos {
+                VPos::Top => 0,
+                VPos::Center => -height / 2,
+                VPos::Bottom => -height,
+            };
+            // The layout box is one em high; put the baseline so that capitals fill it.
+            let baseline = scaled.ascent() * (height as f32 / scaled.height()).min(1.0);
+            let transform = style.transform();
+            let (w, h) = self.get_size();
+            let mut pen = 0.0f32;
+            let mut prev = None;
+            let mut result = Ok(());
+            for c in text.chars() {
+                let id = scaled.glyph_id(c);
+                if let Some(p) = prev {
+                    pen += scaled.kern(p, id);
+                }
+                prev = Some(id);
+                let glyph = id.with_scale_and_position(size, point(pen, baseline));
+                pen += scaled.h_advance(id);
+                let Some(outline) = scaled.outline_glyph(glyph) else {
+                    continue;
+                };
+                let bounds = outline.px_bounds();
+                outline.draw(|x, y, coverage| {
+                    if result.is_err() || coverage <= 0.0 {
+                        return;
+                    }
+                    let gx = bounds.min.x as i32 + x as i32 + dx;
+                    let gy = bounds.min.y as i32 + y as i32 + dy;
+                    let (tx, ty) = transform.transform(gx, gy);
+                    let (px, py) = (pos.0 + tx, pos.1 + ty);
+                    if px >= 0 && py >= 0 && px < w as i32 && py < h as i32 {
+                        let c = BackendColor {
+                            alpha: color.alpha * coverage.min(1.0) as f64,
+                            rgb: color.rgb,
+                        };
+                        result = self.0.draw_pixel((px, py), c);
+                    }
+                });
+                result
+                    .as_ref()
+                    .map_err(|_| DrawingErrorKind::FontError(Box::new(FontMissing)))?;
+            }
+            result
+        }
+
+        fn blit_bitmap(
+            &mut self,
+            pos: BackendCoord,
+            size: (u32, u32),
+            src: &[u8],
+        ) -> Result<(), DrawingErrorKind<B::ErrorType>> {
+            self.0.blit_bitmap(pos, size, src)
+        }
+    }
+
+    /// A glyph failed to draw (the pixel backend's own error is reported instead).
+    #[derive(Debug, thiserror::Error)]
+    #[error("a glyph could not be drawn")]
+    struct FontMissing;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn figure(x: Scale, y: Scale, points: Vec<(f64, f64)>) -> Figure {
+        Figure {
+            title: "a test".into(),
+            charts: vec![Chart {
+                title: "panel".into(),
+                x: Axis {
+                    label: "triangles".into(),
+                    scale: x,
+                },
+                y: Axis {
+                    label: "tests per ray".into(),
+                    scale: y,
+                },
+                series: vec![Series {
+                    name: "brute force".into(),
+                    color: [0, 114, 178],
+                    points,
+                    mark: Mark::Line,
+                    labels: vec!["a".into(), "b".into()],
+                }],
+            }],
+            notes: vec!["a note".into()],
+            size: (640, 400),
+        }
+    }
+
+    /// The contents of the SVG's `<text>` elements.
+    pub fn svg_texts(svg: &str) -> Vec<String> {
+        svg.split("</text>")
+            .filter_map(|part| {
+                let start = part.rfind("<text")?;
+                let body = &part[start..];
+                Some(body[body.find('>')? + 1..].trim().to_string())
+            })
+            .collect()
+    }
+
+    #[test]
+    fn log_axes_from_a_thousand_to_a_million_give_png_and_svg() {
+        let fig = figure(Scale::Log, Scale::Log, vec![(1e3, 1e3), (1e6, 1e6)]);
+        let png = render_png(&fig).unwrap();
+        assert_eq!((png.width(), png.height()), (640, 400));
+        // Something besides the white background was drawn.
+        assert!(png.pixels().any(|p| p.0 != [255, 255, 255]));
+        let svg = render_svg(&fig).unwrap();
+        assert!(svg.contains("<svg"));
+        let texts = svg_texts(&svg);
+        for label in ["1k", "10k", "100k", "1M", "brute force", "a note", "a test"] {
+            assert!(texts.iter().any(|t| t == label), "{label}: {texts:?}");
+        }
+        let dir = std::env::temp_dir().join(format!("bvhlab-plot-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let svg_path = save(&fig, &dir.join("log.png")).unwrap();
+        assert_eq!(svg_path, dir.join("log.svg"));
+        assert!(std::fs::metadata(dir.join("log.png")).unwrap().len() > 0);
+        assert!(std::fs::metadata(&svg_path).unwrap().len() > 0);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn symlog_keeps_zero_and_log_leaves_out_what_it_cannot_show() {
+        let fig = figure(Scale::Log, Scale::SymLog, vec![(10.0, 0.0), (100.0, 5e3)]);
+        assert!(svg_texts(&render_svg(&fig).unwrap()).contains(&"0".to_string()));
+        let fig = figure(Scale::Log, Scale::Log, vec![(0.0, 1.0), (-1.0, 2.0)]);
+        assert!(render_png(&fig).is_ok());
+    }
+
+    #[test]
+    fn ticks_and_labels() {
+        let (bold, _) = ticks(Scale::Log, 3.0, 6.0);
+        let labels: Vec<String> = bold
+            .iter()
+            .map(|&t| format_tick(Scale::Log.value_at(t)))
+            .collect();
+        assert_eq!(labels, ["1k", "10k", "100k", "1M"]);
+        assert_eq!(format_tick(0.5), "0.5");
+        assert_eq!(format_tick(30.0), "30");
+        assert_eq!(format_tick(0.0), "0");
+    }
+
+    #[test]
+    fn pareto_front_keeps_what_nothing_beats() {
+        let points = [(1.0, 10.0), (2.0, 0.0), (3.0, 5.0), (0.5, 20.0), (2.5, 0.0)];
+        assert_eq!(pareto_front(&points), vec![3, 0, 1]);
+    }
 }

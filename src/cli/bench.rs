@@ -4,22 +4,26 @@ use super::{BuildArgs, IntersectorArg, ViewArgs, check_size, load_scene, thread_
 use anyhow::{Context, Result};
 use bvhlab::accel::AccelKind;
 use bvhlab::bench::accuracy::{self, AccuracyConfig};
-use bvhlab::bench::{self, BenchConfig};
+use bvhlab::bench::scaling::{self, ScalingConfig};
+use bvhlab::bench::{self, BenchConfig, plot};
 use bvhlab::scene::Scene;
-use clap::Args;
+use clap::{ArgGroup, Args};
 use std::path::PathBuf;
 
 #[derive(Args)]
+#[command(group(ArgGroup::new("study").args(["accuracy", "scaling"])))]
 pub struct BenchArgs {
     /// Built-in scene name (optionally NAME:N) or path to an .obj file.
     #[arg(long)]
     pub scene: String,
     #[command(flatten)]
     pub view: ViewArgs,
-    #[arg(long, default_value_t = 1024)]
-    pub width: u32,
-    #[arg(long, default_value_t = 768)]
-    pub height: u32,
+    /// Image width (default: 1024, or 256 with --scaling).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height (default: 768, or 192 with --scaling).
+    #[arg(long)]
+    pub height: Option<u32>,
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
@@ -34,7 +38,7 @@ pub struct BenchArgs {
     pub json: bool,
     /// Also build and trace with Embree 3 on the same rays and threads, and print the
     /// ratios (needs a build with `--features embree`).
-    #[arg(long, conflicts_with = "accuracy")]
+    #[arg(long, conflicts_with = "study")]
     pub embree: bool,
     /// Ray–triangle test of the timed runs.
     #[arg(long, value_enum, default_value_t = IntersectorArg::Watertight)]
@@ -43,11 +47,22 @@ pub struct BenchArgs {
     /// median, full-sweep SAH, binned SAH with B = 2..64); writes a CSV and a Pareto plot.
     #[arg(long)]
     pub accuracy: bool,
-    /// With --accuracy: the CSV file (default: accuracy-<scene>.csv).
-    #[arg(long, requires = "accuracy")]
+    /// How the cost per primary ray grows with the scene: every structure on the scene's own
+    /// view at sizes from 10^3 to 10^6 triangles (soup, sphere, grass or teapot-in-stadium),
+    /// one build per point; writes a CSV and log-log plots and prints the slopes.
+    #[arg(long)]
+    pub scaling: bool,
+    /// With --scaling: the triangle counts, comma-separated (default:
+    /// 1000,3000,10000,30000,100000,300000,1000000).
+    #[arg(long, requires = "scaling", value_delimiter = ',')]
+    pub sizes: Option<Vec<usize>>,
+    /// With --accuracy or --scaling: the CSV file (default: accuracy-<scene>.csv or
+    /// scaling-<scene>.csv).
+    #[arg(long, requires = "study")]
     pub csv: Option<PathBuf>,
-    /// With --accuracy: the Pareto plot PNG (default: accuracy-<scene>.png).
-    #[arg(long, requires = "accuracy")]
+    /// With --accuracy or --scaling: the plot PNG, with an SVG beside it (default:
+    /// accuracy-<scene>.png or scaling-<scene>.png).
+    #[arg(long, requires = "study")]
     pub plot: Option<PathBuf>,
     /// With --accuracy: random rays compared with the f64 reference besides the ray sets.
     #[arg(long, default_value_t = 100_000)]
@@ -60,16 +75,24 @@ pub struct BenchArgs {
 }
 
 pub fn run(args: BenchArgs) -> Result<()> {
-    check_size(args.width, args.height)?;
+    let (width, height) = if args.scaling {
+        (args.width.unwrap_or(256), args.height.unwrap_or(192))
+    } else {
+        (args.width.unwrap_or(1024), args.height.unwrap_or(768))
+    };
+    check_size(width, height)?;
     if args.embree && !bench::EMBREE_AVAILABLE {
         anyhow::bail!(bench::EMBREE_MISSING);
+    }
+    if args.scaling {
+        return run_scaling(&args, width, height);
     }
     let scene = load_scene(&args.scene)?;
     let cfg = BenchConfig {
         camera: args.view.camera(&scene)?,
         light: args.view.light(&scene),
-        width: args.width,
-        height: args.height,
+        width,
+        height,
         params: args.build.structure_params_for(match args.build.accel {
             super::AccelArg::All => AccelKind::Bvh,
             a => a.kind()?,
@@ -299,9 +322,7 @@ fn run_accuracy(
         .unwrap_or_else(|| PathBuf::from(format!("accuracy-{stem}.png")));
     std::fs::write(&csv_path, accuracy::csv(&rows))
         .with_context(|| format!("cannot write {}", csv_path.display()))?;
-    accuracy::pareto_plot(&rows)
-        .save(&plot_path)
-        .with_context(|| format!("cannot write {}", plot_path.display()))?;
+    let svg_path = plot::save(&accuracy::pareto_plot(&rows), &plot_path)?;
     if args.json {
         let json: Vec<serde_json::Value> = rows
             .iter()
@@ -362,6 +383,149 @@ fn run_accuracy(
             r.agreement.mismatches
         );
     }
-    out!("wrote {} and {}", csv_path.display(), plot_path.display());
+    out!(
+        "wrote {}, {} and {}",
+        csv_path.display(),
+        plot_path.display(),
+        svg_path.display()
+    );
+    Ok(())
+}
+
+/// `--scaling`: every structure at every size, as a table, a CSV, plots and fitted slopes.
+fn run_scaling(args: &BenchArgs, width: u32, height: u32) -> Result<()> {
+    if args.build.accel == super::AccelArg::All {
+        anyhow::bail!("--scaling always runs every structure: leave out --accel all");
+    }
+    if args.view.eye.is_some() || args.view.look.is_some() || args.view.light.is_some() {
+        anyhow::bail!(
+            "--scaling traces each scene's own view: leave out --eye, --look and --light"
+        );
+    }
+    let name = args.scene.as_str();
+    let sizes = args
+        .sizes
+        .clone()
+        .unwrap_or_else(|| scaling::DEFAULT_SIZES.to_vec());
+    let (planned, note) = scaling::plan_sizes(name, &sizes)?;
+    let cfg = ScalingConfig {
+        scene: name.to_string(),
+        sizes,
+        kinds: AccelKind::ALL.to_vec(),
+        params: args.build.structure_params_for(AccelKind::Bvh),
+        width,
+        height,
+        runs: args.runs,
+        intersector: args.intersector.kind(),
+    };
+    cfg.params.validate()?;
+    let pool = thread_pool(args.threads)?;
+    let quiet = args.json;
+    if !quiet {
+        if let Some(note) = &note {
+            eprintln!("  note: {note}");
+        }
+        eprintln!(
+            "  sizes: {}",
+            planned
+                .iter()
+                .map(|n| n.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    let rows = pool.install(|| {
+        scaling::run(&cfg, &mut |r| {
+            if !quiet {
+                eprintln!("  done: {} triangles, {}", r.triangles, r.kind.label());
+            }
+        })
+    })?;
+    let slopes = scaling::slopes(&rows);
+    let stem = super::render::sanitize(name);
+    let csv_path = args
+        .csv
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(format!("scaling-{stem}.csv")));
+    let plot_path = args
+        .plot
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(format!("scaling-{stem}.png")));
+    std::fs::write(&csv_path, scaling::csv(&rows))
+        .with_context(|| format!("cannot write {}", csv_path.display()))?;
+    let svg_path = plot::save(&scaling::figure(&rows), &plot_path)?;
+    let threads = rows.first().map_or(0, |r| r.threads);
+    if args.json {
+        out!(
+            "{}",
+            serde_json::json!({
+                "scene": name,
+                "threads": threads,
+                "width": width,
+                "height": height,
+                "note": note,
+                "rows": rows.iter().map(|r| r.to_json()).collect::<Vec<_>>(),
+                "slopes": slopes.iter().map(|s| s.to_json()).collect::<Vec<_>>(),
+            })
+        );
+        return Ok(());
+    }
+    out!(
+        "{name}: cost per primary ray against size, {width}×{height} rays of the scene's view, \
+         {threads} threads"
+    );
+    if let Some(note) = &note {
+        out!("  ({note})");
+    }
+    out!(
+        "  {:>9}  {:<17} {:>9} {:>10} {:>12} {:>10}",
+        "triangles",
+        "structure",
+        "build ms",
+        "nodes/ray",
+        "tests/ray",
+        "ns/ray"
+    );
+    for r in &rows {
+        let note = if r.sampled > 1 {
+            format!("  ({} of {} rays: 1 in {})", r.traced, r.rays, r.sampled)
+        } else {
+            String::new()
+        };
+        out!(
+            "  {:>9}  {:<17} {:>9.2} {:>10.1} {:>12.1} {:>10.1}{note}",
+            r.triangles,
+            r.kind.label(),
+            r.build_ms,
+            r.nodes,
+            r.triangle_tests,
+            r.ns_per_ray
+        );
+    }
+    out!("  slope of log(cost) against log(N), all sizes [larger half]:");
+    out!(
+        "  {:<17} {:>15} {:>15} {:>15}",
+        "structure",
+        "tests/ray",
+        "nodes/ray",
+        "ns/ray"
+    );
+    let f = |s: Option<f64>| s.map_or("-".to_string(), |s| format!("{s:.2}"));
+    for s in &slopes {
+        let cell = |k: usize| format!("{} [{}]", f(s.all[k]), f(s.upper[k]));
+        out!(
+            "  {:<17} {:>15} {:>15} {:>15}",
+            s.kind.label(),
+            cell(0),
+            cell(1),
+            cell(2)
+        );
+    }
+    out!(
+        "wrote {}, {} and {}",
+        csv_path.display(),
+        plot_path.display(),
+        svg_path.display()
+    );
     Ok(())
 }

@@ -28,7 +28,9 @@ pub const MAX_TRIANGLES: usize = 50_000_000;
 /// The built-in scene for `spec` (`name` or `name:N`), or `None` if `name` is not built in.
 ///
 /// N is the number of blades for `grass`, of walls for `walls` and `walls-rotated`, and of
-/// triangles for the others (`sphere` rounds up to fill its last ring).
+/// triangles for the others (`sphere` rounds up to fill its last ring; `teapot-in-stadium`
+/// splits its stands into seat blocks to come within 160 of N, and needs at least
+/// `TEAPOT_IN_STADIUM_MIN_TRIANGLES`).
 pub fn by_name(spec: &str) -> Result<Option<Scene>, SceneError> {
     let (name, param) = match spec.split_once(':') {
         Some((name, param)) => (name, Some(param)),
@@ -41,8 +43,17 @@ pub fn by_name(spec: &str) -> Result<Option<Scene>, SceneError> {
             cornell()
         }
         "teapot-in-stadium" => {
-            no_parameter(name, param)?;
-            teapot_in_stadium()?
+            let n = sized(TEAPOT_IN_STADIUM_MIN_TRIANGLES, 1)?;
+            if n < TEAPOT_IN_STADIUM_MIN_TRIANGLES {
+                return Err(SceneError::BadParameter {
+                    name: name.into(),
+                    reason: format!(
+                        "the teapot and the plainest stadium have {TEAPOT_IN_STADIUM_MIN_TRIANGLES} \
+                         triangles: ask for at least that many"
+                    ),
+                });
+            }
+            teapot_in_stadium(n)?
         }
         "grass" => grass(sized(100_000, 2)?),
         "walls" => walls(sized(200, 12)?, false),
@@ -135,10 +146,21 @@ fn cornell() -> Scene {
 
 const TEAPOT_OBJ: &str = include_str!("../../assets/teapot.obj");
 
+/// The teapot's 15 704 triangles and the plainest stadium's 378: `teapot-in-stadium` without
+/// a size.
+pub const TEAPOT_IN_STADIUM_MIN_TRIANGLES: usize = 16_082;
+
+/// Triangles of the stadium that do not grow with the size: pitch, walls and towers.
+const STADIUM_FIXED: usize = 2 + 8 + 48;
+/// Triangles per seat block: 4 sides × 20 tiers × (riser + tread) × 2 triangles.
+const STADIUM_PER_BLOCK: usize = 4 * 20 * 4;
+
 /// A dense object (the 15 704-triangle teapot, 1 unit long) on the pitch of a 200 × 50 × 200
-/// stadium made of a few hundred large triangles: the teapot's triangles are a tiny part of
-/// the scene's volume, the classic case for the surface area heuristic.
-fn teapot_in_stadium() -> Result<Scene, SceneError> {
+/// stadium of large triangles: the teapot's triangles are a tiny part of the scene's volume,
+/// the classic case for the surface area heuristic. Each tier of the stands is split along
+/// its length into seat blocks so that the scene has about `triangles` in all: the stadium
+/// grows, the teapot in view stays the same.
+fn teapot_in_stadium(triangles: usize) -> Result<Scene, SceneError> {
     let teapot = obj::parse_obj(
         Path::new("assets/teapot.obj"),
         TEAPOT_OBJ.as_bytes().to_vec(),
@@ -164,6 +186,10 @@ fn teapot_in_stadium() -> Result<Scene, SceneError> {
     const TIERS: usize = 20;
     const TIER_DEPTH: f32 = (HALF - PITCH_HALF) / TIERS as f32;
     const TIER_RISE: f32 = 1.5;
+    let blocks = ((triangles.saturating_sub(teapot.len() + STADIUM_FIXED) as f64
+        / STADIUM_PER_BLOCK as f64)
+        .round() as usize)
+        .max(1);
     let mut stands = Vec::new();
     let mut walls = Vec::new();
     // Build the side at −z (facing +z) and turn copies of it to the other three sides.
@@ -177,17 +203,16 @@ fn teapot_in_stadium() -> Result<Scene, SceneError> {
                 PITCH_HALF + (tier + 1) as f32 * TIER_DEPTH,
             );
             let (low, high) = (tier as f32 * TIER_RISE, (tier + 1) as f32 * TIER_RISE);
-            let riser = rect(
-                vec3(-near, low, -near),
-                Vec3::X * 2.0 * near,
-                Vec3::Y * TIER_RISE,
-            );
+            let (a, b) = (vec3(-near, low, -near), vec3(near, low, -near));
+            let rise = Vec3::Y * TIER_RISE;
+            let riser = split_quad(a, b, b + rise, a + rise, blocks);
             // A trapezoid, so the treads of neighbouring sides meet on the diagonal.
-            let tread = quad(
+            let tread = split_quad(
                 vec3(-near, high, -near),
                 vec3(near, high, -near),
                 vec3(far, high, -far),
                 vec3(-far, high, -far),
+                blocks,
             );
             stands.extend(riser.iter().chain(&tread).map(turn));
         }
@@ -431,6 +456,31 @@ fn quad(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> [Triangle; 2] {
     [Triangle::new(a, b, c), Triangle::new(a, c, d)]
 }
 
+/// The quad a, b, c, d (planar, convex, in order) cut into `blocks` strips from side ad to
+/// side bc, two triangles each. Neighbouring strips share bit-identical corners, and one
+/// block gives exactly `quad(a, b, c, d)`.
+fn split_quad(a: Vec3, b: Vec3, c: Vec3, d: Vec3, blocks: usize) -> Vec<Triangle> {
+    let lerp = |p: Vec3, q: Vec3, k: usize| {
+        if k == 0 {
+            p
+        } else if k == blocks {
+            q
+        } else {
+            p + (q - p) * (k as f32 / blocks as f32)
+        }
+    };
+    (0..blocks)
+        .flat_map(|k| {
+            quad(
+                lerp(a, b, k),
+                lerp(a, b, k + 1),
+                lerp(d, c, k + 1),
+                lerp(d, c, k),
+            )
+        })
+        .collect()
+}
+
 /// The parallelogram from `corner` along `u` and `v`; its normal is u × v.
 fn rect(corner: Vec3, u: Vec3, v: Vec3) -> [Triangle; 2] {
     quad(corner, corner + u, corner + u + v, corner + v)
@@ -540,6 +590,23 @@ mod tests {
                 assert!(t.normal().dot(inward) > 0.0, "{}", object.name);
             }
         }
+    }
+
+    #[test]
+    fn teapot_in_stadium_grows_its_stands_to_the_size_asked() {
+        let plain = by_name("teapot-in-stadium").unwrap().unwrap();
+        assert_eq!(plain.triangles.len(), TEAPOT_IN_STADIUM_MIN_TRIANGLES);
+        for n in [30_000, 100_000, 1_000_000] {
+            let scene = by_name(&format!("teapot-in-stadium:{n}")).unwrap().unwrap();
+            assert!(
+                scene.triangles.len().abs_diff(n) <= STADIUM_PER_BLOCK / 2,
+                "{n}"
+            );
+            // The teapot and the view are the same at every size.
+            assert_eq!(scene.objects[0].range(), plain.objects[0].range());
+            assert_eq!(scene.view, plain.view);
+        }
+        assert!(by_name("teapot-in-stadium:1000").is_err());
     }
 
     #[test]
