@@ -143,9 +143,10 @@ impl Grid {
     /// The cell holding coordinate `x` on `axis`, clamped to the grid.
     #[inline(always)]
     pub(crate) fn cell_of(&self, axis: usize, x: f64) -> u32 {
-        let f = ((x - self.origin[axis]) * self.inv_cell[axis]).floor();
-        // `as` saturates (NaN → 0); the clamp keeps the index inside.
-        (f.max(0.0) as u64).min(u64::from(self.res[axis] - 1)) as u32
+        // Truncation is the floor once negatives are clamped to 0 (and `max` turns NaN into
+        // 0); `as` saturates, and the `min` keeps the index inside.
+        let f = ((x - self.origin[axis]) * self.inv_cell[axis]).max(0.0);
+        (f as u64).min(u64::from(self.res[axis] - 1)) as u32
     }
 
     /// The box of cell (x, y, z).

@@ -191,15 +191,14 @@ impl Builder<'_> {
                 out[o].push(t);
                 continue;
             }
-            let sat = TriangleSat::new(tri);
+            let slabs = TriangleSat::new(tri).slabs(DVec3::splat(half * 0.5 + pad));
             for (o, list) in out.iter_mut().enumerate() {
                 let bit = |k: usize| o >> k & 1;
                 if (0..3).any(|k| sides[k] >> bit(k) & 1 == 0) {
                     continue;
                 }
                 let corner = DVec3::new(bit(0) as f64, bit(1) as f64, bit(2) as f64);
-                let cmin = min + corner * half;
-                if sat.overlaps(cmin - pad, cmin + half + pad) {
+                if slabs.overlaps_centered(min + corner * half + half * 0.5) {
                     list.push(t);
                 }
             }
