@@ -2,7 +2,7 @@
 //! triangle in the cells it really overlaps (exact triangle–box test, only over the cells its
 //! bounding box spans), stored compactly as offsets + ids by a counting sort.
 
-use super::{Grid, GridError, GridParams, MAX_CELLS, MAX_REFERENCES, PAD};
+use super::{Grid, GridError, GridParams, MAX_CELLS, MAX_REFERENCES, PAD, mark_shared};
 use crate::accel::StructureReport;
 use crate::geometry::overlap::TriangleSat;
 use crate::geometry::{Aabb, Triangle};
@@ -22,7 +22,7 @@ pub fn build(
     params: &GridParams,
 ) -> Result<(Grid, StructureReport), GridError> {
     params.validate()?;
-    if triangles.len() >= u32::MAX as usize {
+    if triangles.len() >= (u32::MAX / 2) as usize {
         return Err(GridError::TooMany(triangles.len()));
     }
     if let Some(i) = triangles.par_iter().position_any(|t| !t.is_finite()) {
@@ -73,8 +73,9 @@ pub fn build(
         done => done,
     }
     .map_err(Stop::error)?;
-    let (offsets, ids) = counting_sort(cells as usize, &pairs);
+    let (offsets, mut ids) = counting_sort(cells as usize, &pairs);
     drop(pairs);
+    mark_shared(&mut ids, triangles.len());
     grid.offsets = offsets;
     grid.ids = ids;
     let build_time = start.elapsed();

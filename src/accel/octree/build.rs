@@ -5,7 +5,7 @@
 
 use super::{MAX_REFERENCES_PER_TRIANGLE, Node, Octree, OctreeError, OctreeParams};
 use crate::accel::StructureReport;
-use crate::accel::grid::PAD;
+use crate::accel::grid::{PAD, mark_shared};
 use crate::geometry::overlap::TriangleSat;
 use crate::geometry::{Aabb, Triangle};
 use glam::DVec3;
@@ -17,7 +17,7 @@ pub fn build(
     params: &OctreeParams,
 ) -> Result<(Octree, StructureReport), OctreeError> {
     params.validate()?;
-    if triangles.len() >= u32::MAX as usize {
+    if triangles.len() >= (u32::MAX / 2) as usize {
         return Err(OctreeError::TooMany(triangles.len()));
     }
     if let Some(i) = triangles.par_iter().position_any(|t| !t.is_finite()) {
@@ -57,7 +57,8 @@ pub fn build(
         (0..triangles.len() as u32).collect(),
         0,
     );
-    let (nodes, refs, caps) = (b.nodes, b.refs, b.caps);
+    let (nodes, mut refs, caps) = (b.nodes, b.refs, b.caps);
+    mark_shared(&mut refs, triangles.len());
     let max = root_min + root_size;
     // The f32 cube rounded outwards, so the entry test never rejects a ray the f64 cube
     // admits.
