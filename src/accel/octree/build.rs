@@ -12,6 +12,11 @@ use glam::DVec3;
 use rayon::prelude::*;
 use std::time::Instant;
 
+/// A split that would list each triangle in more than this many octants on average does
+/// not help: the triangles are larger than the octants, and splitting further only copies
+/// them.
+const DUPLICATION: usize = 4;
+
 pub fn build(
     triangles: &[Triangle],
     params: &OctreeParams,
@@ -88,8 +93,9 @@ pub fn build(
 struct Caps {
     /// Leaves at the depth bound still above the leaf size.
     depth: usize,
-    /// Leaves kept whole because splitting separated nothing: every non-empty octant (two
-    /// or more) would have held all the cell's triangles.
+    /// Leaves kept whole because splitting would not help: every non-empty octant (two or
+    /// more) would have held all the cell's triangles, or each triangle would have been
+    /// copied into more than `DUPLICATION` octants on average.
     unsplittable: usize,
     /// Leaves kept whole because the reference budget ran out.
     budget: usize,
@@ -127,7 +133,7 @@ impl Builder<'_> {
         let sizes = octants.each_ref().map(Vec::len);
         let non_empty = sizes.iter().filter(|&&s| s > 0).count();
         let total: usize = sizes.iter().sum();
-        if non_empty >= 2 && sizes.iter().all(|&s| s == 0 || s == n) {
+        if (non_empty >= 2 && sizes.iter().all(|&s| s == 0 || s == n)) || total > DUPLICATION * n {
             self.caps.unsplittable += 1;
             return self.leaf(index, tris, depth);
         }
@@ -226,7 +232,7 @@ fn report(
     if caps.unsplittable > 0 {
         caps_hit.push(format!(
             "{} leaves hold more than {} triangles: splitting them would put all of them \
-             in every non-empty octant",
+             in every non-empty octant, or copy each into more than {DUPLICATION}",
             caps.unsplittable, params.max_leaf_size
         ));
     }
