@@ -2,7 +2,7 @@
 //! triangle in the cells it really overlaps (exact triangle–box test, only over the cells its
 //! bounding box spans), stored compactly as offsets + ids by a counting sort.
 
-use super::{Grid, GridError, GridParams, MAX_CELLS, MAX_REFERENCES, PAD, mark_shared};
+use super::{Grid, GridError, GridParams, MAX_CELLS, MAX_REFERENCES, PAD, SHARED};
 use crate::accel::StructureReport;
 use crate::geometry::overlap::TriangleSat;
 use crate::geometry::{Aabb, Triangle};
@@ -73,9 +73,8 @@ pub fn build(
         done => done,
     }
     .map_err(Stop::error)?;
-    let (offsets, mut ids) = counting_sort(cells as usize, &pairs);
+    let (offsets, ids) = counting_sort(cells as usize, &pairs);
     drop(pairs);
-    mark_shared(&mut ids, triangles.len());
     grid.offsets = offsets;
     grid.ids = ids;
     let build_time = start.elapsed();
@@ -164,7 +163,8 @@ impl Stop {
 /// triangles span are summed, and past `MAX_REFERENCES` the assignment stops to estimate.
 const LARGE: u64 = 1 << 12;
 
-/// (cell, triangle) for every cell a triangle overlaps, in triangle order, per chunk; stops
+/// (cell, triangle) for every cell a triangle overlaps, in triangle order, per chunk, with
+/// `SHARED` set on triangles in several cells; stops
 /// past `MAX_REFERENCES`, or (with `guard`) when large triangles span too many cells.
 fn assign(grid: &Grid, pad: f64, guard: bool) -> Result<Vec<Vec<(u32, u32)>>, Stop> {
     let total = AtomicUsize::new(0);
