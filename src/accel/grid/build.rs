@@ -195,8 +195,13 @@ fn assign(grid: &Grid, pad: f64, guard: bool) -> Result<Vec<Vec<(u32, u32)>>, St
                 let before = out.len();
                 cells_in(grid, tri, pad, l, h, |cell| out.push((cell, id)));
                 let added = out.len() - before;
-                if added > 1 && total.fetch_add(added, Ordering::Relaxed) + added > MAX_REFERENCES {
-                    over.store(true, Ordering::Relaxed);
+                if added > 1 {
+                    for pair in &mut out[before..] {
+                        pair.1 |= SHARED;
+                    }
+                    if total.fetch_add(added, Ordering::Relaxed) + added > MAX_REFERENCES {
+                        over.store(true, Ordering::Relaxed);
+                    }
                 }
             }
             out
