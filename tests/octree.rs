@@ -319,18 +319,12 @@ fn adapts_to_the_teapot_in_the_stadium_and_reports_caps() {
             .iter()
             .any(|c| c.contains("every non-empty octant"))
     );
-    // Triangles sharing one box, all crossing every cell: the reference budget stops the
-    // splitting, and the report says so.
+    // Triangles sharing one box, all crossing every cell: splitting stops once it only
+    // copies them (or the reference budget runs out), and the report says so.
     let same = Scene::load("same-bbox:2000").expect("scene").triangles;
     let (_, report) = build(&same, &OctreeParams::default()).expect("builds");
     assert!(report.references <= 16 * 2000 + 4096, "{report:?}");
-    assert!(
-        report
-            .caps_hit
-            .iter()
-            .any(|c| c.contains("references per triangle")),
-        "{report:?}"
-    );
+    assert!(!report.caps_hit.is_empty(), "{report:?}");
 }
 
 #[test]

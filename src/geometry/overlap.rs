@@ -72,6 +72,56 @@ impl TriangleSat {
     }
 }
 
+/// A triangle prepared for many boxes of one size, such as a grid's cells or an octree
+/// cell's octants: the box's extent along each of the 13 axes is then the same for every
+/// box, so each axis reduces to an interval the box centre's projection must fall in.
+#[derive(Clone, Copy, Debug)]
+pub struct TriangleSlabs {
+    axes: [DVec3; 13],
+    lo: [f64; 13],
+    hi: [f64; 13],
+}
+
+impl TriangleSat {
+    /// The 13 separating axes as intervals for boxes of half extents `h`.
+    pub fn slabs(&self, h: DVec3) -> TriangleSlabs {
+        let mut axes = [DVec3::ZERO; 13];
+        axes[0] = DVec3::X;
+        axes[1] = DVec3::Y;
+        axes[2] = DVec3::Z;
+        axes[3] = self.n;
+        for (i, e) in self.e.iter().enumerate() {
+            axes[4 + 3 * i] = DVec3::new(0.0, -e.z, e.y);
+            axes[5 + 3 * i] = DVec3::new(e.z, 0.0, -e.x);
+            axes[6 + 3 * i] = DVec3::new(-e.y, e.x, 0.0);
+        }
+        let mut lo = [0.0; 13];
+        let mut hi = [0.0; 13];
+        for (j, a) in axes.iter().enumerate() {
+            let p = [a.dot(self.v[0]), a.dot(self.v[1]), a.dot(self.v[2])];
+            let r = h.dot(a.abs());
+            lo[j] = p[0].min(p[1]).min(p[2]) - r;
+            hi[j] = p[0].max(p[1]).max(p[2]) + r;
+        }
+        TriangleSlabs { axes, lo, hi }
+    }
+}
+
+impl TriangleSlabs {
+    /// Whether the triangle overlaps the closed box with centre `c` (and the half extents
+    /// these slabs were made for): on every axis, the centre's projection lies within the
+    /// triangle's projection widened by the box's radius.
+    #[inline]
+    pub fn overlaps_centered(&self, c: DVec3) -> bool {
+        let mut inside = true;
+        for j in 0..13 {
+            let p = self.axes[j].dot(c);
+            inside &= p >= self.lo[j] && p <= self.hi[j];
+        }
+        inside
+    }
+}
+
 /// Whether `tri` overlaps the closed box `b`.
 pub fn triangle_box_overlap(tri: &Triangle, b: &Aabb) -> bool {
     if b.is_empty() {
@@ -121,6 +171,13 @@ mod tests {
 
     fn both(tri: Triangle, b: Aabb, expected: bool, what: &str) {
         assert_eq!(triangle_box_overlap(&tri, &b), expected, "SAT: {what}");
+        let (min, max) = (b.min.as_dvec3(), b.max.as_dvec3());
+        let slabs = TriangleSat::new(&tri).slabs((max - min) * 0.5);
+        assert_eq!(
+            slabs.overlaps_centered((min + max) * 0.5),
+            expected,
+            "slabs: {what}"
+        );
         assert_eq!(
             clip_overlaps(&tri, b.min.as_dvec3(), b.max.as_dvec3()),
             expected,
@@ -266,6 +323,13 @@ mod tests {
             let outer = clip_overlaps(&tri, min - e, max + e);
             if inner == outer {
                 assert_eq!(triangle_box_overlap(&tri, &b), inner, "{tri:?} {b:?}");
+                let h = (max - min) * 0.5;
+                let slabs = TriangleSat::new(&tri).slabs(h);
+                assert_eq!(
+                    slabs.overlaps_centered(min + h),
+                    inner,
+                    "slabs {tri:?} {b:?}"
+                );
                 counts[usize::from(inner)] += 1;
             }
         }

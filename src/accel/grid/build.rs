@@ -2,17 +2,17 @@
 //! triangle in the cells it really overlaps (exact triangle–box test, only over the cells its
 //! bounding box spans), stored compactly as offsets + ids by a counting sort.
 
-use super::{Grid, GridError, GridParams, MAX_CELLS, MAX_REFERENCES, PAD};
+use super::{Grid, GridError, GridParams, MAX_CELLS, MAX_REFERENCES, PAD, SHARED};
 use crate::accel::StructureReport;
 use crate::geometry::overlap::TriangleSat;
 use crate::geometry::{Aabb, Triangle};
 use glam::DVec3;
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::time::Instant;
 
 /// Triangles per parallel task of the assignment.
-const CHUNK: usize = 8192;
+const CHUNK: usize = 2048;
 
 /// Triangles whose overlaps are counted to estimate the references of a suspect scene.
 const SAMPLES: usize = 32;
@@ -22,7 +22,7 @@ pub fn build(
     params: &GridParams,
 ) -> Result<(Grid, StructureReport), GridError> {
     params.validate()?;
-    if triangles.len() >= u32::MAX as usize {
+    if triangles.len() >= (u32::MAX / 2) as usize {
         return Err(GridError::TooMany(triangles.len()));
     }
     if let Some(i) = triangles.par_iter().position_any(|t| !t.is_finite()) {
@@ -65,8 +65,14 @@ pub fn build(
         mailbox: params.mailbox,
     };
     let pad = extent.max_element() * PAD;
-    check_references(&grid, pad)?;
-    let pairs = assign(&grid, pad)?;
+    let pairs = match assign(&grid, pad, true) {
+        Err(Stop::Suspect) => {
+            estimate_references(&grid, pad)?;
+            assign(&grid, pad, false)
+        }
+        done => done,
+    }
+    .map_err(Stop::error)?;
     let (offsets, ids) = counting_sort(cells as usize, &pairs);
     drop(pairs);
     grid.offsets = offsets;
@@ -105,25 +111,12 @@ fn resolution(bounds: &Aabb, n: usize, lambda: f32) -> [u64; 3] {
     res
 }
 
-/// Fails if the triangles would be listed more than `MAX_REFERENCES` times, before any
-/// list is stored. Summing the cells each bounding box spans bounds the count from above at
-/// no cost; only when that bound is too high are the real overlaps of a few evenly spaced
-/// triangles counted and the total extrapolated from them (triangles far larger than the
-/// cells, such as one triangle copied 10^7 times, are refused in well under a second). The
-/// assignment itself stops too if the real count passes the limit.
-fn check_references(grid: &Grid, pad: f64) -> Result<(), GridError> {
+/// Fails if the triangles would be listed more than `MAX_REFERENCES` times, judged from
+/// the real overlaps of a few evenly spaced triangles. Called only when the assignment met
+/// triangles spanning so many cells that it could run long before the real count passes
+/// the limit (triangles far larger than the cells, such as one triangle copied 10^7 times).
+fn estimate_references(grid: &Grid, pad: f64) -> Result<(), GridError> {
     let n = grid.triangles.len();
-    let bound: u64 = grid
-        .triangles
-        .par_iter()
-        .map(|tri| {
-            let (l, h) = cell_range(grid, tri, pad);
-            (0..3).map(|k| u64::from(h[k] - l[k] + 1)).product::<u64>()
-        })
-        .sum();
-    if bound <= MAX_REFERENCES as u64 {
-        return Ok(());
-    }
     let samples = n.min(SAMPLES);
     let counted: usize = (0..samples)
         .into_par_iter()
@@ -143,10 +136,41 @@ fn check_references(grid: &Grid, pad: f64) -> Result<(), GridError> {
     Ok(())
 }
 
-/// (cell, triangle) for every cell a triangle overlaps, in triangle order, per chunk.
-fn assign(grid: &Grid, pad: f64) -> Result<Vec<Vec<(u32, u32)>>, GridError> {
+/// Why the assignment stopped.
+enum Stop {
+    /// More than `MAX_REFERENCES` references (this many so far).
+    Over(u64),
+    /// Large triangles spanned so many cells that it stopped to estimate the references.
+    Suspect,
+}
+
+impl Stop {
+    fn error(self) -> GridError {
+        match self {
+            Stop::Over(references) => GridError::TooManyReferences {
+                references,
+                estimated: false,
+            },
+            Stop::Suspect => GridError::TooManyReferences {
+                references: MAX_REFERENCES as u64,
+                estimated: true,
+            },
+        }
+    }
+}
+
+/// A triangle whose bounding box spans more cells than this is large: the cells all large
+/// triangles span are summed, and past `MAX_REFERENCES` the assignment stops to estimate.
+const LARGE: u64 = 1 << 12;
+
+/// (cell, triangle) for every cell a triangle overlaps, in triangle order, per chunk, with
+/// `SHARED` set on triangles in several cells; stops
+/// past `MAX_REFERENCES`, or (with `guard`) when large triangles span too many cells.
+fn assign(grid: &Grid, pad: f64, guard: bool) -> Result<Vec<Vec<(u32, u32)>>, Stop> {
     let total = AtomicUsize::new(0);
+    let spanned = AtomicU64::new(0);
     let over = AtomicBool::new(false);
+    let suspect = AtomicBool::new(false);
     let chunks: Vec<Vec<(u32, u32)>> = grid
         .triangles
         .par_chunks(CHUNK)
@@ -155,25 +179,39 @@ fn assign(grid: &Grid, pad: f64) -> Result<Vec<Vec<(u32, u32)>>, GridError> {
             let mut out = Vec::with_capacity(chunk.len() * 2);
             for (j, tri) in chunk.iter().enumerate() {
                 let id = (c * CHUNK + j) as u32;
-                let before = out.len();
-                cells_of(grid, tri, pad, |cell| out.push((cell, id)));
-                let added = out.len() - before;
-                if added > 1 && total.fetch_add(added, Ordering::Relaxed) + added > MAX_REFERENCES {
-                    over.store(true, Ordering::Relaxed);
+                let (l, h) = cell_range(grid, tri, pad);
+                let volume: u64 = (0..3).map(|k| u64::from(h[k] - l[k] + 1)).product();
+                if guard
+                    && volume > LARGE
+                    && spanned.fetch_add(volume, Ordering::Relaxed) + volume > MAX_REFERENCES as u64
+                {
+                    suspect.store(true, Ordering::Relaxed);
                 }
-                if j % 64 == 0 && over.load(Ordering::Relaxed) {
+                if (j % 64 == 0 || volume > LARGE)
+                    && (over.load(Ordering::Relaxed) || suspect.load(Ordering::Relaxed))
+                {
                     break;
+                }
+                let before = out.len();
+                cells_in(grid, tri, pad, l, h, |cell| out.push((cell, id)));
+                let added = out.len() - before;
+                if added > 1 {
+                    for pair in &mut out[before..] {
+                        pair.1 |= SHARED;
+                    }
+                    if total.fetch_add(added, Ordering::Relaxed) + added > MAX_REFERENCES {
+                        over.store(true, Ordering::Relaxed);
+                    }
                 }
             }
             out
         })
         .collect();
-    let total: usize = chunks.iter().map(Vec::len).sum();
-    if over.into_inner() || total > MAX_REFERENCES {
-        return Err(GridError::TooManyReferences {
-            references: total as u64,
-            estimated: false,
-        });
+    if over.into_inner() {
+        return Err(Stop::Over(chunks.iter().map(Vec::len).sum::<usize>() as u64));
+    }
+    if suspect.into_inner() {
+        return Err(Stop::Suspect);
     }
     Ok(chunks)
 }
@@ -189,27 +227,46 @@ fn cell_range(grid: &Grid, tri: &Triangle, pad: f64) -> ([u32; 3], [u32; 3]) {
     )
 }
 
-/// Calls `f` with each cell `tri` overlaps (cells enlarged by `pad`).
+/// Calls `f` with each cell `tri` overlaps (cells enlarged by `pad`). A triangle whose
+/// enlarged bounding box spans one cell, or a run of cells along one axis, overlaps them all
+/// (it is connected and spans the run), so only boxes spanning cells on two or more axes
+/// are tested cell by cell.
 #[inline]
-fn cells_of(grid: &Grid, tri: &Triangle, pad: f64, mut f: impl FnMut(u32)) {
+fn cells_of(grid: &Grid, tri: &Triangle, pad: f64, f: impl FnMut(u32)) {
     let (l, h) = cell_range(grid, tri, pad);
-    if l == h {
-        f(grid.linear(l) as u32);
+    cells_in(grid, tri, pad, l, h, f);
+}
+
+/// `cells_of` with the range already known.
+#[inline]
+fn cells_in(
+    grid: &Grid,
+    tri: &Triangle,
+    pad: f64,
+    l: [u32; 3],
+    h: [u32; 3],
+    mut f: impl FnMut(u32),
+) {
+    let spans = (0..3).filter(|&k| h[k] > l[k]).count();
+    if spans <= 1 {
+        for z in l[2]..=h[2] {
+            for y in l[1]..=h[1] {
+                for x in l[0]..=h[0] {
+                    f(grid.linear([x, y, z]) as u32);
+                }
+            }
+        }
         return;
     }
-    let sat = TriangleSat::new(tri);
+    let slabs = TriangleSat::new(tri).slabs(grid.cell * 0.5 + pad);
+    let center = |k: usize, i: u32| grid.origin[k] + (f64::from(i) + 0.5) * grid.cell[k];
     for z in l[2]..=h[2] {
+        let cz = center(2, z);
         for y in l[1]..=h[1] {
+            let cy = center(1, y);
             for x in l[0]..=h[0] {
-                let i = [x, y, z];
-                let min = DVec3::new(grid.plane(0, x), grid.plane(1, y), grid.plane(2, z)) - pad;
-                let max = DVec3::new(
-                    grid.plane(0, x + 1),
-                    grid.plane(1, y + 1),
-                    grid.plane(2, z + 1),
-                ) + pad;
-                if sat.overlaps(min, max) {
-                    f(grid.linear(i) as u32);
+                if slabs.overlaps_centered(DVec3::new(center(0, x), cy, cz)) {
+                    f(grid.linear([x, y, z]) as u32);
                 }
             }
         }

@@ -8,7 +8,7 @@
 //! kept as the best so far, and the walk stops only once the next cell is entered beyond it.
 //! Keeping it is what makes mailboxing exact: the triangle will not be tested again there.
 
-use super::Grid;
+use super::{Grid, SHARED};
 use crate::accel::bvh::traverse::T_SCALE;
 use crate::accel::{Accel, BestHit, Hit, Mailbox, NoStats, Stats};
 use crate::geometry::aabb::SlabRay;
@@ -148,7 +148,9 @@ impl Grid {
         self.walk(ray, stats, |c, stats| {
             let (a, b) = (self.offsets[c] as usize, self.offsets[c + 1] as usize);
             for &id in &self.ids[a..b] {
-                if !mailbox.admit(id, stats) {
+                let shared = id & SHARED != 0;
+                let id = id & !SHARED;
+                if shared && !mailbox.admit(id, stats) {
                     continue;
                 }
                 stats.triangle_test();
@@ -176,7 +178,9 @@ impl Grid {
         self.walk(ray, stats, |c, stats| {
             let (a, b) = (self.offsets[c] as usize, self.offsets[c + 1] as usize);
             for &id in &self.ids[a..b] {
-                if !mailbox.admit(id, stats) {
+                let shared = id & SHARED != 0;
+                let id = id & !SHARED;
+                if shared && !mailbox.admit(id, stats) {
                     continue;
                 }
                 stats.triangle_test();

@@ -30,6 +30,25 @@ pub const LAMBDA_RANGE: std::ops::RangeInclusive<f32> = 1.0 / 16.0..=64.0;
 /// cell must still list it.
 pub(crate) const PAD: f64 = 1.0 / (1u64 << 18) as f64;
 
+/// Set on a stored triangle id when the triangle is listed in more than one cell: only those
+/// can be met twice by a ray, so only those go through the mailbox (a triangle in one cell
+/// needs no record, which keeps the per-ray record small and off the heap).
+pub(crate) const SHARED: u32 = 1 << 31;
+
+/// Marks the ids of triangles listed more than once with `SHARED`.
+pub(crate) fn mark_shared(ids: &mut [u32], triangles: usize) {
+    let mut seen = vec![0u8; triangles];
+    for &id in ids.iter() {
+        let s = &mut seen[id as usize];
+        *s = s.saturating_add(1);
+    }
+    for id in ids.iter_mut() {
+        if seen[*id as usize] > 1 {
+            *id |= SHARED;
+        }
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GridParams {
     /// Cells ≈ λ · triangles (1/16..=64).
@@ -82,7 +101,7 @@ pub enum GridError {
     TooManyReferences { references: u64, estimated: bool },
     #[error("triangle {0} has a NaN or infinite vertex")]
     NonFinite(usize),
-    #[error("{0} triangles is more than a grid with 32-bit indices can hold")]
+    #[error("{0} triangles is more than a grid with 31-bit indices can hold")]
     TooMany(usize),
 }
 
@@ -97,7 +116,8 @@ pub struct Grid {
     /// 1 / cell size, 0 on a flat axis (so every point maps to cell 0 there).
     pub(crate) inv_cell: DVec3,
     pub(crate) res: [u32; 3],
-    /// Cell c lists `ids[offsets[c]..offsets[c + 1]]`; cells in x-fastest order.
+    /// Cell c lists `ids[offsets[c]..offsets[c + 1]]` (with `SHARED` set on triangles
+    /// listed in several cells); cells in x-fastest order.
     pub(crate) offsets: Vec<u32>,
     pub(crate) ids: Vec<u32>,
     pub(crate) triangles: Vec<Triangle>,
@@ -123,8 +143,11 @@ impl Grid {
     }
 
     /// The triangles listed in cell `c` (x-fastest index).
-    pub fn cell_triangles(&self, c: usize) -> &[u32] {
-        &self.ids[self.offsets[c] as usize..self.offsets[c + 1] as usize]
+    pub fn cell_triangles(&self, c: usize) -> Vec<u32> {
+        self.ids[self.offsets[c] as usize..self.offsets[c + 1] as usize]
+            .iter()
+            .map(|&id| id & !SHARED)
+            .collect()
     }
 
     /// The x-fastest index of cell (x, y, z).
@@ -143,9 +166,10 @@ impl Grid {
     /// The cell holding coordinate `x` on `axis`, clamped to the grid.
     #[inline(always)]
     pub(crate) fn cell_of(&self, axis: usize, x: f64) -> u32 {
-        let f = ((x - self.origin[axis]) * self.inv_cell[axis]).floor();
-        // `as` saturates (NaN → 0); the clamp keeps the index inside.
-        (f.max(0.0) as u64).min(u64::from(self.res[axis] - 1)) as u32
+        // Truncation is the floor once negatives are clamped to 0 (and `max` turns NaN into
+        // 0); `as` saturates, and the `min` keeps the index inside.
+        let f = ((x - self.origin[axis]) * self.inv_cell[axis]).max(0.0);
+        (f as u64).min(u64::from(self.res[axis] - 1)) as u32
     }
 
     /// The box of cell (x, y, z).
@@ -199,7 +223,7 @@ impl Grid {
         }));
         Outline {
             nodes,
-            refs: self.ids.clone(),
+            refs: self.ids.iter().map(|&id| id & !SHARED).collect(),
         }
     }
 }

@@ -5,19 +5,24 @@
 
 use super::{MAX_REFERENCES_PER_TRIANGLE, Node, Octree, OctreeError, OctreeParams};
 use crate::accel::StructureReport;
-use crate::accel::grid::PAD;
+use crate::accel::grid::{PAD, mark_shared};
 use crate::geometry::overlap::TriangleSat;
 use crate::geometry::{Aabb, Triangle};
 use glam::DVec3;
 use rayon::prelude::*;
 use std::time::Instant;
 
+/// A split that would list each triangle in more than this many octants on average does
+/// not help: the triangles are larger than the octants, and splitting further only copies
+/// them.
+const DUPLICATION: usize = 4;
+
 pub fn build(
     triangles: &[Triangle],
     params: &OctreeParams,
 ) -> Result<(Octree, StructureReport), OctreeError> {
     params.validate()?;
-    if triangles.len() >= u32::MAX as usize {
+    if triangles.len() >= (u32::MAX / 2) as usize {
         return Err(OctreeError::TooMany(triangles.len()));
     }
     if let Some(i) = triangles.par_iter().position_any(|t| !t.is_finite()) {
@@ -57,7 +62,8 @@ pub fn build(
         (0..triangles.len() as u32).collect(),
         0,
     );
-    let (nodes, refs, caps) = (b.nodes, b.refs, b.caps);
+    let (nodes, mut refs, caps) = (b.nodes, b.refs, b.caps);
+    mark_shared(&mut refs, triangles.len());
     let max = root_min + root_size;
     // The f32 cube rounded outwards, so the entry test never rejects a ray the f64 cube
     // admits.
@@ -87,8 +93,9 @@ pub fn build(
 struct Caps {
     /// Leaves at the depth bound still above the leaf size.
     depth: usize,
-    /// Leaves kept whole because splitting separated nothing: every non-empty octant (two
-    /// or more) would have held all the cell's triangles.
+    /// Leaves kept whole because splitting would not help: every non-empty octant (two or
+    /// more) would have held all the cell's triangles, or each triangle would have been
+    /// copied into more than `DUPLICATION` octants on average.
     unsplittable: usize,
     /// Leaves kept whole because the reference budget ran out.
     budget: usize,
@@ -126,7 +133,7 @@ impl Builder<'_> {
         let sizes = octants.each_ref().map(Vec::len);
         let non_empty = sizes.iter().filter(|&&s| s > 0).count();
         let total: usize = sizes.iter().sum();
-        if non_empty >= 2 && sizes.iter().all(|&s| s == 0 || s == n) {
+        if (non_empty >= 2 && sizes.iter().all(|&s| s == 0 || s == n)) || total > DUPLICATION * n {
             self.caps.unsplittable += 1;
             return self.leaf(index, tris, depth);
         }
@@ -191,15 +198,14 @@ impl Builder<'_> {
                 out[o].push(t);
                 continue;
             }
-            let sat = TriangleSat::new(tri);
+            let slabs = TriangleSat::new(tri).slabs(DVec3::splat(half * 0.5 + pad));
             for (o, list) in out.iter_mut().enumerate() {
                 let bit = |k: usize| o >> k & 1;
                 if (0..3).any(|k| sides[k] >> bit(k) & 1 == 0) {
                     continue;
                 }
                 let corner = DVec3::new(bit(0) as f64, bit(1) as f64, bit(2) as f64);
-                let cmin = min + corner * half;
-                if sat.overlaps(cmin - pad, cmin + half + pad) {
+                if slabs.overlaps_centered(min + corner * half + half * 0.5) {
                     list.push(t);
                 }
             }
@@ -226,7 +232,7 @@ fn report(
     if caps.unsplittable > 0 {
         caps_hit.push(format!(
             "{} leaves hold more than {} triangles: splitting them would put all of them \
-             in every non-empty octant",
+             in every non-empty octant, or copy each into more than {DUPLICATION}",
             caps.unsplittable, params.max_leaf_size
         ));
     }

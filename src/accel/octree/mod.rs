@@ -8,6 +8,7 @@ mod traverse;
 
 pub use build::build;
 
+use super::grid::SHARED;
 use super::{Outline, OutlineNode};
 use crate::geometry::{Aabb, Triangle};
 use glam::DVec3;
@@ -65,7 +66,7 @@ pub enum OctreeError {
     Depth(u32),
     #[error("triangle {0} has a NaN or infinite vertex")]
     NonFinite(usize),
-    #[error("{0} triangles is more than an octree with 32-bit indices can hold")]
+    #[error("{0} triangles is more than an octree with 31-bit indices can hold")]
     TooMany(usize),
 }
 
@@ -103,6 +104,7 @@ pub struct Octree {
     pub(crate) bounds: Aabb,
     /// Node 0 is the root; children come after their parent, siblings contiguous.
     pub(crate) nodes: Vec<Node>,
+    /// Leaf references, `SHARED` set on triangles listed in several leaves.
     pub(crate) refs: Vec<u32>,
     pub(crate) triangles: Vec<Triangle>,
     /// Skip triangles the ray has tested already.
@@ -154,7 +156,7 @@ impl Octree {
         }
         Outline {
             nodes,
-            refs: self.refs.clone(),
+            refs: self.refs.iter().map(|&id| id & !SHARED).collect(),
         }
     }
 }

@@ -6,6 +6,7 @@
 //! halve exactly, so the intervals are those of the exact ray to f64 rounding.
 
 use super::Octree;
+use crate::accel::grid::SHARED;
 use crate::accel::grid::dda::{Next, widened, widened64};
 use crate::accel::{Accel, BestHit, Hit, Mailbox, Stats};
 use crate::geometry::aabb::SlabRay;
@@ -166,7 +167,9 @@ impl Octree {
         let mut mailbox = Mailbox::new(self.mailbox);
         self.walk(ray, stats, |refs, stats| {
             for &id in refs {
-                if !mailbox.admit(id, stats) {
+                let shared = id & SHARED != 0;
+                let id = id & !SHARED;
+                if shared && !mailbox.admit(id, stats) {
                     continue;
                 }
                 stats.triangle_test();
@@ -193,7 +196,9 @@ impl Octree {
         let mut hit = false;
         self.walk(ray, stats, |refs, stats| {
             for &id in refs {
-                if !mailbox.admit(id, stats) {
+                let shared = id & SHARED != 0;
+                let id = id & !SHARED;
+                if shared && !mailbox.admit(id, stats) {
                     continue;
                 }
                 stats.triangle_test();
