@@ -4,13 +4,12 @@
 //! found in it is skipped. With mailboxing off the record still runs when counting, so the
 //! repeated tests it would have saved are counted.
 //!
-//! The record is exact: a small open-addressed table on the stack, spilling into a heap set
-//! only for rays that test very many triangles. Skipping a repeat never changes a hit: a
+//! The record is exact: a small open-addressed table on the stack, moving to a larger one on
+//! the heap (doubling as it fills) only for rays that test very many triangles. Skipping a repeat never changes a hit: a
 //! triangle's test does not depend on the cell it was found in, and a hit beyond the
 //! current cell is kept as the best so far rather than thrown away.
 
 use super::Stats;
-use std::collections::HashSet;
 
 /// Slots of the inline table (a power of two); it spills when three quarters are used.
 const SLOTS: usize = 32;
@@ -23,7 +22,8 @@ pub struct Mailbox {
     enabled: bool,
     slots: [u32; SLOTS],
     used: usize,
-    spill: Option<HashSet<u32>>,
+    /// The table once the inline one is three quarters full: a power-of-two size.
+    spill: Vec<u32>,
 }
 
 impl Mailbox {
@@ -33,7 +33,7 @@ impl Mailbox {
             enabled,
             slots: [EMPTY; SLOTS],
             used: 0,
-            spill: None,
+            spill: Vec::new(),
         }
     }
 
@@ -57,32 +57,60 @@ impl Mailbox {
     /// Records `tri`; true if it was not recorded before.
     #[inline(always)]
     fn insert(&mut self, tri: u32) -> bool {
-        if let Some(set) = &mut self.spill {
-            return set.insert(tri);
-        }
-        // Fibonacci hashing spreads the consecutive ids of neighbouring triangles.
-        let mut i = (tri.wrapping_mul(0x9E37_79B9) >> (32 - SLOTS.trailing_zeros())) as usize;
-        loop {
-            let s = self.slots[i];
-            if s == tri {
+        if self.spill.is_empty() {
+            if !insert_into(&mut self.slots, tri) {
                 return false;
             }
-            if s == EMPTY {
-                break;
+            self.used += 1;
+            if self.used == SPILL_AT {
+                self.spill = grown(&self.slots, 4 * SLOTS);
             }
-            i = (i + 1) & (SLOTS - 1);
-        }
-        if self.used == SPILL_AT {
-            let mut set: HashSet<u32> =
-                self.slots.iter().copied().filter(|&s| s != EMPTY).collect();
-            set.insert(tri);
-            self.spill = Some(set);
             return true;
         }
-        self.slots[i] = tri;
+        if !insert_into(&mut self.spill, tri) {
+            return false;
+        }
         self.used += 1;
+        if self.used * 4 >= self.spill.len() * 3 {
+            self.spill = grown(&self.spill, 2 * self.spill.len());
+        }
         true
     }
+}
+
+/// Fibonacci hashing spreads the consecutive ids of neighbouring triangles over a table of
+/// `len` (a power of two) slots.
+#[inline(always)]
+fn slot(tri: u32, len: usize) -> usize {
+    (tri.wrapping_mul(0x9E37_79B9) >> (32 - len.trailing_zeros())) as usize
+}
+
+/// Inserts `tri` into an open-addressed table with a free slot; false if it was there.
+#[inline(always)]
+fn insert_into(table: &mut [u32], tri: u32) -> bool {
+    let mask = table.len() - 1;
+    let mut i = slot(tri, table.len());
+    loop {
+        let s = table[i];
+        if s == tri {
+            return false;
+        }
+        if s == EMPTY {
+            table[i] = tri;
+            return true;
+        }
+        i = (i + 1) & mask;
+    }
+}
+
+/// A table of `len` slots holding the entries of `table`.
+#[cold]
+fn grown(table: &[u32], len: usize) -> Vec<u32> {
+    let mut out = vec![EMPTY; len];
+    for &t in table.iter().filter(|&&t| t != EMPTY) {
+        insert_into(&mut out, t);
+    }
+    out
 }
 
 #[cfg(test)]

@@ -404,7 +404,7 @@ impl BvhLabApp {
 }
 
 fn refit_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
-    egui::CollapsingHeader::new("Drag to refit")
+    egui::CollapsingHeader::new("Drag to refit or rebuild")
         .default_open(true)
         .show(ui, |ui| {
             ui.label(
@@ -535,6 +535,9 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                     ui.end_row();
                 }
             });
+    }
+    if app.bvh_report.is_none() {
+        return;
     }
     ui.separator();
     ui.heading("SAH cost since the last build");
