@@ -9,12 +9,32 @@
 //! triangle's test does not depend on the cell it was found in, and a hit beyond the
 //! current cell is kept as the best so far rather than thrown away.
 
-use super::Stats;
+use super::{BestHit, Stats};
+use crate::geometry::{Intersector, Ray, Triangle};
 
 /// Slots of the inline table (a power of two); it spills when three quarters are used.
 const SLOTS: usize = 32;
 const SPILL_AT: usize = SLOTS * 3 / 4;
 const EMPTY: u32 = u32::MAX;
+
+/// Set on a cell's stored triangle id when the triangle is listed in more than one cell:
+/// only those can be met twice by a ray, so only those go through the mailbox (a triangle in
+/// one cell needs no record, which keeps the per-ray record small and off the heap).
+pub const SHARED: u32 = 1 << 31;
+
+/// Marks the ids of triangles listed more than once with `SHARED`.
+pub fn mark_shared(ids: &mut [u32], triangles: usize) {
+    let mut seen = vec![0u8; triangles];
+    for &id in ids.iter() {
+        let s = &mut seen[id as usize];
+        *s = s.saturating_add(1);
+    }
+    for id in ids.iter_mut() {
+        if seen[*id as usize] > 1 {
+            *id |= SHARED;
+        }
+    }
+}
 
 #[derive(Clone, Debug)]
 pub struct Mailbox {
@@ -52,6 +72,52 @@ impl Mailbox {
         }
         stats.repeated_test();
         true
+    }
+
+    /// Tests the triangles a cell lists (ids as cells store them, `SHARED` flagged), keeping
+    /// the closest hit in `best`, whether or not it lies inside the cell.
+    #[inline(always)]
+    pub fn closest_in_cell<I: Intersector, S: Stats>(
+        &mut self,
+        ids: &[u32],
+        triangles: &[Triangle],
+        (data, ray): (&I::RayData, &Ray),
+        best: &mut BestHit,
+        stats: &mut S,
+    ) {
+        for &id in ids {
+            let tri = id & !SHARED;
+            if id & SHARED != 0 && !self.admit(tri, stats) {
+                continue;
+            }
+            stats.triangle_test();
+            if let Some(h) = I::intersect(data, ray, &triangles[tri as usize], ray.tmin, best.limit)
+            {
+                best.offer(h, tri);
+            }
+        }
+    }
+
+    /// Whether any triangle a cell lists is hit within the ray's interval.
+    #[inline(always)]
+    pub fn any_in_cell<I: Intersector, S: Stats>(
+        &mut self,
+        ids: &[u32],
+        triangles: &[Triangle],
+        (data, ray): (&I::RayData, &Ray),
+        stats: &mut S,
+    ) -> bool {
+        for &id in ids {
+            let tri = id & !SHARED;
+            if id & SHARED != 0 && !self.admit(tri, stats) {
+                continue;
+            }
+            stats.triangle_test();
+            if I::intersect(data, ray, &triangles[tri as usize], ray.tmin, ray.tmax).is_some() {
+                return true;
+            }
+        }
+        false
     }
 
     /// Records `tri`; true if it was not recorded before.

@@ -8,7 +8,7 @@
 //! kept as the best so far, and the walk stops only once the next cell is entered beyond it.
 //! Keeping it is what makes mailboxing exact: the triangle will not be tested again there.
 
-use super::{Grid, SHARED};
+use super::Grid;
 use crate::accel::bvh::traverse::T_SCALE;
 use crate::accel::{Accel, BestHit, Hit, Mailbox, NoStats, Stats};
 use crate::geometry::aabb::SlabRay;
@@ -147,18 +147,8 @@ impl Grid {
         let mut mailbox = Mailbox::new(self.mailbox);
         self.walk(ray, stats, |c, stats| {
             let (a, b) = (self.offsets[c] as usize, self.offsets[c + 1] as usize);
-            for &id in &self.ids[a..b] {
-                let shared = id & SHARED != 0;
-                let id = id & !SHARED;
-                if shared && !mailbox.admit(id, stats) {
-                    continue;
-                }
-                stats.triangle_test();
-                let tri = &self.triangles[id as usize];
-                if let Some(h) = I::intersect(&data, ray, tri, ray.tmin, best.limit) {
-                    best.offer(h, id);
-                }
-            }
+            let ids = &self.ids[a..b];
+            mailbox.closest_in_cell::<I, S>(ids, &self.triangles, (&data, ray), &mut best, stats);
             match best.hit() {
                 Some(_) => Next::Until(widened(best.t)),
                 None => Next::Until(f64::INFINITY),
@@ -177,18 +167,10 @@ impl Grid {
         let mut hit = false;
         self.walk(ray, stats, |c, stats| {
             let (a, b) = (self.offsets[c] as usize, self.offsets[c + 1] as usize);
-            for &id in &self.ids[a..b] {
-                let shared = id & SHARED != 0;
-                let id = id & !SHARED;
-                if shared && !mailbox.admit(id, stats) {
-                    continue;
-                }
-                stats.triangle_test();
-                let tri = &self.triangles[id as usize];
-                if I::intersect(&data, ray, tri, ray.tmin, ray.tmax).is_some() {
-                    hit = true;
-                    return Next::Stop;
-                }
+            let ids = &self.ids[a..b];
+            if mailbox.any_in_cell::<I, S>(ids, &self.triangles, (&data, ray), stats) {
+                hit = true;
+                return Next::Stop;
             }
             Next::Until(f64::INFINITY)
         });

@@ -30,24 +30,7 @@ pub const LAMBDA_RANGE: std::ops::RangeInclusive<f32> = 1.0 / 16.0..=64.0;
 /// cell must still list it.
 pub(crate) const PAD: f64 = 1.0 / (1u64 << 18) as f64;
 
-/// Set on a stored triangle id when the triangle is listed in more than one cell: only those
-/// can be met twice by a ray, so only those go through the mailbox (a triangle in one cell
-/// needs no record, which keeps the per-ray record small and off the heap).
-pub(crate) const SHARED: u32 = 1 << 31;
-
-/// Marks the ids of triangles listed more than once with `SHARED`.
-pub(crate) fn mark_shared(ids: &mut [u32], triangles: usize) {
-    let mut seen = vec![0u8; triangles];
-    for &id in ids.iter() {
-        let s = &mut seen[id as usize];
-        *s = s.saturating_add(1);
-    }
-    for id in ids.iter_mut() {
-        if seen[*id as usize] > 1 {
-            *id |= SHARED;
-        }
-    }
-}
+pub(crate) use crate::accel::mailbox::{SHARED, mark_shared};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GridParams {

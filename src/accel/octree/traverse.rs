@@ -6,7 +6,6 @@
 //! halve exactly, so the intervals are those of the exact ray to f64 rounding.
 
 use super::Octree;
-use crate::accel::grid::SHARED;
 use crate::accel::grid::dda::{Next, widened, widened64};
 use crate::accel::{Accel, BestHit, Hit, Mailbox, Stats};
 use crate::geometry::aabb::SlabRay;
@@ -166,18 +165,7 @@ impl Octree {
         let mut best = BestHit::new(ray);
         let mut mailbox = Mailbox::new(self.mailbox);
         self.walk(ray, stats, |refs, stats| {
-            for &id in refs {
-                let shared = id & SHARED != 0;
-                let id = id & !SHARED;
-                if shared && !mailbox.admit(id, stats) {
-                    continue;
-                }
-                stats.triangle_test();
-                let tri = &self.triangles[id as usize];
-                if let Some(h) = I::intersect(&data, ray, tri, ray.tmin, best.limit) {
-                    best.offer(h, id);
-                }
-            }
+            mailbox.closest_in_cell::<I, S>(refs, &self.triangles, (&data, ray), &mut best, stats);
             match best.hit() {
                 Some(_) => Next::Until(widened(best.t)),
                 None => Next::Until(f64::INFINITY),
@@ -195,18 +183,9 @@ impl Octree {
         let mut mailbox = Mailbox::new(self.mailbox);
         let mut hit = false;
         self.walk(ray, stats, |refs, stats| {
-            for &id in refs {
-                let shared = id & SHARED != 0;
-                let id = id & !SHARED;
-                if shared && !mailbox.admit(id, stats) {
-                    continue;
-                }
-                stats.triangle_test();
-                let tri = &self.triangles[id as usize];
-                if I::intersect(&data, ray, tri, ray.tmin, ray.tmax).is_some() {
-                    hit = true;
-                    return Next::Stop;
-                }
+            if mailbox.any_in_cell::<I, S>(refs, &self.triangles, (&data, ray), stats) {
+                hit = true;
+                return Next::Stop;
             }
             Next::Until(f64::INFINITY)
         });
