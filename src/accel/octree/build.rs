@@ -51,16 +51,16 @@ pub fn build(
             mask: 0,
         }],
         refs: Vec::new(),
-        live_refs: triangles.len(),
-        budget: MAX_REFERENCES_PER_TRIANGLE * triangles.len() + 4096,
         caps: Caps::default(),
     };
+    let budget = MAX_REFERENCES_PER_TRIANGLE * triangles.len() + 4096;
     b.node(
         0,
         root_min,
         root_size,
         (0..triangles.len() as u32).collect(),
         0,
+        budget,
     );
     let (nodes, mut refs, caps) = (b.nodes, b.refs, b.caps);
     mark_shared(&mut refs, triangles.len());
@@ -110,16 +110,21 @@ struct Builder<'a> {
     pad: f64,
     nodes: Vec<Node>,
     refs: Vec<u32>,
-    /// References in the leaves so far plus the cells still to be built.
-    live_refs: usize,
-    budget: usize,
     caps: Caps,
 }
 
 impl Builder<'_> {
-    /// Builds node `index`, the cube at `min` with side `size`, over `tris`. The recursion
-    /// is at most `MAX_DEPTH` + 1 deep.
-    fn node(&mut self, index: usize, min: DVec3, size: f64, tris: Vec<u32>, depth: u32) {
+    /// Builds node `index`, the cube at `min` with side `size`, over `tris`, with at most
+    /// `budget` references in its leaves. The recursion is at most `MAX_DEPTH` + 1 deep.
+    fn node(
+        &mut self,
+        index: usize,
+        min: DVec3,
+        size: f64,
+        tris: Vec<u32>,
+        depth: u32,
+        budget: usize,
+    ) {
         let n = tris.len();
         if n <= self.params.max_leaf_size as usize {
             return self.leaf(index, tris, depth);
@@ -137,12 +142,11 @@ impl Builder<'_> {
             self.caps.unsplittable += 1;
             return self.leaf(index, tris, depth);
         }
-        if self.live_refs - n + total > self.budget {
+        if total > budget {
             self.caps.budget += 1;
             return self.leaf(index, tris, depth);
         }
         drop(tris);
-        self.live_refs = self.live_refs - n + total;
         self.caps.empty_octants += 8 - non_empty;
         let first = self.nodes.len();
         let mut mask = 0u8;
@@ -163,7 +167,10 @@ impl Builder<'_> {
                 continue;
             }
             let corner = DVec3::new((o & 1) as f64, (o >> 1 & 1) as f64, (o >> 2 & 1) as f64);
-            self.node(child, min + corner * half, half, list, depth + 1);
+            // Each child may grow in proportion to its share of the references, so the
+            // budget is not spent on whichever dense region the build reaches first.
+            let share = (budget as u128 * list.len() as u128 / total as u128) as usize;
+            self.node(child, min + corner * half, half, list, depth + 1, share);
             child += 1;
         }
     }
