@@ -243,6 +243,28 @@ fn run_all(
             cell(&r.shadow)
         );
     }
+    // Same rays and one closest-hit rule: every structure that traced every ray must find
+    // exactly the first one's hits.
+    let counts = |r: &bench::BenchResult| [r.primary.hits, r.diffuse.hits, r.shadow.hits];
+    let full: Vec<_> = results.iter().filter(|r| r.sampled == 1).collect();
+    let differing: Vec<&str> = full
+        .iter()
+        .filter(|r| counts(r) != counts(full[0]))
+        .map(|r| r.params.kind.label())
+        .collect();
+    if let Some(first) = full.first() {
+        let [p, d, s] = counts(first);
+        if differing.is_empty() {
+            out!(
+                "  hits: {p} primary, {d} diffuse, {s} occluded shadow rays, the same for every structure that traced every ray"
+            );
+        } else {
+            out!(
+                "  hit counts differ from the first structure's: {}",
+                differing.join(", ")
+            );
+        }
+    }
     Ok(())
 }
 
