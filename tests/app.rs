@@ -257,3 +257,27 @@ fn the_structure_selector_rebuilds_keeps_the_camera_and_each_structure_draws_its
     settle(&mut h);
     assert_ne!(plain, h.state().shown.clone().unwrap().rgba);
 }
+
+#[test]
+fn a_grid_over_its_cell_cap_is_an_error_and_the_previous_grid_stays() {
+    // 2^20 triangles at λ = 64 ask for 2^26 + cells: over the cap.
+    let mut h = app("soup:1100000");
+    choose_structure(&mut h, bvhlab::accel::AccelKind::Grid.title());
+    let before = h.state().report.clone().expect("the grid built");
+    let outline = h.state().outline.clone();
+    h.state_mut().settings.grid_lambda = 64.0;
+    settle(&mut h);
+    let app = h.state();
+    let error = app.build_error.clone().expect("a clear error");
+    assert!(error.contains("cells"), "{error}");
+    assert_eq!(
+        app.report.as_ref(),
+        Some(&before),
+        "the previous grid's report stays"
+    );
+    assert!(
+        std::sync::Arc::ptr_eq(&app.outline, &outline),
+        "and its outline"
+    );
+    assert!(app.shown.is_some());
+}
