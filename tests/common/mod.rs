@@ -3,6 +3,7 @@
 #![allow(dead_code)]
 
 pub mod app;
+pub mod lattice;
 
 use bvhlab::accel::Hit;
 use bvhlab::geometry::{Aabb, Ray, Triangle};
