@@ -333,15 +333,7 @@ fn run_accuracy(
             }
         })
     })?;
-    let stem = super::render::sanitize(&scene.name);
-    let csv_path = args
-        .csv
-        .clone()
-        .unwrap_or_else(|| PathBuf::from(format!("accuracy-{stem}.csv")));
-    let plot_path = args
-        .plot
-        .clone()
-        .unwrap_or_else(|| PathBuf::from(format!("accuracy-{stem}.png")));
+    let (csv_path, plot_path) = output_paths(args, "accuracy", &scene.name);
     std::fs::write(&csv_path, accuracy::csv(&rows))
         .with_context(|| format!("cannot write {}", csv_path.display()))?;
     let svg_path = plot::save(&accuracy::pareto_plot(&rows), &plot_path)?;
@@ -464,15 +456,7 @@ fn run_scaling(args: &BenchArgs, width: u32, height: u32) -> Result<()> {
         })
     })?;
     let slopes = scaling::slopes(&rows);
-    let stem = super::render::sanitize(name);
-    let csv_path = args
-        .csv
-        .clone()
-        .unwrap_or_else(|| PathBuf::from(format!("scaling-{stem}.csv")));
-    let plot_path = args
-        .plot
-        .clone()
-        .unwrap_or_else(|| PathBuf::from(format!("scaling-{stem}.png")));
+    let (csv_path, plot_path) = output_paths(args, "scaling", name);
     std::fs::write(&csv_path, scaling::csv(&rows))
         .with_context(|| format!("cannot write {}", csv_path.display()))?;
     let svg_path = plot::save(&scaling::figure(&rows), &plot_path)?;
@@ -550,4 +534,18 @@ fn run_scaling(args: &BenchArgs, width: u32, height: u32) -> Result<()> {
         svg_path.display()
     );
     Ok(())
+}
+
+/// The CSV and plot paths of a study: `--csv` and `--plot`, or `<study>-<scene>.csv|png`.
+fn output_paths(args: &BenchArgs, study: &str, scene: &str) -> (PathBuf, PathBuf) {
+    let stem = super::render::sanitize(scene);
+    let csv = args
+        .csv
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(format!("{study}-{stem}.csv")));
+    let plot = args
+        .plot
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(format!("{study}-{stem}.png")));
+    (csv, plot)
 }
