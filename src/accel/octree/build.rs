@@ -245,7 +245,7 @@ fn report(
     }
     if caps.budget > 0 {
         caps_hit.push(format!(
-            "{} leaves left unsplit: the tree reached {} references per triangle",
+            "{} leaves left unsplit: their share of the reference budget ({} per triangle) ran out",
             caps.budget, MAX_REFERENCES_PER_TRIANGLE
         ));
     }
