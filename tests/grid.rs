@@ -9,7 +9,7 @@ use bvhlab::accel::grid::{GridError, GridParams, MAX_CELLS, build};
 use bvhlab::accel::{Accel, BruteForce, Counters, NoStats};
 use bvhlab::geometry::{Aabb, Ray, Triangle, Watertight};
 use bvhlab::scene::Scene;
-use common::lattice::{lattice_rays, lattice_scene};
+use common::lattice::{PINS, contact_rays, contact_targets, lattice_rays, lattice_scene};
 use common::{Rng, rays, same_hit, soup};
 use glam::{Vec3, vec3};
 
@@ -111,53 +111,15 @@ fn hits_exactly_on_cell_faces_edges_and_corners_match_brute_force() {
 fn only_hit_on_a_cell_face_edge_or_corner() {
     // Two pinning triangles far off the rays' paths, and one target whose only contact with
     // the ray is a point on a face (x = 4), an edge (x = y = 4) or a corner (4, 4, 4).
-    let pins = [
-        Triangle::new(vec3(0., 0., 0.), vec3(0.5, 0., 0.), vec3(0., 0.5, 0.)),
-        Triangle::new(vec3(8., 8., 8.), vec3(7.5, 8., 8.), vec3(8., 7.5, 8.)),
-    ];
-    let targets = [
-        // In the face plane x = 4.
-        Triangle::new(vec3(4., 2., 2.), vec3(4., 6., 2.), vec3(4., 2., 6.)),
-        // A vertex at the corner (4, 4, 4), reaching into one cell only.
-        Triangle::new(vec3(4., 4., 4.), vec3(5., 4.5, 4.5), vec3(4.5, 5., 4.5)),
-        // An edge along the cell edge x = y = 4.
-        Triangle::new(vec3(4., 4., 1.), vec3(4., 4., 7.), vec3(6., 5., 4.)),
-        // A vertex on the face x = 4 at (4, 4.5, 4.5), reaching into x < 4.
-        Triangle::new(vec3(4., 4.5, 4.5), vec3(3., 4., 4.), vec3(3., 5., 4.5)),
-    ];
-    let aims = [
-        vec3(4., 3., 3.),
-        vec3(4., 4., 4.),
-        vec3(4., 4., 2.5),
-        vec3(4., 4.5, 4.5),
-    ];
-    let dirs = [
-        vec3(1., 0., 0.),
-        vec3(-1., 0., 0.),
-        vec3(0., 1., 0.),
-        vec3(0., 0., -1.),
-        vec3(1., 1., 1.),
-        vec3(-1., 1., -1.),
-        vec3(1., 2., 3.),
-        vec3(0., 1., 1.),
-        vec3(-0., 1., -1.),
-    ];
-    for target in targets {
+    let pins = PINS;
+    let rays = contact_rays();
+    for target in contact_targets() {
         let mut tris = pins.to_vec();
         // Fill up to 512 triangles with copies of the pins so the grid is 8 × 8 × 8.
         while tris.len() < 511 {
             tris.push(pins[tris.len() % 2]);
         }
         tris.push(target);
-        let mut rays = Vec::new();
-        for aim in aims {
-            for d in dirs {
-                rays.push(Ray::new(aim - d * 10.0, d));
-                // From the aim point's own cell and from the far side.
-                rays.push(Ray::new(aim - d * 0.25, d));
-                rays.push(Ray::new(aim + d * 10.0, -d));
-            }
-        }
         let (grid, _) = build(&tris, &GridParams::default()).expect("builds");
         assert_eq!(grid.resolution(), [8, 8, 8]);
         let brute = BruteForce::new(&tris, false);

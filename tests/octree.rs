@@ -9,7 +9,7 @@ use bvhlab::accel::octree::{Octree, OctreeError, OctreeParams, build};
 use bvhlab::accel::{Accel, BruteForce, Counters, NoStats};
 use bvhlab::geometry::{Aabb, Ray, Triangle, Watertight};
 use bvhlab::scene::Scene;
-use common::lattice::{lattice_rays, lattice_scene};
+use common::lattice::{PINS, contact_rays, contact_targets, lattice_rays, lattice_scene};
 use common::{Rng, rays, same_hit, soup};
 use glam::{Vec3, vec3};
 
@@ -128,34 +128,9 @@ fn hits_exactly_on_cell_faces_edges_and_corners_match_brute_force() {
 
 #[test]
 fn only_hit_on_a_cell_face_edge_or_corner() {
-    let pins = [
-        Triangle::new(vec3(0., 0., 0.), vec3(0.5, 0., 0.), vec3(0., 0.5, 0.)),
-        Triangle::new(vec3(8., 8., 8.), vec3(7.5, 8., 8.), vec3(8., 7.5, 8.)),
-    ];
-    let targets = [
-        Triangle::new(vec3(4., 2., 2.), vec3(4., 6., 2.), vec3(4., 2., 6.)),
-        Triangle::new(vec3(4., 4., 4.), vec3(5., 4.5, 4.5), vec3(4.5, 5., 4.5)),
-        Triangle::new(vec3(4., 4., 1.), vec3(4., 4., 7.), vec3(6., 5., 4.)),
-        Triangle::new(vec3(4., 4.5, 4.5), vec3(3., 4., 4.), vec3(3., 5., 4.5)),
-    ];
-    let aims = [
-        vec3(4., 3., 3.),
-        vec3(4., 4., 4.),
-        vec3(4., 4., 2.5),
-        vec3(4., 4.5, 4.5),
-    ];
-    let dirs = [
-        vec3(1., 0., 0.),
-        vec3(-1., 0., 0.),
-        vec3(0., 1., 0.),
-        vec3(0., 0., -1.),
-        vec3(1., 1., 1.),
-        vec3(-1., 1., -1.),
-        vec3(1., 2., 3.),
-        vec3(0., 1., 1.),
-        vec3(-0., 1., -1.),
-    ];
-    for target in targets {
+    let pins = PINS;
+    let rays = contact_rays();
+    for target in contact_targets() {
         // Many small triangles near the target force splits down to cells meeting at the
         // target point, at (4, 4, 4) the root's centre.
         let mut tris = pins.to_vec();
@@ -168,14 +143,6 @@ fn only_hit_on_a_cell_face_edge_or_corner() {
             tris.push(Triangle::new(p, p + Vec3::X * 0.05, p + Vec3::Z * 0.05));
         }
         tris.push(target);
-        let mut rays = Vec::new();
-        for aim in aims {
-            for d in dirs {
-                rays.push(Ray::new(aim - d * 10.0, d));
-                rays.push(Ray::new(aim - d * 0.25, d));
-                rays.push(Ray::new(aim + d * 10.0, -d));
-            }
-        }
         for (leaf, depth) in [(1, 3), (1, 10), (8, 10)] {
             check(
                 &tris,

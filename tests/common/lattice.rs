@@ -66,3 +66,59 @@ pub fn lattice_rays(tris: &[Triangle], seed: u64) -> Vec<Ray> {
     }
     out
 }
+
+/// Two small triangles pinning the corners of [0, 8]³, far off the contact rays' paths.
+pub const PINS: [Triangle; 2] = [
+    Triangle {
+        v: [vec3(0., 0., 0.), vec3(0.5, 0., 0.), vec3(0., 0.5, 0.)],
+    },
+    Triangle {
+        v: [vec3(8., 8., 8.), vec3(7.5, 8., 8.), vec3(8., 7.5, 8.)],
+    },
+];
+
+/// Triangles whose only contact with the rays of `contact_rays` is a point on a cell face
+/// (x = 4), an edge (x = y = 4) or a corner (4, 4, 4) of a [0, 8]³ lattice of unit cells.
+pub fn contact_targets() -> [Triangle; 4] {
+    [
+        // In the face plane x = 4.
+        Triangle::new(vec3(4., 2., 2.), vec3(4., 6., 2.), vec3(4., 2., 6.)),
+        // A vertex at the corner (4, 4, 4), reaching into one cell only.
+        Triangle::new(vec3(4., 4., 4.), vec3(5., 4.5, 4.5), vec3(4.5, 5., 4.5)),
+        // An edge along the cell edge x = y = 4.
+        Triangle::new(vec3(4., 4., 1.), vec3(4., 4., 7.), vec3(6., 5., 4.)),
+        // A vertex on the face x = 4 at (4, 4.5, 4.5), reaching into x < 4.
+        Triangle::new(vec3(4., 4.5, 4.5), vec3(3., 4., 4.), vec3(3., 5., 4.5)),
+    ]
+}
+
+/// Rays aimed at the contact points of `contact_targets` from far away, from the aim
+/// point's own cell and from the far side, along axes, diagonals and signed-zero directions.
+pub fn contact_rays() -> Vec<Ray> {
+    let aims = [
+        vec3(4., 3., 3.),
+        vec3(4., 4., 4.),
+        vec3(4., 4., 2.5),
+        vec3(4., 4.5, 4.5),
+    ];
+    let dirs = [
+        vec3(1., 0., 0.),
+        vec3(-1., 0., 0.),
+        vec3(0., 1., 0.),
+        vec3(0., 0., -1.),
+        vec3(1., 1., 1.),
+        vec3(-1., 1., -1.),
+        vec3(1., 2., 3.),
+        vec3(0., 1., 1.),
+        vec3(-0., 1., -1.),
+    ];
+    let mut rays = Vec::new();
+    for aim in aims {
+        for d in dirs {
+            rays.push(Ray::new(aim - d * 10.0, d));
+            rays.push(Ray::new(aim - d * 0.25, d));
+            rays.push(Ray::new(aim + d * 10.0, -d));
+        }
+    }
+    rays
+}
