@@ -110,12 +110,7 @@ fn every_builder_matches_brute_force_on_every_builtin_scene() {
         let brute = BruteForce::new(&scene.triangles, true);
         let mut rays = rays(&scene.bounds(), 300, 7);
         // Rays through the scene's own view, as the renderer casts them.
-        let cam = scene.camera().rays(16, 12);
-        rays.extend(
-            (0..12)
-                .flat_map(|y| (0..16).map(move |x| (x, y)))
-                .map(|(x, y)| cam.pixel_center(x, y)),
-        );
+        rays.extend(common::view_rays(&scene, 16, 12));
         for strategy in Strategy::ALL {
             for order in TraversalOrder::ALL {
                 let p = BuildParams::with_strategy(strategy);
@@ -545,12 +540,7 @@ fn every_builder_matches_brute_force_on_the_shared_meshes() {
         let scene = bvhlab::scene::load_obj(&dir.join(file)).expect("shared mesh loads");
         let brute = BruteForce::new(&scene.triangles, true);
         let mut rays = rays(&scene.bounds(), 150, 42);
-        let cam = scene.camera().rays(8, 6);
-        rays.extend(
-            (0..6)
-                .flat_map(|y| (0..8).map(move |x| (x, y)))
-                .map(|(x, y)| cam.pixel_center(x, y)),
-        );
+        rays.extend(common::view_rays(&scene, 8, 6));
         let expected: Vec<_> = rays
             .iter()
             .map(|r| brute.closest_hit::<Watertight, _>(r, &mut NoStats))

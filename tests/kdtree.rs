@@ -137,30 +137,13 @@ fn kdtree_matches_brute_force_on_random_soups() {
     }
 }
 
-const SMALL_BUILTINS: &[&str] = &[
-    "cornell",
-    "teapot-in-stadium",
-    "grass:2000",
-    "walls",
-    "walls-rotated",
-    "same-centroid:1500",
-    "same-bbox:1500",
-    "soup:3000",
-    "sphere:3000",
-];
-
 #[test]
 fn kdtree_matches_brute_force_on_every_builtin_scene() {
-    for name in SMALL_BUILTINS {
+    for name in common::SMALL_BUILTINS {
         let scene = Scene::load(name).expect("built-in scene");
         let brute = BruteForce::new(&scene.triangles, true);
         let mut rays = rays(&scene.bounds(), 300, 7);
-        let cam = scene.camera().rays(16, 12);
-        rays.extend(
-            (0..12)
-                .flat_map(|y| (0..16).map(move |x| (x, y)))
-                .map(|(x, y)| cam.pixel_center(x, y)),
-        );
+        rays.extend(common::view_rays(&scene, 16, 12));
         for split in [KdSplit::Sweep, KdSplit::Binned(32)] {
             let p = KdParams {
                 split,
@@ -603,12 +586,7 @@ fn real_meshes_match_the_bvh_when_the_shared_scenes_are_present() {
         let scene = Scene::load(&dir.join(file).to_string_lossy()).expect("scene loads");
         let (bvh, _) = build_bvh(&scene.triangles, &BuildParams::default()).expect("bvh");
         let mut rays = rays(&scene.bounds(), n_rays, 41);
-        let cam = scene.camera().rays(40, 30);
-        rays.extend(
-            (0..30)
-                .flat_map(|y| (0..40).map(move |x| (x, y)))
-                .map(|(x, y)| cam.pixel_center(x, y)),
-        );
+        rays.extend(common::view_rays(&scene, 40, 30));
         for split in [KdSplit::Sweep, KdSplit::Binned(32)] {
             let (mut kd, _) = built(
                 &scene.triangles,

@@ -81,29 +81,12 @@ fn matches_brute_force_on_random_soups() {
     }
 }
 
-const SMALL_BUILTINS: &[&str] = &[
-    "cornell",
-    "teapot-in-stadium",
-    "grass:2000",
-    "walls",
-    "walls-rotated",
-    "same-centroid:1500",
-    "same-bbox:1500",
-    "soup:3000",
-    "sphere:3000",
-];
-
 #[test]
 fn matches_brute_force_on_every_builtin_scene() {
-    for name in SMALL_BUILTINS {
+    for name in common::SMALL_BUILTINS {
         let scene = Scene::load(name).expect("built-in scene");
         let mut rays = rays(&scene.bounds(), 300, 7);
-        let cam = scene.camera().rays(16, 12);
-        rays.extend(
-            (0..12)
-                .flat_map(|y| (0..16).map(move |x| (x, y)))
-                .map(|(x, y)| cam.pixel_center(x, y)),
-        );
+        rays.extend(common::view_rays(&scene, 16, 12));
         for (leaf, depth) in [(8, 10), (2, 16)] {
             check(&scene.triangles, &params(leaf, depth), &rays, name);
         }
@@ -351,12 +334,7 @@ fn shared_meshes_agree_with_the_bvh() {
         let (bvh, _) = bvhlab::accel::bvh::build(tris, &Default::default()).expect("bvh");
         let mut octree = built(tris, &OctreeParams::default());
         let mut rays = rays(&scene.bounds(), 3000, 21);
-        let cam = scene.camera().rays(32, 24);
-        rays.extend(
-            (0..24)
-                .flat_map(|y| (0..32).map(move |x| (x, y)))
-                .map(|(x, y)| cam.pixel_center(x, y)),
-        );
+        rays.extend(common::view_rays(&scene, 32, 24));
         for mailbox in [true, false] {
             octree.mailbox = mailbox;
             for ray in &rays {

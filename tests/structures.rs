@@ -84,12 +84,7 @@ fn every_structure_matches_brute_force_on_every_builtin_scene() {
         let tris = &scene.triangles;
         let brute = BruteForce::new(tris, false);
         let mut rays = rays(&scene.bounds(), 600, 7);
-        let cam = scene.camera().rays(24, 18);
-        rays.extend(
-            (0..18)
-                .flat_map(|y| (0..24).map(move |x| (x, y)))
-                .map(|(x, y)| cam.pixel_center(x, y)),
-        );
+        rays.extend(common::view_rays(&scene, 24, 18));
         for kind in AccelKind::ALL {
             for mailbox in [true, false] {
                 let s = build(tris, kind, mailbox);

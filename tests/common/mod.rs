@@ -120,6 +120,29 @@ pub fn rays(b: &Aabb, n: usize, seed: u64) -> Vec<Ray> {
         .collect()
 }
 
+/// One ray through the centre of every pixel of the scene's own view at `w` × `h`, row by
+/// row, as the renderer casts them.
+pub fn view_rays(scene: &bvhlab::scene::Scene, w: u32, h: u32) -> Vec<Ray> {
+    let cam = scene.camera().rays(w, h);
+    (0..h)
+        .flat_map(|y| (0..w).map(move |x| (x, y)))
+        .map(|(x, y)| cam.pixel_center(x, y))
+        .collect()
+}
+
+/// The built-in scenes at sizes a test traces quickly against brute force.
+pub const SMALL_BUILTINS: &[&str] = &[
+    "cornell",
+    "teapot-in-stadium",
+    "grass:2000",
+    "walls",
+    "walls-rotated",
+    "same-centroid:1500",
+    "same-bbox:1500",
+    "soup:3000",
+    "sphere:3000",
+];
+
 /// Hits agree exactly: the same triangle at the same distance. Every structure keeps the
 /// lowest triangle index among hits at equal distance, so even ties must agree.
 pub fn same_hit(a: Option<Hit>, b: Option<Hit>) -> bool {
