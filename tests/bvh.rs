@@ -336,79 +336,9 @@ fn sah_sweep_is_never_worse_than_binned_at_the_root_and_more_buckets_help() {
     assert!(sweep <= b32 * 1.05, "sweep {sweep} vs B=32 {b32}");
 }
 
-fn degenerate_cases() -> Vec<(&'static str, Vec<Triangle>)> {
-    let t = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y);
-    let mut rng = Rng::new(4);
-    vec![
-        ("empty", vec![]),
-        ("one triangle", vec![t]),
-        ("identical triangles", vec![t; 500]),
-        (
-            "zero-area points",
-            (0..300)
-                .map(|i| {
-                    let p = Vec3::splat(i as f32 * 0.01);
-                    Triangle::new(p, p, p)
-                })
-                .collect(),
-        ),
-        (
-            "one point",
-            vec![Triangle::new(Vec3::ONE, Vec3::ONE, Vec3::ONE); 100],
-        ),
-        (
-            "collinear",
-            (0..300)
-                .map(|i| {
-                    let x = i as f32;
-                    Triangle::new(
-                        Vec3::new(x, 0.0, 0.0),
-                        Vec3::new(x + 0.5, 0.0, 0.0),
-                        Vec3::new(x + 1.0, 0.0, 0.0),
-                    )
-                })
-                .collect(),
-        ),
-        (
-            "flat in z",
-            (0..300)
-                .map(|_| {
-                    let c = Vec3::new(rng.f32(), rng.f32(), 0.0);
-                    Triangle::new(c, c + Vec3::X * 0.1, c + Vec3::Y * 0.1)
-                })
-                .collect(),
-        ),
-        (
-            "exponential spacing",
-            (0..200)
-                .map(|i| {
-                    let x = 1.1f32.powi(i);
-                    Triangle::new(
-                        Vec3::new(x, 0.0, 0.0),
-                        Vec3::new(x, 1.0, 0.0),
-                        Vec3::new(x, 0.0, 1.0),
-                    )
-                })
-                .collect(),
-        ),
-        (
-            "huge and tiny",
-            vec![
-                Triangle::new(
-                    Vec3::splat(-1e30),
-                    Vec3::new(1e30, -1e30, 0.0),
-                    Vec3::splat(1e30),
-                ),
-                Triangle::new(Vec3::ZERO, Vec3::splat(1e-30), Vec3::new(1e-30, 0.0, 0.0)),
-                t,
-            ],
-        ),
-    ]
-}
-
 #[test]
 fn degenerate_inputs_build_valid_trees_and_trace() {
-    for (what, tris) in degenerate_cases() {
+    for (what, tris) in common::degenerate_cases() {
         let brute = BruteForce::new(&tris, false);
         let b = if tris.is_empty() {
             Aabb::new(Vec3::splat(-1.0), Vec3::ONE)

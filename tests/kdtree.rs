@@ -344,78 +344,19 @@ fn counting_changes_no_hit_and_mailboxing_removes_repeated_tests() {
     }
 }
 
+/// The shared degenerate inputs, and the scenes whose triangles share one centroid or one
+/// bounding box.
 fn degenerate_cases() -> Vec<(&'static str, Vec<Triangle>)> {
-    let t = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y);
-    let mut rng = Rng::new(4);
-    vec![
-        ("empty", vec![]),
-        ("one triangle", vec![t]),
-        ("identical triangles", vec![t; 500]),
-        (
-            "zero-area points",
-            (0..300)
-                .map(|i| {
-                    let p = Vec3::splat(i as f32 * 0.01);
-                    Triangle::new(p, p, p)
-                })
-                .collect(),
-        ),
-        (
-            "collinear",
-            (0..300)
-                .map(|i| {
-                    let x = i as f32;
-                    Triangle::new(
-                        Vec3::new(x, 0.0, 0.0),
-                        Vec3::new(x + 0.5, 0.0, 0.0),
-                        Vec3::new(x + 1.0, 0.0, 0.0),
-                    )
-                })
-                .collect(),
-        ),
-        (
-            "flat in z",
-            (0..300)
-                .map(|_| {
-                    let c = Vec3::new(rng.f32(), rng.f32(), 0.0);
-                    Triangle::new(c, c + Vec3::X * 0.1, c + Vec3::Y * 0.1)
-                })
-                .collect(),
-        ),
-        (
-            "exponential spacing",
-            (0..200)
-                .map(|i| {
-                    let x = 1.1f32.powi(i);
-                    Triangle::new(
-                        Vec3::new(x, 0.0, 0.0),
-                        Vec3::new(x, 1.0, 0.0),
-                        Vec3::new(x, 0.0, 1.0),
-                    )
-                })
-                .collect(),
-        ),
-        (
-            "huge and tiny",
-            vec![
-                Triangle::new(
-                    Vec3::splat(-1e30),
-                    Vec3::new(1e30, -1e30, 0.0),
-                    Vec3::splat(1e30),
-                ),
-                Triangle::new(Vec3::ZERO, Vec3::splat(1e-30), Vec3::new(1e-30, 0.0, 0.0)),
-                t,
-            ],
-        ),
-        (
-            "same centroid",
-            Scene::load("same-centroid:800").expect("scene").triangles,
-        ),
-        (
-            "same bbox",
-            Scene::load("same-bbox:800").expect("scene").triangles,
-        ),
-    ]
+    let mut cases = common::degenerate_cases();
+    cases.push((
+        "same centroid",
+        Scene::load("same-centroid:800").expect("scene").triangles,
+    ));
+    cases.push((
+        "same bbox",
+        Scene::load("same-bbox:800").expect("scene").triangles,
+    ));
+    cases
 }
 
 #[test]
