@@ -159,6 +159,8 @@ pub fn shared_scenes() -> Option<std::path::PathBuf> {
     dir.is_dir().then_some(dir)
 }
 
+/// Inputs that break naive builders: empty, single, identical, zero-area, collinear, flat,
+/// exponentially spaced and huge-and-tiny triangles.
 pub fn degenerate_cases() -> Vec<(&'static str, Vec<Triangle>)> {
     let t = Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y);
     let mut rng = Rng::new(4);
