@@ -6,6 +6,7 @@
 use super::bvh::traverse::T_SCALE;
 use super::outline::{Outline, OutlineNode};
 use super::{Accel, BestHit, Hit, Stats};
+use crate::accel::stats::count_locally;
 use crate::geometry::aabb::{SlabRay, slab_entry};
 use crate::geometry::{Aabb, Intersector, Ray, Triangle};
 
@@ -136,16 +137,10 @@ impl BruteForce {
 
 impl Accel for BruteForce {
     fn closest_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
-        let mut local = S::default();
-        let hit = self.closest_counted::<I, S>(ray, &mut local);
-        stats.absorb(local);
-        hit
+        count_locally(stats, |local| self.closest_counted::<I, S>(ray, local))
     }
 
     fn any_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
-        let mut local = S::default();
-        let hit = self.occluded_counted::<I, S>(ray, &mut local);
-        stats.absorb(local);
-        hit
+        count_locally(stats, |local| self.occluded_counted::<I, S>(ray, local))
     }
 }

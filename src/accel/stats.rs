@@ -22,6 +22,16 @@ pub trait Stats: Default {
     fn absorb(&mut self, other: Self);
 }
 
+/// Runs `query` with a sink of its own, which stays in registers while the query runs, and
+/// adds its counts to `stats` once at the end: how every structure's traversal counts.
+#[inline(always)]
+pub fn count_locally<S: Stats, R>(stats: &mut S, query: impl FnOnce(&mut S) -> R) -> R {
+    let mut local = S::default();
+    let result = query(&mut local);
+    stats.absorb(local);
+    result
+}
+
 /// Counts nothing and costs nothing.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct NoStats;

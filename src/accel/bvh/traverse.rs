@@ -20,6 +20,8 @@ pub(crate) const STACK_SIZE: usize = MAX_DEPTH + 1;
 
 impl Bvh {
     /// Closest hit, counting into a local sink (kept in registers) added to `stats` once.
+    /// Written out rather than through `stats::count_locally`: the closure form measured
+    /// 3–5 % slower on the BVH's primary rays (sponza, alternating runs).
     fn closest<I: Intersector, S: Stats, const ORDERED: bool>(
         &self,
         ray: &Ray,

@@ -10,6 +10,7 @@
 
 use super::Grid;
 use crate::accel::bvh::traverse::T_SCALE;
+use crate::accel::stats::count_locally;
 use crate::accel::{Accel, BestHit, Hit, Mailbox, NoStats, Stats};
 use crate::geometry::aabb::SlabRay;
 use crate::geometry::{Aabb, Intersector, Ray};
@@ -180,16 +181,10 @@ impl Grid {
 
 impl Accel for Grid {
     fn closest_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
-        let mut local = S::default();
-        let hit = self.closest_counted::<I, S>(ray, &mut local);
-        stats.absorb(local);
-        hit
+        count_locally(stats, |local| self.closest_counted::<I, S>(ray, local))
     }
 
     fn any_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
-        let mut local = S::default();
-        let hit = self.occluded_counted::<I, S>(ray, &mut local);
-        stats.absorb(local);
-        hit
+        count_locally(stats, |local| self.occluded_counted::<I, S>(ray, local))
     }
 }

@@ -10,6 +10,7 @@
 
 use super::{KdTree, MAX_DEPTH};
 use crate::accel::bvh::traverse::T_SCALE;
+use crate::accel::stats::count_locally;
 use crate::accel::{Accel, BestHit, Hit, Mailbox, Stats};
 use crate::geometry::aabb::SlabRay;
 use crate::geometry::{Intersector, Ray};
@@ -130,10 +131,7 @@ impl KdTree {
 
     /// Closest hit, counting into a local sink (kept in registers) added to `stats` once.
     fn closest<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
-        let mut local = S::default();
-        let hit = self.closest_counted::<I, S>(ray, &mut local);
-        stats.absorb(local);
-        hit
+        count_locally(stats, |local| self.closest_counted::<I, S>(ray, local))
     }
 
     #[inline(always)]
@@ -192,10 +190,7 @@ impl KdTree {
 
     /// Any hit, counting like `closest`.
     fn occluded<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
-        let mut local = S::default();
-        let hit = self.occluded_counted::<I, S>(ray, &mut local);
-        stats.absorb(local);
-        hit
+        count_locally(stats, |local| self.occluded_counted::<I, S>(ray, local))
     }
 
     #[inline(always)]

@@ -7,6 +7,7 @@
 
 use super::Octree;
 use crate::accel::grid::dda::{Next, widened, widened64};
+use crate::accel::stats::count_locally;
 use crate::accel::{Accel, BestHit, Hit, Mailbox, Stats};
 use crate::geometry::aabb::SlabRay;
 use crate::geometry::{Intersector, Ray};
@@ -195,16 +196,10 @@ impl Octree {
 
 impl Accel for Octree {
     fn closest_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
-        let mut local = S::default();
-        let hit = self.closest_counted::<I, S>(ray, &mut local);
-        stats.absorb(local);
-        hit
+        count_locally(stats, |local| self.closest_counted::<I, S>(ray, local))
     }
 
     fn any_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
-        let mut local = S::default();
-        let hit = self.occluded_counted::<I, S>(ray, &mut local);
-        stats.absorb(local);
-        hit
+        count_locally(stats, |local| self.occluded_counted::<I, S>(ray, local))
     }
 }
