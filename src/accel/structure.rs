@@ -1,5 +1,5 @@
-//! The structure selector: one runtime type over every built structure (BVH2, k-d tree,
-//! uniform grid, octree, brute force), so the worker, the CLI, the renderer and the bench
+//! The structure selector: one runtime type over every built structure (BVH2, BVH4, BVH8,
+//! k-d tree, uniform grid, octree, brute force), so the worker, the CLI, the renderer and the bench
 //! hold one value and never assume a BVH. It dispatches once per query (or per batch), and
 //! each arm calls that structure's own monomorphised traversal, so the hot loops stay
 //! generic over the intersector and the statistics sink.
@@ -7,13 +7,15 @@
 //! Adding a structure is: its folder, a variant of `AccelKind` and `Structure`, its
 //! parameters in `StructureParams`, and one arm in each `match` below.
 
-use super::bvh::{self, BuildError, BuildReport, Bvh};
+use super::bvh::wide::{CollapseParams, UnsupportedSimd};
+use super::bvh::{self, BuildError, BuildReport, Bvh, Bvh4, Bvh8, WideBvh};
 use super::grid::{self, Grid, GridError, GridParams};
 use super::kdtree::{self, KdError, KdParams, KdTree};
 use super::octree::{self, Octree, OctreeError, OctreeParams};
 use super::outline::Outline;
 use super::report::StructureReport;
 use super::{Accel, BruteForce, BuildParams, Hit, Stats, TraversalOrder};
+use crate::geometry::simd::SimdLevel;
 use crate::geometry::{Intersector, Ray, Triangle};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
@@ -25,6 +27,8 @@ use std::time::Instant;
 pub enum AccelKind {
     #[default]
     Bvh,
+    Bvh4,
+    Bvh8,
     KdTree,
     Grid,
     Octree,
@@ -33,8 +37,10 @@ pub enum AccelKind {
 }
 
 impl AccelKind {
-    pub const ALL: [AccelKind; 6] = [
+    pub const ALL: [AccelKind; 8] = [
         AccelKind::Bvh,
+        AccelKind::Bvh4,
+        AccelKind::Bvh8,
         AccelKind::KdTree,
         AccelKind::Grid,
         AccelKind::Octree,
@@ -46,6 +52,8 @@ impl AccelKind {
     pub fn label(self) -> &'static str {
         match self {
             AccelKind::Bvh => "bvh",
+            AccelKind::Bvh4 => "bvh4",
+            AccelKind::Bvh8 => "bvh8",
             AccelKind::KdTree => "kdtree",
             AccelKind::Grid => "grid",
             AccelKind::Octree => "octree",
@@ -58,6 +66,8 @@ impl AccelKind {
     pub fn title(self) -> &'static str {
         match self {
             AccelKind::Bvh => "BVH2",
+            AccelKind::Bvh4 => "BVH4",
+            AccelKind::Bvh8 => "BVH8",
             AccelKind::KdTree => "k-d tree",
             AccelKind::Grid => "uniform grid",
             AccelKind::Octree => "octree",
@@ -77,6 +87,16 @@ impl AccelKind {
             self,
             AccelKind::KdTree | AccelKind::Grid | AccelKind::Octree
         )
+    }
+
+    /// A wide BVH: the BVH2 collapsed, traced with SIMD slab tests.
+    pub fn is_wide(self) -> bool {
+        matches!(self, AccelKind::Bvh4 | AccelKind::Bvh8)
+    }
+
+    /// Built by a BVH2 builder (the BVH2 itself or its collapse): the BVH parameters apply.
+    pub fn is_bvh(self) -> bool {
+        matches!(self, AccelKind::Bvh | AccelKind::Bvh4 | AccelKind::Bvh8)
     }
 
     pub fn is_brute_force(self) -> bool {
@@ -109,6 +129,8 @@ pub struct StructureParams {
     /// Mailboxing of the spatial structures: a traversal setting, changed without a rebuild
     /// (it overrides the `mailbox` of their own parameters).
     pub mailbox: bool,
+    /// The wide BVHs' slab kernel: a traversal setting, changed without a rebuild.
+    pub simd: SimdLevel,
 }
 
 impl Default for StructureParams {
@@ -121,6 +143,7 @@ impl Default for StructureParams {
             grid: GridParams::default(),
             octree: OctreeParams::default(),
             mailbox: true,
+            simd: SimdLevel::detect(),
         }
     }
 }
@@ -137,6 +160,12 @@ impl StructureParams {
     pub fn validate(&self) -> Result<(), StructureError> {
         match self.kind {
             AccelKind::Bvh => self.bvh.validate()?,
+            AccelKind::Bvh4 | AccelKind::Bvh8 => {
+                self.bvh.validate()?;
+                if !self.simd.supported() {
+                    return Err(UnsupportedSimd(self.simd).into());
+                }
+            }
             AccelKind::KdTree => self.kdtree.validate()?,
             AccelKind::Grid => self.grid.validate()?,
             AccelKind::Octree => self.octree.validate()?,
@@ -152,6 +181,7 @@ impl StructureParams {
             let mut p = *p;
             p.order = TraversalOrder::FrontToBack;
             p.mailbox = true;
+            p.simd = SimdLevel::Portable;
             p.kdtree.mailbox = true;
             p.grid.mailbox = true;
             p.octree.mailbox = true;
@@ -160,7 +190,7 @@ impl StructureParams {
         let (a, b) = (strip(self), strip(other));
         a.kind != b.kind
             || match a.kind {
-                AccelKind::Bvh => a.bvh != b.bvh,
+                AccelKind::Bvh | AccelKind::Bvh4 | AccelKind::Bvh8 => a.bvh != b.bvh,
                 AccelKind::KdTree => a.kdtree != b.kdtree,
                 AccelKind::Grid => a.grid != b.grid,
                 AccelKind::Octree => a.octree != b.octree,
@@ -179,11 +209,15 @@ pub enum StructureError {
     Grid(#[from] GridError),
     #[error(transparent)]
     Octree(#[from] OctreeError),
+    #[error(transparent)]
+    Simd(#[from] UnsupportedSimd),
 }
 
 /// A built structure.
 pub enum Structure {
     Bvh(Bvh),
+    Bvh4(Bvh4),
+    Bvh8(Bvh8),
     KdTree(KdTree),
     Grid(Grid),
     Octree(Octree),
@@ -204,6 +238,8 @@ macro_rules! with_structure {
     ($s:expr, $a:ident => $body:expr) => {
         match $s {
             $crate::accel::structure::Structure::Bvh($a) => $body,
+            $crate::accel::structure::Structure::Bvh4($a) => $body,
+            $crate::accel::structure::Structure::Bvh8($a) => $body,
             $crate::accel::structure::Structure::KdTree($a) => $body,
             $crate::accel::structure::Structure::Grid($a) => $body,
             $crate::accel::structure::Structure::Octree($a) => $body,
@@ -231,6 +267,8 @@ pub fn build(
                 bvh_report: Some(report),
             }
         }
+        AccelKind::Bvh4 => build_wide::<4>(triangles, params, progress, Structure::Bvh4)?,
+        AccelKind::Bvh8 => build_wide::<8>(triangles, params, progress, Structure::Bvh8)?,
         AccelKind::KdTree => {
             let (tree, report) = kdtree::build(triangles, &params.kdtree)?;
             progress.store(triangles.len(), Ordering::Relaxed);
@@ -289,6 +327,7 @@ pub fn build(
         }
     };
     built.structure.set_mailbox(params.mailbox);
+    built.structure.set_simd(params.simd)?;
     Ok(built)
 }
 
@@ -296,6 +335,8 @@ impl Structure {
     pub fn kind(&self) -> AccelKind {
         match self {
             Structure::Bvh(_) => AccelKind::Bvh,
+            Structure::Bvh4(_) => AccelKind::Bvh4,
+            Structure::Bvh8(_) => AccelKind::Bvh8,
             Structure::KdTree(_) => AccelKind::KdTree,
             Structure::Grid(_) => AccelKind::Grid,
             Structure::Octree(_) => AccelKind::Octree,
@@ -328,14 +369,39 @@ impl Structure {
             Structure::KdTree(t) => t.mailbox = on,
             Structure::Grid(g) => g.mailbox = on,
             Structure::Octree(o) => o.mailbox = on,
-            Structure::Bvh(_) | Structure::BruteForce(_) => {}
+            Structure::Bvh(_)
+            | Structure::Bvh4(_)
+            | Structure::Bvh8(_)
+            | Structure::BruteForce(_) => {}
+        }
+    }
+
+    /// Chooses the wide BVHs' slab kernel (no rebuild); other structures ignore it. An
+    /// instruction set this CPU lacks is an error and changes nothing.
+    pub fn set_simd(&mut self, level: SimdLevel) -> Result<(), UnsupportedSimd> {
+        match self {
+            Structure::Bvh4(w) => w.set_simd(level),
+            Structure::Bvh8(w) => w.set_simd(level),
+            _ => Ok(()),
+        }
+    }
+
+    /// The slab kernel the structure traces with, for the wide BVHs.
+    pub fn simd(&self) -> Option<SimdLevel> {
+        match self {
+            Structure::Bvh4(w) => Some(w.simd),
+            Structure::Bvh8(w) => Some(w.simd),
+            _ => None,
         }
     }
 
     /// Sets the BVH's child order (no rebuild).
     pub fn set_order(&mut self, order: TraversalOrder) {
-        if let Structure::Bvh(b) = self {
-            b.order = order;
+        match self {
+            Structure::Bvh(b) => b.order = order,
+            Structure::Bvh4(w) => w.order = order,
+            Structure::Bvh8(w) => w.order = order,
+            _ => {}
         }
     }
 
@@ -368,4 +434,81 @@ impl Accel for Structure {
     fn closest_hits<I: Intersector>(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
         with_structure!(self, a => a.closest_hits::<I>(rays, hits))
     }
+}
+
+/// A wide BVH: the BVH2 built as usual, then collapsed; the report is the BVH2's with the
+/// collapse's time, the wide tree's SAH cost and its memory.
+fn build_wide<const W: usize>(
+    triangles: &[Triangle],
+    params: &StructureParams,
+    progress: &AtomicUsize,
+    wrap: fn(WideBvh<W>) -> Structure,
+) -> Result<Built, StructureError> {
+    let (bvh2, bvh_report) = bvh::build_with_progress(triangles, &params.bvh, progress)?;
+    let start = Instant::now();
+    let collapse = CollapseParams {
+        c_trav: params.bvh.c_trav,
+        c_isect: params.bvh.c_isect,
+        max_leaf_size: params.bvh.max_leaf_size,
+    };
+    let mut wide = WideBvh::<W>::collapse(&bvh2, &collapse);
+    let collapse_time = start.elapsed();
+    wide.order = params.order;
+    let leaves = wide.leaf_count();
+    let largest_leaf = wide
+        .nodes
+        .iter()
+        .flat_map(|n| {
+            (0..n.child_count())
+                .filter(|&l| !n.is_interior(l))
+                .map(|l| n.count[l])
+        })
+        .max()
+        .unwrap_or(0) as usize;
+    let bytes = wide.bytes();
+    let report = StructureReport {
+        structure: if W == 4 {
+            AccelKind::Bvh4
+        } else {
+            AccelKind::Bvh8
+        }
+        .label(),
+        triangles: triangles.len(),
+        build_time: bvh_report.build_time + collapse_time,
+        bytes,
+        nodes: wide.nodes.len(),
+        leaves,
+        empty_leaves: 0,
+        max_depth: wide.depth,
+        references: wide.prim_indices.len(),
+        largest_leaf,
+        details: vec![
+            ("builder".into(), params.bvh.strategy.label().into()),
+            (
+                "BVH2 build".into(),
+                format!("{:.2} ms", bvh_report.build_time.as_secs_f64() * 1e3),
+            ),
+            (
+                "collapse".into(),
+                format!("{:.2} ms", collapse_time.as_secs_f64() * 1e3),
+            ),
+            (
+                "SAH cost".into(),
+                format!(
+                    "{:.2}",
+                    wide.sah_cost(params.bvh.c_trav, params.bvh.c_isect)
+                ),
+            ),
+            (
+                "bytes per triangle".into(),
+                format!("{:.1}", bytes as f64 / triangles.len().max(1) as f64),
+            ),
+        ],
+        caps_hit: Vec::new(),
+    };
+    Ok(Built {
+        structure: wrap(wide),
+        report,
+        bvh_report: None,
+    })
 }

@@ -7,6 +7,7 @@ use crate::accel::AccelKind;
 use crate::accel::bvh::build::{MAX_BUCKETS, MAX_LEAF_SIZE, MIN_BUCKETS};
 use crate::accel::kdtree::{MAX_DEPTH as KD_MAX_DEPTH, MIN_BINS as KD_MIN_BINS};
 use crate::accel::octree::MAX_DEPTH as OCTREE_MAX_DEPTH;
+use crate::geometry::simd::SimdLevel;
 use crate::render::Mode;
 use crate::scene::builtin;
 use eframe::egui::{self, RichText};
@@ -155,6 +156,16 @@ fn build_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             }
             match s.accel {
                 AccelKind::Bvh => bvh_parameters(ui, s),
+                AccelKind::Bvh4 | AccelKind::Bvh8 => {
+                    bvh_parameters(ui, s);
+                    egui::ComboBox::from_label("SIMD kernel")
+                        .selected_text(s.simd.label())
+                        .show_ui(ui, |ui| {
+                            for level in SimdLevel::available() {
+                                ui.selectable_value(&mut s.simd, level, level.label());
+                            }
+                        });
+                }
                 AccelKind::KdTree => kdtree_parameters(ui, s),
                 AccelKind::Grid => {
                     ui.add(

@@ -6,6 +6,7 @@ use crate::accel::grid::GridParams;
 use crate::accel::kdtree::{KdParams, KdSplit};
 use crate::accel::octree::OctreeParams;
 use crate::accel::{AccelKind, Counter, StructureParams};
+use crate::geometry::simd::SimdLevel;
 use crate::render::{Mode, RayKind};
 use serde::{Deserialize, Serialize};
 
@@ -101,6 +102,8 @@ pub struct Settings {
     pub accel: AccelKind,
     /// Mailboxing in the spatial structures.
     pub mailbox: bool,
+    /// The wide BVHs' SIMD slab kernel.
+    pub simd: SimdLevel,
     pub kd_c_trav: f32,
     pub kd_c_isect: f32,
     pub kd_empty_bonus: f32,
@@ -144,6 +147,7 @@ impl Default for Settings {
             scene: "cornell".into(),
             accel: AccelKind::Bvh,
             mailbox: true,
+            simd: SimdLevel::detect(),
             kd_c_trav: kd.c_trav,
             kd_c_isect: kd.c_isect,
             kd_empty_bonus: kd.empty_bonus,
@@ -213,6 +217,7 @@ impl Settings {
                 ..OctreeParams::default()
             },
             mailbox: self.mailbox,
+            simd: self.simd,
         }
     }
 

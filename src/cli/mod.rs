@@ -15,6 +15,7 @@ use bvhlab::accel::kdtree::{KdParams, KdSplit};
 use bvhlab::accel::octree::OctreeParams;
 use bvhlab::accel::structure::{self, AccelKind, Built, StructureParams};
 use bvhlab::geometry::IntersectorKind;
+use bvhlab::geometry::simd::SimdLevel;
 use bvhlab::scene::{Camera, Scene};
 use clap::{Args, ValueEnum};
 use glam::Vec3;
@@ -75,6 +76,29 @@ pub struct BuildArgs {
     /// Octree: cells at this depth are not split.
     #[arg(long, default_value_t = OctreeParams::default().max_depth)]
     pub octree_max_depth: u32,
+    /// BVH4/BVH8: the SIMD slab kernel (default: the widest this CPU has).
+    #[arg(long, value_enum)]
+    pub simd: Option<SimdArg>,
+}
+
+#[derive(ValueEnum, Clone, Copy, PartialEq)]
+pub enum SimdArg {
+    Portable,
+    #[value(name = "sse4.1")]
+    Sse41,
+    Avx2,
+    Avx512,
+}
+
+impl SimdArg {
+    pub fn level(self) -> SimdLevel {
+        match self {
+            SimdArg::Portable => SimdLevel::Portable,
+            SimdArg::Sse41 => SimdLevel::Sse41,
+            SimdArg::Avx2 => SimdLevel::Avx2,
+            SimdArg::Avx512 => SimdLevel::Avx512,
+        }
+    }
 }
 
 #[derive(ValueEnum, Clone, Copy)]
@@ -95,6 +119,10 @@ pub enum OrderArg {
 pub enum AccelArg {
     /// The BVH2 built with the --builder parameters.
     Bvh,
+    /// The BVH2 collapsed into a 4-wide BVH, traced with SIMD (--simd).
+    Bvh4,
+    /// The BVH2 collapsed into an 8-wide BVH, traced with SIMD (--simd).
+    Bvh8,
     /// SAH k-d tree with perfect splits (--kd-* parameters, --empty-bonus).
     Kdtree,
     /// Uniform grid of about λ·N cells (--lambda).
@@ -114,6 +142,8 @@ impl AccelArg {
     pub fn kind(self) -> Result<AccelKind> {
         Ok(match self {
             AccelArg::Bvh => AccelKind::Bvh,
+            AccelArg::Bvh4 => AccelKind::Bvh4,
+            AccelArg::Bvh8 => AccelKind::Bvh8,
             AccelArg::Kdtree => AccelKind::KdTree,
             AccelArg::Grid => AccelKind::Grid,
             AccelArg::Octree => AccelKind::Octree,
@@ -211,6 +241,7 @@ impl BuildArgs {
                 ..OctreeParams::default()
             },
             mailbox: self.mailbox,
+            simd: self.simd.map_or_else(SimdLevel::detect, SimdArg::level),
         }
     }
 
@@ -224,8 +255,13 @@ impl BuildArgs {
         let params = self.structure_params()?;
         let built = structure::build(triangles, &params, &Default::default())
             .with_context(|| format!("cannot build the {}", params.kind.title()))?;
+        let simd = built
+            .structure
+            .simd()
+            .map(|l| format!(", {} kernel", l.label()))
+            .unwrap_or_default();
         eprintln!(
-            "built {} over {} triangles in {:.2} ms",
+            "built {} over {} triangles in {:.2} ms{simd}",
             built.report.structure,
             built.report.triangles,
             built.report.build_ms()

@@ -7,6 +7,7 @@ pub mod intersect;
 pub mod overlap;
 pub mod ray;
 pub mod rayfile;
+pub mod simd;
 pub mod spawn;
 pub mod triangle;
 

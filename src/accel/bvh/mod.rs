@@ -8,10 +8,12 @@ pub mod refit;
 pub mod report;
 pub mod traverse;
 pub mod validate;
+pub mod wide;
 
 pub use build::{BuildError, BuildParams, Strategy, build, build_with_progress};
 pub use node::{Node, Nodes};
 pub use report::{BuildReport, TreeStats};
+pub use wide::{Bvh4, Bvh8, WideBvh};
 
 use crate::geometry::Triangle;
 use rayon::prelude::*;

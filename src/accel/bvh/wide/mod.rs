@@ -1,0 +1,185 @@
+//! Wide BVHs, BVH4 and BVH8: the BVH2 with levels folded together so that each node holds up
+//! to W children, whose W boxes one SIMD instruction tests at once. Fewer, wider steps: a
+//! BVH4 is roughly the BVH2 with every other level folded in, a BVH8 with two of three.
+//!
+//! The BVH2 stays the teaching tree and the one every builder produces; a wide tree is its
+//! collapse (`collapse`), traced by one traversal (`traverse`) generic over the SIMD slab
+//! kernel chosen at run time (`crate::geometry::simd`). Hits equal the BVH2's bit for bit.
+
+pub mod collapse;
+pub mod node;
+pub mod traverse;
+
+pub use collapse::CollapseParams;
+pub use node::WideNode;
+
+use super::TraversalOrder;
+use crate::accel::{Outline, OutlineNode};
+use crate::geometry::simd::SimdLevel;
+use crate::geometry::{Aabb, Triangle};
+
+#[derive(Clone, Debug)]
+pub struct WideBvh<const W: usize> {
+    /// Node 0 is the root; every node's interior children come after it.
+    pub nodes: Vec<WideNode<W>>,
+    /// The triangles in the order of the wide leaves.
+    pub triangles: Vec<Triangle>,
+    /// Leaf order → scene triangle index.
+    pub prim_indices: Vec<u32>,
+    pub order: TraversalOrder,
+    /// The slab kernel the traversal runs (one this machine supports).
+    pub simd: SimdLevel,
+    /// Levels of wide nodes (the root alone is 1).
+    pub depth: u32,
+}
+
+pub type Bvh4 = WideBvh<4>;
+pub type Bvh8 = WideBvh<8>;
+
+#[derive(Debug, thiserror::Error, PartialEq)]
+#[error("this CPU has no {} instructions (it has: {})", .0.label(), SimdLevel::available().iter().map(|l| l.label()).collect::<Vec<_>>().join(", "))]
+pub struct UnsupportedSimd(pub SimdLevel);
+
+impl<const W: usize> WideBvh<W> {
+    /// Chooses the slab kernel; an instruction set this CPU lacks is an error and changes
+    /// nothing.
+    pub fn set_simd(&mut self, level: SimdLevel) -> Result<(), UnsupportedSimd> {
+        if !level.supported() {
+            return Err(UnsupportedSimd(level));
+        }
+        self.simd = level;
+        Ok(())
+    }
+
+    pub fn bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<WideNode<W>>()
+            + self.triangles.len() * std::mem::size_of::<Triangle>()
+            + self.prim_indices.len() * std::mem::size_of::<u32>()
+    }
+
+    /// Wide nodes and leaves (a leaf is a lane holding triangles).
+    pub fn leaf_count(&self) -> usize {
+        self.nodes
+            .iter()
+            .flat_map(|n| n.count.iter())
+            .filter(|&&c| c != 0 && c != node::INTERIOR)
+            .count()
+    }
+
+    /// The SAH cost of the wide tree, as the collapse minimised it: C_trav per interior node
+    /// and C_isect per triangle, each weighted by its box's area relative to the root's.
+    pub fn sah_cost(&self, c_trav: f32, c_isect: f32) -> f64 {
+        let root_area = self.nodes[0].bounds().surface_area() as f64;
+        if root_area <= 0.0 {
+            return c_isect as f64 * self.triangles.len() as f64;
+        }
+        let mut sum = c_trav as f64 * root_area;
+        for n in &self.nodes {
+            for lane in 0..n.child_count() {
+                let area = n.child_bounds(lane).surface_area() as f64;
+                sum += area
+                    * if n.is_interior(lane) {
+                        c_trav as f64
+                    } else {
+                        c_isect as f64 * n.count[lane] as f64
+                    };
+            }
+        }
+        sum / root_area
+    }
+
+    /// Checks that each triangle is in exactly one leaf, every child box contains exactly
+    /// its subtree's boxes and triangles, and interior children come after their parent.
+    pub fn validate(&self) -> Result<(), String> {
+        let n = self.triangles.len();
+        let mut seen = vec![false; n];
+        for &i in &self.prim_indices {
+            let slot = seen
+                .get_mut(i as usize)
+                .ok_or_else(|| format!("triangle index {i} out of range"))?;
+            if std::mem::replace(slot, true) {
+                return Err(format!("triangle {i} appears twice"));
+            }
+        }
+        let mut covered = 0usize;
+        for (i, node) in self.nodes.iter().enumerate() {
+            let used = node.child_count();
+            if node.count[used..].iter().any(|&c| c != 0) {
+                return Err(format!("node {i} has a used lane after an unused one"));
+            }
+            for lane in 0..used {
+                let b = node.child_bounds(lane);
+                let c = node.child[lane] as usize;
+                let inside = if node.is_interior(lane) {
+                    if c <= i || c >= self.nodes.len() {
+                        return Err(format!("node {i} lane {lane} points to node {c}"));
+                    }
+                    self.nodes[c].bounds()
+                } else {
+                    let range = c..c + node.count[lane] as usize;
+                    if range.end > n {
+                        return Err(format!("node {i} lane {lane} leaf {range:?} beyond {n}"));
+                    }
+                    covered += range.len();
+                    self.triangles[range]
+                        .iter()
+                        .fold(Aabb::EMPTY, |a, t| a.union(t.bounds()))
+                };
+                if !b.contains(&inside) {
+                    return Err(format!(
+                        "node {i} lane {lane}: {b:?} does not contain {inside:?}"
+                    ));
+                }
+            }
+        }
+        if covered != n {
+            return Err(format!("leaves hold {covered} of {n} triangles"));
+        }
+        Ok(())
+    }
+
+    /// The tree for the explorer: wide nodes and their leaves, children contiguous.
+    pub fn outline(&self) -> Outline {
+        let root = &self.nodes[0];
+        let mut nodes = vec![OutlineNode {
+            bounds: root.bounds(),
+            depth: 0,
+            parent: u32::MAX,
+            first_child: 0,
+            child_count: 0,
+            refs: (0, 0),
+            plane: None,
+        }];
+        // (outline index, wide node index), breadth first so siblings are contiguous.
+        let mut queue = std::collections::VecDeque::from([(0usize, 0usize)]);
+        while let Some((at, wide)) = queue.pop_front() {
+            let w = &self.nodes[wide];
+            let first = nodes.len();
+            for lane in 0..w.child_count() {
+                let interior = w.is_interior(lane);
+                if interior {
+                    queue.push_back((nodes.len(), w.child[lane] as usize));
+                }
+                nodes.push(OutlineNode {
+                    bounds: w.child_bounds(lane),
+                    depth: nodes[at].depth + 1,
+                    parent: at as u32,
+                    first_child: 0,
+                    child_count: 0,
+                    refs: if interior {
+                        (0, 0)
+                    } else {
+                        (w.child[lane], w.count[lane])
+                    },
+                    plane: None,
+                });
+            }
+            nodes[at].first_child = first as u32;
+            nodes[at].child_count = (nodes.len() - first) as u32;
+        }
+        Outline {
+            nodes,
+            refs: self.prim_indices.clone(),
+        }
+    }
+}

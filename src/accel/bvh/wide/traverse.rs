@@ -1,0 +1,346 @@
+//! Traversal of a wide BVH: at each node one SIMD slab test of all W children; the children
+//! the ray enters are pushed farthest first, so the nearest is visited next (front to back),
+//! and, as in the BVH2, a popped entry beyond the best hit so far is skipped.
+//!
+//! The traversal is written once, generic over the slab kernel; each SIMD level gets an
+//! entry point compiled for its instruction set (`#[target_feature]`), into which the
+//! generic code and the kernel are inlined. Counting: a wide node or a leaf popped is one
+//! node visited, and each child of a visited node one box test.
+
+use super::WideBvh;
+use super::node::INTERIOR;
+use crate::accel::bvh::build::MAX_DEPTH;
+use crate::accel::bvh::traverse::T_SCALE;
+use crate::accel::{Accel, BestHit, Hit, Stats, TraversalOrder};
+use crate::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab};
+use crate::geometry::simd::{SimdLevel, WideRay};
+use crate::geometry::{Intersector, Ray};
+use std::mem::MaybeUninit;
+
+/// A child still to visit: a node (`count == INTERIOR`) or a leaf's triangles, and the
+/// distance at which the ray enters its box.
+#[derive(Clone, Copy)]
+struct Entry {
+    child: u32,
+    count: u32,
+    entry: f32,
+}
+
+/// Each level leaves at most W − 1 ≤ 7 children on the stack, and no wide tree is deeper
+/// than the BVH2 it was collapsed from.
+const STACK_SIZE: usize = 7 * MAX_DEPTH + 1;
+
+/// The traversal stack, left uninitialised: a BVH8 stack is 8 KiB, and clearing it for
+/// every ray would cost more than many rays' whole traversal.
+struct Stack {
+    entries: [MaybeUninit<Entry>; STACK_SIZE],
+    len: usize,
+}
+
+impl Stack {
+    #[inline(always)]
+    fn new() -> Self {
+        Stack {
+            entries: [MaybeUninit::uninit(); STACK_SIZE],
+            len: 0,
+        }
+    }
+
+    #[inline(always)]
+    fn push(&mut self, e: Entry) {
+        self.entries[self.len].write(e);
+        self.len += 1;
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<Entry> {
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        // SAFETY: entries below `len` were written by `push` and not popped since.
+        Some(unsafe { self.entries[self.len].assume_init() })
+    }
+
+    /// Orders the top `n` entries so the nearest is on top (insertion sort: n ≤ 8).
+    #[inline(always)]
+    fn sort_top(&mut self, n: usize) {
+        let base = self.len - n;
+        // SAFETY: the top n entries were just pushed.
+        let top = unsafe {
+            &mut *(&mut self.entries[base..self.len] as *mut [MaybeUninit<Entry>] as *mut [Entry])
+        };
+        for i in 1..top.len() {
+            let e = top[i];
+            let mut j = i;
+            while j > 0 && top[j - 1].entry < e.entry {
+                top[j] = top[j - 1];
+                j -= 1;
+            }
+            top[j] = e;
+        }
+    }
+}
+
+impl<const W: usize> WideBvh<W> {
+    /// The leaf's triangles against the ray, keeping the best hit.
+    #[inline(always)]
+    fn leaf_closest<I: Intersector, S: Stats>(
+        &self,
+        e: Entry,
+        data: &I::RayData,
+        ray: &Ray,
+        best: &mut BestHit,
+        stats: &mut S,
+    ) -> bool {
+        let mut found = false;
+        let range = e.child as usize..(e.child + e.count) as usize;
+        for (tri, &index) in self.triangles[range.clone()]
+            .iter()
+            .zip(&self.prim_indices[range])
+        {
+            stats.triangle_test();
+            if let Some(h) = I::intersect(data, ray, tri, ray.tmin, best.limit) {
+                best.offer(h, index);
+                found = true;
+            }
+        }
+        found
+    }
+
+    #[inline(always)]
+    fn closest_with<K: WideSlab<W>, I: Intersector, S: Stats, const ORDERED: bool>(
+        &self,
+        ray: &Ray,
+        stats: &mut S,
+    ) -> Option<Hit> {
+        let wray = WideRay::new(ray);
+        let data = I::prepare(ray);
+        let mut best = BestHit::new(ray);
+        let mut box_tmax = ray.tmax * T_SCALE;
+        let mut stack = Stack::new();
+        let mut entry = [0.0f32; W];
+        let mut cur = Entry {
+            child: 0,
+            count: INTERIOR,
+            entry: ray.tmin,
+        };
+        loop {
+            stats.node_visit();
+            if cur.count != INTERIOR {
+                if self.leaf_closest::<I, S>(cur, &data, ray, &mut best, stats) {
+                    box_tmax = best.t * T_SCALE;
+                }
+            } else {
+                let node = &self.nodes[cur.child as usize];
+                if S::COUNTING {
+                    stats.box_tests(node.child_count() as u32);
+                }
+                // SAFETY: a tree only selects a kernel its CPU supports (`set_simd`), and
+                // the entry points below are compiled for it.
+                let mut mask =
+                    unsafe { K::entries(&node.bounds, &wray, ray.tmin, box_tmax, &mut entry) };
+                if mask != 0 {
+                    let lane = |i: u32| Entry {
+                        child: node.child[i as usize],
+                        count: node.count[i as usize],
+                        entry: entry[i as usize],
+                    };
+                    if mask & (mask - 1) == 0 {
+                        cur = lane(mask.trailing_zeros());
+                        continue;
+                    }
+                    let mut n = 0;
+                    if ORDERED {
+                        while mask != 0 {
+                            stack.push(lane(mask.trailing_zeros()));
+                            mask &= mask - 1;
+                            n += 1;
+                        }
+                        stack.sort_top(n);
+                    } else {
+                        // Naive order: the first child on top.
+                        while mask != 0 {
+                            let i = 31 - mask.leading_zeros();
+                            stack.push(lane(i));
+                            mask &= !(1 << i);
+                        }
+                    }
+                    if let Some(e) = stack.pop() {
+                        cur = e;
+                        continue;
+                    }
+                }
+            }
+            // Pop the next child the ray can still reach before the best hit.
+            loop {
+                match stack.pop() {
+                    None => return best.hit(),
+                    Some(e) if e.entry <= box_tmax => {
+                        cur = e;
+                        break;
+                    }
+                    Some(_) => {}
+                }
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn occluded_with<K: WideSlab<W>, I: Intersector, S: Stats>(
+        &self,
+        ray: &Ray,
+        stats: &mut S,
+    ) -> bool {
+        let wray = WideRay::new(ray);
+        let data = I::prepare(ray);
+        let tmax = ray.tmax * T_SCALE;
+        let mut stack = Stack::new();
+        let mut entry = [0.0f32; W];
+        let mut cur = Entry {
+            child: 0,
+            count: INTERIOR,
+            entry: ray.tmin,
+        };
+        loop {
+            stats.node_visit();
+            if cur.count != INTERIOR {
+                let range = cur.child as usize..(cur.child + cur.count) as usize;
+                for tri in &self.triangles[range] {
+                    stats.triangle_test();
+                    if I::intersect(&data, ray, tri, ray.tmin, ray.tmax).is_some() {
+                        return true;
+                    }
+                }
+            } else {
+                let node = &self.nodes[cur.child as usize];
+                if S::COUNTING {
+                    stats.box_tests(node.child_count() as u32);
+                }
+                // SAFETY: as in `closest_with`.
+                let mut mask =
+                    unsafe { K::entries(&node.bounds, &wray, ray.tmin, tmax, &mut entry) };
+                if mask != 0 {
+                    let i = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    while mask != 0 {
+                        let j = mask.trailing_zeros() as usize;
+                        mask &= mask - 1;
+                        stack.push(Entry {
+                            child: node.child[j],
+                            count: node.count[j],
+                            entry: entry[j],
+                        });
+                    }
+                    cur = Entry {
+                        child: node.child[i],
+                        count: node.count[i],
+                        entry: entry[i],
+                    };
+                    continue;
+                }
+            }
+            match stack.pop() {
+                None => return false,
+                Some(e) => cur = e,
+            }
+        }
+    }
+}
+
+/// Entry points compiled for each instruction set: the generic traversal and its kernel
+/// are inlined into them, so the whole loop uses the set's instructions.
+macro_rules! entry_points {
+    ($closest:ident, $occluded:ident, $kernel:ty, $features:literal) => {
+        impl<const W: usize> WideBvh<W>
+        where
+            $kernel: WideSlab<W>,
+        {
+            #[target_feature(enable = $features)]
+            fn $closest<I: Intersector, S: Stats, const ORDERED: bool>(
+                &self,
+                ray: &Ray,
+                stats: &mut S,
+            ) -> Option<Hit> {
+                self.closest_with::<$kernel, I, S, ORDERED>(ray, stats)
+            }
+
+            #[target_feature(enable = $features)]
+            fn $occluded<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
+                self.occluded_with::<$kernel, I, S>(ray, stats)
+            }
+        }
+    };
+}
+
+#[cfg(target_arch = "x86_64")]
+entry_points!(closest_sse41, occluded_sse41, Sse41, "sse4.1");
+#[cfg(target_arch = "x86_64")]
+entry_points!(closest_avx2, occluded_avx2, Avx2, "avx2");
+#[cfg(target_arch = "x86_64")]
+entry_points!(closest_avx512, occluded_avx512, Avx512, "avx512f,avx512vl");
+
+impl<const W: usize> WideBvh<W>
+where
+    Portable: WideSlab<W>,
+    Sse41: WideSlab<W>,
+    Avx2: WideSlab<W>,
+    Avx512: WideSlab<W>,
+{
+    #[inline(always)]
+    fn closest_dispatch<I: Intersector, S: Stats, const ORDERED: bool>(
+        &self,
+        ray: &Ray,
+        stats: &mut S,
+    ) -> Option<Hit> {
+        match self.simd {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `simd` only holds a level this CPU supports (`set_simd`).
+            SimdLevel::Sse41 => unsafe { self.closest_sse41::<I, S, ORDERED>(ray, stats) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above.
+            SimdLevel::Avx2 => unsafe { self.closest_avx2::<I, S, ORDERED>(ray, stats) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above.
+            SimdLevel::Avx512 => unsafe { self.closest_avx512::<I, S, ORDERED>(ray, stats) },
+            _ => self.closest_with::<Portable, I, S, ORDERED>(ray, stats),
+        }
+    }
+
+    #[inline(always)]
+    fn occluded_dispatch<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
+        match self.simd {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `simd` only holds a level this CPU supports (`set_simd`).
+            SimdLevel::Sse41 => unsafe { self.occluded_sse41::<I, S>(ray, stats) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above.
+            SimdLevel::Avx2 => unsafe { self.occluded_avx2::<I, S>(ray, stats) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above.
+            SimdLevel::Avx512 => unsafe { self.occluded_avx512::<I, S>(ray, stats) },
+            _ => self.occluded_with::<Portable, I, S>(ray, stats),
+        }
+    }
+}
+
+impl<const W: usize> Accel for WideBvh<W>
+where
+    Portable: WideSlab<W>,
+    Sse41: WideSlab<W>,
+    Avx2: WideSlab<W>,
+    Avx512: WideSlab<W>,
+{
+    fn closest_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
+        crate::accel::stats::count_locally(stats, |local| match self.order {
+            TraversalOrder::FrontToBack => self.closest_dispatch::<I, S, true>(ray, local),
+            TraversalOrder::Naive => self.closest_dispatch::<I, S, false>(ray, local),
+        })
+    }
+
+    fn any_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
+        crate::accel::stats::count_locally(stats, |local| {
+            self.occluded_dispatch::<I, S>(ray, local)
+        })
+    }
+}

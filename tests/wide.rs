@@ -1,0 +1,265 @@
+//! The wide BVHs (BVH4, BVH8) against the BVH2 they are collapsed from: every SIMD kernel
+//! this machine has gives the BVH2's hits bit for bit (triangle, t, u, v), any hit agrees,
+//! counting changes nothing; the kernels equal the scalar slab test lane for lane; the
+//! collapse keeps every box around its subtree and costs no more than a greedy collapse.
+
+mod common;
+
+use bvhlab::accel::bvh::wide::CollapseParams;
+use bvhlab::accel::bvh::{self, BuildParams, Bvh, Strategy, TraversalOrder, WideBvh};
+use bvhlab::accel::{Accel, Counters, Hit, NoStats};
+use bvhlab::geometry::aabb::{SlabRay, slab_entry};
+use bvhlab::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab};
+use bvhlab::geometry::simd::{SimdLevel, WideRay};
+use bvhlab::geometry::{Aabb, Ray, Triangle, Watertight};
+use bvhlab::scene::Scene;
+use common::{Rng, SMALL_BUILTINS, degenerate_cases, rays, soup, view_rays};
+use glam::Vec3;
+
+fn bounds(tris: &[Triangle]) -> Aabb {
+    tris.iter().fold(Aabb::EMPTY, |b, t| b.union(t.bounds()))
+}
+
+fn bits(h: Option<Hit>) -> Option<(u32, u32, u32, u32)> {
+    h.map(|h| (h.triangle, h.t.to_bits(), h.u.to_bits(), h.v.to_bits()))
+}
+
+fn bvh2(tris: &[Triangle], strategy: Strategy) -> Bvh {
+    bvh::build(tris, &BuildParams::with_strategy(strategy))
+        .expect("build")
+        .0
+}
+
+/// Every kernel and order of a W-wide collapse of `b2` against `b2` itself.
+fn assert_wide_equals_bvh2<const W: usize>(b2: &Bvh, rays: &[Ray], what: &str)
+where
+    WideBvh<W>: Accel,
+{
+    let mut wide = WideBvh::<W>::collapse(b2, &CollapseParams::default());
+    wide.validate()
+        .unwrap_or_else(|e| panic!("{what}: BVH{W}: {e}"));
+    wide.outline()
+        .validate()
+        .unwrap_or_else(|e| panic!("{what}: BVH{W} outline: {e}"));
+    for level in SimdLevel::available() {
+        wide.set_simd(level).unwrap();
+        for order in TraversalOrder::ALL {
+            wide.order = order;
+            for (i, ray) in rays.iter().enumerate() {
+                let expected = b2.closest_hit::<Watertight, _>(ray, &mut NoStats);
+                let got = wide.closest_hit::<Watertight, _>(ray, &mut NoStats);
+                assert_eq!(
+                    bits(got),
+                    bits(expected),
+                    "{what}: BVH{W} {} {}: ray {i} {ray:?}",
+                    level.label(),
+                    order.label()
+                );
+                let mut c = Counters::default();
+                let counted = wide.closest_hit::<Watertight, _>(ray, &mut c);
+                assert_eq!(bits(counted), bits(got), "{what}: counting changed ray {i}");
+                let occluded = wide.any_hit::<Watertight, _>(ray, &mut NoStats);
+                assert_eq!(occluded, got.is_some(), "{what}: any hit of ray {i}");
+                let occluded_counted = wide.any_hit::<Watertight, _>(ray, &mut Counters::default());
+                assert_eq!(
+                    occluded_counted, occluded,
+                    "{what}: counted any hit of ray {i}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn wide_trees_equal_the_bvh2_on_random_soups() {
+    for seed in 0..3 {
+        let tris = soup(2000, seed);
+        let rays = rays(&bounds(&tris), 2000, seed + 20);
+        for strategy in Strategy::ALL {
+            let b2 = bvh2(&tris, strategy);
+            let what = format!("soup {seed} {}", strategy.label());
+            assert_wide_equals_bvh2::<4>(&b2, &rays, &what);
+            assert_wide_equals_bvh2::<8>(&b2, &rays, &what);
+        }
+    }
+}
+
+#[test]
+fn wide_trees_equal_the_bvh2_on_every_builtin_scene() {
+    for name in SMALL_BUILTINS {
+        let scene = Scene::load(name).unwrap();
+        let mut rays = view_rays(&scene, 48, 36);
+        rays.extend(common::rays(&scene.bounds(), 1000, 7));
+        let b2 = bvh2(&scene.triangles, Strategy::SahBinned);
+        assert_wide_equals_bvh2::<4>(&b2, &rays, name);
+        assert_wide_equals_bvh2::<8>(&b2, &rays, name);
+    }
+}
+
+#[test]
+fn wide_trees_survive_degenerate_inputs() {
+    for (what, tris) in degenerate_cases() {
+        let b = bounds(&tris);
+        let rays = if tris.is_empty() {
+            common::rays(&Aabb::new(Vec3::splat(-1.0), Vec3::ONE), 200, 3)
+        } else {
+            common::rays(&b, 500, 3)
+        };
+        let b2 = bvh2(&tris, Strategy::SahBinned);
+        assert_wide_equals_bvh2::<4>(&b2, &rays, what);
+        assert_wide_equals_bvh2::<8>(&b2, &rays, what);
+    }
+}
+
+/// Each kernel's lanes equal the scalar slab test on random boxes, flat boxes, boxes the
+/// ray starts in, and axis-parallel rays with ±0 components lying in a box's face plane.
+#[test]
+fn every_slab_kernel_equals_the_scalar_slab_test() {
+    fn check<const W: usize, K: WideSlab<W>>(level: SimdLevel, rng: &mut Rng)
+    where
+        Portable: WideSlab<W>,
+    {
+        if !level.supported() {
+            return;
+        }
+        let unit = Aabb::new(Vec3::splat(-1.0), Vec3::ONE);
+        for case in 0..20_000 {
+            let mut boxes = [Aabb::EMPTY; W];
+            for (i, b) in boxes.iter_mut().enumerate() {
+                let (p, q) = (rng.vec3_in(&unit), rng.vec3_in(&unit));
+                *b = match (case + i) % 4 {
+                    // Flat in x: the ray may lie in its plane.
+                    0 => Aabb::new(p.min(q).with_x(0.25), p.max(q).with_x(0.25)),
+                    1 if i == W - 1 => Aabb::EMPTY,
+                    _ => Aabb::new(p.min(q), p.max(q)),
+                };
+            }
+            let origin = match case % 3 {
+                0 => rng.vec3_in(&unit),
+                1 => Vec3::new(0.25, rng.range(-1.0, 1.0), rng.range(-1.0, 1.0)),
+                _ => rng.unit_vector() * 3.0,
+            };
+            let mut d = match case % 4 {
+                0 => Vec3::new(0.0, 1.0, 0.0),
+                1 => Vec3::new(-0.0, -0.0, -1.0),
+                _ => rng.unit_vector(),
+            };
+            if case % 7 == 0 {
+                d.x = -0.0;
+            }
+            let ray = Ray::new(origin, d);
+            let (tmin, tmax) = (0.0, if case % 5 == 0 { 0.7 } else { f32::INFINITY });
+            let mut rows = [[0.0f32; W]; 6];
+            for (i, b) in boxes.iter().enumerate() {
+                for a in 0..3 {
+                    rows[a][i] = b.min[a];
+                    rows[a + 3][i] = b.max[a];
+                }
+            }
+            let wray = WideRay::new(&ray);
+            let mut got = [0.0f32; W];
+            // SAFETY: `level.supported()` was checked above.
+            let mask = unsafe { K::entries(&rows, &wray, tmin, tmax, &mut got) };
+            let slab = SlabRay::new(&ray);
+            for (i, b) in boxes.iter().enumerate() {
+                let expected = slab_entry(&[b.min, b.max], &slab, tmin, tmax);
+                let hit = mask >> i & 1 == 1;
+                assert_eq!(
+                    hit,
+                    expected != f32::INFINITY,
+                    "{} W={W} case {case} lane {i}: {b:?} {ray:?}",
+                    level.label()
+                );
+                if hit {
+                    assert_eq!(
+                        got[i].to_bits(),
+                        expected.to_bits(),
+                        "{} lane {i}",
+                        level.label()
+                    );
+                }
+            }
+        }
+    }
+    let mut rng = Rng::new(11);
+    check::<4, Portable>(SimdLevel::Portable, &mut rng);
+    check::<8, Portable>(SimdLevel::Portable, &mut rng);
+    check::<4, Sse41>(SimdLevel::Sse41, &mut rng);
+    check::<8, Sse41>(SimdLevel::Sse41, &mut rng);
+    check::<4, Avx2>(SimdLevel::Avx2, &mut rng);
+    check::<8, Avx2>(SimdLevel::Avx2, &mut rng);
+    check::<4, Avx512>(SimdLevel::Avx512, &mut rng);
+    check::<8, Avx512>(SimdLevel::Avx512, &mut rng);
+}
+
+/// The greedy collapse the dynamic program must beat or tie: open the child with the
+/// largest box until W children, leaves where the BVH2 has them.
+fn greedy_cost<const W: usize>(b2: &Bvh, p: &CollapseParams) -> f64 {
+    let area = |i: usize| b2.nodes[i].bounds().surface_area() as f64;
+    let root = area(0);
+    let mut cost = p.c_trav as f64 * root;
+    let mut open = vec![0usize];
+    while let Some(n) = open.pop() {
+        let l = b2.nodes[n].left_first as usize;
+        let mut children = vec![l, l + 1];
+        while children.len() < W {
+            let Some((k, _)) = children
+                .iter()
+                .enumerate()
+                .filter(|(_, c)| !b2.nodes[**c].is_leaf())
+                .max_by(|a, b| area(*a.1).total_cmp(&area(*b.1)))
+            else {
+                break;
+            };
+            let c = children.swap_remove(k);
+            let l = b2.nodes[c].left_first as usize;
+            children.extend([l, l + 1]);
+        }
+        for c in children {
+            let node = &b2.nodes[c];
+            if node.is_leaf() {
+                cost += p.c_isect as f64 * node.count as f64 * area(c);
+            } else {
+                cost += p.c_trav as f64 * area(c);
+                open.push(c);
+            }
+        }
+    }
+    cost / root
+}
+
+#[test]
+fn the_sah_optimal_collapse_costs_no_more_than_a_greedy_one() {
+    let p = CollapseParams::default();
+    for name in [
+        "cornell",
+        "teapot-in-stadium",
+        "sphere:3000",
+        "walls-rotated",
+    ] {
+        let scene = Scene::load(name).unwrap();
+        let b2 = bvh2(&scene.triangles, Strategy::SahBinned);
+        let w4 = WideBvh::<4>::collapse(&b2, &p);
+        let w8 = WideBvh::<8>::collapse(&b2, &p);
+        let (c4, g4) = (w4.sah_cost(p.c_trav, p.c_isect), greedy_cost::<4>(&b2, &p));
+        let (c8, g8) = (w8.sah_cost(p.c_trav, p.c_isect), greedy_cost::<8>(&b2, &p));
+        assert!(c4 <= g4 * (1.0 + 1e-5), "{name}: BVH4 {c4} > greedy {g4}");
+        assert!(c8 <= g8 * (1.0 + 1e-5), "{name}: BVH8 {c8} > greedy {g8}");
+        // A wider node folds more levels: fewer nodes, and no deeper a tree.
+        assert!(w8.nodes.len() < w4.nodes.len(), "{name}");
+        assert!(w8.depth <= w4.depth, "{name}");
+    }
+}
+
+#[test]
+fn an_unsupported_kernel_is_refused_and_changes_nothing() {
+    let b2 = bvh2(&soup(100, 1), Strategy::SahBinned);
+    let mut wide = WideBvh::<8>::collapse(&b2, &CollapseParams::default());
+    let before = wide.simd;
+    for level in SimdLevel::ALL.into_iter().filter(|l| !l.supported()) {
+        let err = wide.set_simd(level).unwrap_err();
+        assert!(err.to_string().contains(level.label()), "{err}");
+        assert_eq!(wide.simd, before);
+    }
+    assert!(wide.set_simd(SimdLevel::Portable).is_ok());
+}
