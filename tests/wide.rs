@@ -263,3 +263,75 @@ fn an_unsupported_kernel_is_refused_and_changes_nothing() {
     }
     assert!(wide.set_simd(SimdLevel::Portable).is_ok());
 }
+
+/// Moves some triangles (scene order), returning the moved indices.
+fn shake(tris: &mut [Triangle], rng: &mut Rng, every: usize) -> Vec<u32> {
+    let mut moved = Vec::new();
+    for (i, t) in tris.iter_mut().enumerate() {
+        if rng.below(every) == 0 {
+            let d = Vec3::new(
+                rng.range(-0.3, 0.3),
+                rng.range(-0.3, 0.3),
+                rng.range(-0.3, 0.3),
+            );
+            for v in &mut t.v {
+                *v += d;
+            }
+            moved.push(i as u32);
+        }
+    }
+    moved
+}
+
+#[test]
+fn refit_then_trace_equals_rebuild_then_trace() {
+    use bvhlab::accel::bvh::refit::RefitIndex;
+    fn check<const W: usize>(seed: u64)
+    where
+        WideBvh<W>: Accel,
+    {
+        let mut rng = Rng::new(seed);
+        let mut tris = soup(3000, seed);
+        let b2 = bvh2(&tris, Strategy::SahBinned);
+        let mut full = WideBvh::<W>::collapse(&b2, &CollapseParams::default());
+        let mut partial = full.clone();
+        let mut index = RefitIndex::for_wide(&partial);
+        for round in 0..3 {
+            let moved = shake(&mut tris, &mut rng, 10);
+            full.refit(&tris, 1.0, 1.0).unwrap();
+            partial
+                .refit_moved(&mut index, &tris, &moved, 1.0, 1.0)
+                .unwrap();
+            full.validate()
+                .unwrap_or_else(|e| panic!("BVH{W} refit round {round}: {e}"));
+            partial
+                .validate()
+                .unwrap_or_else(|e| panic!("BVH{W} partial round {round}: {e}"));
+            let rebuilt = WideBvh::<W>::collapse(
+                &bvh2(&tris, Strategy::SahBinned),
+                &CollapseParams::default(),
+            );
+            for ray in rays(&bounds(&tris), 1500, seed + round) {
+                let expected = bits(rebuilt.closest_hit::<Watertight, _>(&ray, &mut NoStats));
+                assert_eq!(
+                    bits(full.closest_hit::<Watertight, _>(&ray, &mut NoStats)),
+                    expected
+                );
+                assert_eq!(
+                    bits(partial.closest_hit::<Watertight, _>(&ray, &mut NoStats)),
+                    expected
+                );
+                assert_eq!(
+                    partial.any_hit::<Watertight, _>(&ray, &mut NoStats),
+                    expected.is_some()
+                );
+            }
+        }
+        // Partial and full refits give the same boxes.
+        assert_eq!(full.nodes, partial.nodes);
+        let err = full.refit(&tris[1..], 1.0, 1.0).unwrap_err();
+        assert!(err.to_string().contains("rebuild"), "{err}");
+    }
+    check::<4>(1);
+    check::<8>(2);
+}

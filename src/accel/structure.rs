@@ -7,6 +7,7 @@
 //! Adding a structure is: its folder, a variant of `AccelKind` and `Structure`, its
 //! parameters in `StructureParams`, and one arm in each `match` below.
 
+use super::bvh::refit::{RefitError, RefitIndex, RefitReport};
 use super::bvh::wide::{CollapseParams, UnsupportedSimd};
 use super::bvh::{self, BuildError, BuildReport, Bvh, Bvh4, Bvh8, WideBvh};
 use super::grid::{self, Grid, GridError, GridParams};
@@ -111,7 +112,7 @@ impl AccelKind {
 
     /// Whether the structure can be refitted after motion (rather than rebuilt).
     pub fn can_refit(self) -> bool {
-        self == AccelKind::Bvh
+        self.is_bvh()
     }
 }
 
@@ -403,6 +404,34 @@ impl Structure {
             Structure::Bvh8(w) => w.order = order,
             _ => {}
         }
+    }
+
+    /// Refits after the scene triangles `moved` changed, for the structures that can
+    /// (`None` for the others, which must be rebuilt). `index` is made at the first refit
+    /// after a build and kept while the topology is.
+    pub fn refit_moved(
+        &mut self,
+        index: &mut Option<RefitIndex>,
+        scene: &[Triangle],
+        moved: &[u32],
+        c_trav: f32,
+        c_isect: f32,
+    ) -> Option<Result<RefitReport, RefitError>> {
+        Some(match self {
+            Structure::Bvh(b) => {
+                let index = index.get_or_insert_with(|| RefitIndex::new(b));
+                b.refit_moved(index, scene, moved, c_trav, c_isect)
+            }
+            Structure::Bvh4(w) => {
+                let index = index.get_or_insert_with(|| RefitIndex::for_wide(w));
+                w.refit_moved(index, scene, moved, c_trav, c_isect)
+            }
+            Structure::Bvh8(w) => {
+                let index = index.get_or_insert_with(|| RefitIndex::for_wide(w));
+                w.refit_moved(index, scene, moved, c_trav, c_isect)
+            }
+            _ => return None,
+        })
     }
 
     pub fn as_bvh(&self) -> Option<&Bvh> {

@@ -430,11 +430,16 @@ impl State {
         }
         let start = Instant::now();
         let p = &self.params.bvh;
-        if let Some(bvh) = structure.as_bvh_mut() {
-            // Only the moved triangles' leaves and their ancestors change.
-            let index = self.refit_index.get_or_insert_with(|| RefitIndex::new(bvh));
-            if let Ok(r) = bvh.refit_moved(index, &scene.triangles, triangles, p.c_trav, p.c_isect)
-            {
+        // Only the moved triangles' leaves and their ancestors change.
+        let refit = structure.refit_moved(
+            &mut self.refit_index,
+            &scene.triangles,
+            triangles,
+            p.c_trav,
+            p.c_isect,
+        );
+        if let Some(refit) = refit {
+            if let Ok(r) = refit {
                 self.version += 1;
                 self.reply(Reply::Refitted {
                     sah_before: r.sah_before,

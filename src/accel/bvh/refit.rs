@@ -71,11 +71,14 @@ impl Bvh {
 /// long as the tree's topology is (refits keep it; a rebuild needs a new one).
 #[derive(Clone, Debug, Default)]
 pub struct RefitIndex {
-    slot_of: Vec<u32>,
-    leaf_of: Vec<u32>,
-    parent: Vec<u32>,
+    /// Scene triangle → its leaf-order slot.
+    pub(crate) slot_of: Vec<u32>,
+    /// Slot → the node whose leaf holds it.
+    pub(crate) leaf_of: Vec<u32>,
+    /// Node → its parent (`u32::MAX` for the root).
+    pub(crate) parent: Vec<u32>,
     /// Scratch: which nodes are already queued.
-    queued: Vec<bool>,
+    pub(crate) queued: Vec<bool>,
 }
 
 impl RefitIndex {
@@ -101,6 +104,38 @@ impl RefitIndex {
     }
 }
 
+impl RefitIndex {
+    /// Copies the `moved` scene triangles into their slots of `triangles` (leaf order) and
+    /// returns the nodes whose boxes change (their leaves and every ancestor), children
+    /// before parents: nodes come after their parents, so high index to low is bottom-up.
+    pub(crate) fn dirty_nodes(
+        &mut self,
+        triangles: &mut [Triangle],
+        scene: &[Triangle],
+        moved: &[u32],
+    ) -> Vec<usize> {
+        let mut dirty = Vec::new();
+        for &t in moved {
+            let Some(&slot) = self.slot_of.get(t as usize) else {
+                continue;
+            };
+            triangles[slot as usize] = scene[t as usize];
+            // Queue the leaf and every ancestor not queued yet.
+            let mut node = self.leaf_of[slot as usize];
+            while node != u32::MAX && !self.queued[node as usize] {
+                self.queued[node as usize] = true;
+                dirty.push(node as usize);
+                node = self.parent[node as usize];
+            }
+        }
+        dirty.sort_unstable_by(|a, b| b.cmp(a));
+        for &i in &dirty {
+            self.queued[i] = false;
+        }
+        dirty
+    }
+}
+
 impl Bvh {
     /// Refit after only the scene triangles `moved` changed: their leaves and the nodes
     /// above them, O(moved · depth) instead of O(nodes). Gives the same boxes as `refit`.
@@ -119,25 +154,7 @@ impl Bvh {
             });
         }
         let sah_before = self.sah_cost(c_trav, c_isect);
-        let mut dirty = Vec::new();
-        for &t in moved {
-            let Some(&slot) = index.slot_of.get(t as usize) else {
-                continue;
-            };
-            self.triangles[slot as usize] = scene[t as usize];
-            // Queue the leaf and every ancestor not queued yet.
-            let mut node = index.leaf_of[slot as usize];
-            while node != u32::MAX && !index.queued[node as usize] {
-                index.queued[node as usize] = true;
-                dirty.push(node);
-                node = index.parent[node as usize];
-            }
-        }
-        // Children have larger indices than their parents: high to low is bottom-up.
-        dirty.sort_unstable_by(|a, b| b.cmp(a));
-        for &i in &dirty {
-            let i = i as usize;
-            index.queued[i] = false;
+        for i in index.dirty_nodes(&mut self.triangles, scene, moved) {
             self.refit_node(i);
         }
         Ok(RefitReport {

@@ -8,6 +8,7 @@
 
 pub mod collapse;
 pub mod node;
+pub mod refit;
 pub mod traverse;
 
 pub use collapse::CollapseParams;
@@ -88,8 +89,8 @@ impl<const W: usize> WideBvh<W> {
         sum / root_area
     }
 
-    /// Checks that each triangle is in exactly one leaf, every child box contains exactly
-    /// its subtree's boxes and triangles, and interior children come after their parent.
+    /// Checks that each triangle is in exactly one leaf, every child box is exactly the
+    /// union of its subtree's boxes or triangles, and interior children come after their parent.
     pub fn validate(&self) -> Result<(), String> {
         let n = self.triangles.len();
         let mut seen = vec![false; n];
@@ -125,10 +126,9 @@ impl<const W: usize> WideBvh<W> {
                         .iter()
                         .fold(Aabb::EMPTY, |a, t| a.union(t.bounds()))
                 };
-                if !b.contains(&inside) {
-                    return Err(format!(
-                        "node {i} lane {lane}: {b:?} does not contain {inside:?}"
-                    ));
+                // Exactly: a child's box is the union of what lies under it, no larger.
+                if b != inside {
+                    return Err(format!("node {i} lane {lane}: {b:?} is not {inside:?}"));
                 }
             }
         }

@@ -1,0 +1,144 @@
+//! Refit of a wide BVH after motion: the same topology, every child box recomputed bottom-up
+//! (a leaf lane from its triangles, an interior lane from its node's children), so the app's
+//! drag keeps the fastest tree instead of falling back to the BVH2.
+
+use super::WideBvh;
+use super::node::WideNode;
+use crate::accel::bvh::refit::{RefitError, RefitIndex, RefitReport};
+use crate::geometry::{Aabb, Triangle};
+use rayon::prelude::*;
+
+/// Below this many triangles a refit runs on one thread (spawning costs more).
+const PARALLEL_REFIT: usize = 1 << 15;
+
+impl<const W: usize> WideBvh<W> {
+    /// The leaf lanes' boxes of `node`, from the triangles.
+    fn refit_leaves(node: &mut WideNode<W>, triangles: &[Triangle]) {
+        for lane in 0..node.child_count() {
+            if !node.is_interior(lane) {
+                let first = node.child[lane] as usize;
+                let b = triangles[first..first + node.count[lane] as usize]
+                    .iter()
+                    .fold(Aabb::EMPTY, |b, t| b.union(t.bounds()));
+                node.set_child_bounds(lane, b);
+            }
+        }
+    }
+
+    /// The interior lanes' boxes of node `i`, from its children (which come after it).
+    fn refit_interior(&mut self, i: usize) {
+        let (head, tail) = self.nodes.split_at_mut(i + 1);
+        let node = &mut head[i];
+        for lane in 0..node.child_count() {
+            if node.is_interior(lane) {
+                let child = node.child[lane] as usize - (i + 1);
+                node.set_child_bounds(lane, tail[child].bounds());
+            }
+        }
+    }
+
+    /// Takes the moved triangles (`scene` in scene order, the count the tree was built over)
+    /// and updates every box: triangles and leaf boxes in parallel, then one backward pass
+    /// over the nodes for the interior boxes.
+    pub fn refit(
+        &mut self,
+        scene: &[Triangle],
+        c_trav: f32,
+        c_isect: f32,
+    ) -> Result<RefitReport, RefitError> {
+        if scene.len() != self.triangles.len() {
+            return Err(RefitError {
+                built: self.triangles.len(),
+                given: scene.len(),
+            });
+        }
+        let sah_before = self.sah_cost(c_trav, c_isect);
+        let triangles = &mut self.triangles;
+        let parallel = triangles.len() >= PARALLEL_REFIT;
+        let copy = |(dst, &src): (&mut Triangle, &u32)| *dst = scene[src as usize];
+        if parallel {
+            triangles
+                .par_iter_mut()
+                .zip(self.prim_indices.par_iter())
+                .with_min_len(4096)
+                .for_each(copy);
+            let tris = &self.triangles;
+            self.nodes
+                .par_iter_mut()
+                .with_min_len(256)
+                .for_each(|n| Self::refit_leaves(n, tris));
+        } else {
+            triangles
+                .iter_mut()
+                .zip(self.prim_indices.iter())
+                .for_each(copy);
+            let tris = &self.triangles;
+            self.nodes
+                .iter_mut()
+                .for_each(|n| Self::refit_leaves(n, tris));
+        }
+        for i in (0..self.nodes.len()).rev() {
+            self.refit_interior(i);
+        }
+        Ok(RefitReport {
+            sah_before,
+            sah_after: self.sah_cost(c_trav, c_isect),
+        })
+    }
+
+    /// Refit after only the scene triangles `moved` changed: the wide nodes holding their
+    /// leaves and those nodes' ancestors. Gives the same boxes as `refit`.
+    pub fn refit_moved(
+        &mut self,
+        index: &mut RefitIndex,
+        scene: &[Triangle],
+        moved: &[u32],
+        c_trav: f32,
+        c_isect: f32,
+    ) -> Result<RefitReport, RefitError> {
+        if scene.len() != self.triangles.len() || index.slot_of.len() != scene.len() {
+            return Err(RefitError {
+                built: self.triangles.len(),
+                given: scene.len(),
+            });
+        }
+        let sah_before = self.sah_cost(c_trav, c_isect);
+        for i in index.dirty_nodes(&mut self.triangles, scene, moved) {
+            Self::refit_leaves(&mut self.nodes[i], &self.triangles);
+            self.refit_interior(i);
+        }
+        Ok(RefitReport {
+            sah_before,
+            sah_after: self.sah_cost(c_trav, c_isect),
+        })
+    }
+}
+
+impl RefitIndex {
+    /// The index of a wide tree: a slot's "leaf" is the wide node whose lane holds it.
+    pub fn for_wide<const W: usize>(tree: &WideBvh<W>) -> Self {
+        let n = tree.prim_indices.len();
+        let mut slot_of = vec![0u32; n];
+        for (slot, &t) in tree.prim_indices.iter().enumerate() {
+            slot_of[t as usize] = slot as u32;
+        }
+        let mut leaf_of = vec![0u32; n];
+        let mut parent = vec![u32::MAX; tree.nodes.len()];
+        for (i, node) in tree.nodes.iter().enumerate() {
+            for lane in 0..node.child_count() {
+                let c = node.child[lane] as usize;
+                if node.is_interior(lane) {
+                    parent[c] = i as u32;
+                } else {
+                    leaf_of[c..c + node.count[lane] as usize].fill(i as u32);
+                }
+            }
+        }
+        RefitIndex {
+            slot_of,
+            leaf_of,
+            parent,
+            queued: vec![false; tree.nodes.len()],
+        }
+    }
+}
