@@ -31,24 +31,29 @@ struct Entry {
 const STACK_SIZE: usize = 7 * MAX_DEPTH + 1;
 
 /// The traversal stack, left uninitialised: a BVH8 stack is 8 KiB, and clearing it for
-/// every ray would cost more than many rays' whole traversal.
-struct Stack {
-    entries: [MaybeUninit<Entry>; STACK_SIZE],
+/// every ray would cost more than many rays' whole traversal. Its storage is a local of the
+/// traversal (`MaybeUninit` inside a struct value was measured to be zeroed anyway).
+struct Stack<'a> {
+    storage: &'a mut MaybeUninit<[Entry; STACK_SIZE]>,
     len: usize,
 }
 
-impl Stack {
+impl<'a> Stack<'a> {
     #[inline(always)]
-    fn new() -> Self {
-        Stack {
-            entries: [MaybeUninit::uninit(); STACK_SIZE],
-            len: 0,
-        }
+    fn new(storage: &'a mut MaybeUninit<[Entry; STACK_SIZE]>) -> Self {
+        Stack { storage, len: 0 }
+    }
+
+    #[inline(always)]
+    fn slots(&mut self) -> *mut Entry {
+        self.storage.as_mut_ptr().cast()
     }
 
     #[inline(always)]
     fn push(&mut self, e: Entry) {
-        self.entries[self.len].write(e);
+        assert!(self.len < STACK_SIZE);
+        // SAFETY: in bounds (checked above); writing needs no initialised value.
+        unsafe { self.slots().add(self.len).write(e) };
         self.len += 1;
     }
 
@@ -59,17 +64,15 @@ impl Stack {
         }
         self.len -= 1;
         // SAFETY: entries below `len` were written by `push` and not popped since.
-        Some(unsafe { self.entries[self.len].assume_init() })
+        Some(unsafe { self.slots().add(self.len).read() })
     }
 
     /// Orders the top `n` entries so the nearest is on top (insertion sort: n ≤ 8).
     #[inline(always)]
     fn sort_top(&mut self, n: usize) {
         let base = self.len - n;
-        // SAFETY: the top n entries were just pushed.
-        let top = unsafe {
-            &mut *(&mut self.entries[base..self.len] as *mut [MaybeUninit<Entry>] as *mut [Entry])
-        };
+        // SAFETY: the top n entries were just pushed, so they are initialised and in bounds.
+        let top = unsafe { std::slice::from_raw_parts_mut(self.slots().add(base), n) };
         for i in 1..top.len() {
             let e = top[i];
             let mut j = i;
@@ -118,7 +121,8 @@ impl<const W: usize> WideBvh<W> {
         let data = I::prepare(ray);
         let mut best = BestHit::new(ray);
         let mut box_tmax = ray.tmax * T_SCALE;
-        let mut stack = Stack::new();
+        let mut storage = MaybeUninit::uninit();
+        let mut stack = Stack::new(&mut storage);
         let mut entry = [0.0f32; W];
         let mut cur = Entry {
             child: 0,
@@ -195,7 +199,8 @@ impl<const W: usize> WideBvh<W> {
         let wray = WideRay::new(ray);
         let data = I::prepare(ray);
         let tmax = ray.tmax * T_SCALE;
-        let mut stack = Stack::new();
+        let mut storage = MaybeUninit::uninit();
+        let mut stack = Stack::new(&mut storage);
         let mut entry = [0.0f32; W];
         let mut cur = Entry {
             child: 0,
