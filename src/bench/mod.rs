@@ -78,6 +78,13 @@ impl RaySetResult {
             0.0
         }
     }
+
+    /// Time per traversal step, from the timed run and the counted mean steps per ray:
+    /// what one node visit costs, the measure a wider node trades against fewer steps.
+    pub fn ns_per_step(&self, mean_nodes: f64) -> Option<f64> {
+        let mrays = self.mrays_per_s();
+        (mrays > 0.0 && mean_nodes > 0.0).then(|| 1e3 / mrays / mean_nodes)
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -440,6 +447,12 @@ impl BenchResult {
                 v["mean_box_tests"] = round3(m.box_tests).into();
                 v["mean_triangle_tests"] = round3(m.triangle_tests).into();
                 v["mean_repeated_tests"] = round3(m.repeated_tests).into();
+                if let Some(ns) = r.ns_per_step(m.nodes) {
+                    v["ns_per_step"] = round3(ns).into();
+                }
+            }
+            if r.mrays_per_s() > 0.0 {
+                v["ns_per_ray"] = round3(1e3 / r.mrays_per_s()).into();
             }
             v
         };
@@ -455,6 +468,7 @@ impl BenchResult {
             "buckets": b.buckets,
             "max_leaf_size": b.max_leaf_size,
             "mailbox": self.params.mailbox,
+            "simd": self.params.kind.is_wide().then(|| self.params.simd.label()),
             "build_ms": round3(r.build_ms()),
             "bytes": r.bytes,
             "sah_cost": self.bvh_report.as_ref().map(|b| round3(b.tree.sah_cost)),

@@ -124,6 +124,12 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let r = &result;
     let what = match &r.bvh_report {
         Some(b) => format!("BVH2, {}", b.params.strategy.label()),
+        None if r.params.kind.is_wide() => format!(
+            "{}, {}, {} kernel",
+            r.params.kind.title(),
+            r.params.bvh.strategy.label(),
+            r.params.simd.label()
+        ),
         None => r.params.kind.title().to_string(),
     };
     out!(
@@ -154,8 +160,11 @@ pub fn run(args: BenchArgs) -> Result<()> {
         ("shadow", &r.shadow, "occluded"),
     ] {
         let work = set.mean.map_or(String::new(), |m| {
+            let step = set
+                .ns_per_step(m.nodes)
+                .map_or(String::new(), |ns| format!(" {ns:>6.1} ns per step"));
             format!(
-                "  {:>8.1} nodes {:>8.1} triangle tests per ray",
+                "  {:>8.1} nodes {:>8.1} triangle tests per ray{step}",
                 m.nodes, m.triangle_tests
             )
         });
