@@ -155,6 +155,15 @@ impl<const W: usize> WideBvh<W> {
                         continue;
                     }
                     let mut n = 0;
+                    if ORDERED && (mask & (mask - 1)).count_ones() == 1 {
+                        // Two children, the commonest case: one compare, no sort.
+                        let a = lane(mask.trailing_zeros());
+                        let b = lane((mask & (mask - 1)).trailing_zeros());
+                        let (near, far) = if b.entry < a.entry { (b, a) } else { (a, b) };
+                        stack.push(far);
+                        cur = near;
+                        continue;
+                    }
                     if ORDERED {
                         while mask != 0 {
                             stack.push(lane(mask.trailing_zeros()));
