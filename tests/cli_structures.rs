@@ -172,13 +172,24 @@ fn every_building_subcommand_takes_accel_and_all_is_for_bench_only() {
 #[test]
 fn wide_bvhs_name_their_simd_kernel_and_trace_the_bvh2_hits_with_each() {
     let json = |accel: &str, simd: Option<&str>| {
-        let mut args = vec!["bench", "--scene", "sphere:2000", "--accel", accel, "--json"];
+        let mut args = vec![
+            "bench",
+            "--scene",
+            "sphere:2000",
+            "--accel",
+            accel,
+            "--json",
+        ];
         if let Some(s) = simd {
             args.extend(["--simd", s]);
         }
         args.extend(SMALL_BENCH);
         let out = bvhlab(&args);
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         serde_json::from_slice::<serde_json::Value>(&out.stdout).expect("one JSON object")
     };
     let bvh2 = json("bvh", None);
@@ -194,7 +205,11 @@ fn wide_bvhs_name_their_simd_kernel_and_trace_the_bvh2_hits_with_each() {
             let wide = json(accel, Some(simd));
             assert_eq!(wide["accel"], accel);
             assert_eq!(wide["simd"], *simd);
-            for (set, key) in [("primary", "hits"), ("diffuse", "hits"), ("shadow", "occluded")] {
+            for (set, key) in [
+                ("primary", "hits"),
+                ("diffuse", "hits"),
+                ("shadow", "occluded"),
+            ] {
                 assert_eq!(wide[set][key], bvh2[set][key], "{accel} {simd} {set}");
                 assert!(wide[set]["ns_per_step"].is_number(), "{accel} {set}");
             }
@@ -208,7 +223,9 @@ fn wide_bvhs_name_their_simd_kernel_and_trace_the_bvh2_hits_with_each() {
     // Without --simd, the widest kernel the machine has.
     let best = bvhlab::geometry::simd::SimdLevel::detect().label();
     assert_eq!(json("bvh8", None)["simd"], best);
-    let out = bvhlab(&["render", "--scene", "cornell", "--accel", "bvh4", "--simd", "avx1024"]);
+    let out = bvhlab(&[
+        "render", "--scene", "cornell", "--accel", "bvh4", "--simd", "avx1024",
+    ]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("avx512"));
 }

@@ -335,3 +335,45 @@ fn refit_then_trace_equals_rebuild_then_trace() {
     check::<4>(1);
     check::<8>(2);
 }
+
+/// Packets of coherent rays (a view's tiles, in the renderer's order) and of incoherent
+/// ones give every ray its single-ray hit, with every kernel.
+#[test]
+fn wide_packets_equal_single_rays() {
+    fn check<const W: usize>(b2: &Bvh, rays: &[Ray], what: &str)
+    where
+        WideBvh<W>: Accel,
+    {
+        let mut wide = WideBvh::<W>::collapse(b2, &CollapseParams::default());
+        for level in SimdLevel::available() {
+            wide.set_simd(level).unwrap();
+            let mut hits = vec![None; rays.len()];
+            wide.closest_hits::<Watertight>(rays, &mut hits);
+            for (i, (ray, got)) in rays.iter().zip(&hits).enumerate() {
+                let single = wide.closest_hit::<Watertight, _>(ray, &mut NoStats);
+                assert_eq!(
+                    bits(*got),
+                    bits(single),
+                    "{what} BVH{W} {}: ray {i}",
+                    level.label()
+                );
+            }
+        }
+    }
+    for name in SMALL_BUILTINS {
+        let scene = Scene::load(name).unwrap();
+        let b2 = bvh2(&scene.triangles, Strategy::SahBinned);
+        // Tiles of 8 × 8 pixels, as the renderer sends them.
+        let cam = scene.camera().rays(64, 48);
+        let tiled: Vec<Ray> = (0..6)
+            .flat_map(|ty| (0..8).map(move |tx| (tx, ty)))
+            .flat_map(|(tx, ty)| (0..64).map(move |k| (tx * 8 + k % 8, ty * 8 + k / 8)))
+            .map(|(x, y)| cam.pixel_center(x, y))
+            .collect();
+        check::<4>(&b2, &tiled, name);
+        check::<8>(&b2, &tiled, name);
+        let random = rays(&scene.bounds(), 640, 5);
+        check::<4>(&b2, &random, name);
+        check::<8>(&b2, &random, name);
+    }
+}

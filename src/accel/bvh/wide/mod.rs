@@ -8,6 +8,7 @@
 
 pub mod collapse;
 pub mod node;
+pub mod packet;
 pub mod refit;
 pub mod traverse;
 

@@ -10,6 +10,7 @@
 use super::WideBvh;
 use super::node::INTERIOR;
 use crate::accel::bvh::build::MAX_DEPTH;
+use crate::accel::bvh::packet::PACKET_SIZE;
 use crate::accel::bvh::traverse::T_SCALE;
 use crate::accel::{Accel, BestHit, Hit, Stats, TraversalOrder};
 use crate::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab};
@@ -265,7 +266,7 @@ impl<const W: usize> WideBvh<W> {
 /// Entry points compiled for each instruction set: the generic traversal and its kernel
 /// are inlined into them, so the whole loop uses the set's instructions.
 macro_rules! entry_points {
-    ($closest:ident, $occluded:ident, $kernel:ty, $features:literal) => {
+    ($closest:ident, $occluded:ident, $packets:ident, $kernel:ty, $features:literal) => {
         impl<const W: usize> WideBvh<W>
         where
             $kernel: WideSlab<W>,
@@ -283,16 +284,35 @@ macro_rules! entry_points {
             fn $occluded<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
                 self.occluded_with::<$kernel, I, S>(ray, stats)
             }
+
+            #[target_feature(enable = $features)]
+            fn $packets<I: Intersector>(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+                for (rays, hits) in rays.chunks(PACKET_SIZE).zip(hits.chunks_mut(PACKET_SIZE)) {
+                    self.trace_packet::<$kernel, I>(rays, hits);
+                }
+            }
         }
     };
 }
 
 #[cfg(target_arch = "x86_64")]
-entry_points!(closest_sse41, occluded_sse41, Sse41, "sse4.1");
+entry_points!(
+    closest_sse41,
+    occluded_sse41,
+    packets_sse41,
+    Sse41,
+    "sse4.1"
+);
 #[cfg(target_arch = "x86_64")]
-entry_points!(closest_avx2, occluded_avx2, Avx2, "avx2");
+entry_points!(closest_avx2, occluded_avx2, packets_avx2, Avx2, "avx2");
 #[cfg(target_arch = "x86_64")]
-entry_points!(closest_avx512, occluded_avx512, Avx512, "avx512f,avx512vl");
+entry_points!(
+    closest_avx512,
+    occluded_avx512,
+    packets_avx512,
+    Avx512,
+    "avx512f,avx512vl"
+);
 
 impl<const W: usize> WideBvh<W>
 where
@@ -356,5 +376,24 @@ where
         crate::accel::stats::count_locally(stats, |local| {
             self.occluded_dispatch::<I, S>(ray, local)
         })
+    }
+
+    fn closest_hits<I: Intersector>(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        match self.simd {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `simd` only holds a level this CPU supports (`set_simd`).
+            SimdLevel::Sse41 => unsafe { self.packets_sse41::<I>(rays, hits) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above.
+            SimdLevel::Avx2 => unsafe { self.packets_avx2::<I>(rays, hits) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above.
+            SimdLevel::Avx512 => unsafe { self.packets_avx512::<I>(rays, hits) },
+            _ => {
+                for (rays, hits) in rays.chunks(PACKET_SIZE).zip(hits.chunks_mut(PACKET_SIZE)) {
+                    self.trace_packet::<Portable, I>(rays, hits);
+                }
+            }
+        }
     }
 }

@@ -1,0 +1,177 @@
+//! Packet traversal of a wide BVH for coherent rays (a tile of primary rays), as the BVH2's
+//! packets do it (`bvh::packet`): the packet walks the tree together, and at each node the
+//! packet's first active ray is tested against all W children in one SIMD slab test. A child
+//! that ray misses is culled for the whole packet by the interval test, or else the other
+//! rays are tested one by one. Children are visited in the order the first ray enters them.
+//!
+//! The hits are exactly those of `closest_hit` ray by ray (`BestHit` keeps, of equal
+//! distances, the lowest triangle index, so the order of the visit does not matter).
+
+use super::WideBvh;
+use super::node::WideNode;
+use crate::accel::bvh::packet::PACKET_SIZE;
+use crate::accel::bvh::traverse::T_SCALE;
+use crate::accel::{BestHit, Hit};
+use crate::geometry::aabb::{SlabRay, slab_entry};
+use crate::geometry::frustum::RayInterval;
+use crate::geometry::simd::WideRay;
+use crate::geometry::simd::slab::WideSlab;
+use crate::geometry::{Intersector, Ray};
+use glam::Vec3;
+
+/// The per-ray state of a packet.
+struct PacketRays<'a, I: Intersector> {
+    rays: &'a [Ray],
+    slabs: [SlabRay; PACKET_SIZE],
+    wide: [WideRay; PACKET_SIZE],
+    data: [I::RayData; PACKET_SIZE],
+    best: [BestHit; PACKET_SIZE],
+    /// Each ray's box-test limit: its best t, widened by the rounding of the box test.
+    box_tmax: [f32; PACKET_SIZE],
+}
+
+impl<I: Intersector> PacketRays<'_, I> {
+    #[inline(always)]
+    fn enters(&self, corners: &[Vec3; 2], i: usize) -> bool {
+        slab_entry(corners, &self.slabs[i], self.rays[i].tmin, self.box_tmax[i]) != f32::INFINITY
+    }
+
+    fn packet_tmax(&self) -> f32 {
+        let n = self.rays.len();
+        self.box_tmax[..n]
+            .iter()
+            .copied()
+            .fold(f32::NEG_INFINITY, f32::max)
+    }
+}
+
+/// A child still to visit: its parent node and lane, and the packet's first ray that may
+/// enter it (the rays before it are known to miss it).
+#[derive(Clone, Copy)]
+struct Pending {
+    node: u32,
+    lane: u32,
+    first: u32,
+}
+
+fn corners<const W: usize>(node: &WideNode<W>, lane: usize) -> [Vec3; 2] {
+    let b = node.child_bounds(lane);
+    [b.min, b.max]
+}
+
+impl<const W: usize> WideBvh<W> {
+    /// The closest hit of each ray of `rays` (at most `PACKET_SIZE`).
+    #[inline(always)]
+    pub(super) fn trace_packet<K: WideSlab<W>, I: Intersector>(
+        &self,
+        rays: &[Ray],
+        out: &mut [Option<Hit>],
+    ) {
+        let n = rays.len().min(PACKET_SIZE).min(out.len());
+        if n == 0 {
+            return;
+        }
+        let ray = |i: usize| &rays[i.min(n - 1)];
+        let mut p = PacketRays::<I> {
+            rays: &rays[..n],
+            slabs: std::array::from_fn(|i| SlabRay::new(ray(i))),
+            wide: std::array::from_fn(|i| WideRay::new(ray(i))),
+            data: std::array::from_fn(|i| I::prepare(ray(i))),
+            best: std::array::from_fn(|i| BestHit::new(ray(i))),
+            box_tmax: std::array::from_fn(|i| ray(i).tmax * T_SCALE),
+        };
+        let interval = RayInterval::new(&rays[..n]);
+        let mut packet_tmax = p.packet_tmax();
+        // At most W − 1 pending children per level of a tree no deeper than the BVH2's.
+        let mut stack: Vec<Pending> = Vec::with_capacity(64);
+        let mut entry = [0.0f32; W];
+        // The node to open and its first ray that may enter it.
+        let mut open = Some((0usize, 0usize));
+        loop {
+            if let Some((index, f)) = open.take() {
+                let node = &self.nodes[index];
+                let r = &p.rays[f];
+                // SAFETY: a tree only selects a kernel its CPU supports (`set_simd`), and
+                // the entry points are compiled for it.
+                let mask = unsafe {
+                    K::entries(&node.bounds, &p.wide[f], r.tmin, p.box_tmax[f], &mut entry)
+                };
+                // Children the first ray enters, nearest first, then the others it misses
+                // that some later ray may still enter.
+                let mut order: [(f32, u32, u32); 8] = [(0.0, 0, 0); 8];
+                let mut k = 0;
+                for lane in 0..node.child_count() {
+                    let first = if mask >> lane & 1 == 1 {
+                        entry[lane]
+                    } else {
+                        f32::INFINITY
+                    };
+                    order[k] = (first, lane as u32, f as u32);
+                    k += 1;
+                }
+                let order = &mut order[..k];
+                order.sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
+                for &(d, lane, first) in order.iter() {
+                    if d == f32::INFINITY {
+                        // Not entered by the first ray: culled for the whole packet, or
+                        // left to a later ray (found when the child is popped).
+                        let c = corners(node, lane as usize);
+                        if first as usize + 1 == n
+                            || interval.is_some_and(|iv| iv.misses(&c, packet_tmax))
+                        {
+                            continue;
+                        }
+                        stack.push(Pending {
+                            node: index as u32,
+                            lane,
+                            first: first + 1,
+                        });
+                    } else {
+                        stack.push(Pending {
+                            node: index as u32,
+                            lane,
+                            first,
+                        });
+                    }
+                }
+            }
+            let Some(next) = stack.pop() else { break };
+            let node = &self.nodes[next.node as usize];
+            let lane = next.lane as usize;
+            let c = corners(node, lane);
+            // The first ray may have found a closer hit since the child was pushed.
+            let f = next.first as usize;
+            let active = if p.enters(&c, f) {
+                Some(f)
+            } else if interval.is_some_and(|iv| iv.misses(&c, packet_tmax)) {
+                None
+            } else {
+                (f + 1..n).find(|&i| p.enters(&c, i))
+            };
+            let Some(f) = active else { continue };
+            if node.is_interior(lane) {
+                open = Some((node.child[lane] as usize, f));
+                continue;
+            }
+            let range = node.child[lane] as usize..(node.child[lane] + node.count[lane]) as usize;
+            for i in f..n {
+                if i != f && !p.enters(&c, i) {
+                    continue;
+                }
+                let r = &p.rays[i];
+                for k in range.clone() {
+                    if let Some(h) =
+                        I::intersect(&p.data[i], r, &self.triangles[k], r.tmin, p.best[i].limit)
+                    {
+                        p.best[i].offer(h, self.prim_indices[k]);
+                        p.box_tmax[i] = p.best[i].t * T_SCALE;
+                    }
+                }
+            }
+            packet_tmax = p.packet_tmax();
+        }
+        for (o, b) in out.iter_mut().zip(&p.best[..n]) {
+            *o = b.hit();
+        }
+    }
+}
