@@ -99,15 +99,10 @@ impl<const W: usize> WideBvh<W> {
                 // Children the first ray enters, nearest first, then the others it misses
                 // that some later ray may still enter.
                 let mut order: [(f32, u32, u32); 8] = [(0.0, 0, 0); 8];
-                let mut k = 0;
-                for lane in 0..node.child_count() {
-                    let first = if mask >> lane & 1 == 1 {
-                        entry[lane]
-                    } else {
-                        f32::INFINITY
-                    };
-                    order[k] = (first, lane as u32, f as u32);
-                    k += 1;
+                let k = node.child_count();
+                for (lane, (slot, &d)) in order.iter_mut().zip(&entry).take(k).enumerate() {
+                    let d = if mask >> lane & 1 == 1 { d } else { f32::INFINITY };
+                    *slot = (d, lane as u32, f as u32);
                 }
                 let order = &mut order[..k];
                 order.sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
