@@ -101,7 +101,11 @@ impl<const W: usize> WideBvh<W> {
                 let mut order: [(f32, u32, u32); 8] = [(0.0, 0, 0); 8];
                 let k = node.child_count();
                 for (lane, (slot, &d)) in order.iter_mut().zip(&entry).take(k).enumerate() {
-                    let d = if mask >> lane & 1 == 1 { d } else { f32::INFINITY };
+                    let d = if mask >> lane & 1 == 1 {
+                        d
+                    } else {
+                        f32::INFINITY
+                    };
                     *slot = (d, lane as u32, f as u32);
                 }
                 let order = &mut order[..k];
