@@ -48,14 +48,15 @@ fn fixture() -> &'static Fixture {
 
 /// Eight boxes around the origin and rays from every direction.
 fn boxes_and_rays() -> ([[f32; 8]; 6], Vec<Ray>) {
-    let mut rows = [[0.0f32; 8]; 6];
-    for i in 0..8 {
-        let c = Vec3::new(i as f32 - 3.5, (i % 3) as f32 - 1.0, (i % 2) as f32);
-        for a in 0..3 {
-            rows[a][i] = c[a] - 0.6;
-            rows[a + 3][i] = c[a] + 0.6;
-        }
-    }
+    // Box i is centred on (i − 3.5, i mod 3 − 1, i mod 2), 1.2 wide.
+    let centre = |axis: usize, i: usize| match axis {
+        0 => i as f32 - 3.5,
+        1 => (i % 3) as f32 - 1.0,
+        _ => (i % 2) as f32,
+    };
+    let rows: [[f32; 8]; 6] = std::array::from_fn(|row| {
+        std::array::from_fn(|i| centre(row % 3, i) + if row < 3 { -0.6 } else { 0.6 })
+    });
     let rays = (0..1024)
         .map(|k| {
             let a = k as f32 * 0.37;
