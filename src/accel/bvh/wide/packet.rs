@@ -52,6 +52,9 @@ struct Pending {
     node: u32,
     lane: u32,
     first: u32,
+    /// The packet's hit count when the first ray was found to enter the child
+    /// (`u32::MAX`: not known to); while no hit is found since, it still enters.
+    entered_at: u32,
 }
 
 fn corners<const W: usize>(node: &WideNode<W>, lane: usize) -> [Vec3; 2] {
@@ -85,6 +88,8 @@ impl<const W: usize> WideBvh<W> {
         // At most W − 1 pending children per level of a tree no deeper than the BVH2's.
         let mut stack: Vec<Pending> = Vec::with_capacity(64);
         let mut entry = [0.0f32; W];
+        // Hits found so far by the whole packet: a ray's box-test limit only changes with one.
+        let mut found = 0u32;
         // The node to open and its first ray that may enter it.
         let mut open = Some((0usize, 0usize));
         loop {
@@ -108,8 +113,17 @@ impl<const W: usize> WideBvh<W> {
                     };
                     *slot = (d, lane as u32, f as u32);
                 }
+                // Farthest first, so the nearest is pushed last (insertion sort: k ≤ 8).
                 let order = &mut order[..k];
-                order.sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
+                for i in 1..k {
+                    let e = order[i];
+                    let mut j = i;
+                    while j > 0 && order[j - 1].0 < e.0 {
+                        order[j] = order[j - 1];
+                        j -= 1;
+                    }
+                    order[j] = e;
+                }
                 for &(d, lane, first) in order.iter() {
                     if d == f32::INFINITY {
                         // Not entered by the first ray: culled for the whole packet, or
@@ -124,12 +138,14 @@ impl<const W: usize> WideBvh<W> {
                             node: index as u32,
                             lane,
                             first: first + 1,
+                            entered_at: u32::MAX,
                         });
                     } else {
                         stack.push(Pending {
                             node: index as u32,
                             lane,
                             first,
+                            entered_at: found,
                         });
                     }
                 }
@@ -140,7 +156,7 @@ impl<const W: usize> WideBvh<W> {
             let c = corners(node, lane);
             // The first ray may have found a closer hit since the child was pushed.
             let f = next.first as usize;
-            let active = if p.enters(&c, f) {
+            let active = if next.entered_at == found || p.enters(&c, f) {
                 Some(f)
             } else if interval.is_some_and(|iv| iv.misses(&c, packet_tmax)) {
                 None
@@ -164,6 +180,7 @@ impl<const W: usize> WideBvh<W> {
                     {
                         p.best[i].offer(h, self.prim_indices[k]);
                         p.box_tmax[i] = p.best[i].t * T_SCALE;
+                        found += 1;
                     }
                 }
             }
