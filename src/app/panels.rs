@@ -4,7 +4,9 @@
 use super::settings::{StrategyChoice, ViewMode};
 use super::{BvhLabApp, Tool};
 use crate::accel::AccelKind;
-use crate::accel::bvh::build::{MAX_BUCKETS, MAX_LEAF_SIZE, MIN_BUCKETS};
+use crate::accel::bvh::build::{
+    MAX_BUCKETS, MAX_LEAF_SIZE, MAX_TREELET_ROUNDS, MAX_TREELET_SIZE, MIN_BUCKETS, MIN_TREELET_SIZE,
+};
 use crate::accel::kdtree::{MAX_DEPTH as KD_MAX_DEPTH, MIN_BINS as KD_MIN_BINS};
 use crate::accel::octree::MAX_DEPTH as OCTREE_MAX_DEPTH;
 use crate::render::Mode;
@@ -217,6 +219,8 @@ fn bvh_parameters(ui: &mut egui::Ui, s: &mut super::settings::Settings) {
         (StrategyChoice::SpatialMedian, "spatial median"),
         (StrategyChoice::SahSweep, "full-sweep SAH"),
         (StrategyChoice::SahBinned, "binned SAH"),
+        (StrategyChoice::Lbvh, "LBVH"),
+        (StrategyChoice::LbvhTreelet, "LBVH + treelets"),
     ] {
         ui.radio_value(&mut s.strategy, choice, label);
     }
@@ -225,6 +229,16 @@ fn bvh_parameters(ui: &mut egui::Ui, s: &mut super::settings::Settings) {
         egui::Slider::new(&mut s.buckets, MIN_BUCKETS..=MAX_BUCKETS)
             .logarithmic(true)
             .text("buckets B"),
+    );
+    let treelets = s.strategy == StrategyChoice::LbvhTreelet;
+    ui.add_enabled(
+        treelets,
+        egui::Slider::new(&mut s.treelet_size, MIN_TREELET_SIZE..=MAX_TREELET_SIZE)
+            .text("treelet size n"),
+    );
+    ui.add_enabled(
+        treelets,
+        egui::Slider::new(&mut s.treelet_rounds, 0..=MAX_TREELET_ROUNDS).text("treelet rounds"),
     );
     ui.add(
         egui::Slider::new(&mut s.max_leaf_size, 1..=MAX_LEAF_SIZE.min(64)).text("max leaf size"),
