@@ -44,7 +44,8 @@ pub struct BenchArgs {
     #[arg(long, value_enum, default_value_t = IntersectorArg::Watertight)]
     pub intersector: IntersectorArg,
     /// Run time against error: every intersector with every builder (object median, spatial
-    /// median, full-sweep SAH, binned SAH with B = 2..64); writes a CSV and a Pareto plot.
+    /// median, full-sweep SAH, binned SAH with B = 2..64, LBVH, LBVH + treelets); writes a CSV
+    /// and a Pareto plot.
     #[arg(long)]
     pub accuracy: bool,
     /// How the cost per primary ray grows with the scene: every structure on the scene's own
