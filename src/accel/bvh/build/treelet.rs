@@ -13,6 +13,7 @@ use super::MAX_DEPTH;
 use super::PARALLEL_SUBTREE;
 use super::linked_tree::{LinkedNode, LinkedTree, SahCost};
 use crate::geometry::Aabb;
+use std::cell::RefCell;
 
 /// Treelet sizes the restructuring supports.
 pub const MIN_TREELET: usize = 5;
@@ -68,53 +69,36 @@ impl Round<'_> {
     }
 
     /// Forms the treelet rooted at `nodes[0]` and rebuilds it with the optimal topology if
-    /// that is cheaper. Kept out of line: its tables should not sit in every frame of the
+    /// that is cheaper. Kept out of line so that its arrays do not sit in every frame of the
     /// recursion.
     #[inline(never)]
     fn treelet(&self, nodes: &mut [LinkedNode], base: u32, height_budget: u32) {
-        let at = |id: u32| (id - base) as usize;
-        let root = nodes[0];
-        // Grow the treelet: open the leaf with the largest area until there are `size`.
-        let mut leaves = [0u32; MAX_TREELET];
-        let mut internal = [0u32; MAX_TREELET - 1];
-        leaves[0] = root.left;
-        leaves[1] = root.right;
-        internal[0] = base;
-        let mut m = 2;
-        while m < self.size {
-            let mut best: Option<(usize, f32)> = None;
-            for (k, &id) in leaves[..m].iter().enumerate() {
-                let node = &nodes[at(id)];
-                if !node.is_leaf() {
-                    let area = node.bounds.surface_area();
-                    if best.is_none_or(|(_, a)| area > a) {
-                        best = Some((k, area));
-                    }
-                }
-            }
-            let Some((k, _)) = best else { break };
-            let opened = nodes[at(leaves[k])];
-            internal[m - 1] = leaves[k];
-            leaves[k] = opened.left;
-            leaves[m] = opened.right;
-            m += 1;
-        }
-        if m < 3 {
+        let t = Treelet::grow(nodes, base, self.size);
+        if t.m < 3 {
             return;
         }
-        let leaf_nodes: [TreeletLeaf; MAX_TREELET] = std::array::from_fn(|k| {
-            let node = &nodes[at(leaves[k.min(m - 1)])];
-            TreeletLeaf {
-                bounds: node.bounds,
-                count: node.count,
-                cost: node.cost,
-                height: node.height,
-            }
+        TABLES.with_borrow_mut(|opt| {
+            opt.solve(t.leaf_nodes(), self.sah);
+            self.rebuild(nodes, base, height_budget, &t, opt);
         });
-        let opt = Optimal::new(&leaf_nodes[..m], self.sah);
-        let full = (1u32 << m) - 1;
+    }
+
+    /// Rebuilds treelet `t` rooted at `nodes[0]` with the topology `opt` found, if that is
+    /// cheaper and no higher than allowed.
+    fn rebuild(
+        &self,
+        nodes: &mut [LinkedNode],
+        base: u32,
+        height_budget: u32,
+        t: &Treelet,
+        opt: &Optimal,
+    ) {
+        let at = |id: u32| (id - base) as usize;
+        let root = nodes[0];
+        let (leaves, internal) = (&t.leaves[..t.m], &t.internal);
+        let full = (1u32 << t.m) - 1;
         let cost = opt.cost[full as usize];
-        if cost >= root.cost || opt.height(full, &leaf_nodes) > height_budget.max(root.height) {
+        if cost >= root.cost || opt.height(full, t.leaf_nodes()) > height_budget.max(root.height) {
             return;
         }
         // Rebuild, parents before children: subset `full` at the root, every other subset
@@ -128,11 +112,11 @@ impl Round<'_> {
             let s = placed[k].0;
             let p = opt.split[s as usize] as u32;
             let mut ids = [0u32; 2];
-            for (side, t) in [p, s ^ p].into_iter().enumerate() {
-                ids[side] = if t.is_power_of_two() {
-                    leaves[t.trailing_zeros() as usize]
+            for (side, part) in [p, s ^ p].into_iter().enumerate() {
+                ids[side] = if part.is_power_of_two() {
+                    leaves[part.trailing_zeros() as usize]
                 } else {
-                    placed[count] = (t, internal[count], 0, 0);
+                    placed[count] = (part, internal[count], 0, 0);
                     count += 1;
                     internal[count - 1]
                 };
@@ -140,13 +124,75 @@ impl Round<'_> {
             (placed[k].2, placed[k].3) = (ids[0], ids[1]);
             k += 1;
         }
-        debug_assert_eq!(count, m - 1);
+        debug_assert_eq!(count, t.m - 1);
         // Children before parents, so each node is computed from its final children.
         for &(s, id, li, ri) in placed[..count].iter().rev() {
             let (l, r) = (nodes[at(li)], nodes[at(ri)]);
             nodes[at(id)] = LinkedNode::interior(li, &l, ri, &r, self.sah);
             debug_assert_eq!(nodes[at(id)].cost, opt.cost[s as usize]);
         }
+    }
+}
+
+/// A treelet: its leaves (node ids, and what the dynamic program needs of them) and its
+/// internal nodes, the root first.
+struct Treelet {
+    m: usize,
+    leaves: [u32; MAX_TREELET],
+    leaf_nodes: [TreeletLeaf; MAX_TREELET],
+    internal: [u32; MAX_TREELET - 1],
+}
+
+impl Treelet {
+    /// Grows the treelet rooted at `nodes[0]` (node `base`) from its two children by
+    /// opening the treelet leaf with the largest surface area until it has `size` leaves
+    /// or none can be opened.
+    fn grow(nodes: &[LinkedNode], base: u32, size: usize) -> Treelet {
+        let at = |id: u32| (id - base) as usize;
+        let root = &nodes[0];
+        let mut leaves = [0u32; MAX_TREELET];
+        let mut internal = [0u32; MAX_TREELET - 1];
+        leaves[0] = root.left;
+        leaves[1] = root.right;
+        internal[0] = base;
+        let mut m = 2;
+        while m < size {
+            let mut best: Option<(usize, f32)> = None;
+            for (k, &id) in leaves[..m].iter().enumerate() {
+                let node = &nodes[at(id)];
+                if !node.is_leaf() {
+                    let area = node.bounds.surface_area();
+                    if best.is_none_or(|(_, a)| area > a) {
+                        best = Some((k, area));
+                    }
+                }
+            }
+            let Some((k, _)) = best else { break };
+            let opened = &nodes[at(leaves[k])];
+            internal[m - 1] = leaves[k];
+            leaves[k] = opened.left;
+            leaves[m] = opened.right;
+            m += 1;
+        }
+        let leaf_nodes = std::array::from_fn(|k| {
+            let node = &nodes[at(leaves[k.min(m - 1)])];
+            TreeletLeaf {
+                bounds: node.bounds,
+                count: node.count,
+                cost: node.cost,
+                height: node.height,
+            }
+        });
+        Treelet {
+            m,
+            leaves,
+            leaf_nodes,
+            internal,
+        }
+    }
+
+    fn leaf_nodes(&self) -> &[TreeletLeaf] {
+        &self.leaf_nodes[..self.m]
     }
 }
 
@@ -160,6 +206,11 @@ pub struct TreeletLeaf {
     pub height: u32,
 }
 
+thread_local! {
+    /// One set of tables per thread: treelets are many and small, their tables are not.
+    static TABLES: RefCell<Box<Optimal>> = RefCell::new(Box::new(Optimal::EMPTY));
+}
+
 /// The optimal treelet topology over up to 9 leaves (Karras and Aila 2013, Algorithm 2):
 /// for every subset S of the leaves, in increasing order so that its subsets come first,
 /// C(S) = C_trav·A(S) + min over partitions {P, S∖P} of C(P) + C(S∖P), or the cost of S as
@@ -169,16 +220,34 @@ pub struct Optimal {
     pub cost: [f64; SUBSETS],
     /// `split[S]`: the part P of S that goes left in that subtree.
     pub split: [u16; SUBSETS],
+    boxes: [Aabb; SUBSETS],
+    counts: [u32; SUBSETS],
 }
 
 impl Optimal {
-    pub fn new(leaves: &[TreeletLeaf], sah: &SahCost) -> Self {
+    const EMPTY: Optimal = Optimal {
+        cost: [0.0; SUBSETS],
+        split: [0; SUBSETS],
+        boxes: [Aabb::EMPTY; SUBSETS],
+        counts: [0; SUBSETS],
+    };
+
+    pub fn new(leaves: &[TreeletLeaf], sah: &SahCost) -> Box<Self> {
+        let mut opt = Box::new(Optimal::EMPTY);
+        opt.solve(leaves, sah);
+        opt
+    }
+
+    /// Fills the tables for `leaves`; entries of subsets beyond them are left as they were.
+    pub fn solve(&mut self, leaves: &[TreeletLeaf], sah: &SahCost) {
         let m = leaves.len();
         assert!((1..=MAX_TREELET).contains(&m), "{m} treelet leaves");
-        let mut boxes = [Aabb::EMPTY; SUBSETS];
-        let mut counts = [0u32; SUBSETS];
-        let mut cost = [0.0f64; SUBSETS];
-        let mut split = [0u16; SUBSETS];
+        let Optimal {
+            cost,
+            split,
+            boxes,
+            counts,
+        } = self;
         for (k, leaf) in leaves.iter().enumerate() {
             boxes[1 << k] = leaf.bounds;
             counts[1 << k] = leaf.count;
@@ -198,7 +267,8 @@ impl Optimal {
             let mut p = delta & delta.wrapping_neg();
             let mut best = (f64::INFINITY, 0u32);
             while p != 0 {
-                let c = cost[p as usize] + cost[(s ^ p) as usize];
+                // (Masked so the compiler sees the indices in range: the hot loop of the build.)
+                let c = cost[p as usize & (SUBSETS - 1)] + cost[(s ^ p) as usize & (SUBSETS - 1)];
                 if c < best.0 {
                     best = (c, p);
                 }
@@ -207,7 +277,6 @@ impl Optimal {
             cost[si] = sah.interior(boxes[si].surface_area() as f64, counts[si], best.0);
             split[si] = best.1 as u16;
         }
-        Optimal { cost, split }
     }
 
     /// The height of the optimal subtree over `s`.
