@@ -61,12 +61,13 @@ fn choosing_lbvh_with_treelets_rebuilds_with_its_rounds() {
     let r = h.state().bvh_report.clone().expect("rebuilt");
     assert_eq!(r.params.strategy, Strategy::LbvhTreelet);
     assert_eq!(r.phases.sah_after_round.len(), 3);
-    // The stats panel lists the SAH cost of each round.
+    // The stats panel lists the SAH cost of each round, and charts them.
     assert!(
         h.get_all_by_label_contains("SAH cost after round 3")
             .count()
             >= 1
     );
+    assert!(h.query_by_label("SAH cost per treelet round").is_some());
     h.get_by_role_and_label(egui::accesskit::Role::Slider, "treelet rounds")
         .set_value_accesskit(1.0);
     settle(&mut h);

@@ -515,6 +515,22 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             .x_axis_label("triangles in leaf")
             .y_axis_label("leaves")
             .show(ui, |p| p.bar_chart(BarChart::new("leaves", bars)));
+        if let Some(before) = r.phases.sah_before_rounds {
+            ui.label("SAH cost per treelet round");
+            let points: PlotPoints = std::iter::once(before)
+                .chain(r.phases.sah_after_round.iter().copied())
+                .enumerate()
+                .map(|(round, c)| [round as f64, c])
+                .collect();
+            Plot::new("treelet rounds")
+                .height(110.0)
+                .allow_drag(false)
+                .allow_zoom(false)
+                .allow_scroll(false)
+                .x_axis_label("round (0: the LBVH)")
+                .y_axis_label("SAH cost")
+                .show(ui, |p| p.line(Line::new("SAH cost", points)));
+        }
     }
     if app.report.is_none() {
         ui.label("building…");
