@@ -39,7 +39,7 @@ struct Quantizer {
 }
 
 impl Quantizer {
-    fn new(centroids: &Aabb2) -> Self {
+    fn new(centroids: &CentroidBounds) -> Self {
         let cells = (1u64 << MORTON_BITS) as f64;
         let mut scale = [0.0; 3];
         for (axis, s) in scale.iter_mut().enumerate() {
@@ -62,28 +62,31 @@ impl Quantizer {
     }
 }
 
-/// Centroid bounds in f64.
+/// The bounds of the centroids, in f64.
 #[derive(Clone, Copy)]
-struct Aabb2 {
+struct CentroidBounds {
     min: [f64; 3],
     max: [f64; 3],
 }
 
-impl Aabb2 {
-    const EMPTY: Aabb2 = Aabb2 {
+impl CentroidBounds {
+    const EMPTY: CentroidBounds = CentroidBounds {
         min: [f64::INFINITY; 3],
         max: [f64::NEG_INFINITY; 3],
     };
 
     fn grow(self, c: [f64; 3]) -> Self {
-        Aabb2 {
+        CentroidBounds {
             min: std::array::from_fn(|k| self.min[k].min(c[k])),
             max: std::array::from_fn(|k| self.max[k].max(c[k])),
         }
     }
 
-    fn union(self, o: Aabb2) -> Self {
-        self.grow(o.min).grow(o.max)
+    fn union(self, o: CentroidBounds) -> Self {
+        CentroidBounds {
+            min: std::array::from_fn(|k| self.min[k].min(o.min[k])),
+            max: std::array::from_fn(|k| self.max[k].max(o.max[k])),
+        }
     }
 }
 
@@ -262,8 +265,8 @@ pub fn build(
     let bounds: Vec<Aabb> = triangles.par_iter().map(Triangle::bounds).collect();
     let centroids = bounds
         .par_iter()
-        .fold(|| Aabb2::EMPTY, |b, t| b.grow(centroid(t)))
-        .reduce(|| Aabb2::EMPTY, Aabb2::union);
+        .fold(|| CentroidBounds::EMPTY, |b, t| b.grow(centroid(t)))
+        .reduce(|| CentroidBounds::EMPTY, CentroidBounds::union);
     let quantizer = Quantizer::new(&centroids);
     let mut keyed: Vec<Keyed> = bounds
         .par_iter()
@@ -342,6 +345,21 @@ mod tests {
         }
         let top = (1 << MORTON_BITS) - 1;
         assert_eq!(morton3([top; 3]), (1 << 63) - 1);
+    }
+
+    #[test]
+    fn centroid_bounds_union_keeps_the_empty_box_neutral() {
+        let a = CentroidBounds::EMPTY
+            .grow([1.0, -2.0, 3.0])
+            .grow([4.0, 0.0, 3.0]);
+        for (x, y) in [
+            (a, CentroidBounds::EMPTY),
+            (CentroidBounds::EMPTY, a),
+            (a, a),
+        ] {
+            let u = x.union(y);
+            assert_eq!((u.min, u.max), ([1.0, -2.0, 3.0], [4.0, 0.0, 3.0]));
+        }
     }
 
     #[test]
