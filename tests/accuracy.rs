@@ -127,9 +127,9 @@ fn accuracy_matrix_covers_every_builder_and_intersector() {
         seed: 3,
     };
     let rows = accuracy::run(&scene, &cfg, &mut |_| {}).unwrap();
-    assert_eq!(rows.len(), 9 * 3);
+    assert_eq!(rows.len(), 11 * 3);
     let builders = accuracy::builders();
-    assert_eq!(builders.len(), 9);
+    assert_eq!(builders.len(), 11);
     let buckets: Vec<u32> = builders
         .iter()
         .filter(|b| b.params.strategy == Strategy::SahBinned)
@@ -159,6 +159,9 @@ fn accuracy_matrix_covers_every_builder_and_intersector() {
         if r.builder.params.strategy == Strategy::SahSweep {
             assert_eq!(r.sah_vs_sweep, 1.0);
         }
+        if r.builder.params.strategy == Strategy::LbvhTreelet {
+            assert!(r.sah_vs_sweep < 1.1, "LBVH + treelets: {}", r.sah_vs_sweep);
+        }
         // The SAH builders are within a few percent of the full sweep; B = 2 is coarser.
         if r.builder.params.strategy == Strategy::SahBinned && r.builder.params.buckets >= 16 {
             assert!(
@@ -179,7 +182,7 @@ fn accuracy_matrix_covers_every_builder_and_intersector() {
     let csv = accuracy::csv(&rows);
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines[0], CSV_HEADER);
-    assert_eq!(lines.len(), 28);
+    assert_eq!(lines.len(), 34);
     let columns = CSV_HEADER.split(',').count();
     assert!(lines.iter().all(|l| l.split(',').count() == columns));
     let png = plot::render_png(&accuracy::pareto_plot(&rows)).unwrap();

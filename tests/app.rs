@@ -54,6 +54,40 @@ fn moving_the_bucket_slider_rebuilds_with_that_bucket_count() {
 }
 
 #[test]
+fn choosing_lbvh_with_treelets_rebuilds_with_its_rounds() {
+    let mut h = app("soup:3000");
+    h.get_by_label("LBVH + treelets").click();
+    settle(&mut h);
+    let r = h.state().bvh_report.clone().expect("rebuilt");
+    assert_eq!(r.params.strategy, Strategy::LbvhTreelet);
+    assert_eq!(r.phases.sah_after_round.len(), 3);
+    // The stats panel lists the SAH cost of each round, and charts them.
+    assert!(
+        h.get_all_by_label_contains("SAH cost after round 3")
+            .count()
+            >= 1
+    );
+    assert!(h.query_by_label("SAH cost per treelet round").is_some());
+    h.get_by_role_and_label(egui::accesskit::Role::Slider, "treelet rounds")
+        .set_value_accesskit(1.0);
+    settle(&mut h);
+    let r = h.state().bvh_report.clone().expect("rebuilt");
+    assert_eq!(r.params.treelet_rounds, 1);
+    assert_eq!(r.phases.sah_after_round.len(), 1);
+    let expected = build(
+        &bvhlab::scene::Scene::load("soup:3000").unwrap().triangles,
+        &BuildParams {
+            strategy: Strategy::LbvhTreelet,
+            treelet_rounds: 1,
+            ..Default::default()
+        },
+    )
+    .unwrap()
+    .1;
+    assert_eq!(r.tree.sah_cost, expected.tree.sah_cost);
+}
+
+#[test]
 fn stepping_levels_changes_the_overlay() {
     let mut h = app("cornell");
     let plain = h.state().shown.clone().expect("frame").rgba.clone();

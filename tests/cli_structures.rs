@@ -229,3 +229,89 @@ fn wide_bvhs_name_their_simd_kernel_and_trace_the_bvh2_hits_with_each() {
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("avx512"));
 }
+
+#[test]
+fn bench_builders_reports_every_builder_on_the_same_rays() {
+    use bvhlab::accel::bvh::Strategy;
+    let mut args = vec!["bench", "--scene", "soup:600", "--builders", "--json"];
+    args.extend(SMALL_BENCH);
+    let out = bvhlab(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
+    let builders = json["builders"].as_array().expect("a builders array");
+    assert_eq!(builders.len(), Strategy::ALL.len());
+    for (b, strategy) in builders.iter().zip(Strategy::ALL) {
+        assert_eq!(b["builder"], strategy.label());
+        assert!(b["sah_cost"].as_f64().is_some_and(|c| c >= 1.0));
+        for set in ["primary", "diffuse"] {
+            assert_eq!(b[set]["hits"], builders[0][set]["hits"], "{set}");
+        }
+        assert_eq!(b["shadow"]["occluded"], builders[0]["shadow"]["occluded"]);
+    }
+
+    let mut args = vec!["bench", "--scene", "soup:600", "--builders"];
+    args.extend(SMALL_BENCH);
+    let table = String::from_utf8(bvhlab(&args).stdout).unwrap();
+    for strategy in Strategy::ALL {
+        assert!(table.contains(strategy.label()), "{}", strategy.label());
+    }
+    assert!(table.contains("the same for every builder"), "{table}");
+
+    let err = bvhlab(&[
+        "bench",
+        "--scene",
+        "soup:10",
+        "--builders",
+        "--accel",
+        "grid",
+    ]);
+    assert!(!err.status.success());
+    assert!(String::from_utf8_lossy(&err.stderr).contains("--builders"));
+}
+
+#[test]
+fn treelet_flags_reach_the_build_and_bad_values_are_errors() {
+    let out = bvhlab(&[
+        "stats",
+        "--scene",
+        "soup:2000",
+        "--builder",
+        "lbvh-treelet",
+        "--treelet-size",
+        "5",
+        "--rounds",
+        "2",
+    ]);
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
+    for row in [
+        "LBVH + treelets",
+        "treelet size n",
+        "time: Morton codes",
+        "SAH cost after round 2",
+    ] {
+        assert!(text.contains(row), "{row} in {text}");
+    }
+    assert!(!text.contains("round 3"));
+    for (flag, value, message) in [
+        ("--treelet-size", "4", "treelet size 4 is outside 5..=9"),
+        ("--rounds", "17", "17 treelet rounds is more than 16"),
+    ] {
+        let out = bvhlab(&[
+            "stats",
+            "--scene",
+            "cornell",
+            "--builder",
+            "lbvh-treelet",
+            flag,
+            value,
+        ]);
+        assert!(!out.status.success());
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains(message), "{stderr}");
+    }
+}

@@ -4,7 +4,9 @@
 use super::settings::{StrategyChoice, ViewMode};
 use super::{BvhLabApp, Tool};
 use crate::accel::AccelKind;
-use crate::accel::bvh::build::{MAX_BUCKETS, MAX_LEAF_SIZE, MIN_BUCKETS};
+use crate::accel::bvh::build::{
+    MAX_BUCKETS, MAX_LEAF_SIZE, MAX_TREELET_ROUNDS, MAX_TREELET_SIZE, MIN_BUCKETS, MIN_TREELET_SIZE,
+};
 use crate::accel::kdtree::{MAX_DEPTH as KD_MAX_DEPTH, MIN_BINS as KD_MIN_BINS};
 use crate::accel::octree::MAX_DEPTH as OCTREE_MAX_DEPTH;
 use crate::geometry::simd::SimdLevel;
@@ -228,6 +230,8 @@ fn bvh_parameters(ui: &mut egui::Ui, s: &mut super::settings::Settings) {
         (StrategyChoice::SpatialMedian, "spatial median"),
         (StrategyChoice::SahSweep, "full-sweep SAH"),
         (StrategyChoice::SahBinned, "binned SAH"),
+        (StrategyChoice::Lbvh, "LBVH"),
+        (StrategyChoice::LbvhTreelet, "LBVH + treelets"),
     ] {
         ui.radio_value(&mut s.strategy, choice, label);
     }
@@ -236,6 +240,16 @@ fn bvh_parameters(ui: &mut egui::Ui, s: &mut super::settings::Settings) {
         egui::Slider::new(&mut s.buckets, MIN_BUCKETS..=MAX_BUCKETS)
             .logarithmic(true)
             .text("buckets B"),
+    );
+    let treelets = s.strategy == StrategyChoice::LbvhTreelet;
+    ui.add_enabled(
+        treelets,
+        egui::Slider::new(&mut s.treelet_size, MIN_TREELET_SIZE..=MAX_TREELET_SIZE)
+            .text("treelet size n"),
+    );
+    ui.add_enabled(
+        treelets,
+        egui::Slider::new(&mut s.treelet_rounds, 0..=MAX_TREELET_ROUNDS).text("treelet rounds"),
     );
     ui.add(
         egui::Slider::new(&mut s.max_leaf_size, 1..=MAX_LEAF_SIZE.min(64)).text("max leaf size"),
@@ -512,6 +526,22 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             .x_axis_label("triangles in leaf")
             .y_axis_label("leaves")
             .show(ui, |p| p.bar_chart(BarChart::new("leaves", bars)));
+        if let Some(before) = r.phases.sah_before_rounds {
+            ui.label("SAH cost per treelet round");
+            let points: PlotPoints = std::iter::once(before)
+                .chain(r.phases.sah_after_round.iter().copied())
+                .enumerate()
+                .map(|(round, c)| [round as f64, c])
+                .collect();
+            Plot::new("treelet rounds")
+                .height(110.0)
+                .allow_drag(false)
+                .allow_zoom(false)
+                .allow_scroll(false)
+                .x_axis_label("round (0: the LBVH)")
+                .y_axis_label("SAH cost")
+                .show(ui, |p| p.line(Line::new("SAH cost", points)));
+        }
     }
     if app.report.is_none() {
         ui.label("building…");

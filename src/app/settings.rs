@@ -81,6 +81,8 @@ pub enum StrategyChoice {
     SpatialMedian,
     SahSweep,
     SahBinned,
+    Lbvh,
+    LbvhTreelet,
 }
 
 impl From<StrategyChoice> for Strategy {
@@ -90,6 +92,8 @@ impl From<StrategyChoice> for Strategy {
             StrategyChoice::SpatialMedian => Strategy::SpatialMedian,
             StrategyChoice::SahSweep => Strategy::SahSweep,
             StrategyChoice::SahBinned => Strategy::SahBinned,
+            StrategyChoice::Lbvh => Strategy::Lbvh,
+            StrategyChoice::LbvhTreelet => Strategy::LbvhTreelet,
         }
     }
 }
@@ -118,6 +122,9 @@ pub struct Settings {
     pub octree_max_depth: u32,
     pub strategy: StrategyChoice,
     pub buckets: u32,
+    /// Leaves per treelet and rounds of LBVH + treelets.
+    pub treelet_size: u32,
+    pub treelet_rounds: u32,
     pub max_leaf_size: u32,
     pub c_trav: f32,
     pub c_isect: f32,
@@ -159,6 +166,8 @@ impl Default for Settings {
             octree_max_depth: oct.max_depth,
             strategy: StrategyChoice::SahBinned,
             buckets: p.buckets,
+            treelet_size: p.treelet_size,
+            treelet_rounds: p.treelet_rounds,
             max_leaf_size: p.max_leaf_size,
             c_trav: p.c_trav,
             c_isect: p.c_isect,
@@ -186,6 +195,8 @@ impl Settings {
             max_leaf_size: self.max_leaf_size,
             c_trav: self.c_trav,
             c_isect: self.c_isect,
+            treelet_size: self.treelet_size,
+            treelet_rounds: self.treelet_rounds,
         }
     }
 

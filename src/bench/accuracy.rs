@@ -1,5 +1,6 @@
 //! Run time against error, behind `bvhlab bench --accuracy`: every intersector with every
-//! builder (object/spatial median, full-sweep SAH, binned SAH B = 2…64) gives build time, SAH
+//! builder (object/spatial median, full-sweep SAH, binned SAH B = 2…64, LBVH, LBVH + treelets)
+//! gives build time, SAH
 //! cost, Mrays/s, leak and mismatch rates; written as CSV and as a Pareto plot.
 
 use super::compare::{self, Agreement};
@@ -38,7 +39,8 @@ pub struct Builder {
     pub params: BuildParams,
 }
 
-/// Object median, spatial median, full-sweep SAH, binned SAH with B = 2, 4, 8, 16, 32, 64.
+/// Object median, spatial median, full-sweep SAH, binned SAH with B = 2, 4, 8, 16, 32, 64,
+/// LBVH and LBVH + treelets.
 pub fn builders() -> Vec<Builder> {
     let with = |strategy, buckets| BuildParams {
         strategy,
@@ -69,6 +71,16 @@ pub fn builders() -> Vec<Builder> {
             params: with(Strategy::SahBinned, b),
         });
     }
+    out.push(Builder {
+        label: "LBVH".into(),
+        short: "lbvh".into(),
+        params: with(Strategy::Lbvh, 16),
+    });
+    out.push(Builder {
+        label: "LBVH + treelets".into(),
+        short: "treelet".into(),
+        params: with(Strategy::LbvhTreelet, 16),
+    });
     out
 }
 
@@ -286,6 +298,8 @@ pub fn pareto_plot(rows: &[AccuracyRow]) -> Figure {
             "spa: spatial median",
             "sweep: full-sweep SAH",
             "Bn: binned SAH, n buckets",
+            "lbvh: LBVH",
+            "treelet: LBVH + treelets",
         ]
         .map(String::from)
         .to_vec(),

@@ -10,8 +10,8 @@ pub mod rays;
 pub mod scaling;
 pub mod stress;
 
-use crate::accel::bvh::BuildReport;
 use crate::accel::bvh::packet::PACKET_SIZE;
+use crate::accel::bvh::{BuildParams, BuildReport, Strategy};
 use crate::accel::structure::{self, AccelKind, Built, Structure, StructureError};
 use crate::accel::{Accel, Counters, NoStats, StructureParams, StructureReport};
 #[cfg(feature = "embree")]
@@ -151,6 +151,43 @@ pub fn run_all(
     kinds: &[AccelKind],
     done: &mut dyn FnMut(&BenchResult),
 ) -> Result<Vec<BenchResult>, BenchError> {
+    let each = kinds
+        .iter()
+        .map(|&kind| StructureParams { kind, ..cfg.params })
+        .collect();
+    run_each(scene, cfg, each, done)
+}
+
+/// Runs the benchmark of a BVH built by each of `strategies` (the other parameters from
+/// `cfg.params.bvh`) on the same ray sets, calling `done` after each.
+pub fn run_builders(
+    scene: &Scene,
+    cfg: &BenchConfig,
+    strategies: &[Strategy],
+    done: &mut dyn FnMut(&BenchResult),
+) -> Result<Vec<BenchResult>, BenchError> {
+    let each = strategies
+        .iter()
+        .map(|&strategy| StructureParams {
+            kind: AccelKind::Bvh,
+            bvh: BuildParams {
+                strategy,
+                ..cfg.params.bvh
+            },
+            ..cfg.params
+        })
+        .collect();
+    run_each(scene, cfg, each, done)
+}
+
+/// Runs the benchmark of each structure in `each` on the same ray sets (made with a BVH
+/// built with `cfg.params.bvh`).
+fn run_each(
+    scene: &Scene,
+    cfg: &BenchConfig,
+    each: Vec<StructureParams>,
+    done: &mut dyn FnMut(&BenchResult),
+) -> Result<Vec<BenchResult>, BenchError> {
     let bvh_params = StructureParams {
         kind: AccelKind::Bvh,
         ..cfg.params
@@ -166,8 +203,7 @@ pub fn run_all(
     );
     drop(bvh);
     let mut out = Vec::new();
-    for &kind in kinds {
-        let params = StructureParams { kind, ..cfg.params };
+    for params in each {
         let built = timed_build(scene, cfg, &params)?;
         let result = measure(scene, cfg, &params, &built, &sets);
         done(&result);
@@ -466,6 +502,8 @@ impl BenchResult {
             "intersector": self.intersector.label(),
             "builder": b.strategy.label(),
             "buckets": b.buckets,
+            "treelet_size": b.treelet_size,
+            "treelet_rounds": b.treelet_rounds,
             "max_leaf_size": b.max_leaf_size,
             "mailbox": self.params.mailbox,
             "simd": self.params.kind.is_wide().then(|| self.params.simd.label()),

@@ -3,6 +3,7 @@
 use super::{BuildArgs, IntersectorArg, ViewArgs, check_size, load_scene, thread_pool};
 use anyhow::{Context, Result};
 use bvhlab::accel::AccelKind;
+use bvhlab::accel::bvh::Strategy;
 use bvhlab::bench::accuracy::{self, AccuracyConfig};
 use bvhlab::bench::scaling::{self, ScalingConfig};
 use bvhlab::bench::{self, BenchConfig, plot};
@@ -44,9 +45,15 @@ pub struct BenchArgs {
     #[arg(long, value_enum, default_value_t = IntersectorArg::Watertight)]
     pub intersector: IntersectorArg,
     /// Run time against error: every intersector with every builder (object median, spatial
-    /// median, full-sweep SAH, binned SAH with B = 2..64); writes a CSV and a Pareto plot.
+    /// median, full-sweep SAH, binned SAH with B = 2..64, LBVH, LBVH + treelets); writes a CSV
+    /// and a Pareto plot.
     #[arg(long)]
     pub accuracy: bool,
+    /// Every BVH builder (object median, spatial median, full-sweep SAH, binned SAH, LBVH,
+    /// LBVH + treelets) on the same ray sets, as one table: build ms, SAH cost, and Mrays/s
+    /// with its percentage of the best builder's.
+    #[arg(long, conflicts_with_all = ["accuracy", "scaling", "embree"])]
+    pub builders: bool,
     /// How the cost per primary ray grows with the scene: every structure on the scene's own
     /// view at sizes from 10^3 to 10^6 triangles (soup, sphere, grass or teapot-in-stadium),
     /// one build per point; writes a CSV and log-log plots and prints the slopes.
@@ -108,8 +115,14 @@ pub fn run(args: BenchArgs) -> Result<()> {
             "--accel all times bvhlab's structures only: leave out --embree and --accuracy"
         );
     }
+    if args.builders && args.build.accel != super::AccelArg::Bvh {
+        anyhow::bail!("--builders compares the BVH's builders: leave out --accel");
+    }
     cfg.params.validate()?;
     let pool = thread_pool(args.threads)?;
+    if args.builders {
+        return run_builders(&args, &scene, &cfg, &pool);
+    }
     if args.accuracy {
         return run_accuracy(&args, &scene, &cfg, &pool);
     }
@@ -270,6 +283,103 @@ fn run_all(
         } else {
             out!(
                 "  hit counts differ from the first structure's: {}",
+                differing.join(", ")
+            );
+        }
+    }
+    Ok(())
+}
+
+/// `--builders`: every BVH builder on the same ray sets, as one table (or one JSON object
+/// with a `builders` array).
+fn run_builders(
+    args: &BenchArgs,
+    scene: &Scene,
+    cfg: &BenchConfig,
+    pool: &rayon::ThreadPool,
+) -> Result<()> {
+    let quiet = args.json;
+    let results = pool.install(|| {
+        bench::run_builders(scene, cfg, &Strategy::ALL, &mut |r| {
+            if !quiet {
+                eprintln!("  done: {}", r.params.bvh.strategy.label());
+            }
+        })
+    })?;
+    if args.json {
+        let builders: Vec<serde_json::Value> = results.iter().map(|r| r.to_json()).collect();
+        out!(
+            "{}",
+            serde_json::json!({
+                "scene": scene.name,
+                "triangles": scene.triangles.len(),
+                "threads": results.first().map_or(0, |r| r.threads),
+                "builders": builders,
+            })
+        );
+        return Ok(());
+    }
+    out!(
+        "{}: {} triangles, {} threads, {}×{} ray sets (Mrays/s, and % of the best builder's)",
+        scene.name,
+        scene.triangles.len(),
+        results.first().map_or(0, |r| r.threads),
+        cfg.width,
+        cfg.height
+    );
+    out!(
+        "  {:<17} {:>9} {:>9} {:>15} {:>15} {:>15}",
+        "builder",
+        "build ms",
+        "SAH cost",
+        "primary",
+        "diffuse",
+        "shadow"
+    );
+    let sets = |r: &bench::BenchResult| [r.primary, r.diffuse, r.shadow];
+    let best: Vec<f64> = (0..3)
+        .map(|k| {
+            results
+                .iter()
+                .map(|r| sets(r)[k].mrays_per_s())
+                .fold(0.0, f64::max)
+        })
+        .collect();
+    for r in &results {
+        let cells: Vec<String> = sets(r)
+            .iter()
+            .zip(&best)
+            .map(|(s, &b)| {
+                let m = s.mrays_per_s();
+                format!("{m:>7.2} ({:>3.0} %)", 100.0 * m / b.max(1e-12))
+            })
+            .collect();
+        out!(
+            "  {:<17} {:>9.2} {:>9.2} {:>15} {:>15} {:>15}",
+            r.params.bvh.strategy.label(),
+            r.report.build_ms(),
+            r.bvh_report.as_ref().map_or(f64::NAN, |b| b.tree.sah_cost),
+            cells[0],
+            cells[1],
+            cells[2]
+        );
+    }
+    // Every BVH keeps the same closest-hit rule: the hit counts must not differ.
+    let counts = |r: &bench::BenchResult| [r.primary.hits, r.diffuse.hits, r.shadow.hits];
+    if let Some(first) = results.first() {
+        let differing: Vec<&str> = results
+            .iter()
+            .filter(|r| counts(r) != counts(first))
+            .map(|r| r.params.bvh.strategy.label())
+            .collect();
+        if differing.is_empty() {
+            let [p, d, s] = counts(first);
+            out!(
+                "  hits: {p} primary, {d} diffuse, {s} occluded shadow rays, the same for every builder"
+            );
+        } else {
+            out!(
+                "  hit counts differ from the first builder's: {}",
                 differing.join(", ")
             );
         }

@@ -36,6 +36,12 @@ pub struct BuildArgs {
     /// Bucket count B for binned SAH (2..=256).
     #[arg(long, default_value_t = BuildParams::default().buckets)]
     pub buckets: u32,
+    /// Leaves per treelet for lbvh-treelet (5..=9).
+    #[arg(long, default_value_t = BuildParams::default().treelet_size)]
+    pub treelet_size: u32,
+    /// Rounds of treelet restructuring for lbvh-treelet (0..=16).
+    #[arg(long, default_value_t = BuildParams::default().treelet_rounds)]
+    pub rounds: u32,
     /// Maximum number of triangles in a leaf (1..=4096).
     #[arg(long, default_value_t = BuildParams::default().max_leaf_size)]
     pub max_leaf: u32,
@@ -107,6 +113,10 @@ pub enum BuilderArg {
     SpatialMedian,
     SahSweep,
     SahBinned,
+    /// Karras 2012: Morton codes, radix sort, radix tree; leaves collapsed by the SAH.
+    Lbvh,
+    /// LBVH then Karras–Aila treelet restructuring (--treelet-size, --rounds).
+    LbvhTreelet,
 }
 
 #[derive(ValueEnum, Clone, Copy)]
@@ -198,11 +208,15 @@ impl BuildArgs {
                 BuilderArg::SpatialMedian => Strategy::SpatialMedian,
                 BuilderArg::SahSweep => Strategy::SahSweep,
                 BuilderArg::SahBinned => Strategy::SahBinned,
+                BuilderArg::Lbvh => Strategy::Lbvh,
+                BuilderArg::LbvhTreelet => Strategy::LbvhTreelet,
             },
             buckets: self.buckets,
             max_leaf_size: self.max_leaf,
             c_trav: self.c_trav,
             c_isect: self.c_isect,
+            treelet_size: self.treelet_size,
+            treelet_rounds: self.rounds,
         }
     }
 

@@ -1,5 +1,6 @@
 //! The binary bounding volume hierarchy (BVH2): a tree of boxes over the triangles, built by
-//! median or SAH splits, traversed front to back, refitted after motion.
+//! median or SAH splits or bottom-up as an LBVH (with treelet restructuring), traversed front
+//! to back, refitted after motion.
 
 pub mod build;
 pub mod node;

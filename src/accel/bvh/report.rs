@@ -47,12 +47,37 @@ impl TreeStats {
     }
 }
 
+/// Where a multi-pass build spent its time, and how treelet restructuring lowered the SAH
+/// cost round by round. Empty for the top-down builders, which are one recursion.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BuildPhases {
+    /// (phase, time) in the order they ran.
+    pub times: Vec<(String, Duration)>,
+    /// The SAH cost of the LBVH before the first treelet round.
+    pub sah_before_rounds: Option<f64>,
+    /// The SAH cost after each treelet round.
+    pub sah_after_round: Vec<f64>,
+}
+
+impl BuildPhases {
+    pub fn add(&mut self, phase: &str, time: Duration) {
+        self.times.push((phase.to_string(), time));
+    }
+
+    pub fn add_round(&mut self, time: Duration, sah_cost: f64) {
+        self.sah_after_round.push(sah_cost);
+        let round = self.sah_after_round.len();
+        self.add(&format!("treelet round {round}"), time);
+    }
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct BuildReport {
     pub params: BuildParams,
     pub triangles: usize,
     pub build_time: Duration,
     pub tree: TreeStats,
+    pub phases: BuildPhases,
 }
 
 impl BuildReport {
@@ -62,6 +87,7 @@ impl BuildReport {
             triangles: bvh.triangles.len(),
             build_time,
             tree: TreeStats::new(bvh, params.c_trav, params.c_isect),
+            phases: BuildPhases::default(),
         }
     }
 
@@ -76,6 +102,10 @@ impl BuildReport {
         let mut rows = vec![("strategy".to_string(), p.strategy.label().to_string())];
         if p.strategy == super::Strategy::SahBinned {
             rows.push(("buckets B".into(), p.buckets.to_string()));
+        }
+        if p.strategy == super::Strategy::LbvhTreelet {
+            rows.push(("treelet size n".into(), p.treelet_size.to_string()));
+            rows.push(("treelet rounds".into(), p.treelet_rounds.to_string()));
         }
         rows.extend([
             ("max leaf size".into(), p.max_leaf_size.to_string()),
@@ -106,6 +136,21 @@ impl BuildReport {
             .map(|(size, c)| format!("{size}:{c}"))
             .collect();
         rows.push(("leaf sizes (size:count)".into(), hist.join(" ")));
+        for (phase, time) in &self.phases.times {
+            rows.push((
+                format!("time: {phase}"),
+                format!("{:.2} ms", time.as_secs_f64() * 1e3),
+            ));
+        }
+        if let Some(before) = self.phases.sah_before_rounds {
+            rows.push(("SAH cost before treelets".into(), format!("{before:.3}")));
+        }
+        for (k, cost) in self.phases.sah_after_round.iter().enumerate() {
+            rows.push((
+                format!("SAH cost after round {}", k + 1),
+                format!("{cost:.3}"),
+            ));
+        }
         rows
     }
 }

@@ -8,16 +8,23 @@
 //! - full-sweep SAH: every position between sorted centroids, on all three axes;
 //! - binned SAH: the boundaries between B equal-width buckets, on all three axes.
 //!
+//! LBVH (`lbvh`) builds bottom-up instead, from primitives sorted along a Morton curve, and
+//! treelet restructuring (`treelet`) then improves that tree's SAH cost locally.
+//!
 //! Primitives are represented by their bounding boxes; "centroid" means the centre of a
 //! primitive's box, as in pbrt and Embree.
 
+mod lbvh;
+pub mod linked_tree;
 mod median;
 mod prim;
+mod radix_sort;
 mod sah_binned;
 mod sah_sweep;
+pub mod treelet;
 
 use super::node::{Node, Nodes};
-use super::report::BuildReport;
+use super::report::{BuildPhases, BuildReport};
 use super::{Bvh, TraversalOrder};
 use crate::geometry::{Aabb, Triangle};
 use prim::{NodeInfo, PrimRef, Split};
@@ -32,14 +39,20 @@ pub enum Strategy {
     SahSweep,
     #[default]
     SahBinned,
+    /// Karras 2012: Morton order and a radix tree, leaves collapsed by the SAH.
+    Lbvh,
+    /// LBVH improved by Karras and Aila's (2013) treelet restructuring.
+    LbvhTreelet,
 }
 
 impl Strategy {
-    pub const ALL: [Strategy; 4] = [
+    pub const ALL: [Strategy; 6] = [
         Strategy::ObjectMedian,
         Strategy::SpatialMedian,
         Strategy::SahSweep,
         Strategy::SahBinned,
+        Strategy::Lbvh,
+        Strategy::LbvhTreelet,
     ];
 
     pub fn label(self) -> &'static str {
@@ -48,6 +61,8 @@ impl Strategy {
             Strategy::SpatialMedian => "spatial median",
             Strategy::SahSweep => "full-sweep SAH",
             Strategy::SahBinned => "binned SAH",
+            Strategy::Lbvh => "LBVH",
+            Strategy::LbvhTreelet => "LBVH + treelets",
         }
     }
 
@@ -68,6 +83,10 @@ pub struct BuildParams {
     pub c_trav: f32,
     /// Cost of one ray–triangle test.
     pub c_isect: f32,
+    /// Leaves n of a treelet in treelet restructuring.
+    pub treelet_size: u32,
+    /// Rounds of treelet restructuring.
+    pub treelet_rounds: u32,
 }
 
 impl Default for BuildParams {
@@ -78,6 +97,8 @@ impl Default for BuildParams {
             max_leaf_size: 8,
             c_trav: 1.0,
             c_isect: 1.0,
+            treelet_size: 7,
+            treelet_rounds: 3,
         }
     }
 }
@@ -85,6 +106,11 @@ impl Default for BuildParams {
 pub const MIN_BUCKETS: u32 = 2;
 pub const MAX_BUCKETS: u32 = 256;
 pub const MAX_LEAF_SIZE: u32 = 4096;
+pub const MIN_TREELET_SIZE: u32 = treelet::MIN_TREELET as u32;
+pub const MAX_TREELET_SIZE: u32 = treelet::MAX_TREELET as u32;
+/// More rounds change nothing: each round only roots treelets at subtrees of at least
+/// n·2^round primitives.
+pub const MAX_TREELET_ROUNDS: u32 = 16;
 
 impl BuildParams {
     pub fn with_strategy(strategy: Strategy) -> Self {
@@ -100,6 +126,12 @@ impl BuildParams {
         }
         if !(1..=MAX_LEAF_SIZE).contains(&self.max_leaf_size) {
             return Err(BuildError::LeafSize(self.max_leaf_size));
+        }
+        if !(MIN_TREELET_SIZE..=MAX_TREELET_SIZE).contains(&self.treelet_size) {
+            return Err(BuildError::TreeletSize(self.treelet_size));
+        }
+        if self.treelet_rounds > MAX_TREELET_ROUNDS {
+            return Err(BuildError::TreeletRounds(self.treelet_rounds));
         }
         for (name, value) in [("C_trav", self.c_trav), ("C_isect", self.c_isect)] {
             if !(value.is_finite() && value >= 0.0) {
@@ -122,6 +154,10 @@ pub enum BuildError {
     Buckets(u32),
     #[error("maximum leaf size {0} is outside 1..={MAX_LEAF_SIZE}")]
     LeafSize(u32),
+    #[error("treelet size {0} is outside {MIN_TREELET_SIZE}..={MAX_TREELET_SIZE} leaves")]
+    TreeletSize(u32),
+    #[error("{0} treelet rounds is more than {MAX_TREELET_ROUNDS}")]
+    TreeletRounds(u32),
     #[error("{name} = {value} must be finite and non-negative (C_isect positive)")]
     Cost { name: &'static str, value: f32 },
     #[error("triangle {0} has a NaN or infinite vertex")]
@@ -164,10 +200,35 @@ pub fn build_with_progress(
         return Err(BuildError::NonFinite(i));
     }
     let start = Instant::now();
-    let bvh = build_tree(triangles, params, progress);
+    let (bvh, phases) = match params.strategy {
+        Strategy::Lbvh | Strategy::LbvhTreelet if !triangles.is_empty() => {
+            let (nodes, prim_indices, phases) = lbvh::build(triangles, params);
+            progress.fetch_add(triangles.len(), Ordering::Relaxed);
+            (in_leaf_order(triangles, nodes, prim_indices), phases)
+        }
+        _ => (
+            build_tree(triangles, params, progress),
+            BuildPhases::default(),
+        ),
+    };
     let build_time = start.elapsed();
-    let report = BuildReport::new(&bvh, params, build_time);
+    let mut report = BuildReport::new(&bvh, params, build_time);
+    report.phases = phases;
     Ok((bvh, report))
+}
+
+/// The BVH over `nodes` with the triangles copied into leaf order.
+fn in_leaf_order(triangles: &[Triangle], nodes: Nodes, prim_indices: Vec<u32>) -> Bvh {
+    let triangles = prim_indices
+        .par_iter()
+        .map(|&i| triangles[i as usize])
+        .collect();
+    Bvh {
+        nodes,
+        prim_indices,
+        triangles,
+        order: TraversalOrder::default(),
+    }
 }
 
 fn build_tree(triangles: &[Triangle], params: &BuildParams, progress: &AtomicUsize) -> Bvh {
@@ -194,16 +255,7 @@ fn build_tree(triangles: &[Triangle], params: &BuildParams, progress: &AtomicUsi
         Nodes::from_flat(&compact(&slots))
     };
     let prim_indices: Vec<u32> = refs.iter().map(|r| r.index).collect();
-    let triangles = prim_indices
-        .par_iter()
-        .map(|&i| triangles[i as usize])
-        .collect();
-    Bvh {
-        nodes,
-        prim_indices,
-        triangles,
-        order: TraversalOrder::default(),
-    }
+    in_leaf_order(triangles, nodes, prim_indices)
 }
 
 struct Builder<'a> {
@@ -296,6 +348,8 @@ impl Builder<'_> {
             Strategy::SpatialMedian => must_split.then(|| median::spatial_median(refs, info)),
             Strategy::SahSweep => sah_sweep::split(refs, info, p),
             Strategy::SahBinned => sah_binned::split(refs, info, p),
+            // An empty input reaches no split; non-empty ones are built by `lbvh`.
+            Strategy::Lbvh | Strategy::LbvhTreelet => None,
         }
     }
 }

@@ -1,0 +1,114 @@
+//! Parallel least-significant-digit radix sort of 64-bit keys, eight bits per pass, as LBVH
+//! needs it for its Morton codes. Each pass is stable, so the result is the one stable order
+//! of the keys whatever the number of threads or chunks.
+
+use rayon::prelude::*;
+
+/// A key and the value that travels with it (LBVH: a Morton code and a primitive index).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Keyed {
+    pub key: u64,
+    pub value: u32,
+}
+
+const DIGIT_BITS: u32 = 8;
+const BUCKETS: usize = 1 << DIGIT_BITS;
+/// Each pass splits the input into chunks of at least this many keys: a histogram per chunk,
+/// then every chunk scatters its keys into its own reserved places of every bucket.
+const MIN_CHUNK: usize = 16 * 1024;
+/// At most this many chunks, so the per-pass bookkeeping stays small for huge inputs.
+const MAX_CHUNKS: usize = 256;
+
+/// Sorts `items` by key, stably.
+pub fn sort(items: &mut Vec<Keyed>) {
+    let n = items.len();
+    if n < 2 {
+        return;
+    }
+    let chunk = n.div_ceil(MAX_CHUNKS).max(MIN_CHUNK);
+    let mut other = vec![Keyed::default(); n];
+    for pass in 0..u64::BITS.div_ceil(DIGIT_BITS) {
+        let shift = pass * DIGIT_BITS;
+        let digit = move |k: &Keyed| ((k.key >> shift) as usize) & (BUCKETS - 1);
+        let histograms: Vec<[usize; BUCKETS]> = items
+            .par_chunks(chunk)
+            .map(|c| {
+                let mut h = [0usize; BUCKETS];
+                for k in c {
+                    h[digit(k)] += 1;
+                }
+                h
+            })
+            .collect();
+        if (0..BUCKETS).any(|d| histograms.iter().map(|h| h[d]).sum::<usize>() == n) {
+            // Every key has the same digit here: the pass would not move anything.
+            continue;
+        }
+        // The output in bucket-major, chunk-minor order, cut into one piece per (chunk,
+        // bucket): chunk c's keys of bucket d land in piece [c][d], after the keys of bucket
+        // d from the chunks before it. That is what makes the pass stable.
+        let mut pieces: Vec<Vec<&mut [Keyed]>> = (0..histograms.len())
+            .map(|_| Vec::with_capacity(BUCKETS))
+            .collect();
+        let mut rest: &mut [Keyed] = &mut other;
+        for d in 0..BUCKETS {
+            for (c, h) in histograms.iter().enumerate() {
+                let (piece, tail) = std::mem::take(&mut rest).split_at_mut(h[d]);
+                pieces[c].push(piece);
+                rest = tail;
+            }
+        }
+        items
+            .par_chunks(chunk)
+            .zip(pieces.par_iter_mut())
+            .for_each(|(c, pieces)| {
+                let mut next = [0usize; BUCKETS];
+                for k in c {
+                    let d = digit(k);
+                    pieces[d][next[d]] = *k;
+                    next[d] += 1;
+                }
+            });
+        std::mem::swap(items, &mut other);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check(keys: Vec<u64>) {
+        let mut items: Vec<Keyed> = keys
+            .iter()
+            .enumerate()
+            .map(|(i, &key)| Keyed {
+                key,
+                value: i as u32,
+            })
+            .collect();
+        let mut expected = items.clone();
+        expected.sort_by_key(|k| k.key); // stable
+        sort(&mut items);
+        assert_eq!(items, expected);
+    }
+
+    #[test]
+    fn sorts_like_a_stable_comparison_sort() {
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        check(vec![]);
+        check(vec![5]);
+        for n in [2, 100, 70_000, 300_000] {
+            check((0..n).map(|_| next()).collect());
+            // Many duplicates and keys that differ only in a few digits.
+            check((0..n).map(|_| next() % 7).collect());
+            check((0..n).map(|_| (next() % 3) << 40).collect());
+        }
+        check(vec![u64::MAX, 0, u64::MAX, 1 << 63, 0]);
+    }
+}
