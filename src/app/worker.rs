@@ -421,13 +421,7 @@ impl State {
         let (Some(scene), Some(structure)) = (&mut self.scene, &mut self.structure) else {
             return;
         };
-        for &t in triangles {
-            if let Some(tri) = scene.triangles.get_mut(t as usize) {
-                for v in &mut tri.v {
-                    *v += delta;
-                }
-            }
-        }
+        scene.move_triangles(triangles, delta);
         let start = Instant::now();
         let p = &self.params.bvh;
         if let Some(bvh) = structure.as_bvh_mut() {
