@@ -154,7 +154,7 @@ fn build_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 );
             }
             match s.accel {
-                AccelKind::Bvh => bvh_parameters(ui, s),
+                AccelKind::Bvh | AccelKind::TwoLevel => bvh_parameters(ui, s),
                 AccelKind::KdTree => kdtree_parameters(ui, s),
                 AccelKind::Grid => {
                     ui.add(

@@ -397,7 +397,7 @@ impl State {
         self.progress
             .1
             .store(scene.triangles.len(), Ordering::Relaxed);
-        match structure::build(&scene.triangles, &self.params, &self.progress.0) {
+        match structure::build_scene(scene, &self.params, &self.progress.0) {
             Ok(built) => {
                 self.refit_index = None;
                 self.outline = Arc::new(built.structure.outline());
@@ -439,8 +439,7 @@ impl State {
             return;
         }
         // A spatial structure has no boxes to stretch: it is built again.
-        let Ok(built) = structure::build(&scene.triangles, &self.params, &Default::default())
-        else {
+        let Ok(built) = structure::build_scene(scene, &self.params, &Default::default()) else {
             return;
         };
         let rebuild_time = start.elapsed();

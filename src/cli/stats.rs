@@ -15,7 +15,7 @@ pub struct StatsArgs {
 
 pub fn run(args: StatsArgs) -> Result<()> {
     let scene = load_scene(&args.scene)?;
-    let report = args.build.build(&scene.triangles)?.report;
+    let report = args.build.build(&scene)?.report;
     out!("scene: {} ({} objects)", scene.name, scene.objects.len());
     let width = report
         .rows()
