@@ -30,8 +30,9 @@ pub enum TransformError {
     Singular,
 }
 
-/// A linear part whose determinant is below this fraction of the product of its column
-/// lengths squeezes space into (nearly) a plane: its inverse would be meaningless.
+/// A linear part whose determinant is below this fraction of the cube of its longest
+/// column squeezes space into (nearly) a plane or a line: its inverse would be meaningless
+/// in f32.
 const SINGULAR_RATIO: f32 = 1e-12;
 
 impl Instance {
@@ -63,6 +64,13 @@ impl Instance {
         }
     }
 
+    /// Whether the instance leaves its mesh where it is (so rays need no transform, and
+    /// keep even the signs of their zero components).
+    #[inline(always)]
+    pub fn is_identity(&self) -> bool {
+        self.transform == Affine3A::IDENTITY
+    }
+
     /// A triangle of the mesh in world space.
     pub fn place(&self, t: &Triangle) -> Triangle {
         let p = |v| self.transform.transform_point3(v);
@@ -91,7 +99,12 @@ impl Instance {
 }
 
 fn is_singular(m: Mat3A) -> bool {
-    let scale = m.x_axis.length() * m.y_axis.length() * m.z_axis.length();
+    let longest = m
+        .x_axis
+        .length()
+        .max(m.y_axis.length())
+        .max(m.z_axis.length());
+    let scale = longest * longest * longest;
     // Written so that a NaN determinant counts as singular.
     let regular = m.determinant().abs() > SINGULAR_RATIO * scale;
     !regular

@@ -15,6 +15,9 @@ use crate::scene::Instance;
 /// `ray` in the instance's object space, searched up to `tmax`.
 #[inline(always)]
 fn to_object(instance: &Instance, ray: &Ray, tmax: f32) -> Ray {
+    if instance.is_identity() {
+        return Ray { tmax, ..*ray };
+    }
     Ray {
         origin: instance.inverse.transform_point3(ray.origin),
         direction: instance.inverse.transform_vector3(ray.direction),
