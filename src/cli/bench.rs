@@ -13,7 +13,7 @@ use std::path::PathBuf;
 #[derive(Args)]
 #[command(group(ArgGroup::new("study").args(["accuracy", "scaling"])))]
 pub struct BenchArgs {
-    /// Built-in scene name (optionally NAME:N) or path to an .obj file.
+    /// Built-in scene name (optionally NAME:N) or path to an .obj, .gltf or .glb file.
     #[arg(long)]
     pub scene: String,
     #[command(flatten)]

@@ -10,7 +10,7 @@ use std::path::PathBuf;
 
 #[derive(Args)]
 pub struct RenderArgs {
-    /// Built-in scene name (optionally NAME:N) or path to an .obj file.
+    /// Built-in scene name (optionally NAME:N) or path to an .obj, .gltf or .glb file.
     #[arg(long, default_value = "cornell")]
     pub scene: String,
     /// Output PNG.

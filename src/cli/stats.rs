@@ -6,7 +6,7 @@ use clap::Args;
 
 #[derive(Args)]
 pub struct StatsArgs {
-    /// Built-in scene name (optionally NAME:N) or path to an .obj file.
+    /// Built-in scene name (optionally NAME:N) or path to an .obj, .gltf or .glb file.
     #[arg(long, default_value = "cornell")]
     pub scene: String,
     #[command(flatten)]

@@ -22,7 +22,7 @@ use std::time::Instant;
         A file whose size is not a multiple of 32 bytes, or any ray with a NaN or infinite \
         value or a zero direction, is an error naming the rays.")]
 pub struct TraceArgs {
-    /// Built-in scene name (optionally NAME:N) or path to an .obj file.
+    /// Built-in scene name (optionally NAME:N) or path to an .obj, .gltf or .glb file.
     #[arg(long)]
     pub scene: String,
     /// Input rays (8 little-endian f32 per ray).

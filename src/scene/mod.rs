@@ -4,10 +4,12 @@
 
 pub mod builtin;
 pub mod camera;
+pub mod gltf;
 pub mod instance;
 pub mod obj;
 
 pub use camera::Camera;
+pub use gltf::{GltfError, load_gltf};
 pub use instance::{Instance, Instancing, Mesh, TransformError};
 pub use obj::{ObjError, load_obj};
 
@@ -161,12 +163,16 @@ impl Scene {
         (i < self.objects.len() && self.objects[i].range().contains(&index)).then_some(i)
     }
 
-    /// Loads a scene by built-in name (`cornell`, `soup:5000`, …) or from an OBJ path.
+    /// Loads a scene by built-in name (`cornell`, `soup:5000`, …) or from an OBJ, glTF or
+    /// GLB path.
     pub fn load(spec: &str) -> Result<Scene, SceneError> {
         if let Some(scene) = builtin::by_name(spec)? {
             return Ok(scene);
         }
         let path = Path::new(spec);
+        if is_gltf_path(path) {
+            return load_gltf(path).map_err(|e| Box::new(e).into());
+        }
         if path
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("obj"))
@@ -181,11 +187,22 @@ impl Scene {
     }
 }
 
+/// Whether the file name ends in `.gltf` or `.glb` (in any case).
+pub fn is_gltf_path(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"))
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
     #[error(transparent)]
     Obj(#[from] ObjError),
-    #[error("unknown scene '{name}': not a built-in scene ({known}) nor an .obj file")]
+    /// Boxed: a glTF error carries the file, the node and the mesh.
+    #[error(transparent)]
+    Gltf(#[from] Box<GltfError>),
+    #[error(
+        "unknown scene '{name}': not a built-in scene ({known}) nor an .obj, .gltf or .glb file"
+    )]
     UnknownScene { name: String, known: String },
     #[error("bad parameter for scene '{name}': {reason}")]
     BadParameter { name: String, reason: String },
