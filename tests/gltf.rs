@@ -415,3 +415,44 @@ fn a_gltf_without_a_scene_places_its_root_nodes() {
     let scene = load_gltf(&path).unwrap();
     assert_eq!(scene.triangles, mesh_triangles());
 }
+
+#[test]
+fn the_command_line_takes_gltf_scenes_and_names_what_is_wrong() {
+    let dir = temp_dir("cli");
+    let mut b = valid();
+    let child = b.node(json!({"mesh": 0, "translation": [0.0, 0.0, 2.0]}));
+    b.nodes[0]["children"] = json!([child]);
+    let good = b.write_glb(&dir, "good");
+    let run = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_bvhlab"))
+            .args(args)
+            .env_remove("RUST_BACKTRACE")
+            .output()
+            .expect("bvhlab runs")
+    };
+    let good = good.display().to_string();
+    for accel in ["bvh", "two-level"] {
+        let out = run(&["stats", "--scene", &good, "--accel", accel]);
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(text.contains(accel), "{text}");
+    }
+    let out = run(&["stats", "--scene", &good, "--accel", "two-level"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("instances") && text.contains('2'), "{text}");
+
+    b.nodes[1]["scale"] = json!([0.0, 1.0, 1.0]);
+    let bad = b.write_embedded(&dir, "bad").display().to_string();
+    let out = run(&["stats", "--scene", &bad]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains(&bad) && err.contains("node 1") && err.contains("singular"),
+        "{err}"
+    );
+    assert!(!err.contains("panicked"), "{err}");
+}

@@ -480,3 +480,89 @@ fn bad_parameters_and_non_finite_meshes_are_errors() {
     // Named as the flattened scene numbers it: the second instance's second triangle.
     assert!(error.to_string().contains("triangle 2 "), "{error}");
 }
+
+#[test]
+fn nested_gltf_nodes_hit_what_their_flattened_scene_hits() {
+    use common::gltf::{GltfBuilder, UNSIGNED_INT, temp_dir};
+    use serde_json::json;
+    let mut b = GltfBuilder::default();
+    let mesh_of = |b: &mut GltfBuilder, triangles: &[Triangle]| {
+        let points: Vec<Vec3> = triangles.iter().flat_map(|t| t.v).collect();
+        let p = b.positions(&points);
+        let indices: Vec<u32> = (0..points.len() as u32).collect();
+        let i = b.indices(&indices, UNSIGNED_INT);
+        b.mesh(&[(p, Some(i))])
+    };
+    let sphere_mesh = mesh_of(&mut b, &sphere());
+    let soup_mesh = mesh_of(&mut b, &common::soup(150, 21));
+    // Three levels: a rotated, unevenly scaled root; mirrored and sheared children placed
+    // by matrices; grandchildren placed by TRS; both meshes used at every level.
+    let mut rng = Rng::new(22);
+    let mut roots = Vec::new();
+    for r in 0..3 {
+        let mut children = Vec::new();
+        for c in 0..3 {
+            let mut grandchildren = Vec::new();
+            for g in 0..2 {
+                let rotation = Quat::from_axis_angle(rng.unit_vector(), rng.range(0.0, 6.0));
+                let node = b.node(json!({
+                    "mesh": if g == 0 { sphere_mesh } else { soup_mesh },
+                    "translation": [rng.range(-2.0, 2.0), rng.range(-2.0, 2.0), 1.5],
+                    "rotation": rotation.to_array(),
+                    "scale": [rng.range(0.3, 1.0), rng.range(0.3, 1.0), rng.range(0.3, 1.0)],
+                }));
+                grandchildren.push(node);
+            }
+            let m = random_transform(&mut rng, 5 * c + 7 * (c % 2));
+            let node = b.node(json!({
+                "mesh": if c == 1 { sphere_mesh } else { soup_mesh },
+                "matrix": glam::Mat4::from(m).to_cols_array(),
+                "children": grandchildren,
+            }));
+            children.push(node);
+        }
+        let rotation = Quat::from_axis_angle(rng.unit_vector(), rng.range(0.0, 6.0));
+        let node = b.node(json!({
+            "rotation": rotation.to_array(),
+            "scale": [1.0, 0.5 + r as f32, 0.75],
+            "translation": [r as f32 * 15.0, 0.0, 0.0],
+            "children": children,
+        }));
+        roots.push(node);
+    }
+    b.roots = roots;
+    let path = b.write_glb(&temp_dir("nested"), "nested");
+    let scene = Scene::load(&path.display().to_string()).unwrap();
+    assert_eq!(scene.meshes.len(), 2);
+    assert_eq!(scene.instances.len(), 3 * 3 * 3);
+    let flat = BruteForce::new(&scene.triangles, false);
+    let built = structure::build_scene(
+        &scene,
+        &two_level_params(TraversalOrder::FrontToBack),
+        &Default::default(),
+    )
+    .unwrap();
+    let mut rays = common::rays(&scene.bounds(), 1500, 23);
+    rays.extend(rays_at_triangles(&scene, 1500, 24));
+    let (mut hits, mut grazing) = (0, 0);
+    for ray in &rays {
+        let want = flat.closest_hit::<Watertight, _>(ray, &mut NoStats);
+        let got = built
+            .structure
+            .closest_hit::<Watertight, _>(ray, &mut NoStats);
+        if compare("nested glTF", &scene, ray, got, want) {
+            grazing += 1;
+            continue;
+        }
+        hits += usize::from(want.is_some());
+        assert_eq!(
+            built.structure.any_hit::<Watertight, _>(ray, &mut NoStats),
+            want.is_some()
+        );
+    }
+    assert!(hits > rays.len() / 2, "{hits} hits");
+    assert!(
+        grazing * 500 <= rays.len(),
+        "{grazing} rays grazing an edge"
+    );
+}
