@@ -1,6 +1,6 @@
 //! The structure selector: one runtime type over every built structure (BVH2, k-d tree,
-//! uniform grid, octree, two-level, brute force), so the worker, the CLI, the renderer and the bench
-//! hold one value and never assume a BVH. It dispatches once per query (or per batch), and
+//! uniform grid, octree, two-level, brute force), so the worker, the CLI, the renderer and
+//! the bench hold one value and never assume a BVH. It dispatches once per query (or per batch), and
 //! each arm calls that structure's own monomorphised traversal, so the hot loops stay
 //! generic over the intersector and the statistics sink.
 //!

@@ -438,7 +438,7 @@ impl State {
             }
             return;
         }
-        // A spatial structure has no boxes to stretch: it is built again.
+        // Any other structure is built again (a spatial one has no boxes to stretch).
         let Ok(built) = structure::build_scene(scene, &self.params, &Default::default()) else {
             return;
         };
