@@ -566,3 +566,68 @@ fn nested_gltf_nodes_hit_what_their_flattened_scene_hits() {
         "{grazing} rays grazing an edge"
     );
 }
+
+#[test]
+fn moving_instances_rebuilds_the_top_level_only_and_equals_a_full_rebuild() {
+    use bvhlab::accel::two_level::MoveError;
+    let scene = instanced_scene(40, 31);
+    let params = two_level_params(TraversalOrder::FrontToBack);
+    let built = structure::build_scene(&scene, &params, &Default::default()).unwrap();
+    let Structure::TwoLevel(mut moved) = built.structure else {
+        panic!("a two-level structure")
+    };
+    let blases_before: Vec<_> = moved.blases.iter().map(|b| b.nodes.clone()).collect();
+    let mut rng = Rng::new(32);
+    let mut transforms: Vec<Affine3A> = scene.instances.iter().map(|i| i.transform).collect();
+    for k in [0, 7, 13, 39] {
+        transforms[k] = random_transform(&mut rng, k);
+        moved.move_instance(k, transforms[k]).unwrap();
+    }
+    let blases_after: Vec<_> = moved.blases.iter().map(|b| b.nodes.clone()).collect();
+    assert_eq!(blases_before, blases_after, "the BLASes stay as they were");
+
+    // The same scene built from scratch with the instances where they were moved to.
+    let mut again = Scene::new("moved");
+    again.meshes = scene.meshes.clone();
+    for (k, (inst, m)) in scene.instances.iter().zip(&transforms).enumerate() {
+        let placed = Instance::new(inst.mesh, *m).unwrap();
+        again.push_instance(format!("instance {k}"), Vec3::ONE, placed);
+    }
+    let rebuilt = structure::build_scene(&again, &params, &Default::default()).unwrap();
+    let flat = BruteForce::new(&again.triangles, false);
+    let mut rays = common::rays(&again.bounds(), 1500, 33);
+    rays.extend(rays_at_triangles(&again, 1500, 34));
+    let mut hits = 0;
+    for ray in &rays {
+        let got = moved.closest_hit::<Watertight, _>(ray, &mut NoStats);
+        let want = rebuilt
+            .structure
+            .closest_hit::<Watertight, _>(ray, &mut NoStats);
+        assert!(common::same_hit(got, want), "{ray:?}: {got:?} vs {want:?}");
+        assert_eq!(
+            moved.any_hit::<Watertight, _>(ray, &mut NoStats),
+            rebuilt
+                .structure
+                .any_hit::<Watertight, _>(ray, &mut NoStats)
+        );
+        hits += usize::from(got.is_some());
+        let flat_hit = flat.closest_hit::<Watertight, _>(ray, &mut NoStats);
+        compare("moved", &again, ray, got, flat_hit);
+    }
+    assert!(hits > rays.len() / 2, "{hits} hits");
+
+    // Bad moves change nothing.
+    let before = moved.instances.clone();
+    let singular = Affine3A::from_scale(Vec3::new(0.0, 1.0, 1.0));
+    assert!(matches!(
+        moved.move_instance(3, singular),
+        Err(MoveError::Transform(_))
+    ));
+    assert_eq!(
+        moved.move_instance(99, Affine3A::IDENTITY),
+        Err(MoveError::NoInstance(99))
+    );
+    let far = Affine3A::from_translation(Vec3::splat(f32::MAX));
+    assert!(moved.move_instance(3, far).is_err());
+    assert_eq!(moved.instances, before);
+}

@@ -7,7 +7,8 @@ mod traverse;
 use super::bvh::{self, BuildError, Bvh};
 use super::{BuildParams, Outline, OutlineNode, StructureReport, TraversalOrder};
 use crate::geometry::Triangle;
-use crate::scene::{Instance, Instancing};
+use crate::scene::{Instance, Instancing, TransformError};
+use glam::Affine3A;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
@@ -25,6 +26,19 @@ pub struct TwoLevel {
     /// instance indices; it keeps no triangles).
     pub tlas: Bvh,
     pub order: TraversalOrder,
+    /// The build parameters, kept to rebuild the top level when an instance moves.
+    pub params: BuildParams,
+}
+
+/// Why an instance could not be moved.
+#[derive(Debug, PartialEq, thiserror::Error)]
+pub enum MoveError {
+    #[error("there is no instance {0}")]
+    NoInstance(usize),
+    #[error(transparent)]
+    Transform(#[from] TransformError),
+    #[error(transparent)]
+    Build(#[from] BuildError),
 }
 
 /// How long each level took to build.
@@ -89,6 +103,7 @@ pub fn build(
         first_triangle,
         tlas,
         order: TraversalOrder::default(),
+        params: *params,
     };
     let report = two_level.report(instanced, times);
     Ok((two_level, report))
@@ -137,6 +152,26 @@ impl TwoLevel {
             + self.tlas.bytes()
             + self.instances.len() * std::mem::size_of::<Instance>()
             + self.first_triangle.len() * std::mem::size_of::<u32>()
+    }
+
+    /// Places instance `i` by `transform` and rebuilds the top level only: the meshes do
+    /// not change, so neither do their BLASes. The lecture's dynamic scene: millions of
+    /// triangles, but only hundreds of objects to sort again.
+    pub fn move_instance(&mut self, i: usize, transform: Affine3A) -> Result<(), MoveError> {
+        let instance = self.instances.get_mut(i).ok_or(MoveError::NoInstance(i))?;
+        let old = std::mem::replace(instance, Instance::new(instance.mesh, transform)?);
+        match build_tlas(&self.blases, &self.instances, &self.params) {
+            Ok(mut tlas) => {
+                tlas.order = self.order;
+                self.tlas = tlas;
+                Ok(())
+            }
+            Err(e) => {
+                // Moved out of range (a box beyond f32): the instance stays where it was.
+                self.instances[i] = old;
+                Err(e.into())
+            }
+        }
     }
 
     /// Sets the child order of both levels (no rebuild).
