@@ -445,6 +445,26 @@ fn the_command_line_takes_gltf_scenes_and_names_what_is_wrong() {
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("instances") && text.contains('2'), "{text}");
 
+    // `bench --json` on an instanced scene says how it is instanced.
+    let small = [
+        "--width", "16", "--height", "12", "--builds", "1", "--runs", "1", "--json",
+    ];
+    for accel in ["two-level", "all"] {
+        let mut args = vec!["bench", "--scene", &good, "--accel", accel];
+        args.extend(small);
+        let out = run(&args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(v["instances"], 2, "{v}");
+        assert_eq!(v["unique_triangles"], 3, "{v}");
+        assert_eq!(v["instanced_triangles"], 6, "{v}");
+        assert_eq!(v["triangles"], 6, "{v}");
+    }
+
     b.nodes[1]["scale"] = json!([0.0, 1.0, 1.0]);
     let bad = b.write_embedded(&dir, "bad").display().to_string();
     let out = run(&["stats", "--scene", &bad]);
