@@ -631,3 +631,42 @@ fn moving_instances_rebuilds_the_top_level_only_and_equals_a_full_rebuild() {
     assert!(moved.move_instance(3, far).is_err());
     assert_eq!(moved.instances, before);
 }
+
+#[test]
+fn closed_meshes_placed_as_instances_do_not_leak() {
+    // Only the closed sphere, placed with rotations, uneven scales, mirrors and shears:
+    // every ray from a sphere's centre must hit that sphere (or something nearer).
+    let mut rng = Rng::new(41);
+    let mut scene = Scene::new("spheres");
+    scene.meshes = vec![Mesh {
+        name: "sphere".into(),
+        triangles: sphere(),
+    }];
+    for k in 0..25 {
+        let instance = Instance::new(0, random_transform(&mut rng, k)).unwrap();
+        scene.push_instance(format!("sphere {k}"), Vec3::ONE, instance);
+    }
+    let built = structure::build_scene(
+        &scene,
+        &two_level_params(TraversalOrder::FrontToBack),
+        &Default::default(),
+    )
+    .unwrap();
+    let mut leaks = 0;
+    let mut rays = 0;
+    for instance in &scene.instances {
+        let centre = instance.transform.transform_point3(Vec3::ZERO);
+        for _ in 0..400 {
+            let ray = Ray::new(centre, rng.unit_vector() * rng.range(0.1, 10.0));
+            rays += 1;
+            let hit = built
+                .structure
+                .closest_hit::<Watertight, _>(&ray, &mut NoStats);
+            let any = built.structure.any_hit::<Watertight, _>(&ray, &mut NoStats);
+            if hit.is_none() || !any {
+                leaks += 1;
+            }
+        }
+    }
+    assert_eq!(leaks, 0, "{leaks} of {rays} rays left a closed mesh");
+}
