@@ -670,3 +670,41 @@ fn closed_meshes_placed_as_instances_do_not_leak() {
     }
     assert_eq!(leaks, 0, "{leaks} of {rays} rays left a closed mesh");
 }
+
+#[test]
+fn instances_in_the_same_place_tie_as_the_flattened_scene_does() {
+    // A glTF whose nodes do not move their meshes, one mesh placed three times in the same
+    // place: every hit is a tie between three instances, which the lowest number wins,
+    // bit for bit as brute force over the flattened scene.
+    use common::gltf::{GltfBuilder, UNSIGNED_INT, temp_dir};
+    use serde_json::json;
+    let mut b = GltfBuilder::default();
+    let points: Vec<Vec3> = sphere().iter().flat_map(|t| t.v).collect();
+    let p = b.positions(&points);
+    let i = b.indices(&(0..points.len() as u32).collect::<Vec<_>>(), UNSIGNED_INT);
+    let mesh = b.mesh(&[(p, Some(i))]);
+    for _ in 0..3 {
+        let n = b.node(json!({ "mesh": mesh }));
+        b.roots.push(n);
+    }
+    let scene = Scene::load(&b.write_glb(&temp_dir("ties"), "ties").display().to_string()).unwrap();
+    assert_eq!(scene.instances.len(), 3);
+    let flat = BruteForce::new(&scene.triangles, false);
+    for order in TraversalOrder::ALL {
+        let built =
+            structure::build_scene(&scene, &two_level_params(order), &Default::default()).unwrap();
+        let mut hits = 0;
+        for ray in common::rays(&scene.bounds(), 2000, 51) {
+            let want = flat.closest_hit::<Watertight, _>(&ray, &mut NoStats);
+            let got = built
+                .structure
+                .closest_hit::<Watertight, _>(&ray, &mut NoStats);
+            assert!(common::same_hit(got, want), "{ray:?}: {got:?} vs {want:?}");
+            if let Some(h) = got {
+                assert!((h.triangle as usize) < scene.meshes[0].triangles.len());
+                hits += 1;
+            }
+        }
+        assert!(hits > 500, "{hits} hits");
+    }
+}

@@ -71,8 +71,12 @@ impl Instance {
         self.transform == Affine3A::IDENTITY
     }
 
-    /// A triangle of the mesh in world space.
+    /// A triangle of the mesh in world space (the very same for the identity, signed zeros
+    /// included, as the two-level traversal does not transform rays there).
     pub fn place(&self, t: &Triangle) -> Triangle {
+        if self.is_identity() {
+            return *t;
+        }
         let p = |v| self.transform.transform_point3(v);
         Triangle::new(p(t.v[0]), p(t.v[1]), p(t.v[2]))
     }
