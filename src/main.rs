@@ -22,7 +22,7 @@ mod cli;
     long_about = "How bounding volume hierarchies make ray–scene queries fast: render, inspect and \
                   benchmark.\n\nWithout a command, opens the explorer app.\n\nScenes are built-in names (cornell, teapot-in-stadium, \
                   grass, walls, walls-rotated, same-centroid, same-bbox, soup, sphere; most take a \
-                  size as NAME:N, e.g. soup:50000) or paths to .obj files."
+                  size as NAME:N, e.g. soup:50000) or paths to .obj, .gltf or .glb files."
 )]
 struct Cli {
     #[command(subcommand)]

@@ -15,6 +15,7 @@ pub mod outline;
 pub mod report;
 pub mod stats;
 pub mod structure;
+pub mod two_level;
 
 pub use brute_force::BruteForce;
 pub use bvh::{BuildParams, Bvh, Strategy, TraversalOrder};
@@ -25,6 +26,7 @@ pub use outline::{Outline, OutlineNode};
 pub use report::StructureReport;
 pub use stats::{Counter, Counters, NoStats, Stats};
 pub use structure::{AccelKind, Built, Structure, StructureError, StructureParams};
+pub use two_level::TwoLevel;
 
 use crate::geometry::{Intersector, Ray};
 

@@ -1,8 +1,8 @@
 //! The structure selector: one runtime type over every built structure (BVH2, BVH4, BVH8,
-//! k-d tree, uniform grid, octree, brute force), so the worker, the CLI, the renderer and the bench
-//! hold one value and never assume a BVH. It dispatches once per query (or per batch), and
-//! each arm calls that structure's own monomorphised traversal, so the hot loops stay
-//! generic over the intersector and the statistics sink.
+//! k-d tree, uniform grid, octree, two-level, brute force), so the worker, the CLI, the
+//! renderer and the bench hold one value and never assume a BVH. It dispatches once per
+//! query (or per batch), and each arm calls that structure's own monomorphised traversal,
+//! so the hot loops stay generic over the intersector and the statistics sink.
 //!
 //! Adding a structure is: its folder, a variant of `AccelKind` and `Structure`, its
 //! parameters in `StructureParams`, and one arm in each `match` below.
@@ -15,9 +15,11 @@ use super::kdtree::{self, KdError, KdParams, KdTree};
 use super::octree::{self, Octree, OctreeError, OctreeParams};
 use super::outline::Outline;
 use super::report::StructureReport;
+use super::two_level::{self, TwoLevel};
 use super::{Accel, BruteForce, BuildParams, Hit, Stats, TraversalOrder};
 use crate::geometry::simd::SimdLevel;
 use crate::geometry::{Intersector, Ray, Triangle};
+use crate::scene::{Instancing, Scene};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
@@ -35,10 +37,11 @@ pub enum AccelKind {
     Octree,
     BruteForce,
     BruteForceBbox,
+    TwoLevel,
 }
 
 impl AccelKind {
-    pub const ALL: [AccelKind; 8] = [
+    pub const ALL: [AccelKind; 9] = [
         AccelKind::Bvh,
         AccelKind::Bvh4,
         AccelKind::Bvh8,
@@ -47,6 +50,7 @@ impl AccelKind {
         AccelKind::Octree,
         AccelKind::BruteForce,
         AccelKind::BruteForceBbox,
+        AccelKind::TwoLevel,
     ];
 
     /// The name on the command line and in JSON.
@@ -60,6 +64,7 @@ impl AccelKind {
             AccelKind::Octree => "octree",
             AccelKind::BruteForce => "brute-force",
             AccelKind::BruteForceBbox => "brute-force-bbox",
+            AccelKind::TwoLevel => "two-level",
         }
     }
 
@@ -74,6 +79,7 @@ impl AccelKind {
             AccelKind::Octree => "octree",
             AccelKind::BruteForce => "brute force",
             AccelKind::BruteForceBbox => "brute force + box early out",
+            AccelKind::TwoLevel => "two-level (TLAS + BLAS)",
         }
     }
 
@@ -160,7 +166,7 @@ impl StructureParams {
     /// Checks the parameters of the chosen structure.
     pub fn validate(&self) -> Result<(), StructureError> {
         match self.kind {
-            AccelKind::Bvh => self.bvh.validate()?,
+            AccelKind::Bvh | AccelKind::TwoLevel => self.bvh.validate()?,
             AccelKind::Bvh4 | AccelKind::Bvh8 => {
                 self.bvh.validate()?;
                 if !self.simd.supported() {
@@ -191,7 +197,9 @@ impl StructureParams {
         let (a, b) = (strip(self), strip(other));
         a.kind != b.kind
             || match a.kind {
-                AccelKind::Bvh | AccelKind::Bvh4 | AccelKind::Bvh8 => a.bvh != b.bvh,
+                AccelKind::Bvh | AccelKind::Bvh4 | AccelKind::Bvh8 | AccelKind::TwoLevel => {
+                    a.bvh != b.bvh
+                }
                 AccelKind::KdTree => a.kdtree != b.kdtree,
                 AccelKind::Grid => a.grid != b.grid,
                 AccelKind::Octree => a.octree != b.octree,
@@ -223,6 +231,7 @@ pub enum Structure {
     Grid(Grid),
     Octree(Octree),
     BruteForce(BruteForce),
+    TwoLevel(TwoLevel),
 }
 
 /// A structure with its report; for a BVH also its own detailed report (SAH cost, leaf
@@ -245,13 +254,43 @@ macro_rules! with_structure {
             $crate::accel::structure::Structure::Grid($a) => $body,
             $crate::accel::structure::Structure::Octree($a) => $body,
             $crate::accel::structure::Structure::BruteForce($a) => $body,
+            $crate::accel::structure::Structure::TwoLevel($a) => $body,
         }
     };
 }
 
+/// Builds the structure `params.kind` over `scene`: the two-level structure over its
+/// meshes and instances (each object one instance in a scene without its own), every
+/// other structure over its flattened triangles. Hits name triangles of `scene.triangles`.
+pub fn build_scene(
+    scene: &Scene,
+    params: &StructureParams,
+    progress: &AtomicUsize,
+) -> Result<Built, StructureError> {
+    if params.kind == AccelKind::TwoLevel {
+        return build_two_level(&scene.instancing(), params, progress);
+    }
+    build(&scene.triangles, params, progress)
+}
+
+/// The two-level structure over instanced geometry.
+pub fn build_two_level(
+    scene: &Instancing,
+    params: &StructureParams,
+    progress: &AtomicUsize,
+) -> Result<Built, StructureError> {
+    let (mut tl, report) = two_level::build(scene, &params.bvh, progress)?;
+    tl.set_order(params.order);
+    Ok(Built {
+        structure: Structure::TwoLevel(tl),
+        report,
+        bvh_report: None,
+    })
+}
+
 /// Builds the structure `params.kind` over `triangles`, counting placed triangles into
 /// `progress` where the builder reports progress. Triangle indices in hits are indices into
-/// `triangles`.
+/// `triangles`. The two-level structure sees them as one mesh placed once.
 pub fn build(
     triangles: &[Triangle],
     params: &StructureParams,
@@ -259,6 +298,7 @@ pub fn build(
 ) -> Result<Built, StructureError> {
     let start = Instant::now();
     let mut built = match params.kind {
+        AccelKind::TwoLevel => build_two_level(&Instancing::single(triangles), params, progress)?,
         AccelKind::Bvh => {
             let (mut bvh, report) = bvh::build_with_progress(triangles, &params.bvh, progress)?;
             bvh.order = params.order;
@@ -343,6 +383,7 @@ impl Structure {
             Structure::Octree(_) => AccelKind::Octree,
             Structure::BruteForce(b) if b.early_out() => AccelKind::BruteForceBbox,
             Structure::BruteForce(_) => AccelKind::BruteForce,
+            Structure::TwoLevel(_) => AccelKind::TwoLevel,
         }
     }
 
@@ -373,7 +414,8 @@ impl Structure {
             Structure::Bvh(_)
             | Structure::Bvh4(_)
             | Structure::Bvh8(_)
-            | Structure::BruteForce(_) => {}
+            | Structure::BruteForce(_)
+            | Structure::TwoLevel(_) => {}
         }
     }
 
@@ -402,6 +444,7 @@ impl Structure {
             Structure::Bvh(b) => b.order = order,
             Structure::Bvh4(w) => w.order = order,
             Structure::Bvh8(w) => w.order = order,
+            Structure::TwoLevel(t) => t.set_order(order),
             _ => {}
         }
     }

@@ -391,9 +391,10 @@ impl BvhLabApp {
 /// Whether a scene spec names a file rather than a built-in scene.
 mod scene {
     pub fn is_file_spec(spec: &str) -> bool {
-        std::path::Path::new(spec)
-            .extension()
+        let path = std::path::Path::new(spec);
+        path.extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("obj"))
+            || crate::scene::is_gltf_path(path)
     }
 }
 
@@ -469,7 +470,7 @@ impl BvhLabApp {
         let ctx = ctx.clone();
         std::thread::spawn(move || {
             let file = rfd::FileDialog::new()
-                .add_filter("Wavefront OBJ", &["obj", "OBJ"])
+                .add_filter("Scenes (OBJ, glTF)", &["obj", "OBJ", "gltf", "glb"])
                 .pick_file();
             if let (Some(f), Ok(mut s)) = (file, slot.lock()) {
                 *s = Some(f);

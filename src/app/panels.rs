@@ -157,7 +157,7 @@ fn build_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 );
             }
             match s.accel {
-                AccelKind::Bvh => bvh_parameters(ui, s),
+                AccelKind::Bvh | AccelKind::TwoLevel => bvh_parameters(ui, s),
                 AccelKind::Bvh4 | AccelKind::Bvh8 => {
                     bvh_parameters(ui, s);
                     egui::ComboBox::from_label("SIMD kernel")

@@ -397,7 +397,7 @@ impl State {
         self.progress
             .1
             .store(scene.triangles.len(), Ordering::Relaxed);
-        match structure::build(&scene.triangles, &self.params, &self.progress.0) {
+        match structure::build_scene(scene, &self.params, &self.progress.0) {
             Ok(built) => {
                 self.refit_index = None;
                 self.outline = Arc::new(built.structure.outline());
@@ -421,13 +421,7 @@ impl State {
         let (Some(scene), Some(structure)) = (&mut self.scene, &mut self.structure) else {
             return;
         };
-        for &t in triangles {
-            if let Some(tri) = scene.triangles.get_mut(t as usize) {
-                for v in &mut tri.v {
-                    *v += delta;
-                }
-            }
-        }
+        scene.move_triangles(triangles, delta);
         let start = Instant::now();
         let p = &self.params.bvh;
         // Only the moved triangles' leaves and their ancestors change.
@@ -449,9 +443,8 @@ impl State {
             }
             return;
         }
-        // A spatial structure has no boxes to stretch: it is built again.
-        let Ok(built) = structure::build(&scene.triangles, &self.params, &Default::default())
-        else {
+        // Any other structure is built again (a spatial one has no boxes to stretch).
+        let Ok(built) = structure::build_scene(scene, &self.params, &Default::default()) else {
             return;
         };
         let rebuild_time = start.elapsed();

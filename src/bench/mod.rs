@@ -225,7 +225,7 @@ fn timed_build(
     };
     Ok(best_build(
         builds,
-        || structure::build(&scene.triangles, params, &Default::default()),
+        || structure::build_scene(scene, params, &Default::default()),
         |b| b.report.build_time,
     )?)
 }

@@ -173,7 +173,7 @@ pub fn run(
             .collect();
         for &kind in &cfg.kinds {
             let params = StructureParams { kind, ..cfg.params };
-            let built = structure::build(&scene.triangles, &params, &Default::default())?;
+            let built = structure::build_scene(&scene, &params, &Default::default())?;
             let accel = &built.structure;
             let sampled = if kind.is_brute_force() {
                 (scene.triangles.len() * primary.len()).div_ceil(BRUTE_FORCE_TESTS)

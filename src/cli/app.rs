@@ -10,7 +10,8 @@ use std::path::PathBuf;
 
 #[derive(Args, Default)]
 pub struct AppArgs {
-    /// Built-in scene name (optionally NAME:N) or path to an .obj file (default: the last one).
+    /// Built-in scene name (optionally NAME:N) or path to an .obj, .gltf or .glb file
+    /// (default: the last one).
     #[arg(long)]
     pub scene: Option<String>,
     /// Start from the default settings and remember nothing.
@@ -50,7 +51,7 @@ pub struct ScreenshotArgs {
     /// Output PNG.
     #[arg(long)]
     pub out: PathBuf,
-    /// Built-in scene name (optionally NAME:N) or path to an .obj file.
+    /// Built-in scene name (optionally NAME:N) or path to an .obj, .gltf or .glb file.
     #[arg(long, default_value = "cornell")]
     pub scene: String,
     #[arg(long, value_enum, default_value_t = ShotArg::Shaded)]

@@ -14,7 +14,7 @@ use std::path::PathBuf;
 #[derive(Args)]
 #[command(group(ArgGroup::new("study").args(["accuracy", "scaling"])))]
 pub struct BenchArgs {
-    /// Built-in scene name (optionally NAME:N) or path to an .obj file.
+    /// Built-in scene name (optionally NAME:N) or path to an .obj, .gltf or .glb file.
     #[arg(long)]
     pub scene: String,
     #[command(flatten)]
@@ -131,7 +131,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
     }
     let result = pool.install(|| bench::run(&scene, &cfg))?;
     if args.json {
-        out!("{}", result.to_json());
+        let mut json = result.to_json();
+        add_instancing(&mut json, &scene);
+        out!("{}", json);
         return Ok(());
     }
     let r = &result;
@@ -194,6 +196,18 @@ pub fn run(args: BenchArgs) -> Result<()> {
     Ok(())
 }
 
+/// An instanced scene's JSON also says how many instances place how many unique
+/// triangles (`triangles` counts them placed).
+fn add_instancing(json: &mut serde_json::Value, scene: &Scene) {
+    if scene.instances.is_empty() {
+        return;
+    }
+    let instancing = scene.instancing();
+    json["instances"] = instancing.instances.len().into();
+    json["unique_triangles"] = instancing.unique_triangles().into();
+    json["instanced_triangles"] = instancing.instanced_triangles().into();
+}
+
 /// `--accel all`: every structure on the same ray sets, as one table (or one JSON object
 /// with a `structures` array).
 fn run_all(
@@ -212,15 +226,14 @@ fn run_all(
     })?;
     if args.json {
         let structures: Vec<serde_json::Value> = results.iter().map(|r| r.to_json()).collect();
-        out!(
-            "{}",
-            serde_json::json!({
-                "scene": scene.name,
-                "triangles": scene.triangles.len(),
-                "threads": results.first().map_or(0, |r| r.threads),
-                "structures": structures,
-            })
-        );
+        let mut json = serde_json::json!({
+            "scene": scene.name,
+            "triangles": scene.triangles.len(),
+            "threads": results.first().map_or(0, |r| r.threads),
+            "structures": structures,
+        });
+        add_instancing(&mut json, scene);
+        out!("{}", json);
         return Ok(());
     }
     out!(

@@ -8,7 +8,7 @@ use clap::Args;
 
 #[derive(Args)]
 pub struct FramesArgs {
-    /// Built-in scene name (optionally NAME:N) or path to an .obj file.
+    /// Built-in scene name (optionally NAME:N) or path to an .obj, .gltf or .glb file.
     #[arg(long)]
     pub scene: String,
     #[command(flatten)]

@@ -143,6 +143,9 @@ pub enum AccelArg {
     BruteForce,
     /// Every triangle whose own box the ray pierces, after the scene's box.
     BruteForceBbox,
+    /// A top-level BVH over the instances, one bottom-level BVH per unique mesh (each OBJ
+    /// object is one instance); BLASes built with the --builder parameters.
+    TwoLevel,
     /// Every structure in turn (bench only).
     All,
 }
@@ -159,6 +162,7 @@ impl AccelArg {
             AccelArg::Octree => AccelKind::Octree,
             AccelArg::BruteForce => AccelKind::BruteForce,
             AccelArg::BruteForceBbox => AccelKind::BruteForceBbox,
+            AccelArg::TwoLevel => AccelKind::TwoLevel,
             AccelArg::All => bail!("--accel all is only for `bvhlab bench`; name one structure"),
         })
     }
@@ -264,10 +268,10 @@ impl BuildArgs {
         Ok(self.structure_params_for(self.accel.kind()?))
     }
 
-    /// Builds the structure `--accel` names and says so on stderr.
-    pub fn build(&self, triangles: &[bvhlab::geometry::Triangle]) -> Result<Built> {
+    /// Builds the structure `--accel` names over `scene` and says so on stderr.
+    pub fn build(&self, scene: &Scene) -> Result<Built> {
         let params = self.structure_params()?;
-        let built = structure::build(triangles, &params, &Default::default())
+        let built = structure::build_scene(scene, &params, &Default::default())
             .with_context(|| format!("cannot build the {}", params.kind.title()))?;
         let simd = built
             .structure

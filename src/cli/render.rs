@@ -10,7 +10,7 @@ use std::path::PathBuf;
 
 #[derive(Args)]
 pub struct RenderArgs {
-    /// Built-in scene name (optionally NAME:N) or path to an .obj file.
+    /// Built-in scene name (optionally NAME:N) or path to an .obj, .gltf or .glb file.
     #[arg(long, default_value = "cornell")]
     pub scene: String,
     /// Output PNG.
@@ -75,7 +75,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         counters: true,
     };
     let kind = args.intersector.kind();
-    let built = args.build.build(&scene.triangles)?;
+    let built = args.build.build(&scene)?;
     let frame = with_intersector!(kind, I => render::render_with::<_, I>(&built.structure, &scene, &settings));
     let out = args.out.unwrap_or_else(|| {
         let name = format!("bvhlab-{}.png", sanitize(&scene.name));

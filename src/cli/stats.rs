@@ -6,7 +6,7 @@ use clap::Args;
 
 #[derive(Args)]
 pub struct StatsArgs {
-    /// Built-in scene name (optionally NAME:N) or path to an .obj file.
+    /// Built-in scene name (optionally NAME:N) or path to an .obj, .gltf or .glb file.
     #[arg(long, default_value = "cornell")]
     pub scene: String,
     #[command(flatten)]
@@ -15,7 +15,7 @@ pub struct StatsArgs {
 
 pub fn run(args: StatsArgs) -> Result<()> {
     let scene = load_scene(&args.scene)?;
-    let report = args.build.build(&scene.triangles)?.report;
+    let report = args.build.build(&scene)?.report;
     out!("scene: {} ({} objects)", scene.name, scene.objects.len());
     let width = report
         .rows()

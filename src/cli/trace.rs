@@ -22,7 +22,7 @@ use std::time::Instant;
         A file whose size is not a multiple of 32 bytes, or any ray with a NaN or infinite \
         value or a zero direction, is an error naming the rays.")]
 pub struct TraceArgs {
-    /// Built-in scene name (optionally NAME:N) or path to an .obj file.
+    /// Built-in scene name (optionally NAME:N) or path to an .obj, .gltf or .glb file.
     #[arg(long)]
     pub scene: String,
     /// Input rays (8 little-endian f32 per ray).
@@ -53,7 +53,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
     let pool = thread_pool(args.threads)?;
     let start = Instant::now();
     let (output, answered) = pool.install(|| -> Result<(Vec<u8>, usize)> {
-        let built = args.build.build(&scene.triangles)?;
+        let built = args.build.build(&scene)?;
         let s = &built.structure;
         Ok(with_intersector!(args.intersector.kind(), I => trace_all::<_, I>(s, &rays, args.any)))
     })?;

@@ -3,6 +3,7 @@
 #![allow(dead_code)]
 
 pub mod app;
+pub mod gltf;
 pub mod lattice;
 
 use bvhlab::accel::Hit;

@@ -1,0 +1,162 @@
+//! Instancing: a unique mesh stored once and placed many times by affine transforms, the
+//! lecture's way to Moana's billions of triangles from millions of unique ones. Each
+//! instance keeps its inverse, which carries rays into the mesh's own space.
+
+use crate::geometry::{Aabb, Triangle};
+use glam::{Affine3A, Mat3A};
+
+/// Triangles in their own (object) space, placed in the scene by instances.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mesh {
+    pub name: String,
+    pub triangles: Vec<Triangle>,
+}
+
+/// One placement of a mesh: object space → world space, with the inverse precomputed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Instance {
+    /// Index into the scene's meshes.
+    pub mesh: usize,
+    pub transform: Affine3A,
+    pub inverse: Affine3A,
+}
+
+/// Why a transform cannot place an instance.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum TransformError {
+    #[error("the transform has a NaN or infinite entry")]
+    NonFinite,
+    #[error("the transform is singular (it flattens space, so it has no inverse)")]
+    Singular,
+}
+
+/// A linear part whose determinant is below this fraction of the cube of its longest
+/// column squeezes space into (nearly) a plane or a line: its inverse would be meaningless
+/// in f32.
+const SINGULAR_RATIO: f32 = 1e-12;
+
+impl Instance {
+    /// The instance of mesh `mesh` placed by `transform`, if the transform is invertible.
+    pub fn new(mesh: usize, transform: Affine3A) -> Result<Self, TransformError> {
+        if !transform.is_finite() {
+            return Err(TransformError::NonFinite);
+        }
+        if is_singular(transform.matrix3) {
+            return Err(TransformError::Singular);
+        }
+        let inverse = transform.inverse();
+        if !inverse.is_finite() {
+            return Err(TransformError::Singular);
+        }
+        Ok(Instance {
+            mesh,
+            transform,
+            inverse,
+        })
+    }
+
+    /// The mesh where it is defined.
+    pub fn identity(mesh: usize) -> Self {
+        Instance {
+            mesh,
+            transform: Affine3A::IDENTITY,
+            inverse: Affine3A::IDENTITY,
+        }
+    }
+
+    /// Whether the instance leaves its mesh where it is (so rays need no transform, and
+    /// keep even the signs of their zero components).
+    #[inline(always)]
+    pub fn is_identity(&self) -> bool {
+        self.transform == Affine3A::IDENTITY
+    }
+
+    /// A triangle of the mesh in world space (the very same for the identity, signed zeros
+    /// included, as the two-level traversal does not transform rays there).
+    pub fn place(&self, t: &Triangle) -> Triangle {
+        if self.is_identity() {
+            return *t;
+        }
+        let p = |v| self.transform.transform_point3(v);
+        Triangle::new(p(t.v[0]), p(t.v[1]), p(t.v[2]))
+    }
+
+    /// The world box of the placed mesh whose object-space box is `b`: the box of its eight
+    /// transformed corners (empty for an empty mesh), widened by a few units of rounding so
+    /// that a ray which meets the mesh in object space never misses its world box.
+    pub fn world_bounds(&self, b: &Aabb) -> Aabb {
+        if b.is_empty() {
+            return Aabb::EMPTY;
+        }
+        let w = Aabb::from_points((0..8).map(|i| {
+            let corner = glam::Vec3::new(
+                if i & 1 == 0 { b.min.x } else { b.max.x },
+                if i & 2 == 0 { b.min.y } else { b.max.y },
+                if i & 4 == 0 { b.min.z } else { b.max.z },
+            );
+            self.transform.transform_point3(corner)
+        }));
+        let magnitude = w.min.abs().max(w.max.abs()) + (w.max - w.min);
+        let pad = magnitude * (16.0 * f32::EPSILON);
+        Aabb::new(w.min - pad, w.max + pad)
+    }
+}
+
+fn is_singular(m: Mat3A) -> bool {
+    let longest = m
+        .x_axis
+        .length()
+        .max(m.y_axis.length())
+        .max(m.z_axis.length());
+    let scale = longest * longest * longest;
+    // Written so that a NaN determinant counts as singular.
+    let regular = m.determinant().abs() > SINGULAR_RATIO * scale;
+    !regular
+}
+
+/// The world-space triangles of `instances`, instance by instance in order and each mesh's
+/// triangles in order: the numbering hits use.
+pub fn flatten(meshes: &[Mesh], instances: &[Instance]) -> Vec<Triangle> {
+    let total = instances
+        .iter()
+        .map(|i| meshes.get(i.mesh).map_or(0, |m| m.triangles.len()))
+        .sum();
+    let mut out = Vec::with_capacity(total);
+    for instance in instances {
+        if let Some(mesh) = meshes.get(instance.mesh) {
+            out.extend(mesh.triangles.iter().map(|t| instance.place(t)));
+        }
+    }
+    out
+}
+
+/// A scene seen as unique meshes and their instances, borrowed from it: what the
+/// two-level structure is built over.
+#[derive(Clone, Debug)]
+pub struct Instancing<'a> {
+    /// Each unique mesh's triangles in object space.
+    pub meshes: Vec<&'a [Triangle]>,
+    pub instances: std::borrow::Cow<'a, [Instance]>,
+}
+
+impl<'a> Instancing<'a> {
+    /// One mesh placed once where it is: any triangle list as an instanced scene.
+    pub fn single(triangles: &'a [Triangle]) -> Self {
+        Instancing {
+            meshes: vec![triangles],
+            instances: vec![Instance::identity(0)].into(),
+        }
+    }
+
+    /// Number of triangles the instances place (the flattened scene's size).
+    pub fn instanced_triangles(&self) -> usize {
+        self.instances
+            .iter()
+            .map(|i| self.meshes.get(i.mesh).map_or(0, |m| m.len()))
+            .sum()
+    }
+
+    pub fn unique_triangles(&self) -> usize {
+        self.meshes.iter().map(|m| m.len()).sum()
+    }
+}

@@ -1,0 +1,710 @@
+//! The two-level structure against the same scene flattened into world-space triangles:
+//! instances rotated, scaled unevenly, mirrored and sheared give the flattened scene's
+//! closest hit (same triangle, t within the transform's rounding) and any hit, in either
+//! child order, with counting on or off; scenes without instances of their own (each
+//! object one instance) answer bit for bit like brute force; degenerate inputs build.
+
+mod common;
+
+use bvhlab::accel::structure::{self, AccelKind, Structure, StructureParams};
+use bvhlab::accel::{Accel, BruteForce, Counters, Hit, NoStats, TraversalOrder};
+use bvhlab::geometry::{Ray, Triangle, Watertight};
+use bvhlab::scene::{Instance, Instancing, Mesh, Scene, instance};
+use common::Rng;
+use glam::{Affine3A, Quat, Vec3};
+
+fn two_level_params(order: TraversalOrder) -> StructureParams {
+    StructureParams {
+        order,
+        ..StructureParams::of_kind(AccelKind::TwoLevel)
+    }
+}
+
+/// A closed mesh: the built-in sphere, centred at the origin with radius 1.
+fn sphere() -> Vec<Triangle> {
+    let s = Scene::load("sphere:400").unwrap();
+    let c = s.bounds().center();
+    let r = s.bounds().extent().x / 2.0;
+    s.triangles
+        .iter()
+        .map(|t| Triangle::new((t.v[0] - c) / r, (t.v[1] - c) / r, (t.v[2] - c) / r))
+        .collect()
+}
+
+/// A random rotation, a scale of up to 4:1 between axes, and a translation in a 20-unit
+/// cube; every fifth transform is a mirror, every seventh has a shear.
+fn random_transform(rng: &mut Rng, k: usize) -> Affine3A {
+    let axis = rng.unit_vector();
+    let rotation = Quat::from_axis_angle(axis, rng.range(0.0, std::f32::consts::TAU));
+    let mut scale = Vec3::new(
+        rng.range(0.5, 2.0),
+        rng.range(0.5, 2.0),
+        rng.range(0.5, 2.0),
+    );
+    if k.is_multiple_of(5) {
+        scale.x = -scale.x;
+    }
+    let translation = Vec3::new(
+        rng.range(-10.0, 10.0),
+        rng.range(-10.0, 10.0),
+        rng.range(-10.0, 10.0),
+    );
+    let mut m = Affine3A::from_scale_rotation_translation(scale, rotation, translation);
+    if k.is_multiple_of(7) {
+        m.matrix3.y_axis += m.matrix3.x_axis * 0.5;
+    }
+    m
+}
+
+/// Three unique meshes (a random soup, a sphere, an empty mesh) placed by `count`
+/// instances, one in ten of the empty mesh.
+fn instanced_scene(count: usize, seed: u64) -> Scene {
+    let mut rng = Rng::new(seed);
+    let mut scene = Scene::new("instanced");
+    let soup: Vec<Triangle> = common::soup(200, seed)
+        .iter()
+        .map(|t| Triangle::new(t.v[0] * 2.0, t.v[1] * 2.0, t.v[2] * 2.0))
+        .collect();
+    scene.meshes = vec![
+        Mesh {
+            name: "soup".into(),
+            triangles: soup,
+        },
+        Mesh {
+            name: "sphere".into(),
+            triangles: sphere(),
+        },
+        Mesh {
+            name: "nothing".into(),
+            triangles: Vec::new(),
+        },
+    ];
+    for k in 0..count {
+        let mesh = if k % 10 == 9 { 2 } else { k % 2 };
+        let instance = Instance::new(mesh, random_transform(&mut rng, k)).unwrap();
+        scene.push_instance(format!("instance {k}"), Vec3::ONE, instance);
+    }
+    scene
+}
+
+/// The rounding both sides commit, relative to the distances involved: the flattened
+/// scene rounds the vertices (M·v), the two-level structure rounds the ray (M⁻¹·o, M⁻¹·d),
+/// each by a few ulps of the coordinates' magnitude times the transform's condition number
+/// (at most about 6 here: scales up to 4:1, and a shear). 64 ε is a wide margin: the
+/// largest error these scenes show is about 1 ε.
+const ROUNDING: f32 = 64.0 * f32::EPSILON;
+
+/// The distance scale of a hit at `t` in ray units: the origin's and the scene's extent
+/// (20) over the direction's length, plus t.
+fn distance_scale(ray: &Ray, t: f32) -> f32 {
+    (ray.origin.length() + 20.0) / ray.direction.length() + t
+}
+
+/// The bound on |t − t_flat| for a hit on `tri`: `ROUNDING` of the distance scale, over
+/// the cosine of the angle between ray and normal (t of a grazing ray moves far when the
+/// plane moves a little).
+fn t_bound(ray: &Ray, t: f32, tri: &Triangle) -> f32 {
+    let cos = tri
+        .normal()
+        .normalize_or_zero()
+        .dot(ray.direction.normalize())
+        .abs();
+    ROUNDING * distance_scale(ray, t) / cos.max(f32::MIN_POSITIVE)
+}
+
+/// Rays from around the scene at random points of random triangles, so most rays hit.
+fn rays_at_triangles(scene: &Scene, n: usize, seed: u64) -> Vec<Ray> {
+    let mut rng = Rng::new(seed ^ 0x7a11);
+    let b = scene.bounds();
+    (0..n)
+        .map(|_| {
+            let t = &scene.triangles[rng.below(scene.triangles.len())];
+            let (u, v) = (rng.f32(), rng.f32());
+            let (u, v) = if u + v > 1.0 {
+                (1.0 - u, 1.0 - v)
+            } else {
+                (u, v)
+            };
+            let target = t.point(u, v);
+            let origin = b.center() + rng.unit_vector() * b.diagonal();
+            Ray::new(origin, (target - origin) * rng.range(0.1, 3.0))
+        })
+        .collect()
+}
+
+/// How far (in f64) the ray passes from the boundary of `tri`, where it crosses its plane:
+/// 0 for a ray in the plane. Where this is within rounding, f32 tests in world and in
+/// object space may fairly disagree on whether the ray hits.
+fn edge_distance(tri: &Triangle, ray: &Ray) -> f64 {
+    let d = |v: Vec3| glam::DVec3::new(v.x as f64, v.y as f64, v.z as f64);
+    let [a, b, c] = tri.v.map(d);
+    let (o, dir) = (d(ray.origin), d(ray.direction));
+    let n = (b - a).cross(c - a);
+    let denom = n.dot(dir);
+    if denom.abs() <= 1e-12 * n.length() * dir.length() {
+        return 0.0;
+    }
+    let p = o + dir * (n.dot(a - o) / denom);
+    let segment = |s: glam::DVec3, e: glam::DVec3| {
+        let k =
+            ((p - s).dot(e - s) / (e - s).length_squared().max(f64::MIN_POSITIVE)).clamp(0.0, 1.0);
+        (s + (e - s) * k - p).length()
+    };
+    segment(a, b).min(segment(b, c)).min(segment(c, a))
+}
+
+/// Checks a two-level hit against the flattened scene's; returns whether they disagree
+/// only by a ray grazing a triangle's edge within rounding (counted by the caller).
+fn compare(label: &str, scene: &Scene, ray: &Ray, got: Option<Hit>, want: Option<Hit>) -> bool {
+    if let (Some(g), Some(w)) = (got, want)
+        && g.triangle == w.triangle
+    {
+        let bound = t_bound(ray, w.t, &scene.triangles[w.triangle as usize]);
+        assert!(
+            (g.t - w.t).abs() <= bound,
+            "{label}: {ray:?}: t {} vs {} (bound {bound})",
+            g.t,
+            w.t
+        );
+        return false;
+    }
+    if got.is_none() && want.is_none() {
+        return false;
+    }
+    // Different answers: fair only where one of the triangles involved is grazed.
+    let grazed = [got, want].into_iter().flatten().any(|h| {
+        let near = ROUNDING * distance_scale(ray, h.t) * ray.direction.length();
+        edge_distance(&scene.triangles[h.triangle as usize], ray) <= near as f64
+    });
+    assert!(
+        grazed,
+        "{label}: {ray:?}: two-level {got:?}, flattened {want:?}"
+    );
+    true
+}
+
+#[test]
+fn instanced_scenes_hit_what_their_flattened_scenes_hit() {
+    for (count, seed) in [(1, 1), (12, 2), (60, 3)] {
+        let scene = instanced_scene(count, seed);
+        let flat = BruteForce::new(&scene.triangles, false);
+        let mut rays = common::rays(&scene.bounds(), 2000, seed);
+        rays.extend(rays_at_triangles(&scene, 2000, seed));
+        let (mut hits, mut grazing) = (0, 0);
+        for order in TraversalOrder::ALL {
+            let built =
+                structure::build_scene(&scene, &two_level_params(order), &Default::default())
+                    .unwrap();
+            let tl = &built.structure;
+            assert_eq!(tl.kind(), AccelKind::TwoLevel);
+            for ray in &rays {
+                let want = flat.closest_hit::<Watertight, _>(ray, &mut NoStats);
+                let got = tl.closest_hit::<Watertight, _>(ray, &mut NoStats);
+                let label = format!("{count} instances, {}", order.label());
+                if compare(&label, &scene, ray, got, want) {
+                    grazing += 1;
+                    continue;
+                }
+                hits += usize::from(want.is_some());
+                // A shadow ray towards just before the flattened hit, and one past it.
+                if let Some(w) = want {
+                    for (tmax, blocked) in [(w.t * 0.999, false), (w.t * 1.001, true)] {
+                        let shadow = Ray::segment(ray.origin, ray.direction, ray.tmin, tmax);
+                        let flat_any = flat.any_hit::<Watertight, _>(&shadow, &mut NoStats);
+                        assert!(flat_any || !blocked, "the hit itself blocks {shadow:?}");
+                        assert_eq!(
+                            tl.any_hit::<Watertight, _>(&shadow, &mut NoStats),
+                            flat_any,
+                            "{label}: any hit of {shadow:?}"
+                        );
+                    }
+                }
+                assert_eq!(
+                    tl.any_hit::<Watertight, _>(ray, &mut NoStats),
+                    want.is_some(),
+                    "{label}: any hit of {ray:?}"
+                );
+            }
+        }
+        assert!(hits > rays.len() / 2, "the rays find the instances: {hits}");
+        // Rays within rounding of an edge are rare: at most 1 in 500.
+        assert!(
+            grazing * 500 <= 2 * rays.len(),
+            "{grazing} rays grazing an edge"
+        );
+    }
+}
+
+#[test]
+fn counting_changes_no_hit_and_counts_both_levels() {
+    let scene = instanced_scene(30, 7);
+    let built = structure::build_scene(
+        &scene,
+        &two_level_params(TraversalOrder::FrontToBack),
+        &Default::default(),
+    )
+    .unwrap();
+    let tl = &built.structure;
+    let Structure::TwoLevel(two_level) = tl else {
+        panic!("a two-level structure")
+    };
+    let mut total = Counters::default();
+    for ray in common::rays(&scene.bounds(), 2000, 8) {
+        let mut c = Counters::default();
+        let counted = tl.closest_hit::<Watertight, _>(&ray, &mut c);
+        let plain = tl.closest_hit::<Watertight, _>(&ray, &mut NoStats);
+        assert!(common::same_hit(counted, plain), "{ray:?}");
+        if counted.is_some() {
+            // The TLAS root, at least one TLAS leaf... and the BLAS's root at least.
+            assert!(c.nodes_visited >= 2 && c.triangle_tests >= 1, "{c:?}");
+        }
+        let mut a = Counters::default();
+        assert_eq!(
+            tl.any_hit::<Watertight, _>(&ray, &mut a),
+            tl.any_hit::<Watertight, _>(&ray, &mut NoStats)
+        );
+        total += c;
+    }
+    // Both levels are counted: more nodes than the TLAS alone could give.
+    assert!(total.nodes_visited as usize > 2000 && two_level.tlas.nodes.len() > 1);
+    assert_eq!(total.repeated_tests, 0);
+}
+
+#[test]
+fn scenes_without_instances_answer_exactly_like_brute_force() {
+    let mut names: Vec<String> = common::SMALL_BUILTINS
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    if let Some(dir) = common::shared_scenes() {
+        names.push(dir.join("cornell-box.obj").display().to_string());
+    }
+    for name in names {
+        let scene = Scene::load(&name).unwrap();
+        assert!(scene.instances.is_empty());
+        let instancing = scene.instancing();
+        assert_eq!(instancing.instances.len(), scene.objects.len(), "{name}");
+        let flat = BruteForce::new(&scene.triangles, false);
+        let built = structure::build_scene(
+            &scene,
+            &two_level_params(TraversalOrder::FrontToBack),
+            &Default::default(),
+        )
+        .unwrap();
+        let tl = &built.structure;
+        let mut rays = common::rays(&scene.bounds(), 1500, 11);
+        rays.extend(common::view_rays(&scene, 24, 18));
+        for ray in &rays {
+            let want = flat.closest_hit::<Watertight, _>(ray, &mut NoStats);
+            let got = tl.closest_hit::<Watertight, _>(ray, &mut NoStats);
+            assert!(
+                common::same_hit(got, want),
+                "{name}: {ray:?}: {got:?} vs {want:?}"
+            );
+            assert_eq!(
+                tl.any_hit::<Watertight, _>(ray, &mut NoStats),
+                flat.any_hit::<Watertight, _>(ray, &mut NoStats),
+                "{name}: {ray:?}"
+            );
+        }
+        let outline = tl.outline();
+        outline.validate().unwrap();
+        assert_eq!(outline.triangles_under(0).len(), scene.triangles.len());
+    }
+}
+
+#[test]
+fn the_flattened_scene_numbers_triangles_instance_by_instance() {
+    let scene = instanced_scene(12, 5);
+    let flat = instance::flatten(&scene.meshes, &scene.instances);
+    assert_eq!(flat, scene.triangles);
+    let mut next = 0;
+    for inst in &scene.instances {
+        let mesh = &scene.meshes[inst.mesh].triangles;
+        for (k, t) in mesh.iter().enumerate() {
+            assert_eq!(scene.triangles[next + k], inst.place(t));
+        }
+        next += mesh.len();
+    }
+    assert_eq!(next, scene.triangles.len());
+    let instancing = scene.instancing();
+    assert_eq!(instancing.instanced_triangles(), scene.triangles.len());
+    assert_eq!(instancing.unique_triangles(), 200 + sphere().len());
+}
+
+#[test]
+fn moving_triangles_of_an_instanced_scene_keeps_it_consistent() {
+    let mut scene = instanced_scene(6, 9);
+    let object = scene.objects[2].clone();
+    let moved: Vec<u32> = object.range().map(|t| t as u32).collect();
+    scene.move_triangles(&moved, Vec3::new(0.5, 0.0, 0.0));
+    // The instances no longer describe the moved scene: it is traced as its objects.
+    let instancing = scene.instancing();
+    assert_eq!(instancing.instanced_triangles(), scene.triangles.len());
+    let built = structure::build_scene(
+        &scene,
+        &two_level_params(TraversalOrder::FrontToBack),
+        &Default::default(),
+    )
+    .unwrap();
+    let flat = BruteForce::new(&scene.triangles, false);
+    for ray in common::rays(&scene.bounds(), 1000, 10) {
+        assert!(common::same_hit(
+            built
+                .structure
+                .closest_hit::<Watertight, _>(&ray, &mut NoStats),
+            flat.closest_hit::<Watertight, _>(&ray, &mut NoStats)
+        ));
+    }
+}
+
+#[test]
+fn transforms_without_an_inverse_are_refused() {
+    use bvhlab::scene::TransformError;
+    let flat = Affine3A::from_scale(Vec3::new(1.0, 0.0, 1.0));
+    assert_eq!(Instance::new(0, flat), Err(TransformError::Singular));
+    let tiny = Affine3A::from_scale(Vec3::new(1.0, 1e-20, 1.0));
+    assert_eq!(Instance::new(0, tiny), Err(TransformError::Singular));
+    let nan = Affine3A::from_translation(Vec3::new(f32::NAN, 0.0, 0.0));
+    assert_eq!(Instance::new(0, nan), Err(TransformError::NonFinite));
+    let inf = Affine3A::from_scale(Vec3::splat(f32::INFINITY));
+    assert_eq!(Instance::new(0, inf), Err(TransformError::NonFinite));
+    let mirror = Affine3A::from_scale(Vec3::new(-1.0, 2.0, 0.5));
+    let i = Instance::new(0, mirror).unwrap();
+    let p = Vec3::new(1.0, 2.0, 3.0);
+    assert!((i.inverse.transform_point3(i.transform.transform_point3(p)) - p).length() < 1e-6);
+}
+
+#[test]
+fn degenerate_inputs_build_and_trace() {
+    let params = two_level_params(TraversalOrder::FrontToBack);
+    let ray = Ray::new(Vec3::new(0.2, 0.2, -5.0), Vec3::Z);
+    let empty_mesh: &[Triangle] = &[];
+    let one = [Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y)];
+    let cases: Vec<(&str, Instancing, bool)> = vec![
+        (
+            "no instances",
+            Instancing {
+                meshes: vec![&one],
+                instances: Vec::new().into(),
+            },
+            false,
+        ),
+        ("no meshes", Instancing::single(empty_mesh), false),
+        ("one instance", Instancing::single(&one), true),
+        (
+            "instances of an empty mesh",
+            Instancing {
+                meshes: vec![empty_mesh],
+                instances: vec![Instance::identity(0); 3].into(),
+            },
+            false,
+        ),
+        (
+            "an empty mesh before a full one",
+            Instancing {
+                meshes: vec![empty_mesh, &one],
+                instances: vec![Instance::identity(0), Instance::identity(1)].into(),
+            },
+            true,
+        ),
+        (
+            "the same place many times",
+            Instancing {
+                meshes: vec![&one],
+                instances: vec![Instance::identity(0); 100].into(),
+            },
+            true,
+        ),
+    ];
+    for (what, instancing, hit) in cases {
+        let built = structure::build_two_level(&instancing, &params, &Default::default())
+            .unwrap_or_else(|e| panic!("{what}: {e}"));
+        let s = &built.structure;
+        let found = s.closest_hit::<Watertight, _>(&ray, &mut NoStats);
+        assert_eq!(found.is_some(), hit, "{what}");
+        // Of instances in the same place, the first (lowest triangle number) wins.
+        if let Some(h) = found {
+            assert_eq!(h.triangle, 0, "{what}");
+        }
+        assert_eq!(
+            s.any_hit::<Watertight, _>(&ray, &mut NoStats),
+            hit,
+            "{what}"
+        );
+        s.outline().validate().unwrap();
+        assert_eq!(built.report.triangles, instancing.instanced_triangles());
+    }
+    // The degenerate triangle lists of every structure's tests, as one instance.
+    for (what, triangles) in common::degenerate_cases() {
+        let built = structure::build(&triangles, &params, &Default::default()).unwrap();
+        let flat = BruteForce::new(&triangles, false);
+        let b = triangles
+            .iter()
+            .fold(bvhlab::geometry::Aabb::EMPTY, |b, t| b.union(t.bounds()));
+        let b = if b.is_empty() {
+            bvhlab::geometry::Aabb::new(Vec3::ZERO, Vec3::ONE)
+        } else {
+            b
+        };
+        for ray in common::rays(&b, 300, 3) {
+            assert!(
+                common::same_hit(
+                    built
+                        .structure
+                        .closest_hit::<Watertight, _>(&ray, &mut NoStats),
+                    flat.closest_hit::<Watertight, _>(&ray, &mut NoStats)
+                ),
+                "{what}: {ray:?}"
+            );
+        }
+    }
+}
+
+#[test]
+fn bad_parameters_and_non_finite_meshes_are_errors() {
+    let mut params = two_level_params(TraversalOrder::FrontToBack);
+    params.bvh.buckets = 1;
+    assert!(params.validate().is_err());
+    let one = [Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y)];
+    assert!(structure::build(&one, &params, &Default::default()).is_err());
+    let params = two_level_params(TraversalOrder::FrontToBack);
+    let bad = [one[0], Triangle::new(Vec3::NAN, Vec3::X, Vec3::Y)];
+    let instancing = Instancing {
+        meshes: vec![&one, &bad],
+        instances: vec![Instance::identity(0), Instance::identity(1)].into(),
+    };
+    let error = structure::build_two_level(&instancing, &params, &Default::default())
+        .err()
+        .expect("a NaN vertex is an error");
+    // Named as the flattened scene numbers it: the second instance's second triangle.
+    assert!(error.to_string().contains("triangle 2 "), "{error}");
+}
+
+#[test]
+fn nested_gltf_nodes_hit_what_their_flattened_scene_hits() {
+    use common::gltf::{GltfBuilder, UNSIGNED_INT, temp_dir};
+    use serde_json::json;
+    let mut b = GltfBuilder::default();
+    let mesh_of = |b: &mut GltfBuilder, triangles: &[Triangle]| {
+        let points: Vec<Vec3> = triangles.iter().flat_map(|t| t.v).collect();
+        let p = b.positions(&points);
+        let indices: Vec<u32> = (0..points.len() as u32).collect();
+        let i = b.indices(&indices, UNSIGNED_INT);
+        b.mesh(&[(p, Some(i))])
+    };
+    let sphere_mesh = mesh_of(&mut b, &sphere());
+    let soup_mesh = mesh_of(&mut b, &common::soup(150, 21));
+    // Three levels: a rotated, unevenly scaled root; mirrored and sheared children placed
+    // by matrices; grandchildren placed by TRS; both meshes used at every level.
+    let mut rng = Rng::new(22);
+    let mut roots = Vec::new();
+    for r in 0..3 {
+        let mut children = Vec::new();
+        for c in 0..3 {
+            let mut grandchildren = Vec::new();
+            for g in 0..2 {
+                let rotation = Quat::from_axis_angle(rng.unit_vector(), rng.range(0.0, 6.0));
+                let node = b.node(json!({
+                    "mesh": if g == 0 { sphere_mesh } else { soup_mesh },
+                    "translation": [rng.range(-2.0, 2.0), rng.range(-2.0, 2.0), 1.5],
+                    "rotation": rotation.to_array(),
+                    "scale": [rng.range(0.3, 1.0), rng.range(0.3, 1.0), rng.range(0.3, 1.0)],
+                }));
+                grandchildren.push(node);
+            }
+            let m = random_transform(&mut rng, 5 * c + 7 * (c % 2));
+            let node = b.node(json!({
+                "mesh": if c == 1 { sphere_mesh } else { soup_mesh },
+                "matrix": glam::Mat4::from(m).to_cols_array(),
+                "children": grandchildren,
+            }));
+            children.push(node);
+        }
+        let rotation = Quat::from_axis_angle(rng.unit_vector(), rng.range(0.0, 6.0));
+        let node = b.node(json!({
+            "rotation": rotation.to_array(),
+            "scale": [1.0, 0.5 + r as f32, 0.75],
+            "translation": [r as f32 * 15.0, 0.0, 0.0],
+            "children": children,
+        }));
+        roots.push(node);
+    }
+    b.roots = roots;
+    let path = b.write_glb(&temp_dir("nested"), "nested");
+    let scene = Scene::load(&path.display().to_string()).unwrap();
+    assert_eq!(scene.meshes.len(), 2);
+    assert_eq!(scene.instances.len(), 3 * 3 * 3);
+    let flat = BruteForce::new(&scene.triangles, false);
+    let built = structure::build_scene(
+        &scene,
+        &two_level_params(TraversalOrder::FrontToBack),
+        &Default::default(),
+    )
+    .unwrap();
+    let mut rays = common::rays(&scene.bounds(), 1500, 23);
+    rays.extend(rays_at_triangles(&scene, 1500, 24));
+    let (mut hits, mut grazing) = (0, 0);
+    for ray in &rays {
+        let want = flat.closest_hit::<Watertight, _>(ray, &mut NoStats);
+        let got = built
+            .structure
+            .closest_hit::<Watertight, _>(ray, &mut NoStats);
+        if compare("nested glTF", &scene, ray, got, want) {
+            grazing += 1;
+            continue;
+        }
+        hits += usize::from(want.is_some());
+        assert_eq!(
+            built.structure.any_hit::<Watertight, _>(ray, &mut NoStats),
+            want.is_some()
+        );
+    }
+    assert!(hits > rays.len() / 2, "{hits} hits");
+    assert!(
+        grazing * 500 <= rays.len(),
+        "{grazing} rays grazing an edge"
+    );
+}
+
+#[test]
+fn moving_instances_rebuilds_the_top_level_only_and_equals_a_full_rebuild() {
+    use bvhlab::accel::two_level::MoveError;
+    let scene = instanced_scene(40, 31);
+    let params = two_level_params(TraversalOrder::FrontToBack);
+    let built = structure::build_scene(&scene, &params, &Default::default()).unwrap();
+    let Structure::TwoLevel(mut moved) = built.structure else {
+        panic!("a two-level structure")
+    };
+    let blases_before: Vec<_> = moved.blases.iter().map(|b| b.nodes.clone()).collect();
+    let mut rng = Rng::new(32);
+    let mut transforms: Vec<Affine3A> = scene.instances.iter().map(|i| i.transform).collect();
+    for k in [0, 7, 13, 39] {
+        transforms[k] = random_transform(&mut rng, k);
+        moved.move_instance(k, transforms[k]).unwrap();
+    }
+    let blases_after: Vec<_> = moved.blases.iter().map(|b| b.nodes.clone()).collect();
+    assert_eq!(blases_before, blases_after, "the BLASes stay as they were");
+
+    // The same scene built from scratch with the instances where they were moved to.
+    let mut again = Scene::new("moved");
+    again.meshes = scene.meshes.clone();
+    for (k, (inst, m)) in scene.instances.iter().zip(&transforms).enumerate() {
+        let placed = Instance::new(inst.mesh, *m).unwrap();
+        again.push_instance(format!("instance {k}"), Vec3::ONE, placed);
+    }
+    let rebuilt = structure::build_scene(&again, &params, &Default::default()).unwrap();
+    let flat = BruteForce::new(&again.triangles, false);
+    let mut rays = common::rays(&again.bounds(), 1500, 33);
+    rays.extend(rays_at_triangles(&again, 1500, 34));
+    let mut hits = 0;
+    for ray in &rays {
+        let got = moved.closest_hit::<Watertight, _>(ray, &mut NoStats);
+        let want = rebuilt
+            .structure
+            .closest_hit::<Watertight, _>(ray, &mut NoStats);
+        assert!(common::same_hit(got, want), "{ray:?}: {got:?} vs {want:?}");
+        assert_eq!(
+            moved.any_hit::<Watertight, _>(ray, &mut NoStats),
+            rebuilt
+                .structure
+                .any_hit::<Watertight, _>(ray, &mut NoStats)
+        );
+        hits += usize::from(got.is_some());
+        let flat_hit = flat.closest_hit::<Watertight, _>(ray, &mut NoStats);
+        compare("moved", &again, ray, got, flat_hit);
+    }
+    assert!(hits > rays.len() / 2, "{hits} hits");
+
+    // Bad moves change nothing.
+    let before = moved.instances.clone();
+    let singular = Affine3A::from_scale(Vec3::new(0.0, 1.0, 1.0));
+    assert!(matches!(
+        moved.move_instance(3, singular),
+        Err(MoveError::Transform(_))
+    ));
+    assert_eq!(
+        moved.move_instance(99, Affine3A::IDENTITY),
+        Err(MoveError::NoInstance(99))
+    );
+    let far = Affine3A::from_translation(Vec3::splat(f32::MAX));
+    assert!(moved.move_instance(3, far).is_err());
+    assert_eq!(moved.instances, before);
+}
+
+#[test]
+fn closed_meshes_placed_as_instances_do_not_leak() {
+    // Only the closed sphere, placed with rotations, uneven scales, mirrors and shears:
+    // every ray from a sphere's centre must hit that sphere (or something nearer).
+    let mut rng = Rng::new(41);
+    let mut scene = Scene::new("spheres");
+    scene.meshes = vec![Mesh {
+        name: "sphere".into(),
+        triangles: sphere(),
+    }];
+    for k in 0..25 {
+        let instance = Instance::new(0, random_transform(&mut rng, k)).unwrap();
+        scene.push_instance(format!("sphere {k}"), Vec3::ONE, instance);
+    }
+    let built = structure::build_scene(
+        &scene,
+        &two_level_params(TraversalOrder::FrontToBack),
+        &Default::default(),
+    )
+    .unwrap();
+    let mut leaks = 0;
+    let mut rays = 0;
+    for instance in &scene.instances {
+        let centre = instance.transform.transform_point3(Vec3::ZERO);
+        for _ in 0..400 {
+            let ray = Ray::new(centre, rng.unit_vector() * rng.range(0.1, 10.0));
+            rays += 1;
+            let hit = built
+                .structure
+                .closest_hit::<Watertight, _>(&ray, &mut NoStats);
+            let any = built.structure.any_hit::<Watertight, _>(&ray, &mut NoStats);
+            if hit.is_none() || !any {
+                leaks += 1;
+            }
+        }
+    }
+    assert_eq!(leaks, 0, "{leaks} of {rays} rays left a closed mesh");
+}
+
+#[test]
+fn instances_in_the_same_place_tie_as_the_flattened_scene_does() {
+    // A glTF whose nodes do not move their meshes, one mesh placed three times in the same
+    // place: every hit is a tie between three instances, which the lowest number wins,
+    // bit for bit as brute force over the flattened scene.
+    use common::gltf::{GltfBuilder, UNSIGNED_INT, temp_dir};
+    use serde_json::json;
+    let mut b = GltfBuilder::default();
+    let points: Vec<Vec3> = sphere().iter().flat_map(|t| t.v).collect();
+    let p = b.positions(&points);
+    let i = b.indices(&(0..points.len() as u32).collect::<Vec<_>>(), UNSIGNED_INT);
+    let mesh = b.mesh(&[(p, Some(i))]);
+    for _ in 0..3 {
+        let n = b.node(json!({ "mesh": mesh }));
+        b.roots.push(n);
+    }
+    let scene = Scene::load(&b.write_glb(&temp_dir("ties"), "ties").display().to_string()).unwrap();
+    assert_eq!(scene.instances.len(), 3);
+    let flat = BruteForce::new(&scene.triangles, false);
+    for order in TraversalOrder::ALL {
+        let built =
+            structure::build_scene(&scene, &two_level_params(order), &Default::default()).unwrap();
+        let mut hits = 0;
+        for ray in common::rays(&scene.bounds(), 2000, 51) {
+            let want = flat.closest_hit::<Watertight, _>(&ray, &mut NoStats);
+            let got = built
+                .structure
+                .closest_hit::<Watertight, _>(&ray, &mut NoStats);
+            assert!(common::same_hit(got, want), "{ray:?}: {got:?} vs {want:?}");
+            if let Some(h) = got {
+                assert!((h.triangle as usize) < scene.meshes[0].triangles.len());
+                hits += 1;
+            }
+        }
+        assert!(hits > 500, "{hits} hits");
+    }
+}
