@@ -122,6 +122,80 @@ impl TriangleSlabs {
     }
 }
 
+/// The slabs seen along lines parallel to one axis `u`: for a line of equal boxes (a grid's
+/// row of cells), the box centres that pass every axis form one interval, since each axis
+/// admits an interval of the line (a slab crossed by a line) and the intersection of
+/// intervals is one. A row then costs one interval instead of a test per box.
+#[derive(Clone, Copy, Debug)]
+pub struct TriangleRuns {
+    u: usize,
+    /// Axes with a nonzero `u` component: the centre's `u` coordinate must lie in
+    /// [lo − sv·c_v − sw·c_w, hi − sv·c_v − sw·c_w], stored as (lo, hi, sv, sw).
+    along: [[f64; 4]; 13],
+    n_along: usize,
+    /// Axes perpendicular to `u`: the row passes or fails as a whole, by
+    /// lo ≤ a_v·c_v + a_w·c_w ≤ hi, stored as (a_v, a_w, lo, hi).
+    across: [[f64; 4]; 13],
+    n_across: usize,
+}
+
+impl TriangleSlabs {
+    /// These slabs along lines parallel to axis `u`.
+    pub fn runs(&self, u: usize) -> TriangleRuns {
+        let (v, w) = ((u + 1) % 3, (u + 2) % 3);
+        let mut runs = TriangleRuns {
+            u,
+            along: [[0.0; 4]; 13],
+            n_along: 0,
+            across: [[0.0; 4]; 13],
+            n_across: 0,
+        };
+        for j in 0..13 {
+            let a = self.axes[j];
+            let au = a[u];
+            if au == 0.0 {
+                runs.across[runs.n_across] = [a[v], a[w], self.lo[j], self.hi[j]];
+                runs.n_across += 1;
+            } else {
+                let (lo, hi) = if au > 0.0 {
+                    (self.lo[j], self.hi[j])
+                } else {
+                    (self.hi[j], self.lo[j])
+                };
+                runs.along[runs.n_along] = [lo / au, hi / au, a[v] / au, a[w] / au];
+                runs.n_along += 1;
+            }
+        }
+        runs
+    }
+}
+
+impl TriangleRuns {
+    /// The closed interval of `u` coordinates of the box centres on the line through `c`
+    /// (its `u` coordinate ignored) whose boxes overlap the triangle; empty when lo > hi.
+    /// It agrees with `overlaps_centered` up to rounding, so callers keep a margin (the grid
+    /// pads its cells). An axis whose `u` component is so small that its bounds overflow
+    /// yields NaN, which `max` and `min` ignore: the axis is then dropped, which only
+    /// widens the interval.
+    #[inline]
+    pub fn run(&self, c: DVec3) -> (f64, f64) {
+        let (cv, cw) = (c[(self.u + 1) % 3], c[(self.u + 2) % 3]);
+        for &[av, aw, lo, hi] in &self.across[..self.n_across] {
+            let p = av * cv + aw * cw;
+            if !(p >= lo && p <= hi) {
+                return (f64::INFINITY, f64::NEG_INFINITY);
+            }
+        }
+        let (mut t0, mut t1) = (f64::NEG_INFINITY, f64::INFINITY);
+        for &[lo, hi, sv, sw] in &self.along[..self.n_along] {
+            let shift = sv * cv + sw * cw;
+            t0 = t0.max(lo - shift);
+            t1 = t1.min(hi - shift);
+        }
+        (t0, t1)
+    }
+}
+
 /// Whether `tri` overlaps the closed box `b`.
 pub fn triangle_box_overlap(tri: &Triangle, b: &Aabb) -> bool {
     if b.is_empty() {
@@ -334,6 +408,46 @@ mod tests {
             }
         }
         assert!(counts[0] > 10_000 && counts[1] > 10_000, "{counts:?}");
+    }
+
+    #[test]
+    fn runs_agree_with_the_box_test_along_every_axis() {
+        let mut s = 0x0bad_cafe_1234_5678u64;
+        let mut rnd = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let h = DVec3::new(0.11, 0.07, 0.13);
+        let mut inside = 0;
+        for i in 0..20_000 {
+            let mut v = || vec3(rnd() as f32, rnd() as f32, rnd() as f32);
+            let mut tri = Triangle::new(v(), v(), v());
+            if i % 7 == 0 {
+                tri.v[2] = tri.v[0] + (tri.v[1] - tri.v[0]) * 0.5; // a segment
+            }
+            if i % 11 == 0 {
+                tri.v[1].y = tri.v[0].y; // an edge perpendicular to y
+                tri.v[2].y = tri.v[0].y; // flat in y
+            }
+            let slabs = TriangleSat::new(&tri).slabs(h);
+            for u in 0..3 {
+                let runs = slabs.runs(u);
+                let mut c = DVec3::new(rnd(), rnd(), rnd()) * 1.4 - 0.2;
+                let (t0, t1) = runs.run(c);
+                for k in 0..40 {
+                    c[u] = -0.3 + 1.6 * f64::from(k) / 39.0;
+                    let near = (c[u] - t0).abs() < 1e-9 || (c[u] - t1).abs() < 1e-9;
+                    if !near {
+                        let in_run = c[u] >= t0 && c[u] <= t1;
+                        assert_eq!(in_run, slabs.overlaps_centered(c), "{tri:?} u {u} {c}");
+                        inside += usize::from(in_run);
+                    }
+                }
+            }
+        }
+        assert!(inside > 10_000, "{inside}");
     }
 
     #[test]
