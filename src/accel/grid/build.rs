@@ -5,15 +5,18 @@
 
 use super::{Grid, GridError, GridParams, MAX_CELLS, MAX_REFERENCES, PAD, SHARED};
 use crate::accel::StructureReport;
-use crate::geometry::overlap::TriangleSat;
+use crate::geometry::overlap::{TriangleRuns, TriangleSat};
 use crate::geometry::{Aabb, Triangle};
 use glam::DVec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::time::Instant;
 
-/// Triangles per parallel task of the assignment.
+/// Triangles per parallel task of the assignment: at most this many, and fewer on small
+/// scenes so that every thread gets several tasks.
 const CHUNK: usize = 2048;
+const MIN_CHUNK: usize = 64;
+const CHUNKS_PER_THREAD: usize = 8;
 
 /// Triangles whose overlaps are counted to estimate the references of a suspect scene.
 const SAMPLES: usize = 32;
@@ -221,9 +224,11 @@ fn assign(grid: &Grid, pad: f64, parts: Parts, guard: bool) -> Result<Vec<Pairs>
         }
         *batch = 0;
     };
+    let size = (grid.triangles.len() / (rayon::current_num_threads() * CHUNKS_PER_THREAD))
+        .clamp(MIN_CHUNK, CHUNK);
     let chunks: Vec<Pairs> = grid
         .triangles
-        .par_chunks(CHUNK)
+        .par_chunks(size)
         .enumerate()
         .map(|(c, chunk)| {
             let mut out: Pairs =
@@ -231,7 +236,7 @@ fn assign(grid: &Grid, pad: f64, parts: Parts, guard: bool) -> Result<Vec<Pairs>
             let mut cells = Vec::new();
             let mut batch = 0;
             for (j, tri) in chunk.iter().enumerate() {
-                let id = (c * CHUNK + j) as u32;
+                let id = (c * size + j) as u32;
                 let (l, h) = cell_range(grid, tri, pad);
                 let volume: u64 = (0..3).map(|k| u64::from(h[k] - l[k] + 1)).product();
                 if guard
@@ -293,7 +298,7 @@ fn cells_of(grid: &Grid, tri: &Triangle, pad: f64, f: impl FnMut(u32)) {
 
 /// `cells_of` with the range already known. The box is walked in rows along its longest
 /// axis `u`: the overlapping cells of a row are one run (see `TriangleRuns`), found from the
-/// 13 separating axes once per row rather than once per cell.
+/// separating axes once per row rather than once per cell.
 #[inline]
 fn cells_in(
     grid: &Grid,
@@ -316,26 +321,36 @@ fn cells_in(
     }
     let u = (0..3).max_by_key(|&k| h[k] - l[k]).unwrap_or(0);
     let (v, w) = ((u + 1) % 3, (u + 2) % 3);
-    let runs = TriangleSat::new(tri).slabs(grid.cell * 0.5 + pad).runs(u);
+    let runs = TriangleRuns::new(&TriangleSat::new(tri), grid.cell * 0.5 + pad, u);
     let center = |k: usize, i: u32| grid.origin[k] + (f64::from(i) + 0.5) * grid.cell[k];
     let stride = [1, grid.res[0], grid.res[0] * grid.res[1]];
     // Cell i's centre on u is origin + (i + ½)·cell; the run's bounds become the first and
-    // last such i, clamped to the box (an infinite bound clamps too).
+    // last such i. Clamped to [l − 1, h + 1] first (an infinite bound too) and moved up by
+    // one, the values are small and non-negative, where truncation is the floor.
     let (lu, hu) = (f64::from(l[u]), f64::from(h[u]));
-    let index = |t: f64| (t - grid.origin[u]) * grid.inv_cell[u] - 0.5;
+    let shifted = |t: f64| {
+        let x = (t - grid.origin[u]) * grid.inv_cell[u] + 0.5;
+        x.max(lu).min(hu + 2.0)
+    };
     let mut c = DVec3::ZERO;
     for j in l[w]..=h[w] {
         c[w] = center(w, j);
         for i in l[v]..=h[v] {
             c[v] = center(v, i);
             let (t0, t1) = runs.run(c);
-            let first = index(t0).ceil().max(lu);
-            let last = index(t1).floor().min(hu);
-            if first > last {
+            if t0 > t1 {
                 continue;
             }
+            let (a, b) = (shifted(t0), shifted(t1));
+            // ceil(a) − 1 and floor(b) − 1, within the box.
+            let first = (a as u32 + u32::from(f64::from(a as u32) < a)).max(l[u] + 1) - 1;
+            let last = (b as u32).min(h[u] + 1);
+            if first >= last {
+                continue;
+            }
+            let last = last - 1;
             let row = i * stride[v] + j * stride[w];
-            for k in first as u32..=last as u32 {
+            for k in first..=last {
                 f(row + k * stride[u]);
             }
         }
