@@ -40,6 +40,27 @@ fn round_down(t: f32) -> f32 {
     }
 }
 
+/// `(round_up(t), round_down(t))` without a branch on the sign: the larger and the smaller
+/// of t scaled up and down (both NaN for a NaN).
+#[inline(always)]
+fn widened(t: f32) -> (f32, f32) {
+    let (a, b) = (t * T_SCALE, t * INV_T_SCALE);
+    if a > b { (a, b) } else { (b, a) }
+}
+
+/// `t.max(x)` for a `t` that is never NaN, ignoring a NaN `x`, in one comparison (the
+/// library's `max` also handles a NaN `t`, which the hot loop does not need).
+#[inline(always)]
+fn later(t: f32, x: f32) -> f32 {
+    if x > t { x } else { t }
+}
+
+/// `t.min(x)` likewise.
+#[inline(always)]
+fn sooner(t: f32, x: f32) -> f32 {
+    if x < t { x } else { t }
+}
+
 /// A cell to visit: node index and the ray's interval [tmin, tmax] in it.
 type Cell = (usize, f32, f32);
 /// The same as kept on the stack.
@@ -113,19 +134,19 @@ impl KdTree {
         } else {
             (above, below)
         };
-        let (up, down) = (round_up(t_plane), round_down(t_plane));
+        let (up, down) = widened(t_plane);
         if up < tmin {
             // The plane lies before the interval: only the second cell (down < tmin ≤ reach).
-            return ((second, tmin.max(down), tmax), None);
+            return ((second, later(tmin, down), tmax), None);
         }
         if down > tmax || down > reach {
-            return ((first, tmin, tmax.min(up)), None);
+            return ((first, tmin, sooner(tmax, up)), None);
         }
         // Both cells. A NaN distance (the ray lies in the plane, 0 · ∞) fails every test
-        // above and comes here too, and `max`/`min` ignore it: both cells, all along.
+        // above and comes here too, and `later`/`sooner` ignore it: both cells, all along.
         (
-            (first, tmin, tmax.min(up)),
-            Some((second as u32, tmin.max(down), tmax)),
+            (first, tmin, sooner(tmax, up)),
+            Some((second as u32, later(tmin, down), tmax)),
         )
     }
 
@@ -259,6 +280,21 @@ mod tests {
         for t in [1.0f32, 1e-30, 123.456, -2.0, -1e-30] {
             assert!(round_up(t) > t && round_down(t) < t, "{t}");
         }
+        for t in [
+            1.0f32,
+            1e-30,
+            -2.0,
+            0.0,
+            -0.0,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            3e38,
+        ] {
+            assert_eq!(widened(t), (round_up(t), round_down(t)), "{t}");
+        }
+        let (up, down) = widened(f32::NAN);
+        assert!(up.is_nan() && down.is_nan());
+        assert_eq!((later(1.0, f32::NAN), sooner(1.0, f32::NAN)), (1.0, 1.0));
         assert_eq!(round_up(0.0), 0.0);
         assert_eq!(round_up(f32::INFINITY), f32::INFINITY);
         assert_eq!(round_down(f32::NEG_INFINITY), f32::NEG_INFINITY);
