@@ -17,6 +17,9 @@ use crate::geometry::{Intersector, Ray};
 
 /// The stack holds at most one cell per level below the root.
 const STACK_SIZE: usize = MAX_DEPTH as usize + 1;
+/// The stack of trees no deeper than this (the automatic depth bound of up to about 10^6
+/// triangles): a smaller array to clear per ray.
+const SHALLOW: usize = 32;
 const INV_T_SCALE: f32 = 1.0 / T_SCALE;
 
 /// A computed distance (three roundings: o − split, 1/d and the product) moved up past any
@@ -152,11 +155,23 @@ impl KdTree {
 
     /// Closest hit, counting into a local sink (kept in registers) added to `stats` once.
     fn closest<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
-        count_locally(stats, |local| self.closest_counted::<I, S>(ray, local))
+        if self.depth_bound as usize <= SHALLOW {
+            count_locally(stats, |local| {
+                self.closest_counted::<I, S, SHALLOW>(ray, local)
+            })
+        } else {
+            count_locally(stats, |local| {
+                self.closest_counted::<I, S, STACK_SIZE>(ray, local)
+            })
+        }
     }
 
     #[inline(always)]
-    fn closest_counted<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
+    fn closest_counted<I: Intersector, S: Stats, const N: usize>(
+        &self,
+        ray: &Ray,
+        stats: &mut S,
+    ) -> Option<Hit> {
         let slab = SlabRay::new(ray);
         stats.box_tests(1);
         let (t0, t1) = self.root_interval(ray, &slab)?;
@@ -166,7 +181,7 @@ impl KdTree {
         // A cell entered beyond this cannot hold a hit closer than the best.
         let mut reach = ray.tmax * T_SCALE;
         let mut mailbox = Mailbox::new(self.mailbox);
-        let mut stack: [Pending; STACK_SIZE] = [(0, 0.0, 0.0); STACK_SIZE];
+        let mut stack: [Pending; N] = [(0, 0.0, 0.0); N];
         let mut sp = 0;
         let (mut index, mut tmin, mut tmax) = (0usize, t0, t1);
         loop {
@@ -211,11 +226,23 @@ impl KdTree {
 
     /// Any hit, counting like `closest`.
     fn occluded<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
-        count_locally(stats, |local| self.occluded_counted::<I, S>(ray, local))
+        if self.depth_bound as usize <= SHALLOW {
+            count_locally(stats, |local| {
+                self.occluded_counted::<I, S, SHALLOW>(ray, local)
+            })
+        } else {
+            count_locally(stats, |local| {
+                self.occluded_counted::<I, S, STACK_SIZE>(ray, local)
+            })
+        }
     }
 
     #[inline(always)]
-    fn occluded_counted<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
+    fn occluded_counted<I: Intersector, S: Stats, const N: usize>(
+        &self,
+        ray: &Ray,
+        stats: &mut S,
+    ) -> bool {
         let slab = SlabRay::new(ray);
         stats.box_tests(1);
         let Some((t0, t1)) = self.root_interval(ray, &slab) else {
@@ -225,7 +252,7 @@ impl KdTree {
         let data = I::prepare(ray);
         let reach = f32::INFINITY;
         let mut mailbox = Mailbox::new(self.mailbox);
-        let mut stack: [Pending; STACK_SIZE] = [(0, 0.0, 0.0); STACK_SIZE];
+        let mut stack: [Pending; N] = [(0, 0.0, 0.0); N];
         let mut sp = 0;
         let (mut index, mut tmin, mut tmax) = (0usize, t0, t1);
         loop {
