@@ -173,6 +173,9 @@ const LARGE: u64 = 1 << 12;
 /// fifth of the assignment waiting on it).
 const BATCH: usize = 1 << 12;
 
+/// A bounding box spanning at most this many cells has each cell tested on its own.
+const FEW_CELLS: u32 = 8;
+
 /// Parts of the cell array per worker thread: each part is sorted by one task, a few per
 /// thread so that parts holding more references than others even out.
 const PARTS_PER_THREAD: usize = 4;
@@ -319,10 +322,26 @@ fn cells_in(
         }
         return;
     }
+    let center = |k: usize, i: u32| grid.origin[k] + (f64::from(i) + 0.5) * grid.cell[k];
+    let volume: u32 = (0..3).map(|k| h[k] - l[k] + 1).product();
+    if volume <= FEW_CELLS {
+        // A box of a few cells: testing each costs less than preparing the rows.
+        let slabs = TriangleSat::new(tri).slabs(grid.cell * 0.5 + pad);
+        for z in l[2]..=h[2] {
+            for y in l[1]..=h[1] {
+                for x in l[0]..=h[0] {
+                    let c = DVec3::new(center(0, x), center(1, y), center(2, z));
+                    if slabs.overlaps_centered(c) {
+                        f(grid.linear([x, y, z]) as u32);
+                    }
+                }
+            }
+        }
+        return;
+    }
     let u = (0..3).max_by_key(|&k| h[k] - l[k]).unwrap_or(0);
     let (v, w) = ((u + 1) % 3, (u + 2) % 3);
     let runs = TriangleRuns::new(&TriangleSat::new(tri), grid.cell * 0.5 + pad, u);
-    let center = |k: usize, i: u32| grid.origin[k] + (f64::from(i) + 0.5) * grid.cell[k];
     let stride = [1, grid.res[0], grid.res[0] * grid.res[1]];
     // Cell i's centre on u is origin + (i + ½)·cell; the run's bounds become the first and
     // last such i. Clamped to [l − 1, h + 1] first (an infinite bound too) and moved up by
