@@ -292,16 +292,17 @@ fn cell_range(grid: &Grid, tri: &Triangle, pad: f64) -> ([u32; 3], [u32; 3]) {
 /// Calls `f` with each cell `tri` overlaps (cells enlarged by `pad`). A triangle whose
 /// enlarged bounding box spans one cell, or a run of cells along one axis, overlaps them all
 /// (it is connected and spans the run), so only boxes spanning cells on two or more axes
-/// are tested, row by row.
+/// are tested.
 #[inline]
 fn cells_of(grid: &Grid, tri: &Triangle, pad: f64, f: impl FnMut(u32)) {
     let (l, h) = cell_range(grid, tri, pad);
     cells_in(grid, tri, pad, l, h, f);
 }
 
-/// `cells_of` with the range already known. The box is walked in rows along its longest
-/// axis `u`: the overlapping cells of a row are one run (see `TriangleRuns`), found from the
-/// separating axes once per row rather than once per cell.
+/// `cells_of` with the range already known. A box of a few cells is tested cell by cell; a
+/// larger one is walked in rows along its longest axis `u`: the overlapping cells of a row
+/// are one run (see `TriangleRuns`), found from the separating axes once per row rather
+/// than once per cell.
 #[inline]
 fn cells_in(
     grid: &Grid,
