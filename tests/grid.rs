@@ -7,6 +7,7 @@ mod common;
 
 use bvhlab::accel::grid::{GridError, GridParams, MAX_CELLS, build};
 use bvhlab::accel::{Accel, BruteForce, Counters, NoStats};
+use bvhlab::geometry::overlap::triangle_box_overlap;
 use bvhlab::geometry::{Aabb, Ray, Triangle, Watertight};
 use bvhlab::scene::Scene;
 use common::lattice::{PINS, contact_rays, contact_targets, lattice_rays, lattice_scene};
@@ -271,6 +272,46 @@ fn resolution_follows_lambda_with_cubical_cells() {
             .iter()
             .any(|(k, v)| k == "resolution" && v == "40 × 20 × 10")
     );
+}
+
+#[test]
+fn cells_list_exactly_the_triangles_that_overlap_them() {
+    // Every cell lists each triangle overlapping it (touching included), in increasing
+    // order, and no triangle farther from it than the padding; large triangles, thin ones
+    // and axis-aligned ones, over grids with several cells on every axis.
+    let mut tris = soup(300, 9);
+    tris.extend(lattice_scene(2));
+    tris.push(Triangle::new(
+        vec3(-1., -1., -1.),
+        vec3(9., 0., 3.),
+        vec3(2., 8., 7.),
+    ));
+    let b = bounds(&tris);
+    let near = b.extent().max_element() * 1e-4;
+    for lambda in [1.0, 8.0] {
+        let (grid, _) = build(&tris, &params(lambda, true)).expect("builds");
+        let [nx, ny, nz] = grid.resolution();
+        assert!(nx > 2 && ny > 2 && nz > 2, "{:?}", grid.resolution());
+        for z in 0..nz {
+            for y in 0..ny {
+                for x in 0..nx {
+                    let c = (x + nx * (y + ny * z)) as usize;
+                    let listed = grid.cell_triangles(c);
+                    assert!(listed.windows(2).all(|w| w[0] < w[1]), "cell {c} order");
+                    let cell = grid.cell_bounds([x, y, z]);
+                    let wide = Aabb::new(cell.min - near, cell.max + near);
+                    for (t, tri) in tris.iter().enumerate() {
+                        let t = t as u32;
+                        if triangle_box_overlap(tri, &cell) {
+                            assert!(listed.contains(&t), "λ {lambda}: cell {c} lacks {t}");
+                        } else if listed.contains(&t) {
+                            assert!(triangle_box_overlap(tri, &wide), "λ {lambda}: {t} in {c}");
+                        }
+                    }
+                }
+            }
+        }
+    }
 }
 
 #[test]

@@ -122,6 +122,103 @@ impl TriangleSlabs {
     }
 }
 
+/// The separating axes seen along lines parallel to one axis `u`, for boxes of one size
+/// whose bounding boxes overlap the triangle's (a grid's cells within the triangle's range):
+/// along such a line (a row of cells), the box centres that pass every axis form one
+/// interval, since each axis admits an interval of the line (a slab crossed by a line) and
+/// intervals intersect in one. A row then costs one interval instead of a test per box.
+///
+/// The three box normals are left out (the caller walks only boxes overlapping the
+/// triangle's bounding box), which leaves the triangle's normal and the nine edge
+/// cross products. With (u, v, w) a cyclic order of the axes, so that cross products keep
+/// their form, edge e gives e × u = (0, e_w, −e_v), perpendicular to the line; and
+/// e × v = (−e_w, 0, e_u) and e × w = (e_v, −e_u, 0), along it.
+#[derive(Clone, Copy, Debug)]
+pub struct TriangleRuns {
+    u: usize,
+    /// Axes with a nonzero `u` component: the centre's `u` coordinate must lie in
+    /// [lo − sv·c_v − sw·c_w, hi − sv·c_v − sw·c_w], stored as (lo, hi, sv, sw).
+    along: [[f64; 4]; 10],
+    n_along: usize,
+    /// Axes perpendicular to the line: a row passes or fails as a whole, by
+    /// lo ≤ a_v·c_v + a_w·c_w ≤ hi, stored as (a_v, a_w, lo, hi).
+    across: [[f64; 4]; 10],
+    n_across: usize,
+}
+
+impl TriangleRuns {
+    /// The axes of `tri` for boxes of half extents `h`, along lines parallel to axis `u`.
+    #[inline]
+    pub fn new(tri: &TriangleSat, h: DVec3, u: usize) -> Self {
+        let (v, w) = ((u + 1) % 3, (u + 2) % 3);
+        // Everything in (u, v, w) order.
+        let p = tri.v.map(|x| [x[u], x[v], x[w]]);
+        let h = [h[u], h[v], h[w]];
+        let mut runs = TriangleRuns {
+            u,
+            along: [[0.0; 4]; 10],
+            n_along: 0,
+            across: [[0.0; 4]; 10],
+            n_across: 0,
+        };
+        let mut axes = [[0.0; 3]; 10];
+        axes[0] = [tri.n[u], tri.n[v], tri.n[w]];
+        for (i, e) in tri.e.iter().enumerate() {
+            let (eu, ev, ew) = (e[u], e[v], e[w]);
+            axes[1 + 3 * i] = [0.0, ew, -ev];
+            axes[2 + 3 * i] = [-ew, 0.0, eu];
+            axes[3 + 3 * i] = [ev, -eu, 0.0];
+        }
+        for a in axes {
+            let d = |x: &[f64; 3]| a[0] * x[0] + a[1] * x[1] + a[2] * x[2];
+            let (d0, d1, d2) = (d(&p[0]), d(&p[1]), d(&p[2]));
+            let r = h[0] * a[0].abs() + h[1] * a[1].abs() + h[2] * a[2].abs();
+            let lo = d0.min(d1).min(d2) - r;
+            let hi = d0.max(d1).max(d2) + r;
+            if a[0] == 0.0 {
+                runs.across[runs.n_across] = [a[1], a[2], lo, hi];
+                runs.n_across += 1;
+            } else {
+                let (lo, hi) = if a[0] > 0.0 { (lo, hi) } else { (hi, lo) };
+                // One division, then products: the extra rounding is far below the margin.
+                let inv = 1.0 / a[0];
+                runs.along[runs.n_along] = [lo * inv, hi * inv, a[1] * inv, a[2] * inv];
+                runs.n_along += 1;
+            }
+        }
+        runs
+    }
+
+    /// The closed interval of `u` coordinates of the box centres on the line through `c`
+    /// (its `u` coordinate ignored) whose boxes overlap the triangle; empty when lo > hi.
+    /// It agrees with `overlaps_centered` up to rounding for boxes overlapping the
+    /// triangle's bounding box, so callers keep a margin (the grid pads its cells). An axis
+    /// whose `u` component is so small that its bounds overflow yields NaN, which the
+    /// comparisons ignore: the axis is then dropped, which only widens the interval.
+    #[inline]
+    pub fn run(&self, c: DVec3) -> (f64, f64) {
+        let (cv, cw) = (c[(self.u + 1) % 3], c[(self.u + 2) % 3]);
+        for &[av, aw, lo, hi] in &self.across[..self.n_across] {
+            let p = av * cv + aw * cw;
+            if !(p >= lo && p <= hi) {
+                return (f64::INFINITY, f64::NEG_INFINITY);
+            }
+        }
+        let (mut t0, mut t1) = (f64::NEG_INFINITY, f64::INFINITY);
+        for &[lo, hi, sv, sw] in &self.along[..self.n_along] {
+            let shift = sv * cv + sw * cw;
+            let (a, b) = (lo - shift, hi - shift);
+            if a > t0 {
+                t0 = a;
+            }
+            if b < t1 {
+                t1 = b;
+            }
+        }
+        (t0, t1)
+    }
+}
+
 /// Whether `tri` overlaps the closed box `b`.
 pub fn triangle_box_overlap(tri: &Triangle, b: &Aabb) -> bool {
     if b.is_empty() {
@@ -334,6 +431,56 @@ mod tests {
             }
         }
         assert!(counts[0] > 10_000 && counts[1] > 10_000, "{counts:?}");
+    }
+
+    #[test]
+    fn runs_agree_with_the_box_test_along_every_axis() {
+        let mut s = 0x0bad_cafe_1234_5678u64;
+        let mut rnd = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let h = DVec3::new(0.11, 0.07, 0.13);
+        let (mut inside, mut outside) = (0, 0);
+        for i in 0..20_000 {
+            let mut v = || vec3(rnd() as f32, rnd() as f32, rnd() as f32);
+            let mut tri = Triangle::new(v(), v(), v());
+            if i % 7 == 0 {
+                tri.v[2] = tri.v[0] + (tri.v[1] - tri.v[0]) * 0.5; // a segment
+            }
+            if i % 11 == 0 {
+                tri.v[1].y = tri.v[0].y; // flat in y
+                tri.v[2].y = tri.v[0].y;
+            }
+            if i % 13 == 0 {
+                tri.v[1].x = tri.v[0].x; // an edge perpendicular to x
+            }
+            let sat = TriangleSat::new(&tri);
+            let slabs = sat.slabs(h);
+            let b = tri.bounds();
+            let (bmin, bmax) = (b.min.as_dvec3() - h, b.max.as_dvec3() + h);
+            for u in 0..3 {
+                let runs = TriangleRuns::new(&sat, h, u);
+                let mut c = DVec3::new(rnd(), rnd(), rnd()) * 1.4 - 0.2;
+                let (t0, t1) = runs.run(c);
+                for k in 0..40 {
+                    c[u] = -0.3 + 1.6 * f64::from(k) / 39.0;
+                    // Only boxes overlapping the triangle's bounding box, away from the
+                    // interval's ends.
+                    let near = (c[u] - t0).abs() < 1e-9 || (c[u] - t1).abs() < 1e-9;
+                    let in_box = c.cmpge(bmin).all() && c.cmple(bmax).all();
+                    if in_box && !near {
+                        let in_run = c[u] >= t0 && c[u] <= t1;
+                        assert_eq!(in_run, slabs.overlaps_centered(c), "{tri:?} u {u} {c}");
+                        inside += usize::from(in_run);
+                        outside += usize::from(!in_run);
+                    }
+                }
+            }
+        }
+        assert!(inside > 10_000 && outside > 10_000, "{inside} {outside}");
     }
 
     #[test]

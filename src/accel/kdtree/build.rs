@@ -67,6 +67,7 @@ pub fn build(
         mailbox: params.mailbox,
         c_trav: params.c_trav,
         c_isect: params.c_isect,
+        depth_bound: builder.max_depth,
     };
     let build_time = start.elapsed();
     let mut caps_hit = Vec::new();

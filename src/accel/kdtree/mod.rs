@@ -160,6 +160,9 @@ pub struct KdTree {
     pub mailbox: bool,
     c_trav: f32,
     c_isect: f32,
+    /// The build's depth bound: no leaf lies deeper, so a traversal stack holds at most
+    /// this many cells.
+    pub(crate) depth_bound: u32,
 }
 
 impl KdTree {

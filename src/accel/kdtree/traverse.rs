@@ -17,6 +17,9 @@ use crate::geometry::{Intersector, Ray};
 
 /// The stack holds at most one cell per level below the root.
 const STACK_SIZE: usize = MAX_DEPTH as usize + 1;
+/// The stack of trees no deeper than this (the automatic depth bound of up to about 10^6
+/// triangles): a smaller array to clear per ray.
+const SHALLOW: usize = 32;
 const INV_T_SCALE: f32 = 1.0 / T_SCALE;
 
 /// A computed distance (three roundings: o − split, 1/d and the product) moved up past any
@@ -38,6 +41,27 @@ fn round_down(t: f32) -> f32 {
     } else {
         t * T_SCALE
     }
+}
+
+/// `(round_up(t), round_down(t))` without a branch on the sign: the larger and the smaller
+/// of t scaled up and down (both NaN for a NaN).
+#[inline(always)]
+fn widened(t: f32) -> (f32, f32) {
+    let (a, b) = (t * T_SCALE, t * INV_T_SCALE);
+    if a > b { (a, b) } else { (b, a) }
+}
+
+/// `t.max(x)` for a `t` that is never NaN, ignoring a NaN `x`, in one comparison (the
+/// library's `max` also handles a NaN `t`, which the hot loop does not need).
+#[inline(always)]
+fn later(t: f32, x: f32) -> f32 {
+    if x > t { x } else { t }
+}
+
+/// `t.min(x)` likewise.
+#[inline(always)]
+fn sooner(t: f32, x: f32) -> f32 {
+    if x < t { x } else { t }
 }
 
 /// A cell to visit: node index and the ray's interval [tmin, tmax] in it.
@@ -113,29 +137,41 @@ impl KdTree {
         } else {
             (above, below)
         };
-        let (up, down) = (round_up(t_plane), round_down(t_plane));
+        let (up, down) = widened(t_plane);
         if up < tmin {
             // The plane lies before the interval: only the second cell (down < tmin ≤ reach).
-            return ((second, tmin.max(down), tmax), None);
+            return ((second, later(tmin, down), tmax), None);
         }
         if down > tmax || down > reach {
-            return ((first, tmin, tmax.min(up)), None);
+            return ((first, tmin, sooner(tmax, up)), None);
         }
         // Both cells. A NaN distance (the ray lies in the plane, 0 · ∞) fails every test
-        // above and comes here too, and `max`/`min` ignore it: both cells, all along.
+        // above and comes here too, and `later`/`sooner` ignore it: both cells, all along.
         (
-            (first, tmin, tmax.min(up)),
-            Some((second as u32, tmin.max(down), tmax)),
+            (first, tmin, sooner(tmax, up)),
+            Some((second as u32, later(tmin, down), tmax)),
         )
     }
 
     /// Closest hit, counting into a local sink (kept in registers) added to `stats` once.
     fn closest<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
-        count_locally(stats, |local| self.closest_counted::<I, S>(ray, local))
+        if self.depth_bound as usize <= SHALLOW {
+            count_locally(stats, |local| {
+                self.closest_counted::<I, S, SHALLOW>(ray, local)
+            })
+        } else {
+            count_locally(stats, |local| {
+                self.closest_counted::<I, S, STACK_SIZE>(ray, local)
+            })
+        }
     }
 
     #[inline(always)]
-    fn closest_counted<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
+    fn closest_counted<I: Intersector, S: Stats, const N: usize>(
+        &self,
+        ray: &Ray,
+        stats: &mut S,
+    ) -> Option<Hit> {
         let slab = SlabRay::new(ray);
         stats.box_tests(1);
         let (t0, t1) = self.root_interval(ray, &slab)?;
@@ -145,7 +181,7 @@ impl KdTree {
         // A cell entered beyond this cannot hold a hit closer than the best.
         let mut reach = ray.tmax * T_SCALE;
         let mut mailbox = Mailbox::new(self.mailbox);
-        let mut stack: [Pending; STACK_SIZE] = [(0, 0.0, 0.0); STACK_SIZE];
+        let mut stack: [Pending; N] = [(0, 0.0, 0.0); N];
         let mut sp = 0;
         let (mut index, mut tmin, mut tmax) = (0usize, t0, t1);
         loop {
@@ -190,11 +226,23 @@ impl KdTree {
 
     /// Any hit, counting like `closest`.
     fn occluded<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
-        count_locally(stats, |local| self.occluded_counted::<I, S>(ray, local))
+        if self.depth_bound as usize <= SHALLOW {
+            count_locally(stats, |local| {
+                self.occluded_counted::<I, S, SHALLOW>(ray, local)
+            })
+        } else {
+            count_locally(stats, |local| {
+                self.occluded_counted::<I, S, STACK_SIZE>(ray, local)
+            })
+        }
     }
 
     #[inline(always)]
-    fn occluded_counted<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
+    fn occluded_counted<I: Intersector, S: Stats, const N: usize>(
+        &self,
+        ray: &Ray,
+        stats: &mut S,
+    ) -> bool {
         let slab = SlabRay::new(ray);
         stats.box_tests(1);
         let Some((t0, t1)) = self.root_interval(ray, &slab) else {
@@ -204,7 +252,7 @@ impl KdTree {
         let data = I::prepare(ray);
         let reach = f32::INFINITY;
         let mut mailbox = Mailbox::new(self.mailbox);
-        let mut stack: [Pending; STACK_SIZE] = [(0, 0.0, 0.0); STACK_SIZE];
+        let mut stack: [Pending; N] = [(0, 0.0, 0.0); N];
         let mut sp = 0;
         let (mut index, mut tmin, mut tmax) = (0usize, t0, t1);
         loop {
@@ -259,6 +307,21 @@ mod tests {
         for t in [1.0f32, 1e-30, 123.456, -2.0, -1e-30] {
             assert!(round_up(t) > t && round_down(t) < t, "{t}");
         }
+        for t in [
+            1.0f32,
+            1e-30,
+            -2.0,
+            0.0,
+            -0.0,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            3e38,
+        ] {
+            assert_eq!(widened(t), (round_up(t), round_down(t)), "{t}");
+        }
+        let (up, down) = widened(f32::NAN);
+        assert!(up.is_nan() && down.is_nan());
+        assert_eq!((later(1.0, f32::NAN), sooner(1.0, f32::NAN)), (1.0, 1.0));
         assert_eq!(round_up(0.0), 0.0);
         assert_eq!(round_up(f32::INFINITY), f32::INFINITY);
         assert_eq!(round_down(f32::NEG_INFINITY), f32::NEG_INFINITY);
