@@ -107,15 +107,12 @@ fn stepping_levels_changes_the_overlay() {
     assert_eq!(h.state().shown.clone().unwrap().rgba, level0);
 }
 
-#[test]
-fn dragging_a_triangle_refits_and_hits_equal_a_fresh_build() {
-    let mut h = app("cornell");
+/// Drags the whole object under the middle of the viewport (the back wall or a box of the
+/// Cornell box) up and to the right.
+fn drag_an_object(h: &mut Harness<'static, BvhLabApp>) {
     h.get_by_label("move triangles (M)").click();
     h.get_by_label("move its whole object").click();
-    settle(&mut h);
-    let sah_before = h.state().sah_history.clone();
-    // Drag from the middle of the viewport (the back wall or a box) to the right.
-    let viewport = h.state().shown.clone().unwrap();
+    settle(h);
     let centre = egui::pos2(700.0, 430.0);
     h.hover_at(centre);
     h.run_steps(1);
@@ -126,23 +123,13 @@ fn dragging_a_triangle_refits_and_hits_equal_a_fresh_build() {
         h.run_steps(1);
     }
     h.drop_at(centre + egui::vec2(48.0, -24.0));
-    settle(&mut h);
-    let app = h.state();
-    assert!(app.selection.is_some(), "the drag picked a triangle");
-    assert!(
-        app.sah_history.len() > sah_before.len(),
-        "each move refitted"
-    );
-    assert_ne!(
-        app.sah_history.last(),
-        sah_before.last(),
-        "the SAH cost changed"
-    );
-    drop(viewport);
+    settle(h);
+}
 
-    // The refitted tree's frame equals one traced through a fresh build of the moved scene.
+/// The frame shown equals one traced through a fresh BVH2 build of the moved scene.
+fn assert_frame_equals_a_fresh_build(h: &mut Harness<'static, BvhLabApp>) {
     h.state_mut().request_snapshot();
-    settle(&mut h);
+    settle(h);
     let app = h.state();
     let moved = app.snapshot.clone().expect("snapshot");
     let shown = app.shown.clone().unwrap();
@@ -168,6 +155,26 @@ fn dragging_a_triangle_refits_and_hits_equal_a_fresh_build() {
         differing, 0,
         "hits through the refitted tree equal a fresh build's"
     );
+}
+
+#[test]
+fn dragging_a_triangle_refits_and_hits_equal_a_fresh_build() {
+    let mut h = app("cornell");
+    let sah_before = h.state().sah_history.clone();
+    drag_an_object(&mut h);
+    let app = h.state();
+    assert!(app.selection.is_some(), "the drag picked a triangle");
+    assert!(
+        app.sah_history.len() > sah_before.len(),
+        "each move refitted"
+    );
+    assert_ne!(
+        app.sah_history.last(),
+        sah_before.last(),
+        "the SAH cost changed"
+    );
+    assert_frame_equals_a_fresh_build(&mut h);
+    let moved = h.state().snapshot.clone().expect("snapshot");
     assert_eq!(
         moved.triangles.len(),
         bvhlab::scene::Scene::load("cornell")
@@ -175,6 +182,25 @@ fn dragging_a_triangle_refits_and_hits_equal_a_fresh_build() {
             .triangles
             .len()
     );
+}
+
+#[test]
+fn dragging_under_a_wide_bvh_refits_it_in_place() {
+    for kind in [
+        bvhlab::accel::AccelKind::Bvh4,
+        bvhlab::accel::AccelKind::Bvh8,
+    ] {
+        let mut h = app("cornell");
+        choose_structure(&mut h, kind.title());
+        assert_eq!(h.state().report.clone().unwrap().structure, kind.label());
+        drag_an_object(&mut h);
+        let app = h.state();
+        assert!(app.selection.is_some(), "the drag picked a triangle");
+        assert!(app.last_refit.is_some(), "{}: refitted", kind.label());
+        assert!(app.last_rebuild.is_none(), "{}: not rebuilt", kind.label());
+        assert!(app.sah_history.len() >= 2, "the SAH cost before and after");
+        assert_frame_equals_a_fresh_build(&mut h);
+    }
 }
 
 #[test]

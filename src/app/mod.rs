@@ -198,10 +198,14 @@ impl BvhLabApp {
                     self.building = false;
                 }
                 Reply::Refitted {
+                    sah_before,
                     sah_after,
                     refit_time,
-                    ..
                 } => {
+                    // A wide BVH's build report has no SAH cost: its first refit gives it.
+                    if self.sah_history.is_empty() {
+                        self.sah_history.push(sah_before);
+                    }
                     self.sah_history.push(sah_after);
                     self.last_refit = Some(refit_time);
                     self.maybe_auto_rebuild();
