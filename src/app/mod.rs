@@ -488,7 +488,9 @@ impl BvhLabApp {
             .sample(f.width / 2, f.height * 3 / 5)
             .filter(|s| s.is_hit());
         let Some(s) = centre else { return };
-        let triangle = s.triangle;
+        let Ok(triangle) = u32::try_from(s.triangle) else {
+            return;
+        };
         self.selection = Some(triangle);
         let set = self.drag_set(triangle);
         let step = self.orbit.pixel_size(self.viewport_px[1] as f32) * 80.0;
