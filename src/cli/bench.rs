@@ -100,22 +100,24 @@ pub fn run(args: BenchArgs) -> Result<()> {
         light: args.view.light(&scene),
         width,
         height,
-        params: args.build.structure_params_for(match args.build.accel {
-            super::AccelArg::All => AccelKind::Bvh,
-            a => a.kind()?,
-        }),
+        params: args
+            .build
+            .structure_params_for(match args.build.accel_for(&scene) {
+                super::AccelArg::All => AccelKind::Bvh,
+                a => a.kind()?,
+            }),
         builds: args.builds,
         runs: args.runs,
         intersector: args.intersector.kind(),
         embree: args.embree,
     };
-    let all = args.build.accel == super::AccelArg::All;
+    let all = args.build.accel == Some(super::AccelArg::All);
     if all && (args.embree || args.accuracy) {
         anyhow::bail!(
             "--accel all times bvhlab's structures only: leave out --embree and --accuracy"
         );
     }
-    if args.builders && args.build.accel != super::AccelArg::Bvh {
+    if args.builders && args.build.accel.is_some_and(|a| a != super::AccelArg::Bvh) {
         anyhow::bail!("--builders compares the BVH's builders: leave out --accel");
     }
     cfg.params.validate()?;
@@ -540,7 +542,7 @@ fn run_accuracy(
 
 /// `--scaling`: every structure at every size, as a table, a CSV, plots and fitted slopes.
 fn run_scaling(args: &BenchArgs, width: u32, height: u32) -> Result<()> {
-    if args.build.accel == super::AccelArg::All {
+    if args.build.accel == Some(super::AccelArg::All) {
         anyhow::bail!("--scaling always runs every structure: leave out --accel all");
     }
     if args.view.eye.is_some() || args.view.look.is_some() || args.view.light.is_some() {

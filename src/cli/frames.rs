@@ -26,7 +26,7 @@ pub fn run(args: FramesArgs) -> Result<()> {
         .then(|| args.view.camera(&scene))
         .transpose()?;
     let sizes = [(640, 360, true), (640, 360, false), (1280, 720, false)];
-    let params = args.build.structure_params()?;
+    let params = args.build.structure_params(&scene)?;
     params.validate()?;
     let r = frames::run(&args.scene, &params, camera, &sizes, args.runs.max(1))
         .map_err(|e| anyhow!(e))?;

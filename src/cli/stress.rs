@@ -75,7 +75,9 @@ pub fn run(args: StressArgs) -> Result<()> {
     if let Some(s) = args.seed {
         cfg.seed = s;
     }
-    cfg.structure = args.build.structure_params()?;
+    cfg.structure = args
+        .build
+        .structure_params_for(args.build.accel.unwrap_or(super::AccelArg::Bvh).kind()?);
     cfg.structure.validate()?;
     let mut specs: Vec<String> = args.scenes.clone();
     if specs.is_empty() {

@@ -6,6 +6,7 @@ pub mod builtin;
 pub mod camera;
 pub mod gltf;
 pub mod instance;
+pub mod island;
 pub mod obj;
 
 pub use camera::Camera;
