@@ -1,6 +1,8 @@
 //! `bvhlab bench`: build times and Mrays/s on the standard ray sets of a view.
 
-use super::{BuildArgs, IntersectorArg, ViewArgs, check_size, load_scene, thread_pool};
+use super::{
+    BuildArgs, IntersectorArg, ViewArgs, check_size, instancing_rows, load_scene, thread_pool,
+};
 use anyhow::{Context, Result};
 use bvhlab::accel::AccelKind;
 use bvhlab::accel::bvh::Strategy;
@@ -94,7 +96,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
     if args.scaling {
         return run_scaling(&args, width, height);
     }
+    let load_start = std::time::Instant::now();
     let scene = load_scene(&args.scene)?;
+    let load_time = load_start.elapsed();
     let cfg = BenchConfig {
         camera: args.view.camera(&scene)?,
         light: args.view.light(&scene),
@@ -135,6 +139,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
     if args.json {
         let mut json = result.to_json();
         add_instancing(&mut json, &scene);
+        json["load_ms"] = (load_time.as_secs_f64() * 1e3).into();
         out!("{}", json);
         return Ok(());
     }
@@ -167,6 +172,14 @@ pub fn run(args: BenchArgs) -> Result<()> {
         r.report.mib(),
         r.report.references_per_triangle()
     );
+    out!(
+        "  load {:.2} ms, ready (load + build) {:.2} ms",
+        load_time.as_secs_f64() * 1e3,
+        load_time.as_secs_f64() * 1e3 + r.report.build_ms()
+    );
+    for (k, v) in instancing_rows(&scene) {
+        out!("  {k}: {v}");
+    }
     if r.sampled > 1 {
         out!("  (brute force: 1 in {} rays of each set)", r.sampled);
     }
@@ -208,6 +221,7 @@ fn add_instancing(json: &mut serde_json::Value, scene: &Scene) {
     json["instances"] = instancing.instances.len().into();
     json["unique_triangles"] = instancing.unique_triangles().into();
     json["instanced_triangles"] = instancing.instanced_triangles().into();
+    json["flattened_bytes"] = scene.flattened_bytes().into();
 }
 
 /// `--accel all`: every structure on the same ray sets, as one table (or one JSON object
