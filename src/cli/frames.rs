@@ -63,11 +63,15 @@ pub fn run(args: FramesArgs) -> Result<()> {
             d.trace.as_secs_f64() * 1e3
         );
     }
-    out!(
-        "  (a drag step moves {} triangles, refits or rebuilds, and traces the {}×{} preview)",
-        r.moved,
-        sizes[0].0,
-        sizes[0].1
-    );
+    if r.drags.is_empty() {
+        out!("  (no drag: the scene does not store its triangles to move them)");
+    } else {
+        out!(
+            "  (a drag step moves {} triangles, refits or rebuilds, and traces the {}×{} preview)",
+            r.moved,
+            sizes[0].0,
+            sizes[0].1
+        );
+    }
     Ok(())
 }
