@@ -121,6 +121,13 @@ pub fn run(args: BenchArgs) -> Result<()> {
             "--accel all times bvhlab's structures only: leave out --embree and --accuracy"
         );
     }
+    if (args.embree || args.accuracy) && !scene.is_flattened() {
+        anyhow::bail!(
+            "--embree and --accuracy work on the scene's stored triangles: {} places its \
+             instances without storing them",
+            scene.name
+        );
+    }
     if args.builders && args.build.accel.is_some_and(|a| a != super::AccelArg::Bvh) {
         anyhow::bail!("--builders compares the BVH's builders: leave out --accel");
     }
@@ -244,7 +251,7 @@ fn run_all(
         let structures: Vec<serde_json::Value> = results.iter().map(|r| r.to_json()).collect();
         let mut json = serde_json::json!({
             "scene": scene.name,
-            "triangles": scene.triangles.len(),
+            "triangles": scene.placed_triangles(),
             "threads": results.first().map_or(0, |r| r.threads),
             "structures": structures,
         });
@@ -255,7 +262,7 @@ fn run_all(
     out!(
         "{}: {} triangles, {} threads, {}×{} ray sets (Mrays/s; mean nodes visited / triangle tests per ray)",
         scene.name,
-        scene.triangles.len(),
+        scene.placed_triangles(),
         results.first().map_or(0, |r| r.threads),
         cfg.width,
         cfg.height
@@ -341,7 +348,7 @@ fn run_builders(
             "{}",
             serde_json::json!({
                 "scene": scene.name,
-                "triangles": scene.triangles.len(),
+                "triangles": scene.placed_triangles(),
                 "threads": results.first().map_or(0, |r| r.threads),
                 "builders": builders,
             })
@@ -351,7 +358,7 @@ fn run_builders(
     out!(
         "{}: {} triangles, {} threads, {}×{} ray sets (Mrays/s, and % of the best builder's)",
         scene.name,
-        scene.triangles.len(),
+        scene.placed_triangles(),
         results.first().map_or(0, |r| r.threads),
         cfg.width,
         cfg.height
@@ -510,7 +517,7 @@ fn run_accuracy(
     out!(
         "{}: {} triangles, {} threads, {}x{} ray sets; {} crossing rays, {} rays compared with f64",
         scene.name,
-        scene.triangles.len(),
+        scene.placed_triangles(),
         rows.first().map_or(0, |r| r.threads),
         cfg.width,
         cfg.height,

@@ -92,7 +92,16 @@ pub fn run(args: StressArgs) -> Result<()> {
     }
     let scenes = specs
         .iter()
-        .map(|s| load_scene(s))
+        .map(|s| {
+            let scene = load_scene(s)?;
+            if !scene.is_flattened() {
+                anyhow::bail!(
+                    "the stress suite works on a scene's stored triangles: {s} places its \
+                     instances without storing them"
+                );
+            }
+            Ok(scene)
+        })
         .collect::<Result<Vec<Scene>>>()?;
     let pool = thread_pool(args.threads)?;
     let quiet = args.json;

@@ -66,7 +66,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
         rays.len(),
         answered,
         if args.any { "occluded" } else { "hits" },
-        scene.triangles.len(),
+        scene.placed_triangles(),
         args.intersector.kind().label(),
         elapsed.as_secs_f64() * 1e3
     );
