@@ -167,6 +167,11 @@ impl BvhLabApp {
         for r in replies {
             match r {
                 Reply::Loaded { spec, scene } => {
+                    // A scene that does not store its triangles (the island) can only be
+                    // traced through its two levels.
+                    if !scene.is_flattened() {
+                        self.settings.accel = crate::accel::AccelKind::TwoLevel;
+                    }
                     self.orbit = Orbit::from_camera(&scene.camera());
                     if std::path::Path::new(&spec).exists() && scene::is_file_spec(&spec) {
                         self.settings.add_recent(&spec);
