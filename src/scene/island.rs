@@ -397,7 +397,7 @@ mod tests {
     }
 
     #[test]
-    fn rocks_are_closed_and_face_out() {
+    fn rocks_face_out() {
         let triangles = rock(8);
         assert!(triangles.iter().all(|t| t.normal().dot(t.centroid()) > 0.0));
     }
