@@ -463,7 +463,13 @@ fn the_command_line_takes_gltf_scenes_and_names_what_is_wrong() {
         assert_eq!(v["unique_triangles"], 3, "{v}");
         assert_eq!(v["instanced_triangles"], 6, "{v}");
         assert_eq!(v["triangles"], 6, "{v}");
+        assert_eq!(v["flattened_bytes"], 6 * 40, "{v}");
     }
+    // Without --accel, a scene with instances of its own gets the two levels.
+    let out = run(&["stats", "--scene", &good]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("two-level"), "{text}");
+    assert!(text.contains("scene instanced triangles  6"), "{text}");
 
     b.nodes[1]["scale"] = json!([0.0, 1.0, 1.0]);
     let bad = b.write_embedded(&dir, "bad").display().to_string();

@@ -20,11 +20,20 @@ fn builtin(spec: &str) -> Scene {
 }
 
 fn assert_well_formed(spec: &str, scene: &Scene) {
-    assert!(!scene.triangles.is_empty(), "{spec}: no triangles");
+    assert!(scene.placed_triangles() > 0, "{spec}: no triangles");
+    let mesh_triangles = scene.meshes.iter().flat_map(|m| &m.triangles);
     assert!(
-        scene.triangles.iter().all(|t| t.is_finite()),
+        scene
+            .triangles
+            .iter()
+            .chain(mesh_triangles)
+            .all(|t| t.is_finite()),
         "{spec}: non-finite triangle"
     );
+    if !scene.is_flattened() {
+        // Unflattened: one object for each instance.
+        assert_eq!(scene.objects.len(), scene.instances.len(), "{spec}");
+    }
     let mut next = 0;
     for object in &scene.objects {
         assert_eq!(object.first, next, "{spec}: objects not contiguous");
@@ -38,7 +47,7 @@ fn assert_well_formed(spec: &str, scene: &Scene) {
     }
     assert_eq!(
         next,
-        scene.triangles.len(),
+        scene.placed_triangles(),
         "{spec}: objects miss triangles"
     );
     let view = scene.view.unwrap_or_else(|| panic!("{spec}: no view"));

@@ -98,7 +98,7 @@ fn trace_writes_closest_hits_and_occlusion_in_input_order() {
                 t,
                 u: 0.0,
                 v: 0.0,
-                triangle: tri,
+                triangle: tri.into(),
             });
             assert!(
                 common::same_hit(got, expected),

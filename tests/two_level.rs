@@ -7,10 +7,14 @@
 mod common;
 
 use bvhlab::accel::structure::{self, AccelKind, Structure, StructureParams};
-use bvhlab::accel::{Accel, BruteForce, Counters, Hit, NoStats, TraversalOrder};
+use bvhlab::accel::{Accel, BruteForce, Counters, NoStats, TraversalOrder};
 use bvhlab::geometry::{Ray, Triangle, Watertight};
 use bvhlab::scene::{Instance, Instancing, Mesh, Scene, instance};
 use common::Rng;
+use common::instanced::compare;
+
+/// The extent of the test scenes, the distance scale of their rounding.
+const EXTENT: f32 = 20.0;
 use glam::{Affine3A, Quat, Vec3};
 
 fn two_level_params(order: TraversalOrder) -> StructureParams {
@@ -87,31 +91,6 @@ fn instanced_scene(count: usize, seed: u64) -> Scene {
     scene
 }
 
-/// The rounding both sides commit, relative to the distances involved: the flattened
-/// scene rounds the vertices (M·v), the two-level structure rounds the ray (M⁻¹·o, M⁻¹·d),
-/// each by a few ulps of the coordinates' magnitude times the transform's condition number
-/// (at most about 6 here: scales up to 4:1, and a shear). 64 ε is a wide margin: the
-/// largest error these scenes show is about 1 ε.
-const ROUNDING: f32 = 64.0 * f32::EPSILON;
-
-/// The distance scale of a hit at `t` in ray units: the origin's and the scene's extent
-/// (20) over the direction's length, plus t.
-fn distance_scale(ray: &Ray, t: f32) -> f32 {
-    (ray.origin.length() + 20.0) / ray.direction.length() + t
-}
-
-/// The bound on |t − t_flat| for a hit on `tri`: `ROUNDING` of the distance scale, over
-/// the cosine of the angle between ray and normal (t of a grazing ray moves far when the
-/// plane moves a little).
-fn t_bound(ray: &Ray, t: f32, tri: &Triangle) -> f32 {
-    let cos = tri
-        .normal()
-        .normalize_or_zero()
-        .dot(ray.direction.normalize())
-        .abs();
-    ROUNDING * distance_scale(ray, t) / cos.max(f32::MIN_POSITIVE)
-}
-
 /// Rays from around the scene at random points of random triangles, so most rays hit.
 fn rays_at_triangles(scene: &Scene, n: usize, seed: u64) -> Vec<Ray> {
     let mut rng = Rng::new(seed ^ 0x7a11);
@@ -132,57 +111,6 @@ fn rays_at_triangles(scene: &Scene, n: usize, seed: u64) -> Vec<Ray> {
         .collect()
 }
 
-/// How far (in f64) the ray passes from the boundary of `tri`, where it crosses its plane:
-/// 0 for a ray in the plane. Where this is within rounding, f32 tests in world and in
-/// object space may fairly disagree on whether the ray hits.
-fn edge_distance(tri: &Triangle, ray: &Ray) -> f64 {
-    let d = |v: Vec3| glam::DVec3::new(v.x as f64, v.y as f64, v.z as f64);
-    let [a, b, c] = tri.v.map(d);
-    let (o, dir) = (d(ray.origin), d(ray.direction));
-    let n = (b - a).cross(c - a);
-    let denom = n.dot(dir);
-    if denom.abs() <= 1e-12 * n.length() * dir.length() {
-        return 0.0;
-    }
-    let p = o + dir * (n.dot(a - o) / denom);
-    let segment = |s: glam::DVec3, e: glam::DVec3| {
-        let k =
-            ((p - s).dot(e - s) / (e - s).length_squared().max(f64::MIN_POSITIVE)).clamp(0.0, 1.0);
-        (s + (e - s) * k - p).length()
-    };
-    segment(a, b).min(segment(b, c)).min(segment(c, a))
-}
-
-/// Checks a two-level hit against the flattened scene's; returns whether they disagree
-/// only by a ray grazing a triangle's edge within rounding (counted by the caller).
-fn compare(label: &str, scene: &Scene, ray: &Ray, got: Option<Hit>, want: Option<Hit>) -> bool {
-    if let (Some(g), Some(w)) = (got, want)
-        && g.triangle == w.triangle
-    {
-        let bound = t_bound(ray, w.t, &scene.triangles[w.triangle as usize]);
-        assert!(
-            (g.t - w.t).abs() <= bound,
-            "{label}: {ray:?}: t {} vs {} (bound {bound})",
-            g.t,
-            w.t
-        );
-        return false;
-    }
-    if got.is_none() && want.is_none() {
-        return false;
-    }
-    // Different answers: fair only where one of the triangles involved is grazed.
-    let grazed = [got, want].into_iter().flatten().any(|h| {
-        let near = ROUNDING * distance_scale(ray, h.t) * ray.direction.length();
-        edge_distance(&scene.triangles[h.triangle as usize], ray) <= near as f64
-    });
-    assert!(
-        grazed,
-        "{label}: {ray:?}: two-level {got:?}, flattened {want:?}"
-    );
-    true
-}
-
 #[test]
 fn instanced_scenes_hit_what_their_flattened_scenes_hit() {
     for (count, seed) in [(1, 1), (12, 2), (60, 3)] {
@@ -201,7 +129,7 @@ fn instanced_scenes_hit_what_their_flattened_scenes_hit() {
                 let want = flat.closest_hit::<Watertight, _>(ray, &mut NoStats);
                 let got = tl.closest_hit::<Watertight, _>(ray, &mut NoStats);
                 let label = format!("{count} instances, {}", order.label());
-                if compare(&label, &scene, ray, got, want) {
+                if compare(&label, &scene.triangles, EXTENT, ray, got, want) {
                     grazing += 1;
                     continue;
                 }
@@ -550,7 +478,7 @@ fn nested_gltf_nodes_hit_what_their_flattened_scene_hits() {
         let got = built
             .structure
             .closest_hit::<Watertight, _>(ray, &mut NoStats);
-        if compare("nested glTF", &scene, ray, got, want) {
+        if compare("nested glTF", &scene.triangles, EXTENT, ray, got, want) {
             grazing += 1;
             continue;
         }
@@ -612,7 +540,7 @@ fn moving_instances_rebuilds_the_top_level_only_and_equals_a_full_rebuild() {
         );
         hits += usize::from(got.is_some());
         let flat_hit = flat.closest_hit::<Watertight, _>(ray, &mut NoStats);
-        compare("moved", &again, ray, got, flat_hit);
+        compare("moved", &again.triangles, EXTENT, ray, got, flat_hit);
     }
     assert!(hits > rays.len() / 2, "{hits} hits");
 

@@ -20,7 +20,7 @@ fn bounds(tris: &[Triangle]) -> Aabb {
     tris.iter().fold(Aabb::EMPTY, |b, t| b.union(t.bounds()))
 }
 
-fn bits(h: Option<Hit>) -> Option<(u32, u32, u32, u32)> {
+fn bits(h: Option<Hit>) -> Option<(u64, u32, u32, u32)> {
     h.map(|h| (h.triangle, h.t.to_bits(), h.u.to_bits(), h.v.to_bits()))
 }
 

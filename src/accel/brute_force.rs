@@ -112,7 +112,7 @@ impl BruteForce {
             }
             stats.triangle_test();
             if let Some(h) = I::intersect(&data, ray, tri, ray.tmin, best.limit) {
-                best.offer(h, i as u32);
+                best.offer(h, i as u64);
             }
         }
         best.hit()

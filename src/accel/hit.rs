@@ -4,13 +4,14 @@
 use crate::geometry::Ray;
 use crate::geometry::intersect::TriangleHit;
 
-/// The closest hit of a ray: distance, barycentrics and the scene's triangle index.
+/// The closest hit of a ray: distance, barycentrics and the scene's triangle index. The
+/// index is 64-bit: an instanced scene places more triangles than 32 bits can number.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
     pub t: f32,
     pub u: f32,
     pub v: f32,
-    pub triangle: u32,
+    pub triangle: u64,
 }
 
 /// The closest hit so far. Of hits at the same distance the lowest triangle index wins, so
@@ -38,7 +39,8 @@ impl BestHit {
     /// Keeps `h`, a hit on `triangle` found below `limit`, if it is closer than the best so
     /// far, or as close and on a lower-numbered triangle.
     #[inline(always)]
-    pub fn offer(&mut self, h: TriangleHit, triangle: u32) {
+    pub fn offer(&mut self, h: TriangleHit, triangle: impl Into<u64>) {
+        let triangle = triangle.into();
         if let Some(b) = self.hit {
             // An intersector that decides in higher precision may round a hit just below
             // the limit up to it: such a hit is farther, not a tie.

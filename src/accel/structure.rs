@@ -19,7 +19,7 @@ use super::two_level::{self, TwoLevel};
 use super::{Accel, BruteForce, BuildParams, Hit, Stats, TraversalOrder};
 use crate::geometry::simd::SimdLevel;
 use crate::geometry::{Intersector, Ray, Triangle};
-use crate::scene::{Instancing, Scene};
+use crate::scene::{FlattenError, Instancing, Scene};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
@@ -220,6 +220,8 @@ pub enum StructureError {
     Octree(#[from] OctreeError),
     #[error(transparent)]
     Simd(#[from] UnsupportedSimd),
+    #[error(transparent)]
+    Flatten(#[from] FlattenError),
 }
 
 /// A built structure.
@@ -261,7 +263,8 @@ macro_rules! with_structure {
 
 /// Builds the structure `params.kind` over `scene`: the two-level structure over its
 /// meshes and instances (each object one instance in a scene without its own), every
-/// other structure over its flattened triangles. Hits name triangles of `scene.triangles`.
+/// other structure over its flattened triangles (flattened here if the scene does not store
+/// them, an error if they are too many). Hits name triangles of the flattened scene.
 pub fn build_scene(
     scene: &Scene,
     params: &StructureParams,
@@ -270,7 +273,7 @@ pub fn build_scene(
     if params.kind == AccelKind::TwoLevel {
         return build_two_level(&scene.instancing(), params, progress);
     }
-    build(&scene.triangles, params, progress)
+    build(&scene.flattened()?, params, progress)
 }
 
 /// The two-level structure over instanced geometry.

@@ -167,6 +167,11 @@ impl BvhLabApp {
         for r in replies {
             match r {
                 Reply::Loaded { spec, scene } => {
+                    // A scene that does not store its triangles (the island) can only be
+                    // traced through its two levels.
+                    if !scene.is_flattened() {
+                        self.settings.accel = crate::accel::AccelKind::TwoLevel;
+                    }
                     self.orbit = Orbit::from_camera(&scene.camera());
                     if std::path::Path::new(&spec).exists() && scene::is_file_spec(&spec) {
                         self.settings.add_recent(&spec);
@@ -492,7 +497,9 @@ impl BvhLabApp {
             .sample(f.width / 2, f.height * 3 / 5)
             .filter(|s| s.is_hit());
         let Some(s) = centre else { return };
-        let triangle = s.triangle;
+        let Ok(triangle) = u32::try_from(s.triangle) else {
+            return;
+        };
         self.selection = Some(triangle);
         let set = self.drag_set(triangle);
         let step = self.orbit.pixel_size(self.viewport_px[1] as f32) * 80.0;

@@ -146,7 +146,8 @@ fn handle_input(app: &mut BvhLabApp, ui: &egui::Ui, response: &egui::Response, r
 fn pick(app: &BvhLabApp, rect: egui::Rect, pos: egui::Pos2) -> Option<u32> {
     let (x, y) = pixel_at(app, rect, pos)?;
     let s = app.shown.as_ref()?.frame.sample(x, y)?;
-    s.is_hit().then_some(s.triangle)
+    // The app selects triangles of scenes it can flatten, numbered in 32 bits.
+    s.is_hit().then(|| u32::try_from(s.triangle).ok()).flatten()
 }
 
 fn start_drag(app: &mut BvhLabApp, rect: egui::Rect, pos: egui::Pos2) {
@@ -160,12 +161,12 @@ fn start_drag(app: &mut BvhLabApp, rect: egui::Rect, pos: egui::Pos2) {
     else {
         return;
     };
-    if !s.is_hit() {
+    let Some(triangle) = s.is_hit().then(|| u32::try_from(s.triangle).ok()).flatten() else {
         return;
-    }
-    app.selection = Some(s.triangle);
+    };
+    app.selection = Some(triangle);
     app.drag = Some(Drag {
-        triangles: app.drag_set(s.triangle),
+        triangles: app.drag_set(triangle),
         depth: s.t,
     });
 }

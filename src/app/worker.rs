@@ -10,7 +10,7 @@
 
 use crate::accel::bvh::refit::RefitIndex;
 use crate::accel::bvh::{self, BuildReport, Bvh};
-use crate::accel::structure::{self, Structure, StructureParams};
+use crate::accel::structure::{self, AccelKind, Structure, StructureParams};
 use crate::accel::{Outline, StructureReport};
 use crate::render::overlay::{OutlinedBox, outline_boxes, palette, tint_triangles};
 use crate::render::{Frame, Mode, RenderSettings, colorize, trace};
@@ -394,9 +394,13 @@ impl State {
             return true;
         };
         self.progress.0.store(0, Ordering::Relaxed);
-        self.progress
-            .1
-            .store(scene.triangles.len(), Ordering::Relaxed);
+        // The two levels count unique triangles, the others placed ones.
+        let total = if self.params.kind == AccelKind::TwoLevel {
+            scene.instancing().unique_triangles()
+        } else {
+            scene.triangles.len()
+        };
+        self.progress.1.store(total, Ordering::Relaxed);
         match structure::build_scene(scene, &self.params, &self.progress.0) {
             Ok(built) => {
                 self.refit_index = None;

@@ -38,7 +38,7 @@ pub fn classify<A: Accel>(
         _ => {}
     }
     let shear = Shear64::new(ray);
-    let eval = |i: u32| evaluate(&shear, &triangles[i as usize]);
+    let eval = |i: u64| evaluate(&shear, &triangles[i as usize]);
     let explained = |ev: &Evaluation| ev.edge_ambiguous() || ev.t_ambiguous(ray.tmin, ray.tmax);
     // The tested hit must be one the reference hits, or one rounding could produce.
     let (limit, got_eval) = match got {

@@ -139,7 +139,9 @@ pub fn run(
     let step = scene.bounds().diagonal() * 0.002;
     let preview = sizes.first().copied().unwrap_or((640, 360, true));
     let mut drags = Vec::new();
-    for mode in modes {
+    // A scene that does not store its triangles cannot move them: no drag to time.
+    let drag_modes: &[Mode] = if scene.is_flattened() { &modes } else { &[] };
+    for &mode in drag_modes {
         // The app tints the selection while it is dragged.
         let mut dragged = job(camera, mode, preview);
         dragged.overlay.selected = Some(moved.clone());
@@ -169,7 +171,7 @@ pub fn run(
     }
     Ok(FrameReport {
         scene: scene.name.clone(),
-        triangles: scene.triangles.len(),
+        triangles: scene.placed_triangles(),
         frames,
         drags,
         moved: moved.len(),

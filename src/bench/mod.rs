@@ -188,11 +188,17 @@ fn run_each(
     each: Vec<StructureParams>,
     done: &mut dyn FnMut(&BenchResult),
 ) -> Result<Vec<BenchResult>, BenchError> {
+    // The ray sets are made with a BVH2 over the flattened scene, or the two levels where
+    // the scene is not flattened.
     let bvh_params = StructureParams {
-        kind: AccelKind::Bvh,
+        kind: if scene.is_flattened() {
+            AccelKind::Bvh
+        } else {
+            AccelKind::TwoLevel
+        },
         ..cfg.params
     };
-    let bvh = structure::build(&scene.triangles, &bvh_params, &Default::default())?;
+    let bvh = structure::build_scene(scene, &bvh_params, &Default::default())?;
     let sets = RaySets::standard(
         &bvh.structure,
         scene,
@@ -244,7 +250,7 @@ fn measure(
 ) -> BenchResult {
     let accel = &built.structure;
     let sampled = if params.kind.is_brute_force() {
-        (scene.triangles.len() * full.primary.len()).div_ceil(BRUTE_FORCE_TESTS)
+        (scene.placed_triangles() * full.primary.len()).div_ceil(BRUTE_FORCE_TESTS)
     } else {
         1
     }
@@ -267,7 +273,7 @@ fn measure(
     shadow.mean = Some(s);
     BenchResult {
         scene: scene.name.clone(),
-        triangles: scene.triangles.len(),
+        triangles: scene.placed_triangles(),
         threads: rayon::current_num_threads(),
         intersector: cfg.intersector,
         params: *params,

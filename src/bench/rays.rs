@@ -41,7 +41,7 @@ impl RaySets {
             .enumerate()
             .filter_map(|(i, ray)| {
                 let hit = accel.closest_hit::<Watertight, _>(ray, &mut NoStats)?;
-                let tri = &scene.triangles[hit.triangle as usize];
+                let tri = &scene.triangle(hit.triangle)?;
                 let n = tri.facing_normal(ray.direction);
                 let point = SurfacePoint::on_triangle(tri, hit.u, hit.v);
                 let shadow = point.ray_towards(n, light);

@@ -1,6 +1,8 @@
 //! `bvhlab bench`: build times and Mrays/s on the standard ray sets of a view.
 
-use super::{BuildArgs, IntersectorArg, ViewArgs, check_size, load_scene, thread_pool};
+use super::{
+    BuildArgs, IntersectorArg, ViewArgs, check_size, instancing_rows, load_scene, thread_pool,
+};
 use anyhow::{Context, Result};
 use bvhlab::accel::AccelKind;
 use bvhlab::accel::bvh::Strategy;
@@ -94,28 +96,39 @@ pub fn run(args: BenchArgs) -> Result<()> {
     if args.scaling {
         return run_scaling(&args, width, height);
     }
+    let load_start = std::time::Instant::now();
     let scene = load_scene(&args.scene)?;
+    let load_time = load_start.elapsed();
     let cfg = BenchConfig {
         camera: args.view.camera(&scene)?,
         light: args.view.light(&scene),
         width,
         height,
-        params: args.build.structure_params_for(match args.build.accel {
-            super::AccelArg::All => AccelKind::Bvh,
-            a => a.kind()?,
-        }),
+        params: args
+            .build
+            .structure_params_for(match args.build.accel_for(&scene) {
+                super::AccelArg::All => AccelKind::Bvh,
+                a => a.kind()?,
+            }),
         builds: args.builds,
         runs: args.runs,
         intersector: args.intersector.kind(),
         embree: args.embree,
     };
-    let all = args.build.accel == super::AccelArg::All;
+    let all = args.build.accel == Some(super::AccelArg::All);
     if all && (args.embree || args.accuracy) {
         anyhow::bail!(
             "--accel all times bvhlab's structures only: leave out --embree and --accuracy"
         );
     }
-    if args.builders && args.build.accel != super::AccelArg::Bvh {
+    if (args.embree || args.accuracy) && !scene.is_flattened() {
+        anyhow::bail!(
+            "--embree and --accuracy work on the scene's stored triangles: {} places its \
+             instances without storing them",
+            scene.name
+        );
+    }
+    if args.builders && args.build.accel.is_some_and(|a| a != super::AccelArg::Bvh) {
         anyhow::bail!("--builders compares the BVH's builders: leave out --accel");
     }
     cfg.params.validate()?;
@@ -133,6 +146,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
     if args.json {
         let mut json = result.to_json();
         add_instancing(&mut json, &scene);
+        json["load_ms"] = (load_time.as_secs_f64() * 1e3).into();
         out!("{}", json);
         return Ok(());
     }
@@ -165,6 +179,14 @@ pub fn run(args: BenchArgs) -> Result<()> {
         r.report.mib(),
         r.report.references_per_triangle()
     );
+    out!(
+        "  load {:.2} ms, ready (load + build) {:.2} ms",
+        load_time.as_secs_f64() * 1e3,
+        load_time.as_secs_f64() * 1e3 + r.report.build_ms()
+    );
+    for (k, v) in instancing_rows(&scene) {
+        out!("  {k}: {v}");
+    }
     if r.sampled > 1 {
         out!("  (brute force: 1 in {} rays of each set)", r.sampled);
     }
@@ -206,6 +228,7 @@ fn add_instancing(json: &mut serde_json::Value, scene: &Scene) {
     json["instances"] = instancing.instances.len().into();
     json["unique_triangles"] = instancing.unique_triangles().into();
     json["instanced_triangles"] = instancing.instanced_triangles().into();
+    json["flattened_bytes"] = scene.flattened_bytes().into();
 }
 
 /// `--accel all`: every structure on the same ray sets, as one table (or one JSON object
@@ -228,7 +251,7 @@ fn run_all(
         let structures: Vec<serde_json::Value> = results.iter().map(|r| r.to_json()).collect();
         let mut json = serde_json::json!({
             "scene": scene.name,
-            "triangles": scene.triangles.len(),
+            "triangles": scene.placed_triangles(),
             "threads": results.first().map_or(0, |r| r.threads),
             "structures": structures,
         });
@@ -239,7 +262,7 @@ fn run_all(
     out!(
         "{}: {} triangles, {} threads, {}×{} ray sets (Mrays/s; mean nodes visited / triangle tests per ray)",
         scene.name,
-        scene.triangles.len(),
+        scene.placed_triangles(),
         results.first().map_or(0, |r| r.threads),
         cfg.width,
         cfg.height
@@ -325,7 +348,7 @@ fn run_builders(
             "{}",
             serde_json::json!({
                 "scene": scene.name,
-                "triangles": scene.triangles.len(),
+                "triangles": scene.placed_triangles(),
                 "threads": results.first().map_or(0, |r| r.threads),
                 "builders": builders,
             })
@@ -335,7 +358,7 @@ fn run_builders(
     out!(
         "{}: {} triangles, {} threads, {}×{} ray sets (Mrays/s, and % of the best builder's)",
         scene.name,
-        scene.triangles.len(),
+        scene.placed_triangles(),
         results.first().map_or(0, |r| r.threads),
         cfg.width,
         cfg.height
@@ -494,7 +517,7 @@ fn run_accuracy(
     out!(
         "{}: {} triangles, {} threads, {}x{} ray sets; {} crossing rays, {} rays compared with f64",
         scene.name,
-        scene.triangles.len(),
+        scene.placed_triangles(),
         rows.first().map_or(0, |r| r.threads),
         cfg.width,
         cfg.height,
@@ -540,7 +563,7 @@ fn run_accuracy(
 
 /// `--scaling`: every structure at every size, as a table, a CSV, plots and fitted slopes.
 fn run_scaling(args: &BenchArgs, width: u32, height: u32) -> Result<()> {
-    if args.build.accel == super::AccelArg::All {
+    if args.build.accel == Some(super::AccelArg::All) {
         anyhow::bail!("--scaling always runs every structure: leave out --accel all");
     }
     if args.view.eye.is_some() || args.view.look.is_some() || args.view.light.is_some() {

@@ -26,7 +26,7 @@ pub fn run(args: FramesArgs) -> Result<()> {
         .then(|| args.view.camera(&scene))
         .transpose()?;
     let sizes = [(640, 360, true), (640, 360, false), (1280, 720, false)];
-    let params = args.build.structure_params()?;
+    let params = args.build.structure_params(&scene)?;
     params.validate()?;
     let r = frames::run(&args.scene, &params, camera, &sizes, args.runs.max(1))
         .map_err(|e| anyhow!(e))?;
@@ -63,11 +63,15 @@ pub fn run(args: FramesArgs) -> Result<()> {
             d.trace.as_secs_f64() * 1e3
         );
     }
-    out!(
-        "  (a drag step moves {} triangles, refits or rebuilds, and traces the {}×{} preview)",
-        r.moved,
-        sizes[0].0,
-        sizes[0].1
-    );
+    if r.drags.is_empty() {
+        out!("  (no drag: the scene does not store its triangles to move them)");
+    } else {
+        out!(
+            "  (a drag step moves {} triangles, refits or rebuilds, and traces the {}×{} preview)",
+            r.moved,
+            sizes[0].0,
+            sizes[0].1
+        );
+    }
     Ok(())
 }

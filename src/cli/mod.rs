@@ -23,9 +23,10 @@ use glam::Vec3;
 /// The structure and its build parameters, shared by every subcommand that builds one.
 #[derive(Args, Clone)]
 pub struct BuildArgs {
-    /// Acceleration structure (`all`: every structure, `bench` only).
-    #[arg(long, value_enum, default_value_t = AccelArg::Bvh)]
-    pub accel: AccelArg,
+    /// Acceleration structure (`all`: every structure, `bench` only). Default: two-level
+    /// for a scene with instances of its own (glTF, island), bvh otherwise.
+    #[arg(long, value_enum)]
+    pub accel: Option<AccelArg>,
     /// Spatial structures: test a triangle once per ray even if several cells hold it
     /// (`--mailbox false` to see the repeats).
     #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
@@ -263,14 +264,26 @@ impl BuildArgs {
         }
     }
 
-    /// The parameters of the one structure `--accel` names.
-    pub fn structure_params(&self) -> Result<StructureParams> {
-        Ok(self.structure_params_for(self.accel.kind()?))
+    /// The structure `--accel` names, or without it the default for `scene`: the two
+    /// levels where the scene has instances of its own (it may be far too large to
+    /// flatten), the BVH2 otherwise.
+    pub fn accel_for(&self, scene: &Scene) -> AccelArg {
+        self.accel.unwrap_or(if scene.instances.is_empty() {
+            AccelArg::Bvh
+        } else {
+            AccelArg::TwoLevel
+        })
     }
 
-    /// Builds the structure `--accel` names over `scene` and says so on stderr.
+    /// The parameters of the one structure `--accel` names (or `scene`'s default).
+    pub fn structure_params(&self, scene: &Scene) -> Result<StructureParams> {
+        Ok(self.structure_params_for(self.accel_for(scene).kind()?))
+    }
+
+    /// Builds the structure `--accel` names (or `scene`'s default) over `scene` and says so
+    /// on stderr.
     pub fn build(&self, scene: &Scene) -> Result<Built> {
-        let params = self.structure_params()?;
+        let params = self.structure_params(scene)?;
         let built = structure::build_scene(scene, &params, &Default::default())
             .with_context(|| format!("cannot build the {}", params.kind.title()))?;
         let simd = built
@@ -332,6 +345,34 @@ pub fn parse_vec3(s: &str) -> Result<Vec3, String> {
             .ok_or_else(|| format!("'{v}' is not a finite number"))
     };
     Ok(Vec3::new(f(x)?, f(y)?, f(z)?))
+}
+
+/// An instanced scene's counts as table rows: instances, unique and instanced triangles,
+/// and the memory a flattened copy would take (none for a scene without instances).
+pub fn instancing_rows(scene: &Scene) -> Vec<(String, String)> {
+    if scene.instances.is_empty() {
+        return Vec::new();
+    }
+    let instancing = scene.instancing();
+    let gib = scene.flattened_bytes() as f64 / (1u64 << 30) as f64;
+    vec![
+        ("instances".into(), instancing.instances.len().to_string()),
+        (
+            "unique triangles".into(),
+            instancing.unique_triangles().to_string(),
+        ),
+        (
+            "instanced triangles".into(),
+            instancing.instanced_triangles().to_string(),
+        ),
+        (
+            "flattened copy".into(),
+            format!(
+                "{gib:.2} GiB ({} bytes per triangle)",
+                bvhlab::scene::FLAT_BYTES_PER_TRIANGLE
+            ),
+        ),
+    ]
 }
 
 pub fn load_scene(spec: &str) -> Result<Scene> {

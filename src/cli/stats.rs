@@ -1,6 +1,6 @@
 //! `bvhlab stats`: the build report of a structure as a table.
 
-use super::{BuildArgs, load_scene};
+use super::{BuildArgs, instancing_rows, load_scene};
 use anyhow::Result;
 use clap::Args;
 
@@ -17,13 +17,17 @@ pub fn run(args: StatsArgs) -> Result<()> {
     let scene = load_scene(&args.scene)?;
     let report = args.build.build(&scene)?.report;
     out!("scene: {} ({} objects)", scene.name, scene.objects.len());
-    let width = report
-        .rows()
+    let rows: Vec<_> = instancing_rows(&scene)
+        .into_iter()
+        .map(|(k, v)| (format!("scene {k}"), v))
+        .chain(report.rows())
+        .collect();
+    let width = rows
         .iter()
         .map(|(k, _)| k.chars().count())
         .max()
         .unwrap_or(0);
-    for (k, v) in report.rows() {
+    for (k, v) in rows {
         out!("  {k:<width$}  {v}");
     }
     Ok(())

@@ -75,7 +75,9 @@ pub fn run(args: StressArgs) -> Result<()> {
     if let Some(s) = args.seed {
         cfg.seed = s;
     }
-    cfg.structure = args.build.structure_params()?;
+    cfg.structure = args
+        .build
+        .structure_params_for(args.build.accel.unwrap_or(super::AccelArg::Bvh).kind()?);
     cfg.structure.validate()?;
     let mut specs: Vec<String> = args.scenes.clone();
     if specs.is_empty() {
@@ -90,7 +92,16 @@ pub fn run(args: StressArgs) -> Result<()> {
     }
     let scenes = specs
         .iter()
-        .map(|s| load_scene(s))
+        .map(|s| {
+            let scene = load_scene(s)?;
+            if !scene.is_flattened() {
+                anyhow::bail!(
+                    "the stress suite works on a scene's stored triangles: {s} places its \
+                     instances without storing them"
+                );
+            }
+            Ok(scene)
+        })
         .collect::<Result<Vec<Scene>>>()?;
     let pool = thread_pool(args.threads)?;
     let quiet = args.json;

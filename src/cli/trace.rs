@@ -55,7 +55,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
     let (output, answered) = pool.install(|| -> Result<(Vec<u8>, usize)> {
         let built = args.build.build(&scene)?;
         let s = &built.structure;
-        Ok(with_intersector!(args.intersector.kind(), I => trace_all::<_, I>(s, &rays, args.any)))
+        with_intersector!(args.intersector.kind(), I => trace_all::<_, I>(s, &rays, args.any))
     })?;
     let elapsed = start.elapsed();
     std::fs::write(&args.out, &output)
@@ -66,7 +66,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
         rays.len(),
         answered,
         if args.any { "occluded" } else { "hits" },
-        scene.triangles.len(),
+        scene.placed_triangles(),
         args.intersector.kind().label(),
         elapsed.as_secs_f64() * 1e3
     );
@@ -74,20 +74,24 @@ pub fn run(args: TraceArgs) -> Result<()> {
 }
 
 /// The output bytes and the number of hits (or occluded rays).
-fn trace_all<A: Accel, I: Intersector>(accel: &A, rays: &[Ray], any: bool) -> (Vec<u8>, usize) {
+fn trace_all<A: Accel, I: Intersector>(
+    accel: &A,
+    rays: &[Ray],
+    any: bool,
+) -> Result<(Vec<u8>, usize)> {
     if any {
         let occluded: Vec<bool> = rays
             .par_iter()
             .map(|r| accel.any_hit::<I, _>(r, &mut NoStats))
             .collect();
         let count = occluded.iter().filter(|&&o| o).count();
-        (rayfile::encode_occlusion(&occluded), count)
+        Ok((rayfile::encode_occlusion(&occluded), count))
     } else {
         let hits: Vec<_> = rays
             .par_iter()
             .map(|r| accel.closest_hit::<I, _>(r, &mut NoStats))
             .collect();
         let count = hits.iter().filter(|h| h.is_some()).count();
-        (rayfile::encode_hits(&hits), count)
+        Ok((rayfile::encode_hits(&hits)?, count))
     }
 }

@@ -110,14 +110,25 @@ pub fn encode_rays(rays: &[Ray]) -> Vec<u8> {
     out
 }
 
-pub fn encode_hits(hits: &[Option<Hit>]) -> Vec<u8> {
+/// A hit the hit file cannot hold: it numbers triangles in 32 bits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("a hit on triangle {0}, beyond the 32-bit numbers of the hit file")]
+pub struct HitIndexTooLarge(pub u64);
+
+pub fn encode_hits(hits: &[Option<Hit>]) -> Result<Vec<u8>, HitIndexTooLarge> {
     let mut out = Vec::with_capacity(hits.len() * HIT_BYTES);
     for h in hits {
-        let (t, tri) = h.map_or((f32::INFINITY, MISS), |h| (h.t, h.triangle));
+        let (t, tri) = match h {
+            None => (f32::INFINITY, MISS),
+            Some(h) => match u32::try_from(h.triangle) {
+                Ok(tri) if tri != MISS => (h.t, tri),
+                _ => return Err(HitIndexTooLarge(h.triangle)),
+            },
+        };
         out.extend_from_slice(&t.to_le_bytes());
         out.extend_from_slice(&tri.to_le_bytes());
     }
-    out
+    Ok(out)
 }
 
 /// Decodes a hit file into (t, triangle index) pairs.

@@ -11,8 +11,8 @@ use std::time::Duration;
 pub struct Sample {
     /// Distance to the closest hit, +∞ for a miss.
     pub t: f32,
-    /// Scene triangle index of the closest hit, `u32::MAX` for a miss.
-    pub triangle: u32,
+    /// Scene triangle index of the closest hit, `u64::MAX` for a miss.
+    pub triangle: u64,
     /// Unit geometric normal of the hit, facing the ray.
     pub normal: Vec3,
     /// Diffuse colour of the hit object.
@@ -27,7 +27,7 @@ pub struct Sample {
 
 impl Sample {
     pub fn is_hit(&self) -> bool {
-        self.triangle != u32::MAX
+        self.triangle != u64::MAX
     }
 
     pub fn counters(&self, rays: RayKind) -> &Counters {

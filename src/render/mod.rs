@@ -176,12 +176,20 @@ fn shade<A: Accel, I: Intersector, S: Stats + Into<Counters>>(
     let Some(hit) = hit else {
         return Sample {
             t: f32::INFINITY,
-            triangle: u32::MAX,
+            triangle: u64::MAX,
             primary: primary.into(),
             ..Default::default()
         };
     };
-    let tri = &scene.triangles[hit.triangle as usize];
+    let Some(tri) = &scene.triangle(hit.triangle) else {
+        // A structure built over another scene: nothing to shade.
+        return Sample {
+            t: f32::INFINITY,
+            triangle: u64::MAX,
+            primary: primary.into(),
+            ..Default::default()
+        };
+    };
     let normal = tri.facing_normal(ray.direction);
     let albedo = scene
         .object_of(hit.triangle as usize)

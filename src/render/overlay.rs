@@ -102,7 +102,7 @@ pub fn outline_boxes(
 pub fn tint_triangles(frame: &Frame, rgba: &mut [u8], tint_of: impl Fn(u32) -> Option<[u8; 4]>) {
     for (s, px) in frame.samples.iter().zip(rgba.chunks_exact_mut(4)) {
         if s.is_hit()
-            && let Some(c) = tint_of(s.triangle)
+            && let Some(c) = u32::try_from(s.triangle).ok().and_then(&tint_of)
         {
             blend(px, c);
         }

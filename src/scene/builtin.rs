@@ -3,7 +3,7 @@
 //! walls, shared centroids and boxes, random soup). Deterministic: a spec always gives the
 //! same triangles.
 
-use super::{Camera, Scene, SceneError, obj};
+use super::{Camera, Scene, SceneError, island, obj};
 use crate::geometry::Triangle;
 use glam::{Vec3, vec3};
 use std::f32::consts::{PI, TAU};
@@ -20,6 +20,7 @@ pub const NAMES: &[&str] = &[
     "same-bbox",
     "soup",
     "sphere",
+    "island",
 ];
 
 /// The largest scene a size parameter may ask for (50 million triangles take 1.8 GB).
@@ -27,7 +28,8 @@ pub const MAX_TRIANGLES: usize = 50_000_000;
 
 /// The built-in scene for `spec` (`name` or `name:N`), or `None` if `name` is not built in.
 ///
-/// N is the number of blades for `grass`, of walls for `walls` and `walls-rotated`, and of
+/// N is the number of blades for `grass`, of walls for `walls` and `walls-rotated`, of
+/// instances scattered over the terrain for `island` (the terrain and the sea add two), and of
 /// triangles for the others (`sphere` rounds up to fill its last ring; `teapot-in-stadium`
 /// splits its stands into seat blocks to come within 160 of N, and needs at least
 /// `TEAPOT_IN_STADIUM_MIN_TRIANGLES`).
@@ -62,6 +64,16 @@ pub fn by_name(spec: &str) -> Result<Option<Scene>, SceneError> {
         "same-bbox" => same_bbox(sized(10_000, 1)?),
         "soup" => soup(sized(10_000, 1)?),
         "sphere" => sphere(sized(20_000, 1)?),
+        "island" => {
+            let n = size(name, param, island::DEFAULT_INSTANCES, 1)?;
+            if n > island::MAX_INSTANCES {
+                return Err(SceneError::BadParameter {
+                    name: name.into(),
+                    reason: format!("at most {} instances", island::MAX_INSTANCES),
+                });
+            }
+            island::island(n, &island::Detail::FULL)
+        }
         _ => return Ok(None),
     };
     Ok(Some(scene))
@@ -452,7 +464,7 @@ fn sphere(n: usize) -> Scene {
 }
 
 /// The quad a, b, c, d (planar, convex, in order) as the triangles (a, b, c) and (a, c, d).
-fn quad(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> [Triangle; 2] {
+pub(super) fn quad(a: Vec3, b: Vec3, c: Vec3, d: Vec3) -> [Triangle; 2] {
     [Triangle::new(a, b, c), Triangle::new(a, c, d)]
 }
 
@@ -522,10 +534,10 @@ fn quarter_turns(p: Vec3, turns: usize) -> Vec3 {
 }
 
 /// SplitMix64 (Steele, Lea and Flood 2014): tiny, fast and plenty for placing geometry.
-struct Rng(u64);
+pub(super) struct Rng(u64);
 
 impl Rng {
-    fn new(seed: u64) -> Self {
+    pub(super) fn new(seed: u64) -> Self {
         Rng(seed)
     }
 
@@ -538,11 +550,11 @@ impl Rng {
     }
 
     /// Uniform in [0, 1): the top 24 bits, which f32 holds exactly.
-    fn unit(&mut self) -> f32 {
+    pub(super) fn unit(&mut self) -> f32 {
         (self.next_u64() >> 40) as f32 / (1u32 << 24) as f32
     }
 
-    fn range(&mut self, low: f32, high: f32) -> f32 {
+    pub(super) fn range(&mut self, low: f32, high: f32) -> f32 {
         low + (high - low) * self.unit()
     }
 
@@ -552,7 +564,7 @@ impl Rng {
     }
 
     /// A uniformly distributed unit vector.
-    fn direction(&mut self) -> Vec3 {
+    pub(super) fn direction(&mut self) -> Vec3 {
         let z = self.range(-1.0, 1.0);
         let azimuth = self.range(0.0, TAU);
         let r = (1.0 - z * z).max(0.0).sqrt();

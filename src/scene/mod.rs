@@ -6,6 +6,7 @@ pub mod builtin;
 pub mod camera;
 pub mod gltf;
 pub mod instance;
+pub mod island;
 pub mod obj;
 
 pub use camera::Camera;
@@ -15,7 +16,26 @@ pub use obj::{ObjError, load_obj};
 
 use crate::geometry::{Aabb, Triangle};
 use glam::Vec3;
+use std::borrow::Cow;
 use std::path::Path;
+
+/// The most triangles a scene is flattened into (at 40 bytes each, 2 GB).
+pub const MAX_FLATTENED: usize = 50_000_000;
+
+/// Bytes a flattened triangle takes: its 36 bytes of corners and a 32-bit index.
+pub const FLAT_BYTES_PER_TRIANGLE: u64 = 36 + 4;
+
+/// An instanced scene too large for a structure over its flattened triangles.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "the scene places {triangles} triangles: flattened they would take {:.1} GiB (the limit \
+     is {MAX_FLATTENED} triangles); use --accel two-level",
+    *bytes as f64 / (1u64 << 30) as f64
+)]
+pub struct FlattenError {
+    pub triangles: usize,
+    pub bytes: u64,
+}
 
 /// A named, contiguous range of the scene's triangles: an OBJ object or group, or one part
 /// of a built-in scene. Objects can be moved as a whole.
@@ -38,7 +58,8 @@ impl Object {
 pub struct Scene {
     pub name: String,
     /// All triangles in world space, object after object, in file order for OBJ scenes;
-    /// for an instanced scene, instance after instance (the flattened scene).
+    /// for an instanced scene, instance after instance (the flattened scene). Empty for a
+    /// scene too large to flatten, whose instances are placed with `place_instance`.
     pub triangles: Vec<Triangle>,
     pub objects: Vec<Object>,
     /// The unique meshes of an instanced scene (glTF); empty otherwise.
@@ -92,6 +113,73 @@ impl Scene {
         self.push_object(name, color, &placed);
     }
 
+    /// Places mesh `instance.mesh` once more without storing its world-space triangles:
+    /// the object named `name` numbers them as the flattened scene would. For scenes too
+    /// large to flatten, built only from such instances (nothing for an empty mesh).
+    pub fn place_instance(&mut self, name: impl Into<String>, color: Vec3, instance: Instance) {
+        let count = self
+            .meshes
+            .get(instance.mesh)
+            .map_or(0, |m| m.triangles.len());
+        if count == 0 {
+            return;
+        }
+        self.objects.push(Object {
+            name: name.into(),
+            first: self.placed_triangles(),
+            count,
+            color,
+        });
+        self.instances.push(instance);
+    }
+
+    /// Number of triangles the scene places (its flattened size), stored or not.
+    pub fn placed_triangles(&self) -> usize {
+        self.objects
+            .last()
+            .map_or(0, |o| o.first + o.count)
+            .max(self.triangles.len())
+    }
+
+    /// Whether `triangles` holds every placed triangle.
+    pub fn is_flattened(&self) -> bool {
+        self.triangles.len() == self.placed_triangles()
+    }
+
+    /// The memory a flattened copy takes: a triangle and a 32-bit index for each.
+    pub fn flattened_bytes(&self) -> u64 {
+        self.placed_triangles() as u64 * FLAT_BYTES_PER_TRIANGLE
+    }
+
+    /// The world-space triangles, flattened now if they are not stored and fit in
+    /// `MAX_FLATTENED` (a clear error instead of allocating billions).
+    pub fn flattened(&self) -> Result<Cow<'_, [Triangle]>, FlattenError> {
+        if self.is_flattened() {
+            return Ok(Cow::Borrowed(&self.triangles));
+        }
+        if self.placed_triangles() > MAX_FLATTENED {
+            return Err(FlattenError {
+                triangles: self.placed_triangles(),
+                bytes: self.flattened_bytes(),
+            });
+        }
+        Ok(Cow::Owned(instance::flatten(&self.meshes, &self.instances)))
+    }
+
+    /// Triangle `index` of the flattened scene, placed on demand if it is not stored (the
+    /// instance is found by its object, one per instance in such a scene).
+    pub fn triangle(&self, index: u64) -> Option<Triangle> {
+        let i = usize::try_from(index).ok()?;
+        if self.is_flattened() {
+            return self.triangles.get(i).copied();
+        }
+        let o = self.object_of(i)?;
+        let instance = self.instances.get(o)?;
+        let mesh = self.meshes.get(instance.mesh)?;
+        let local = mesh.triangles.get(i - self.objects[o].first)?;
+        Some(instance.place(local))
+    }
+
     /// The scene as meshes and instances: its own, or else each object as one instance of
     /// a mesh of its own triangles (all triangles as one mesh if objects do not cover them
     /// in order). Either way the instances place exactly `triangles`, in order.
@@ -140,6 +228,22 @@ impl Scene {
     }
 
     pub fn bounds(&self) -> Aabb {
+        if !self.is_flattened() {
+            let mesh_bounds: Vec<Aabb> = self
+                .meshes
+                .iter()
+                .map(|m| {
+                    m.triangles
+                        .iter()
+                        .fold(Aabb::EMPTY, |b, t| b.union(t.bounds()))
+                })
+                .collect();
+            return self.instances.iter().fold(Aabb::EMPTY, |b, i| {
+                mesh_bounds
+                    .get(i.mesh)
+                    .map_or(b, |m| b.union(i.world_bounds(m)))
+            });
+        }
         self.triangles
             .iter()
             .fold(Aabb::EMPTY, |b, t| b.union(t.bounds()))
@@ -204,6 +308,8 @@ pub enum SceneError {
         "unknown scene '{name}': not a built-in scene ({known}) nor an .obj, .gltf or .glb file"
     )]
     UnknownScene { name: String, known: String },
+    #[error(transparent)]
+    Flatten(#[from] FlattenError),
     #[error("bad parameter for scene '{name}': {reason}")]
     BadParameter { name: String, reason: String },
 }

@@ -4,6 +4,7 @@
 
 pub mod app;
 pub mod gltf;
+pub mod instanced;
 pub mod lattice;
 
 use bvhlab::accel::Hit;

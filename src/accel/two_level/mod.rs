@@ -20,8 +20,9 @@ pub struct TwoLevel {
     /// One BVH per unique mesh, over its object-space triangles.
     pub blases: Vec<Bvh>,
     pub instances: Vec<Instance>,
-    /// The flattened index of each instance's first triangle.
-    pub first_triangle: Vec<u32>,
+    /// The flattened index of each instance's first triangle (64-bit: instancing places
+    /// more triangles than 32 bits can number).
+    pub first_triangle: Vec<u64>,
     /// The top level: a BVH2 whose leaves hold one instance each (its `prim_indices` are
     /// instance indices; it keeps no triangles).
     pub tlas: Bvh,
@@ -41,6 +42,9 @@ pub enum MoveError {
     Build(#[from] BuildError),
 }
 
+/// The most flattened triangles the explorer's outline lists (64 Mi references, 256 MiB).
+const OUTLINE_MAX_REFS: u64 = 1 << 26;
+
 /// How long each level took to build.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct LevelTimes {
@@ -57,14 +61,19 @@ pub fn build(
 ) -> Result<(TwoLevel, StructureReport), BuildError> {
     params.validate()?;
     let instanced = scene.instanced_triangles();
-    if instanced >= (u32::MAX / 2) as usize {
-        return Err(BuildError::TooMany(instanced));
+    for mesh in &scene.meshes {
+        if mesh.len() >= (u32::MAX / 2) as usize {
+            return Err(BuildError::TooMany(mesh.len()));
+        }
+    }
+    if scene.instances.len() >= (u32::MAX / 2) as usize {
+        return Err(BuildError::TooMany(scene.instances.len()));
     }
     let mut first_triangle = Vec::with_capacity(scene.instances.len());
-    let mut next = 0u32;
+    let mut next = 0u64;
     for i in scene.instances.iter() {
         first_triangle.push(next);
-        next += scene.meshes.get(i.mesh).map_or(0, |m| m.len()) as u32;
+        next += scene.meshes.get(i.mesh).map_or(0, |m| m.len()) as u64;
     }
 
     let start = Instant::now();
@@ -184,19 +193,24 @@ impl TwoLevel {
     }
 
     /// The flattened triangles instance `i` places.
-    fn triangle_range(&self, i: usize) -> std::ops::Range<u32> {
+    fn triangle_range(&self, i: usize) -> std::ops::Range<u64> {
         let first = self.first_triangle[i];
         let count = self
             .blases
             .get(self.instances[i].mesh)
-            .map_or(0, |b| b.triangles.len() as u32);
+            .map_or(0, |b| b.triangles.len() as u64);
         first..first + count
     }
 
     /// The top level for the explorer: its nodes, each leaf referencing the flattened
-    /// triangles of its instance.
+    /// triangles of its instance; only the boxes for a scene placing more than
+    /// `OUTLINE_MAX_REFS` triangles, whose list would not fit in memory.
     pub fn outline(&self) -> Outline {
         let tlas = self.tlas.outline();
+        let placed: u64 = (0..self.instances.len())
+            .map(|i| self.triangle_range(i).end - self.triangle_range(i).start)
+            .sum();
+        let listed = placed <= OUTLINE_MAX_REFS;
         let mut refs = Vec::new();
         let nodes = tlas
             .nodes
@@ -206,8 +220,8 @@ impl TwoLevel {
                 let mut node: OutlineNode = n.clone();
                 if n.is_leaf() {
                     let start = refs.len() as u32;
-                    for &i in tlas.leaf_refs(k) {
-                        refs.extend(self.triangle_range(i as usize));
+                    for &i in tlas.leaf_refs(k).iter().filter(|_| listed) {
+                        refs.extend(self.triangle_range(i as usize).map(|t| t as u32));
                     }
                     node.refs = (start, refs.len() as u32 - start);
                 }

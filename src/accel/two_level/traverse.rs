@@ -137,7 +137,7 @@ impl TwoLevel {
     fn blas_closest<I: Intersector, S: Stats, const ORDERED: bool>(
         &self,
         blas: usize,
-        first: u32,
+        first: u64,
         d: &mut Descent<I>,
         best: &mut BestHit,
         stats: &mut S,
@@ -159,7 +159,7 @@ impl TwoLevel {
                     stats.triangle_test();
                     let tri = &blas.triangles[i];
                     if let Some(h) = I::intersect(&d.data, ray, tri, ray.tmin, best.limit) {
-                        best.offer(h, first + blas.prim_indices[i]);
+                        best.offer(h, first + u64::from(blas.prim_indices[i]));
                         box_tmax = best.t * T_SCALE;
                     }
                 }
