@@ -256,7 +256,7 @@ impl Embree {
                 t: rh.ray.tfar[i],
                 u: rh.hit.u[i],
                 v: rh.hit.v[i],
-                triangle: rh.hit.prim_id[i],
+                triangle: u64::from(rh.hit.prim_id[i]),
             });
         }
     }
@@ -292,7 +292,7 @@ impl Accel for Embree {
             t: rh.ray.tfar,
             u: rh.hit.u,
             v: rh.hit.v,
-            triangle: rh.hit.prim_id,
+            triangle: u64::from(rh.hit.prim_id),
         })
     }
 
