@@ -103,10 +103,19 @@ impl<const W: usize> WideSlab<W> for Portable {
 }
 
 /// The lanes' entry and exit distances for one vector of boxes starting at lane `$at`,
-/// written with the intrinsics of one vector width.
+/// written with the intrinsics of one vector width (`m128` or `m256`).
 #[cfg(target_arch = "x86_64")]
 macro_rules! slab_vector {
-    ($b:expr, $r:expr, $tmin:expr, $tmax:expr, $at:expr,
+    ($b:expr, $r:expr, $tmin:expr, $tmax:expr, $at:expr, m128) => {
+        slab_vector!(@ $b, $r, $tmin, $tmax, $at,
+            _mm_loadu_ps, _mm_set1_ps, _mm_sub_ps, _mm_mul_ps, _mm_max_ps, _mm_min_ps)
+    };
+    ($b:expr, $r:expr, $tmin:expr, $tmax:expr, $at:expr, m256) => {
+        slab_vector!(@ $b, $r, $tmin, $tmax, $at,
+            _mm256_loadu_ps, _mm256_set1_ps, _mm256_sub_ps, _mm256_mul_ps, _mm256_max_ps,
+            _mm256_min_ps)
+    };
+    (@ $b:expr, $r:expr, $tmin:expr, $tmax:expr, $at:expr,
      $load:ident, $set1:ident, $sub:ident, $mul:ident, $max:ident, $min:ident) => {{
         let (b, r) = ($b, $r);
         let plane = |row: usize, axis: usize| {
@@ -131,194 +140,84 @@ macro_rules! slab_vector {
     }};
 }
 
+/// `impl WideSlab<W> for Kernel` with the body given: the signature written once.
+macro_rules! wide_slab {
+    ($kernel:ty, $w:literal, |$b:ident, $r:ident, $tmin:ident, $tmax:ident, $entry:ident| $body:block) => {
+        impl WideSlab<$w> for $kernel {
+            #[inline(always)]
+            unsafe fn entries(
+                $b: &[[f32; $w]; 6],
+                $r: &WideRay,
+                $tmin: f32,
+                $tmax: f32,
+                $entry: &mut [f32; $w],
+            ) -> u32 $body
+        }
+    };
+}
+
 #[cfg(target_arch = "x86_64")]
 mod x86 {
     use super::*;
     use std::arch::x86_64::*;
 
-    impl WideSlab<4> for Sse41 {
-        #[inline(always)]
-        unsafe fn entries(
-            b: &[[f32; 4]; 6],
-            r: &WideRay,
-            tmin: f32,
-            tmax: f32,
-            entry: &mut [f32; 4],
-        ) -> u32 {
-            // SAFETY: the caller guarantees SSE4.1; loads and stores stay inside the arrays.
-            unsafe {
-                let (enter, exit) = slab_vector!(
-                    b,
-                    r,
-                    tmin,
-                    tmax,
-                    0,
-                    _mm_loadu_ps,
-                    _mm_set1_ps,
-                    _mm_sub_ps,
-                    _mm_mul_ps,
-                    _mm_max_ps,
-                    _mm_min_ps
-                );
-                _mm_storeu_ps(entry.as_mut_ptr(), enter);
-                _mm_movemask_ps(_mm_cmple_ps(enter, exit)) as u32
-            }
+    wide_slab!(Sse41, 4, |b, r, tmin, tmax, entry| {
+        // SAFETY: the caller guarantees SSE4.1; loads and stores stay inside the arrays.
+        unsafe {
+            let (enter, exit) = slab_vector!(b, r, tmin, tmax, 0, m128);
+            _mm_storeu_ps(entry.as_mut_ptr(), enter);
+            _mm_movemask_ps(_mm_cmple_ps(enter, exit)) as u32
         }
-    }
+    });
 
-    impl WideSlab<8> for Sse41 {
-        #[inline(always)]
-        unsafe fn entries(
-            b: &[[f32; 8]; 6],
-            r: &WideRay,
-            tmin: f32,
-            tmax: f32,
-            entry: &mut [f32; 8],
-        ) -> u32 {
-            // SAFETY: the caller guarantees SSE4.1; loads and stores stay inside the arrays
-            // (two halves of four lanes).
-            unsafe {
-                let (e0, x0) = slab_vector!(
-                    b,
-                    r,
-                    tmin,
-                    tmax,
-                    0,
-                    _mm_loadu_ps,
-                    _mm_set1_ps,
-                    _mm_sub_ps,
-                    _mm_mul_ps,
-                    _mm_max_ps,
-                    _mm_min_ps
-                );
-                let (e1, x1) = slab_vector!(
-                    b,
-                    r,
-                    tmin,
-                    tmax,
-                    4,
-                    _mm_loadu_ps,
-                    _mm_set1_ps,
-                    _mm_sub_ps,
-                    _mm_mul_ps,
-                    _mm_max_ps,
-                    _mm_min_ps
-                );
-                _mm_storeu_ps(entry.as_mut_ptr(), e0);
-                _mm_storeu_ps(entry[4..].as_mut_ptr(), e1);
-                let lo = _mm_movemask_ps(_mm_cmple_ps(e0, x0)) as u32;
-                let hi = _mm_movemask_ps(_mm_cmple_ps(e1, x1)) as u32;
-                lo | hi << 4
-            }
+    wide_slab!(Sse41, 8, |b, r, tmin, tmax, entry| {
+        // SAFETY: the caller guarantees SSE4.1; loads and stores stay inside the arrays
+        // (two halves of four lanes).
+        unsafe {
+            let (e0, x0) = slab_vector!(b, r, tmin, tmax, 0, m128);
+            let (e1, x1) = slab_vector!(b, r, tmin, tmax, 4, m128);
+            _mm_storeu_ps(entry.as_mut_ptr(), e0);
+            _mm_storeu_ps(entry[4..].as_mut_ptr(), e1);
+            let lo = _mm_movemask_ps(_mm_cmple_ps(e0, x0)) as u32;
+            let hi = _mm_movemask_ps(_mm_cmple_ps(e1, x1)) as u32;
+            lo | hi << 4
         }
-    }
+    });
 
-    impl WideSlab<4> for Avx2 {
-        #[inline(always)]
-        unsafe fn entries(
-            b: &[[f32; 4]; 6],
-            r: &WideRay,
-            tmin: f32,
-            tmax: f32,
-            entry: &mut [f32; 4],
-        ) -> u32 {
-            // SAFETY: AVX2 implies SSE4.1, whose kernel this is (VEX-encoded when inlined
-            // into code compiled for AVX2).
-            unsafe { <Sse41 as WideSlab<4>>::entries(b, r, tmin, tmax, entry) }
-        }
-    }
+    wide_slab!(Avx2, 4, |b, r, tmin, tmax, entry| {
+        // SAFETY: AVX2 implies SSE4.1, whose kernel this is (VEX-encoded when inlined into
+        // code compiled for AVX2).
+        unsafe { <Sse41 as WideSlab<4>>::entries(b, r, tmin, tmax, entry) }
+    });
 
-    impl WideSlab<8> for Avx2 {
-        #[inline(always)]
-        unsafe fn entries(
-            b: &[[f32; 8]; 6],
-            r: &WideRay,
-            tmin: f32,
-            tmax: f32,
-            entry: &mut [f32; 8],
-        ) -> u32 {
-            // SAFETY: the caller guarantees AVX2; loads and stores stay inside the arrays.
-            unsafe {
-                let (enter, exit) = slab_vector!(
-                    b,
-                    r,
-                    tmin,
-                    tmax,
-                    0,
-                    _mm256_loadu_ps,
-                    _mm256_set1_ps,
-                    _mm256_sub_ps,
-                    _mm256_mul_ps,
-                    _mm256_max_ps,
-                    _mm256_min_ps
-                );
-                _mm256_storeu_ps(entry.as_mut_ptr(), enter);
-                _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(enter, exit)) as u32
-            }
+    wide_slab!(Avx2, 8, |b, r, tmin, tmax, entry| {
+        // SAFETY: the caller guarantees AVX2; loads and stores stay inside the arrays.
+        unsafe {
+            let (enter, exit) = slab_vector!(b, r, tmin, tmax, 0, m256);
+            _mm256_storeu_ps(entry.as_mut_ptr(), enter);
+            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(enter, exit)) as u32
         }
-    }
+    });
 
-    impl WideSlab<4> for Avx512 {
-        #[inline(always)]
-        unsafe fn entries(
-            b: &[[f32; 4]; 6],
-            r: &WideRay,
-            tmin: f32,
-            tmax: f32,
-            entry: &mut [f32; 4],
-        ) -> u32 {
-            // SAFETY: the caller guarantees AVX-512 F + VL; loads and stores stay inside the
-            // arrays.
-            unsafe {
-                let (enter, exit) = slab_vector!(
-                    b,
-                    r,
-                    tmin,
-                    tmax,
-                    0,
-                    _mm_loadu_ps,
-                    _mm_set1_ps,
-                    _mm_sub_ps,
-                    _mm_mul_ps,
-                    _mm_max_ps,
-                    _mm_min_ps
-                );
-                _mm_storeu_ps(entry.as_mut_ptr(), enter);
-                _mm_cmp_ps_mask::<_CMP_LE_OQ>(enter, exit) as u32
-            }
+    wide_slab!(Avx512, 4, |b, r, tmin, tmax, entry| {
+        // SAFETY: the caller guarantees AVX-512 F + VL; loads and stores stay inside the
+        // arrays.
+        unsafe {
+            let (enter, exit) = slab_vector!(b, r, tmin, tmax, 0, m128);
+            _mm_storeu_ps(entry.as_mut_ptr(), enter);
+            _mm_cmp_ps_mask::<_CMP_LE_OQ>(enter, exit) as u32
         }
-    }
+    });
 
-    impl WideSlab<8> for Avx512 {
-        #[inline(always)]
-        unsafe fn entries(
-            b: &[[f32; 8]; 6],
-            r: &WideRay,
-            tmin: f32,
-            tmax: f32,
-            entry: &mut [f32; 8],
-        ) -> u32 {
-            // SAFETY: the caller guarantees AVX-512 F + VL; loads and stores stay inside the
-            // arrays.
-            unsafe {
-                let (enter, exit) = slab_vector!(
-                    b,
-                    r,
-                    tmin,
-                    tmax,
-                    0,
-                    _mm256_loadu_ps,
-                    _mm256_set1_ps,
-                    _mm256_sub_ps,
-                    _mm256_mul_ps,
-                    _mm256_max_ps,
-                    _mm256_min_ps
-                );
-                _mm256_storeu_ps(entry.as_mut_ptr(), enter);
-                _mm256_cmp_ps_mask::<_CMP_LE_OQ>(enter, exit) as u32
-            }
+    wide_slab!(Avx512, 8, |b, r, tmin, tmax, entry| {
+        // SAFETY: the caller guarantees AVX-512 F + VL; loads and stores stay inside the
+        // arrays.
+        unsafe {
+            let (enter, exit) = slab_vector!(b, r, tmin, tmax, 0, m256);
+            _mm256_storeu_ps(entry.as_mut_ptr(), enter);
+            _mm256_cmp_ps_mask::<_CMP_LE_OQ>(enter, exit) as u32
         }
-    }
+    });
 }
 
 /// Elsewhere the x86 kernels are never selected (`SimdLevel::supported`); they exist so the
@@ -329,19 +228,10 @@ mod elsewhere {
 
     macro_rules! portable_as {
         ($kernel:ty, $w:literal) => {
-            impl WideSlab<$w> for $kernel {
-                #[inline(always)]
-                unsafe fn entries(
-                    b: &[[f32; $w]; 6],
-                    r: &WideRay,
-                    tmin: f32,
-                    tmax: f32,
-                    entry: &mut [f32; $w],
-                ) -> u32 {
-                    // SAFETY: the portable kernel has no requirement.
-                    unsafe { <Portable as WideSlab<$w>>::entries(b, r, tmin, tmax, entry) }
-                }
-            }
+            wide_slab!($kernel, $w, |b, r, tmin, tmax, entry| {
+                // SAFETY: the portable kernel has no requirement.
+                unsafe { <Portable as WideSlab<$w>>::entries(b, r, tmin, tmax, entry) }
+            });
         };
     }
     portable_as!(Sse41, 4);
