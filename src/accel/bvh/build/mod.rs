@@ -21,7 +21,10 @@ mod prim;
 mod radix_sort;
 mod sah_binned;
 mod sah_sweep;
+pub mod split_costs;
 pub mod treelet;
+
+pub use split_costs::{SplitCandidate, SplitCosts, SplitMethod, split_costs};
 
 use super::node::{Node, Nodes};
 use super::report::{BuildPhases, BuildReport};

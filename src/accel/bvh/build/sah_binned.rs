@@ -42,6 +42,12 @@ impl Binning {
         }
     }
 
+    /// The world position of the boundary before bucket `k` on `axis` (the centroids are
+    /// doubled, hence the half).
+    fn plane(&self, axis: usize, k: usize) -> f32 {
+        0.5 * (self.origin[axis] + k as f32 / self.scale[axis])
+    }
+
     /// The bucket of `r` on `axis`. The same expression decides binning and partitioning,
     /// so the partition reproduces the counts the cost was computed from.
     #[inline(always)]
@@ -99,23 +105,36 @@ thread_local! {
     static SCRATCH: RefCell<Scratch> = RefCell::default();
 }
 
-pub fn split(refs: &mut [PrimRef], info: &NodeInfo, p: &BuildParams) -> Option<Split> {
-    let n = refs.len();
-    let b = p.buckets as usize;
-    let binning = Binning::new(&info.centroids, b);
-    let parent_area = info.bounds.surface_area();
+/// One bucket boundary of a node: the split that puts buckets `..k` of `axis` on the left.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Candidate {
+    pub axis: usize,
+    pub k: usize,
+    /// The unnormalised SAH cost (see `sah_split_cost`).
+    pub cost: f32,
+    pub left: u32,
+    pub right: u32,
+    /// The bucket before the boundary is empty, so this split equals the one before it.
+    pub repeats_previous: bool,
+}
 
-    // (cost, axis, first bucket of the right side)
-    let best = SCRATCH.with_borrow_mut(|s| {
+/// Bins `refs` and offers every boundary with primitives on both sides to `visit`, in the
+/// builder's order (boundary by boundary, the three axes at each).
+fn candidates(
+    refs: &[PrimRef],
+    binning: &Binning,
+    parent_area: f32,
+    p: &BuildParams,
+    mut visit: impl FnMut(Candidate),
+) {
+    let b = binning.buckets;
+    SCRATCH.with_borrow_mut(|s| {
         s.bins.clear();
         s.bins.resize(3 * b, EMPTY_BIN);
         s.right_area.resize(3 * b, 0.0);
         s.right_count.resize(3 * b, 0);
         binning.fill_parallel(refs, &mut s.bins);
-        let mut best: Option<(f32, usize, usize)> = None;
-        // Empty buckets change neither side: the sweeps skip their unions and areas, and
-        // only boundaries right after a non-empty bucket are candidates (the others repeat
-        // a partition already costed).
+        // Empty buckets change neither side: the sweeps skip their unions and areas.
         let (mut acc, mut count, mut area) = ([Box3A::EMPTY; 3], [0u32; 3], [0.0f32; 3]);
         for k in (1..b).rev() {
             for axis in 0..3 {
@@ -134,25 +153,45 @@ pub fn split(refs: &mut [PrimRef], info: &NodeInfo, p: &BuildParams) -> Option<S
             for axis in 0..3 {
                 let bin = &s.bins[3 * (k - 1) + axis];
                 let right = s.right_count[3 * k + axis];
-                if bin.count == 0 || right == 0 {
+                if bin.count > 0 {
+                    acc[axis] = acc[axis].union(bin.bounds);
+                    count[axis] += bin.count;
+                }
+                if count[axis] == 0 || right == 0 {
                     continue;
                 }
-                acc[axis] = acc[axis].union(bin.bounds);
-                count[axis] += bin.count;
-                let cost = sah_split_cost(
-                    parent_area,
-                    acc[axis].surface_area(),
-                    count[axis] as usize,
-                    s.right_area[3 * k + axis],
-                    right as usize,
-                    p,
-                );
-                if best.is_none_or(|(c, _, _)| cost < c) {
-                    best = Some((cost, axis, k));
-                }
+                visit(Candidate {
+                    axis,
+                    k,
+                    cost: sah_split_cost(
+                        parent_area,
+                        acc[axis].surface_area(),
+                        count[axis] as usize,
+                        s.right_area[3 * k + axis],
+                        right as usize,
+                        p,
+                    ),
+                    left: count[axis],
+                    right,
+                    repeats_previous: bin.count == 0,
+                });
             }
         }
-        best
+    });
+}
+
+pub fn split(refs: &mut [PrimRef], info: &NodeInfo, p: &BuildParams) -> Option<Split> {
+    let n = refs.len();
+    let binning = Binning::new(&info.centroids, p.buckets as usize);
+    let parent_area = info.bounds.surface_area();
+    // (cost, axis, first bucket of the right side); of equal costs the first offered wins.
+    // Only boundaries right after a non-empty bucket count: the others repeat a partition
+    // already costed.
+    let mut best: Option<(f32, usize, usize)> = None;
+    candidates(refs, &binning, parent_area, p, |c| {
+        if !c.repeats_previous && best.is_none_or(|(cost, _, _)| c.cost < cost) {
+            best = Some((c.cost, c.axis, c.k));
+        }
     });
     let Some((cost, axis, k)) = best else {
         // Every centroid fell into one bucket (extents near the float resolution).
@@ -162,4 +201,19 @@ pub fn split(refs: &mut [PrimRef], info: &NodeInfo, p: &BuildParams) -> Option<S
         return None;
     }
     Some(partition(refs, |r| binning.bucket(r, axis) < k))
+}
+
+/// Every bucket boundary of the node over `refs`, with the plane's position along its
+/// axis (world units): what the bucket-cost plot draws.
+pub(super) fn all_candidates(
+    refs: &[PrimRef],
+    info: &NodeInfo,
+    p: &BuildParams,
+) -> Vec<(Candidate, f32)> {
+    let binning = Binning::new(&info.centroids, p.buckets as usize);
+    let mut out = Vec::new();
+    candidates(refs, &binning, info.bounds.surface_area(), p, |c| {
+        out.push((c, binning.plane(c.axis, c.k)));
+    });
+    out
 }
