@@ -2,6 +2,7 @@
 //! handles input; a worker thread owns the scene and the BVH and renders frames
 //! (see `worker`). Panels are plain functions of the app state.
 
+mod bucket_plot;
 mod orbit;
 mod panels;
 pub mod screenshot;
@@ -192,6 +193,10 @@ impl BvhLabApp {
                     self.sah_history = bvh_report.iter().map(|r| r.tree.sah_cost).collect();
                     self.settings.level = self.settings.level.min(outline.max_depth());
                     self.walk = self.walk.filter(|&w| (w as usize) < outline.nodes.len());
+                    // A screenshot of the tree walk opens it at the node it names.
+                    if let Some(node) = self.screenshot.as_ref().and_then(|p| p.walk) {
+                        self.walk = Some(node.min(outline.nodes.len().saturating_sub(1) as u32));
+                    }
                     self.outline = outline;
                     self.report = Some(*report);
                     self.bvh_report = bvh_report.map(|b| *b);

@@ -492,6 +492,12 @@ fn refit_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
 
 pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     ui.add_space(4.0);
+    let walked = app.shown.as_ref().and_then(|s| s.walk.as_ref());
+    if let Some((info, costs)) = walked.and_then(|w| Some((w, w.split_costs.as_ref()?))) {
+        ui.heading(format!("Splits of node {}", info.node));
+        super::bucket_plot::show(ui, costs, info.sah_cost);
+        ui.separator();
+    }
     ui.heading("Build");
     if let Some(r) = &app.report {
         egui::Grid::new("report")

@@ -40,6 +40,8 @@ pub struct ScreenshotPlan {
     pub height: u32,
     /// The depth of a levels shot (default 3).
     pub level: Option<u32>,
+    /// The node the tree walk opens at (the bucket-cost plot shows its splits).
+    pub walk: Option<u32>,
     pub result: Outcome,
     stage: Stage,
     started: Instant,
@@ -56,6 +58,7 @@ impl ScreenshotPlan {
             width,
             height,
             level: None,
+            walk: None,
             result: Arc::new(Mutex::new(None)),
             stage: Stage::Settling,
             started: Instant::now(),

@@ -9,13 +9,14 @@
 //! traced frame.
 
 use crate::accel::bvh::refit::RefitIndex;
-use crate::accel::bvh::{self, BuildReport, Bvh};
+use crate::accel::bvh::{self, BuildParams, BuildReport, Bvh, SplitCosts, split_costs};
 use crate::accel::structure::{self, AccelKind, Structure, StructureParams};
 use crate::accel::{Outline, StructureReport};
 use crate::render::overlay::{OutlinedBox, outline_boxes, palette, tint_triangles};
 use crate::render::{Frame, Mode, RenderSettings, colorize, trace};
 use crate::scene::{Camera, Scene};
 use glam::Vec3;
+use std::cell::RefCell;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, Sender, channel};
 use std::sync::{Arc, Mutex};
@@ -83,6 +84,8 @@ pub struct WalkInfo {
     /// N·C_isect.
     pub sah_cost: f32,
     pub children: Vec<usize>,
+    /// For a BVH2 node: every split the SAH weighs there (the bucket-cost plot).
+    pub split_costs: Option<Arc<SplitCosts>>,
 }
 
 /// A frame as the UI shows it.
@@ -162,6 +165,7 @@ impl Worker {
             refit_index: None,
             gesture: Vec::new(),
             undo: Vec::new(),
+            split_costs: RefCell::default(),
         };
         let thread = std::thread::Builder::new()
             .name("bvhlab-worker".into())
@@ -266,6 +270,15 @@ struct State {
     /// Moves of the drag in progress, then finished drags (for undo).
     gesture: Vec<(Arc<Vec<u32>>, Vec3)>,
     undo: Vec<Vec<(Arc<Vec<u32>>, Vec3)>>,
+    /// The walk node's split costs, kept while the tree, the node and the parameters stay.
+    split_costs: RefCell<Option<(SplitCostsKey, Arc<SplitCosts>)>>,
+}
+
+#[derive(Clone, Copy, PartialEq)]
+struct SplitCostsKey {
+    version: u64,
+    node: usize,
+    params: BuildParams,
 }
 
 /// Undo keeps this many drags.
@@ -579,6 +592,7 @@ impl State {
             triangles: 0,
             sah_cost: 0.0,
             children: n.children().collect(),
+            split_costs: None,
         };
         const FIRST: [u8; 4] = [255, 140, 40, 150];
         const SECOND: [u8; 4] = [60, 170, 255, 150];
@@ -633,6 +647,9 @@ impl State {
                 });
             }
             info.triangles = all.len();
+            if self.params.kind == AccelKind::Bvh && count == 2 {
+                info.split_costs = self.split_costs_of(node, all);
+            }
             tint_triangles(frame, rgba, |t| match side.get(t as usize) {
                 Some(&k) if k != u8::MAX => Some(child_color(k as usize, count)),
                 _ => None,
@@ -646,6 +663,32 @@ impl State {
         }
         outline_boxes(frame, rgba, &job.camera, &boxes, true);
         Some(info)
+    }
+
+    /// The bucket-cost plot's data for BVH node `node` over the scene triangles `under`,
+    /// computed once per node and tree.
+    fn split_costs_of(
+        &self,
+        node: usize,
+        under: std::collections::HashSet<u32>,
+    ) -> Option<Arc<SplitCosts>> {
+        let key = SplitCostsKey {
+            version: self.version,
+            node,
+            params: self.params.bvh,
+        };
+        let mut cache = self.split_costs.borrow_mut();
+        if let Some((k, costs)) = cache.as_ref()
+            && *k == key
+        {
+            return Some(costs.clone());
+        }
+        let scene = self.scene.as_ref()?;
+        let mut under: Vec<u32> = under.into_iter().collect();
+        under.sort_unstable();
+        let costs = Arc::new(split_costs(&scene.triangles, &under, &self.params.bvh));
+        *cache = Some((key, costs.clone()));
+        Some(costs)
     }
 }
 

@@ -68,6 +68,9 @@ pub struct ScreenshotArgs {
     /// For `--mode levels`: the depth shown (default 3).
     #[arg(long)]
     pub level: Option<u32>,
+    /// Open the tree walk at this node (0 = the root), with its bucket-cost plot.
+    #[arg(long)]
+    pub walk: Option<u32>,
 }
 
 pub fn screenshot(args: ScreenshotArgs) -> Result<()> {
@@ -85,6 +88,7 @@ pub fn screenshot(args: ScreenshotArgs) -> Result<()> {
     let accel = args.accel.kind()?;
     let mut plan = ScreenshotPlan::new(args.out, shot, args.width, args.height);
     plan.level = args.level;
+    plan.walk = args.walk;
     run_app(Launch {
         scene: Some(args.scene),
         accel: Some(accel),
