@@ -3,7 +3,8 @@
 
 mod common;
 
-use bvhlab::accel::bvh::{BuildParams, Bvh, SplitMethod, Strategy, build, split_costs};
+use bvhlab::accel::bvh::{BuildParams, Bvh, Strategy, build, split_costs};
+use bvhlab::accel::split_costs::SplitMethod;
 use bvhlab::scene::Scene;
 
 const SCENES: &[&str] = &[
@@ -136,5 +137,77 @@ fn a_median_tree_is_shown_what_binned_sah_would_choose() {
     // The median splits the stadium's triangles in half, which SAH would not.
     let cheapest = costs.cheapest.unwrap();
     assert!(cheapest.left.abs_diff(cheapest.right) > 1);
-    assert!(costs.splits(&p));
+    assert!(costs.split_pays());
+}
+
+/// Every interior node of a k-d tree with the path that reaches it.
+fn kd_interior_paths(tree: &bvhlab::accel::KdTree) -> Vec<(usize, Vec<bool>)> {
+    let mut out = Vec::new();
+    let mut stack = vec![(0usize, Vec::new())];
+    while let Some((i, path)) = stack.pop() {
+        let n = tree.nodes[i];
+        if n.is_leaf() {
+            continue;
+        }
+        let mut below = path.clone();
+        below.push(false);
+        let mut above = path.clone();
+        above.push(true);
+        stack.push((i + 1, below));
+        stack.push((n.above_child(), above));
+        out.push((i, path));
+    }
+    out
+}
+
+#[test]
+fn a_kd_nodes_plot_minimum_is_its_split_plane_with_the_empty_space_bonus() {
+    use bvhlab::accel::{KdParams, KdSplit, kdtree};
+    for name in ["cornell", "teapot-in-stadium", "walls-rotated", "soup:1500"] {
+        let scene = Scene::load(name).unwrap();
+        for split in [KdSplit::Sweep, KdSplit::Binned(16)] {
+            let p = KdParams {
+                split,
+                ..KdParams::default()
+            };
+            let (tree, _) = kdtree::build(&scene.triangles, &p).unwrap();
+            let paths = kd_interior_paths(&tree);
+            assert!(!paths.is_empty(), "{name}: no interior node");
+            // Each replay starts at the root: the top levels and a spread of deeper nodes.
+            let step = (paths.len() / 40).max(1);
+            let sample = paths
+                .into_iter()
+                .enumerate()
+                .filter(|(k, (_, path))| path.len() <= 4 || k % step == 0);
+            for (_, (i, path)) in sample {
+                let what = format!("{name} {split:?} node {i}");
+                let costs = tree.split_costs(&p, &path).expect(&what);
+                let cheapest = costs.cheapest.expect(&what);
+                let n = tree.nodes[i];
+                assert_eq!(
+                    (cheapest.axis, cheapest.position),
+                    (n.axis(), n.split()),
+                    "{what}"
+                );
+                assert!(
+                    costs.candidates.iter().all(|c| c.cost >= cheapest.cost),
+                    "{what}"
+                );
+            }
+        }
+    }
+    // Parameters other than the build's do not replay its splits.
+    let scene = Scene::load("teapot-in-stadium").unwrap();
+    let (tree, _) = kdtree::build(&scene.triangles, &KdParams::default()).unwrap();
+    let other = KdParams {
+        empty_bonus: 0.0,
+        split: KdSplit::Binned(4),
+        ..KdParams::default()
+    };
+    let deep = kd_interior_paths(&tree)
+        .into_iter()
+        .map(|(_, p)| p)
+        .max_by_key(|p| p.len())
+        .unwrap();
+    assert!(tree.split_costs(&other, &deep).is_none());
 }

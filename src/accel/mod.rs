@@ -13,6 +13,7 @@ pub mod mailbox;
 pub mod octree;
 pub mod outline;
 pub mod report;
+pub mod split_costs;
 pub mod stats;
 pub mod structure;
 pub mod two_level;

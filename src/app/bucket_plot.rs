@@ -2,7 +2,7 @@
 //! at the current node, one curve per axis, beside the cost of making it a leaf and the
 //! cost of the split the tree has there.
 
-use crate::accel::bvh::{SplitCosts, SplitMethod};
+use crate::accel::split_costs::SplitCosts;
 use egui::Color32;
 use egui_plot::{Corner, HLine, Legend, Line, LineStyle, Plot, PlotPoints, Points};
 
@@ -17,20 +17,12 @@ const MAX_POINTS: usize = 1024;
 
 /// Draws the plot; `node_cost` is the cost of the split the tree actually has here.
 pub fn show(ui: &mut egui::Ui, costs: &SplitCosts, node_cost: f32) {
-    let what = match costs.method {
-        SplitMethod::Binned { buckets } => {
-            format!("{} bucket boundaries per axis (B = {buckets})", buckets - 1)
-        }
-        SplitMethod::Sweep => format!(
-            "all {} positions per axis (full sweep)",
-            costs.triangles.saturating_sub(1)
-        ),
-    };
+    let what = costs.method.describe(costs.triangles);
     ui.label(format!(
         "Split costs: {what}, position across the node's box"
     ));
     let Some(cheapest) = costs.cheapest else {
-        ui.label("no plane separates these triangles' centroids");
+        ui.label("no candidate plane separates these triangles");
         return;
     };
     let span = |axis: usize| {

@@ -9,7 +9,8 @@
 //! traced frame.
 
 use crate::accel::bvh::refit::RefitIndex;
-use crate::accel::bvh::{self, BuildParams, BuildReport, Bvh, SplitCosts, split_costs};
+use crate::accel::bvh::{self, BuildParams, BuildReport, Bvh, split_costs};
+use crate::accel::split_costs::SplitCosts;
 use crate::accel::structure::{self, AccelKind, Structure, StructureParams};
 use crate::accel::{Outline, StructureReport};
 use crate::render::overlay::{OutlinedBox, outline_boxes, palette, tint_triangles};

@@ -11,10 +11,7 @@ pub mod traverse;
 pub mod validate;
 pub mod wide;
 
-pub use build::{
-    BuildError, BuildParams, SplitCandidate, SplitCosts, SplitMethod, Strategy, build,
-    build_with_progress, split_costs,
-};
+pub use build::{BuildError, BuildParams, Strategy, build, build_with_progress, split_costs};
 pub use node::{Node, Nodes};
 pub use report::{BuildReport, TreeStats};
 pub use wide::{Bvh4, Bvh8, WideBvh};

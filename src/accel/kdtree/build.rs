@@ -146,7 +146,7 @@ impl Builder<'_> {
         let (mut below_cell, mut above_cell) = (cell, cell);
         below_cell.max[split.axis] = split.pos;
         above_cell.min[split.axis] = split.pos;
-        let (below, above) = self.classify(&refs, &split, &below_cell, &above_cell);
+        let (below, above) = classify(self.triangles, &refs, &split, &below_cell, &above_cell);
         let total = below.len() + above.len();
         if total > budget {
             self.refs_cap_hit.store(true, Ordering::Relaxed);
@@ -177,56 +177,56 @@ impl Builder<'_> {
         };
         (tree, used_below + used_above)
     }
+}
 
-    /// Sends each reference to the side(s) of the plane its clipped bounds touch: one that
-    /// ends or starts on the plane goes to the side it lies on, one lying in the plane to
-    /// the side the SAH chose, and one straddling the plane to both, clipped to each cell.
-    fn classify(
-        &self,
-        refs: &[KdRef],
-        split: &Split,
-        below_cell: &Aabb,
-        above_cell: &Aabb,
-    ) -> (Vec<KdRef>, Vec<KdRef>) {
-        let (axis, pos) = (split.axis, split.pos);
-        let mut below = Vec::with_capacity(refs.len());
-        let mut above = Vec::with_capacity(refs.len());
-        for r in refs {
-            let (lo, hi) = (r.bounds.min[axis], r.bounds.max[axis]);
-            if lo == pos && hi == pos {
-                if split.planar_below {
-                    below.push(*r);
-                } else {
-                    above.push(*r);
-                }
-            } else if hi <= pos {
+/// Sends each reference to the side(s) of the plane its clipped bounds touch: one that
+/// ends or starts on the plane goes to the side it lies on, one lying in the plane to
+/// the side the SAH chose, and one straddling the plane to both, clipped to each cell.
+pub(super) fn classify(
+    triangles: &[Triangle],
+    refs: &[KdRef],
+    split: &Split,
+    below_cell: &Aabb,
+    above_cell: &Aabb,
+) -> (Vec<KdRef>, Vec<KdRef>) {
+    let (axis, pos) = (split.axis, split.pos);
+    let mut below = Vec::with_capacity(refs.len());
+    let mut above = Vec::with_capacity(refs.len());
+    for r in refs {
+        let (lo, hi) = (r.bounds.min[axis], r.bounds.max[axis]);
+        if lo == pos && hi == pos {
+            if split.planar_below {
                 below.push(*r);
-            } else if lo >= pos {
-                above.push(*r);
             } else {
-                let tri = &self.triangles[r.tri as usize];
-                let b = clipped_bounds(tri, below_cell);
-                let a = clipped_bounds(tri, above_cell);
-                match (b, a) {
-                    (None, None) => {
-                        // The clip found the triangle in neither cell though its bounds
-                        // straddle the plane; keep it on both sides rather than lose it.
-                        below.push(clamp_ref(r, below_cell));
-                        above.push(clamp_ref(r, above_cell));
+                above.push(*r);
+            }
+        } else if hi <= pos {
+            below.push(*r);
+        } else if lo >= pos {
+            above.push(*r);
+        } else {
+            let tri = &triangles[r.tri as usize];
+            let b = clipped_bounds(tri, below_cell);
+            let a = clipped_bounds(tri, above_cell);
+            match (b, a) {
+                (None, None) => {
+                    // The clip found the triangle in neither cell though its bounds
+                    // straddle the plane; keep it on both sides rather than lose it.
+                    below.push(clamp_ref(r, below_cell));
+                    above.push(clamp_ref(r, above_cell));
+                }
+                _ => {
+                    if let Some(bounds) = b {
+                        below.push(KdRef { bounds, tri: r.tri });
                     }
-                    _ => {
-                        if let Some(bounds) = b {
-                            below.push(KdRef { bounds, tri: r.tri });
-                        }
-                        if let Some(bounds) = a {
-                            above.push(KdRef { bounds, tri: r.tri });
-                        }
+                    if let Some(bounds) = a {
+                        above.push(KdRef { bounds, tri: r.tri });
                     }
                 }
             }
         }
-        (below, above)
     }
+    (below, above)
 }
 
 fn clamp_ref(r: &KdRef, cell: &Aabb) -> KdRef {

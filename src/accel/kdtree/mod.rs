@@ -8,6 +8,7 @@ mod clip;
 mod node;
 mod outline;
 mod split;
+mod split_costs;
 mod traverse;
 
 pub use build::build;

@@ -22,6 +22,9 @@ pub struct Split {
     /// Triangles lying in the plane go to the below side (else above).
     pub planar_below: bool,
     pub cost: f64,
+    /// References on each side (those lying in the plane counted on theirs).
+    pub below: usize,
+    pub above: usize,
 }
 
 /// Sorting the events of nodes at least this large is split across threads.
@@ -74,24 +77,33 @@ impl<'a> Sah<'a> {
     }
 
     /// Offers the plane at `pos` with `below` and `above` references besides `planar` ones
-    /// lying in it, which go to whichever side is cheaper.
-    fn offer(&self, best: &mut Option<Split>, axis: usize, pos: f32, c: Counts) {
+    /// lying in it, which may go to either side: `sink` sees each choice.
+    fn offer(&self, sink: &mut impl FnMut(Split), axis: usize, pos: f32, c: Counts) {
         if !(pos > self.cell.min[axis] && pos < self.cell.max[axis]) {
             return;
         }
-        let mut consider = |cost: f64, planar_below: bool| {
-            if best.is_none_or(|b| cost < b.cost) {
-                *best = Some(Split {
-                    axis,
-                    pos,
-                    planar_below,
-                    cost,
-                });
-            }
+        let mut consider = |below: usize, above: usize, planar_below: bool| {
+            sink(Split {
+                axis,
+                pos,
+                planar_below,
+                cost: self.cost(axis, pos, below, above),
+                below,
+                above,
+            })
         };
-        consider(self.cost(axis, pos, c.below + c.planar, c.above), true);
+        consider(c.below + c.planar, c.above, true);
         if c.planar > 0 {
-            consider(self.cost(axis, pos, c.below, c.above + c.planar), false);
+            consider(c.below, c.above + c.planar, false);
+        }
+    }
+}
+
+/// Keeps the first of the cheapest splits offered.
+fn keep_cheapest(best: &mut Option<Split>) -> impl FnMut(Split) + '_ {
+    move |s: Split| {
+        if best.is_none_or(|b| s.cost < b.cost) {
+            *best = Some(s);
         }
     }
 }
@@ -107,9 +119,12 @@ struct Counts {
 /// area or no candidate lies strictly inside it.
 pub fn best_split(refs: &[KdRef], cell: &Aabb, params: &KdParams) -> Option<Split> {
     let sah = Sah::new(params, cell)?;
-    let search = |axis: usize, events: &mut Vec<u64>, best: &mut Option<Split>| match params.split {
-        KdSplit::Sweep => sweep(refs, axis, &sah, events, best),
-        KdSplit::Binned(bins) => binned(refs, axis, bins as usize, &sah, best),
+    let search = |axis: usize, events: &mut Vec<u64>, best: &mut Option<Split>| {
+        let sink = &mut keep_cheapest(best);
+        match params.split {
+            KdSplit::Sweep => sweep(refs, axis, &sah, events, sink),
+            KdSplit::Binned(bins) => binned(refs, axis, bins as usize, &sah, sink),
+        }
     };
     if refs.len() >= PARALLEL_AXES {
         // The axes on separate threads; the same choice as one after the other (the first
@@ -138,6 +153,24 @@ pub fn best_split(refs: &[KdRef], cell: &Aabb, params: &KdParams) -> Option<Spli
     best
 }
 
+/// Every split `best_split` weighs, in its order (axis by axis): what the bucket-cost plot
+/// draws. Empty if the cell has no area.
+pub fn all_splits(refs: &[KdRef], cell: &Aabb, params: &KdParams) -> Vec<Split> {
+    let mut all = Vec::new();
+    let Some(sah) = Sah::new(params, cell) else {
+        return all;
+    };
+    let mut events = Vec::new();
+    let sink = &mut |s: Split| all.push(s);
+    for axis in 0..3 {
+        match params.split {
+            KdSplit::Sweep => sweep(refs, axis, &sah, &mut events, sink),
+            KdSplit::Binned(bins) => binned(refs, axis, bins as usize, &sah, sink),
+        }
+    }
+    all
+}
+
 // Events at one position sort as end, planar, start: the sweep then sees, at each position,
 // the references ending there, lying in the plane, and starting there, in that order.
 const END: u64 = 0;
@@ -157,7 +190,13 @@ fn from_order_key(k: u64) -> f32 {
 
 /// The exact sweep along `axis`: every clipped bound is a candidate, and the counts below and
 /// above each are read off the sorted events in one pass.
-fn sweep(refs: &[KdRef], axis: usize, sah: &Sah, events: &mut Vec<u64>, best: &mut Option<Split>) {
+fn sweep(
+    refs: &[KdRef],
+    axis: usize,
+    sah: &Sah,
+    events: &mut Vec<u64>,
+    sink: &mut impl FnMut(Split),
+) {
     events.clear();
     for r in refs {
         let (lo, hi) = (r.bounds.min[axis], r.bounds.max[axis]);
@@ -191,14 +230,14 @@ fn sweep(refs: &[KdRef], axis: usize, sah: &Sah, events: &mut Vec<u64>, best: &m
             planar,
             above,
         };
-        sah.offer(best, axis, from_order_key(key), c);
+        sah.offer(sink, axis, from_order_key(key), c);
         below += starting + planar;
     }
 }
 
 /// The binned search along `axis`: references counted into the bins their clipped bounds
 /// start and end in; candidates are the bin boundaries.
-fn binned(refs: &[KdRef], axis: usize, bins: usize, sah: &Sah, best: &mut Option<Split>) {
+fn binned(refs: &[KdRef], axis: usize, bins: usize, sah: &Sah, sink: &mut impl FnMut(Split)) {
     let (min, max) = (sah.cell.min[axis], sah.cell.max[axis]);
     let extent = max - min;
     if extent <= 0.0 {
@@ -228,7 +267,7 @@ fn binned(refs: &[KdRef], axis: usize, bins: usize, sah: &Sah, best: &mut Option
             planar: 0,
             above,
         };
-        sah.offer(best, axis, pos, c);
+        sah.offer(sink, axis, pos, c);
     }
 }
 

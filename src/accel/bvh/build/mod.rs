@@ -24,7 +24,7 @@ mod sah_sweep;
 pub mod split_costs;
 pub mod treelet;
 
-pub use split_costs::{SplitCandidate, SplitCosts, SplitMethod, split_costs};
+pub use split_costs::split_costs;
 
 use super::node::{Node, Nodes};
 use super::report::{BuildPhases, BuildReport};

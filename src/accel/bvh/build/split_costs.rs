@@ -1,57 +1,12 @@
-//! The bucket-cost plot: every split a SAH builder weighs at one node and what it costs,
-//! C = C_trav + S_A/S_N·N_A·C_isect + S_B/S_N·N_B·C_isect, beside the leaf's C_isect·N.
-//! The costs come from the builders' own candidate loops, so the cheapest one shown is
-//! the split the builder takes.
+//! The bucket-cost plot of a BVH node: every split a SAH builder weighs there and what it
+//! costs, C = C_trav + S_A/S_N·N_A·C_isect + S_B/S_N·N_B·C_isect, beside the leaf's
+//! C_isect·N. The costs come from the builders' own candidate loops, so the cheapest one
+//! shown is the split the builder takes.
 
 use super::prim::{NodeInfo, PrimRef};
 use super::{BuildParams, Strategy, sah_binned, sah_sweep};
-use crate::geometry::{Aabb, Triangle};
-
-/// How the candidates were found.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum SplitMethod {
-    /// The B − 1 bucket boundaries per axis of binned SAH.
-    Binned { buckets: u32 },
-    /// Every position between sorted centroids, N − 1 per axis.
-    Sweep,
-}
-
-/// One candidate split plane.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SplitCandidate {
-    pub axis: usize,
-    /// The plane's position along `axis`, in world units.
-    pub position: f32,
-    /// C_trav + Σ S_child/S_N·N_child·C_isect.
-    pub cost: f32,
-    /// Triangles on each side.
-    pub left: u32,
-    pub right: u32,
-}
-
-/// The candidates of one node.
-#[derive(Clone, Debug, PartialEq)]
-pub struct SplitCosts {
-    pub method: SplitMethod,
-    pub triangles: usize,
-    /// The node's box: the bounds of its triangles.
-    pub bounds: Aabb,
-    /// In the order the builder offers them.
-    pub candidates: Vec<SplitCandidate>,
-    /// C_isect·N: what the node costs as a leaf.
-    pub leaf_cost: f32,
-    /// The split the builder would take: the first of the cheapest candidates (a binned
-    /// boundary after an empty bucket repeats the one before and is not taken).
-    pub cheapest: Option<SplitCandidate>,
-}
-
-impl SplitCosts {
-    /// Whether the builder splits here: the leaf is too big, or a split is cheaper.
-    pub fn splits(&self, params: &BuildParams) -> bool {
-        self.triangles > params.max_leaf_size as usize
-            || self.cheapest.is_some_and(|c| c.cost < self.leaf_cost)
-    }
-}
+use crate::accel::split_costs::{SplitCandidate, SplitCosts, SplitMethod};
+use crate::geometry::Triangle;
 
 /// The split candidates of a node over the triangles `under` (indices into `triangles`),
 /// as the full sweep weighs them for a full-sweep tree and as binned SAH with B =
