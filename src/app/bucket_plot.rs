@@ -15,8 +15,9 @@ const AXIS_COLORS: [Color32; 3] = [
 /// hundreds of thousands of positions, more than the plot has pixels.
 const MAX_POINTS: usize = 1024;
 
-/// Draws the plot; `node_cost` is the cost of the split the tree actually has here.
-pub fn show(ui: &mut egui::Ui, costs: &SplitCosts, node_cost: f32) {
+/// Draws the plot; `node_cost` is the cost of the split the tree actually has here (a BVH
+/// built by another strategy, or refitted, may have another split than the cheapest).
+pub fn show(ui: &mut egui::Ui, costs: &SplitCosts, node_cost: Option<f32>) {
     let what = costs.method.describe(costs.triangles);
     ui.label(format!(
         "Split costs: {what}, position across the node's box"
@@ -62,11 +63,13 @@ pub fn show(ui: &mut egui::Ui, costs: &SplitCosts, node_cost: f32) {
                     .color(Color32::GRAY)
                     .style(LineStyle::dashed_loose()),
             );
-            plot.hline(
-                HLine::new("this node's split", node_cost as f64)
-                    .color(Color32::from_rgb(255, 140, 40))
-                    .style(LineStyle::dotted_dense()),
-            );
+            if let Some(cost) = node_cost {
+                plot.hline(
+                    HLine::new("this node's split", cost as f64)
+                        .color(Color32::from_rgb(255, 140, 40))
+                        .style(LineStyle::dotted_dense()),
+                );
+            }
             let x = span(cheapest.axis)(cheapest.position);
             plot.points(
                 Points::new("cheapest", vec![[x, cheapest.cost as f64]])

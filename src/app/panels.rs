@@ -9,6 +9,7 @@ use crate::accel::bvh::build::{
 };
 use crate::accel::kdtree::{MAX_DEPTH as KD_MAX_DEPTH, MIN_BINS as KD_MIN_BINS};
 use crate::accel::octree::MAX_DEPTH as OCTREE_MAX_DEPTH;
+use crate::accel::split_costs::SplitMethod;
 use crate::geometry::simd::SimdLevel;
 use crate::render::Mode;
 use crate::scene::builtin;
@@ -495,7 +496,13 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     let walked = app.shown.as_ref().and_then(|s| s.walk.as_ref());
     if let Some((info, costs)) = walked.and_then(|w| Some((w, w.split_costs.as_ref()?))) {
         ui.heading(format!("Splits of node {}", info.node));
-        super::bucket_plot::show(ui, costs, info.sah_cost);
+        // A k-d node's split is the cheapest plane by construction (the plot replays its
+        // build); a BVH node's may differ, so its own cost is drawn too.
+        let own = matches!(
+            costs.method,
+            SplitMethod::Binned { .. } | SplitMethod::Sweep
+        );
+        super::bucket_plot::show(ui, costs, own.then_some(info.sah_cost));
         ui.separator();
     }
     ui.heading("Build");

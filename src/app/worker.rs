@@ -9,7 +9,7 @@
 //! traced frame.
 
 use crate::accel::bvh::refit::RefitIndex;
-use crate::accel::bvh::{self, BuildParams, BuildReport, Bvh, split_costs};
+use crate::accel::bvh::{self, BuildReport, Bvh, split_costs};
 use crate::accel::split_costs::SplitCosts;
 use crate::accel::structure::{self, AccelKind, Structure, StructureParams};
 use crate::accel::{Outline, StructureReport};
@@ -279,7 +279,7 @@ struct State {
 struct SplitCostsKey {
     version: u64,
     node: usize,
-    params: BuildParams,
+    params: StructureParams,
 }
 
 /// Undo keeps this many drags.
@@ -648,8 +648,8 @@ impl State {
                 });
             }
             info.triangles = all.len();
-            if self.params.kind == AccelKind::Bvh && count == 2 {
-                info.split_costs = self.split_costs_of(node, all);
+            if count == 2 {
+                info.split_costs = self.split_costs_of(outline, node, all);
             }
             tint_triangles(frame, rgba, |t| match side.get(t as usize) {
                 Some(&k) if k != u8::MAX => Some(child_color(k as usize, count)),
@@ -666,17 +666,18 @@ impl State {
         Some(info)
     }
 
-    /// The bucket-cost plot's data for BVH node `node` over the scene triangles `under`,
-    /// computed once per node and tree.
+    /// The bucket-cost plot's data for node `node` of the outline (`under`: the scene
+    /// triangles below it), for a BVH2 or a k-d tree; computed once per node and tree.
     fn split_costs_of(
         &self,
+        outline: &Outline,
         node: usize,
         under: std::collections::HashSet<u32>,
     ) -> Option<Arc<SplitCosts>> {
         let key = SplitCostsKey {
             version: self.version,
             node,
-            params: self.params.bvh,
+            params: self.params,
         };
         let mut cache = self.split_costs.borrow_mut();
         if let Some((k, costs)) = cache.as_ref()
@@ -684,10 +685,29 @@ impl State {
         {
             return Some(costs.clone());
         }
-        let scene = self.scene.as_ref()?;
-        let mut under: Vec<u32> = under.into_iter().collect();
-        under.sort_unstable();
-        let costs = Arc::new(split_costs(&scene.triangles, &under, &self.params.bvh));
+        let costs = match self.structure.as_ref()? {
+            Structure::Bvh(_) => {
+                let scene = self.scene.as_ref()?;
+                let mut under: Vec<u32> = under.into_iter().collect();
+                under.sort_unstable();
+                split_costs(&scene.triangles, &under, &self.params.bvh)
+            }
+            Structure::KdTree(tree) => {
+                // The way down from the root: below (first) or above (second) child.
+                let mut path = Vec::new();
+                let mut i = node;
+                while let Some(&parent) = outline.nodes.get(i).map(|n| &n.parent)
+                    && parent != u32::MAX
+                {
+                    path.push(i as u32 != outline.nodes[parent as usize].first_child);
+                    i = parent as usize;
+                }
+                path.reverse();
+                tree.split_costs(&self.params.kdtree, &path)?
+            }
+            _ => return None,
+        };
+        let costs = Arc::new(costs);
         *cache = Some((key, costs.clone()));
         Some(costs)
     }
