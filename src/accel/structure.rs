@@ -390,6 +390,19 @@ impl Structure {
         }
     }
 
+    /// The SAH cost of a tree with the C_trav and C_isect it was weighed with, or `None`
+    /// for structures the SAH does not describe (grid, octree, brute force, two levels).
+    pub fn sah_cost(&self, params: &StructureParams) -> Option<(f64, f32, f32)> {
+        let (b, k) = (&params.bvh, &params.kdtree);
+        Some(match self {
+            Structure::Bvh(t) => (t.sah_cost(b.c_trav, b.c_isect), b.c_trav, b.c_isect),
+            Structure::Bvh4(t) => (t.sah_cost(b.c_trav, b.c_isect), b.c_trav, b.c_isect),
+            Structure::Bvh8(t) => (t.sah_cost(b.c_trav, b.c_isect), b.c_trav, b.c_isect),
+            Structure::KdTree(t) => (t.sah_cost(), k.c_trav, k.c_isect),
+            _ => return None,
+        })
+    }
+
     /// The nodes or cells the explorer draws.
     pub fn outline(&self) -> Outline {
         with_structure!(self, a => a.outline())

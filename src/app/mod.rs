@@ -81,6 +81,8 @@ pub struct BvhLabApp {
     drag: Option<Drag>,
     /// SAH cost after each refit since the last build (the first entry is the build's).
     pub sah_history: Vec<f64>,
+    /// The built tree's SAH cost against random lines (none for other structures).
+    pub sah_prediction: Option<worker::SahPrediction>,
     pub last_refit: Option<Duration>,
     /// Under a structure that cannot refit: the last rebuild after a move, and what a BVH
     /// refit of the same move took.
@@ -148,6 +150,7 @@ impl BvhLabApp {
             selected_set: None,
             drag: None,
             sah_history: Vec::new(),
+            sah_prediction: None,
             last_refit: None,
             last_rebuild: None,
             move_sent: None,
@@ -189,7 +192,9 @@ impl BvhLabApp {
                     report,
                     bvh_report,
                     outline,
+                    sah,
                 } => {
+                    self.sah_prediction = sah;
                     self.sah_history = bvh_report.iter().map(|r| r.tree.sah_cost).collect();
                     self.settings.level = self.settings.level.min(outline.max_depth());
                     self.walk = self.walk.filter(|&w| (w as usize) < outline.nodes.len());

@@ -590,6 +590,7 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 }
             });
     }
+    sah_check_section(app, ui);
     if app.bvh_report.is_none() {
         return;
     }
@@ -612,6 +613,43 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             (last / first - 1.0) * 100.0
         ));
     }
+}
+
+/// The SAH's prediction against the cost per ray measured: on the random lines it assumes,
+/// and on the frame's own rays, which start at the camera or on surfaces and stop at hits.
+fn sah_check_section(app: &BvhLabApp, ui: &mut egui::Ui) {
+    let (Some(p), Some(s)) = (&app.sah_prediction, &app.full_summary) else {
+        return;
+    };
+    use crate::accel::Counter;
+    use crate::render::RayKind;
+    let measured = |rays: RayKind| {
+        p.c_trav as f64 * s.counter(rays, Counter::NodesVisited).mean
+            + p.c_isect as f64 * s.counter(rays, Counter::TriangleTests).mean
+    };
+    ui.separator();
+    ui.heading("SAH predicted against measured");
+    ui.label("cost per ray: C_trav · nodes visited + C_isect · triangle tests");
+    egui::Grid::new("sah check")
+        .num_columns(3)
+        .striped(true)
+        .show(ui, |ui| {
+            let ratio = |x: f64| format!("{:.0} %", 100.0 * x / p.predicted.max(f64::MIN_POSITIVE));
+            ui.label("SAH cost (predicted)");
+            ui.label(format!("{:.2}", p.predicted));
+            ui.label("");
+            ui.end_row();
+            for (label, cost) in [
+                ("random lines through the box", p.random),
+                ("this frame's primary rays", measured(RayKind::Primary)),
+                ("this frame's shadow rays", measured(RayKind::Shadow)),
+            ] {
+                ui.label(label);
+                ui.label(format!("{cost:.2}"));
+                ui.label(ratio(cost));
+                ui.end_row();
+            }
+        });
 }
 
 pub fn legend(ui: &mut egui::Ui, rect: egui::Rect, mode: Mode, max: u32) {

@@ -13,6 +13,8 @@ use crate::accel::bvh::{self, BuildReport, Bvh, split_costs};
 use crate::accel::split_costs::SplitCosts;
 use crate::accel::structure::{self, AccelKind, Structure, StructureParams};
 use crate::accel::{Outline, StructureReport};
+use crate::bench::sah_check::{mean_work_of, random_lines};
+use crate::geometry::Aabb;
 use crate::render::overlay::{OutlinedBox, outline_boxes, palette, tint_triangles};
 use crate::render::{Frame, Mode, RenderSettings, colorize, trace};
 use crate::scene::{Camera, Scene};
@@ -89,6 +91,34 @@ pub struct WalkInfo {
     pub split_costs: Option<Arc<SplitCosts>>,
 }
 
+/// The SAH cost of the tree against the cost per ray measured on uniformly random lines
+/// through the scene box, the rays the SAH assumes (the frame's own rays are measured as
+/// they are traced).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SahPrediction {
+    pub c_trav: f32,
+    pub c_isect: f32,
+    pub predicted: f64,
+    /// C_trav · nodes visited + C_isect · triangle tests per random line, closest hit.
+    pub random: f64,
+}
+
+impl SahPrediction {
+    /// Random lines enough for a mean within about a per cent.
+    const RAYS: usize = 1 << 14;
+
+    fn of(s: &Structure, params: &StructureParams, bounds: &Aabb) -> Option<SahPrediction> {
+        let (predicted, c_trav, c_isect) = s.sah_cost(params)?;
+        let m = mean_work_of(s, &random_lines(bounds, Self::RAYS, 1), false);
+        Some(SahPrediction {
+            c_trav,
+            c_isect,
+            predicted,
+            random: c_trav as f64 * m.nodes + c_isect as f64 * m.triangle_tests,
+        })
+    }
+}
+
 /// A frame as the UI shows it.
 pub struct Shown {
     pub job: RenderJob,
@@ -114,6 +144,8 @@ pub enum Reply {
         /// The BVH's own report (SAH cost, leaf sizes), for a BVH.
         bvh_report: Option<Box<BuildReport>>,
         outline: Arc<Outline>,
+        /// For trees the SAH describes: its prediction against random lines.
+        sah: Option<SahPrediction>,
     },
     BuildFailed(String),
     Refitted {
@@ -419,12 +451,14 @@ impl State {
             Ok(built) => {
                 self.refit_index = None;
                 self.outline = Arc::new(built.structure.outline());
+                let sah = SahPrediction::of(&built.structure, &self.params, &scene.bounds());
                 self.structure = Some(built.structure);
                 self.version += 1;
                 self.reply(Reply::Built {
                     report: Box::new(built.report),
                     bvh_report: built.bvh_report.map(Box::new),
                     outline: self.outline.clone(),
+                    sah,
                 });
                 true
             }

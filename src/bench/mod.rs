@@ -7,13 +7,14 @@ pub mod compare;
 pub mod frames;
 pub mod plot;
 pub mod rays;
+pub mod sah_check;
 pub mod scaling;
 pub mod stress;
 
 use crate::accel::bvh::packet::PACKET_SIZE;
 use crate::accel::bvh::{BuildParams, BuildReport, Strategy};
 use crate::accel::structure::{self, AccelKind, Built, Structure, StructureError};
-use crate::accel::{Accel, Counters, NoStats, StructureParams, StructureReport};
+use crate::accel::{Accel, NoStats, StructureParams, StructureReport};
 #[cfg(feature = "embree")]
 use crate::geometry::Watertight;
 use crate::geometry::{Intersector, IntersectorKind, Ray};
@@ -21,6 +22,7 @@ use crate::scene::{Camera, Scene};
 use glam::Vec3;
 use rayon::prelude::*;
 use rays::RaySets;
+use sah_check::{SahCheck, mean_work_of};
 use std::time::{Duration, Instant};
 
 #[derive(Clone, Debug)]
@@ -104,6 +106,8 @@ pub struct BenchResult {
     pub primary_packets: RaySetResult,
     pub diffuse: RaySetResult,
     pub shadow: RaySetResult,
+    /// The SAH cost against the cost per ray measured, for structures with an SAH cost.
+    pub sah_check: Option<SahCheck>,
     pub peer: Option<PeerResult>,
 }
 
@@ -268,6 +272,7 @@ fn measure(
         time_packets::<_, I>(accel, &sets.primary_tiles, cfg.runs)
     });
     let [p, d, s] = mean_work(accel, sets);
+    let sah_check = SahCheck::measure(accel, params, &scene.bounds(), [p, d, s]);
     primary.mean = Some(p);
     diffuse.mean = Some(d);
     shadow.mean = Some(s);
@@ -284,45 +289,17 @@ fn measure(
         primary_packets,
         diffuse,
         shadow,
+        sah_check,
         peer: None,
     }
 }
 
 /// The mean counters per ray of the primary, diffuse and shadow sets (one counting pass).
 pub fn mean_work(accel: &Structure, sets: &RaySets) -> [MeanWork; 3] {
-    let mean = |rays: &[Ray], any: bool| {
-        let sum = rays
-            .par_chunks(256)
-            .map(|chunk| {
-                let mut c = Counters::default();
-                for r in chunk {
-                    if any {
-                        accel.any_hit::<crate::geometry::Watertight, _>(r, &mut c);
-                    } else {
-                        accel.closest_hit::<crate::geometry::Watertight, _>(r, &mut c);
-                    }
-                }
-                [
-                    c.nodes_visited,
-                    c.box_tests,
-                    c.triangle_tests,
-                    c.repeated_tests,
-                ]
-                .map(u64::from)
-            })
-            .reduce(|| [0; 4], |a, b| std::array::from_fn(|k| a[k] + b[k]));
-        let n = rays.len().max(1) as f64;
-        MeanWork {
-            nodes: sum[0] as f64 / n,
-            box_tests: sum[1] as f64 / n,
-            triangle_tests: sum[2] as f64 / n,
-            repeated_tests: sum[3] as f64 / n,
-        }
-    };
     [
-        mean(&sets.primary, false),
-        mean(&sets.diffuse, false),
-        mean(&sets.shadow, true),
+        mean_work_of(accel, &sets.primary, false),
+        mean_work_of(accel, &sets.diffuse, false),
+        mean_work_of(accel, &sets.shadow, true),
     ]
 }
 
@@ -527,6 +504,7 @@ impl BenchResult {
             "primary_packets": set(&self.primary_packets, "hits"),
             "diffuse": set(&self.diffuse, "hits"),
             "shadow": set(&self.shadow, "occluded"),
+            "sah_check": self.sah_check.as_ref().map(SahCheck::to_json),
             "peer": self.peer.as_ref().map(|p| serde_json::json!({
                 "name": p.name,
                 "build_ms": round3(p.build.as_secs_f64() * 1e3),

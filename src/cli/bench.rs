@@ -212,6 +212,16 @@ pub fn run(args: BenchArgs) -> Result<()> {
             set.mrays_per_s()
         );
     }
+    if let Some(c) = &r.sah_check {
+        out!(
+            "  SAH cost {:.2} predicted; measured C_trav·nodes + C_isect·tests per ray: random lines {:.2}, primary {:.2}, diffuse {:.2}, shadow {:.2}",
+            c.predicted,
+            c.random,
+            c.primary,
+            c.diffuse,
+            c.shadow
+        );
+    }
     if let Some(p) = &r.peer {
         print_peer(r, p)?;
     }
