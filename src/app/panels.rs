@@ -55,6 +55,8 @@ pub fn top_bar(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             ui.label("left drag:");
             ui.selectable_value(&mut app.tool, Tool::Orbit, "orbit (O)");
             ui.selectable_value(&mut app.tool, Tool::Move, "move triangles (M)");
+            ui.selectable_value(&mut app.tool, Tool::Replay, "replay a ray (P)")
+                .on_hover_text("Click a pixel, then step through its ray's traversal with ← / →");
             ui.separator();
             let scale = ui.add(
                 egui::Slider::new(&mut app.settings.ui_scale, 0.75..=2.5)
@@ -492,6 +494,10 @@ fn refit_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
 
 pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     ui.add_space(4.0);
+    if app.replay.is_some() || app.replay_error.is_some() || app.tool == Tool::Replay {
+        super::replay::section(app, ui);
+        ui.separator();
+    }
     ui.heading("Build");
     if let Some(r) = &app.report {
         egui::Grid::new("report")
@@ -577,6 +583,7 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 }
             });
     }
+    super::export::section(app, ui);
     if app.bvh_report.is_none() {
         return;
     }
@@ -680,6 +687,12 @@ pub fn help_window(app: &mut BvhLabApp, ctx: &egui::Context) {
                         ("F", "frame the whole scene"),
                         ("R", "back to the scene's own view"),
                         ("O / M", "orbit tool / move-triangles tool"),
+                        ("P", "replay tool: click a pixel to replay its ray"),
+                        (
+                            "Left / Right, Home / End",
+                            "replay: previous / next visit, first / last visit",
+                        ),
+                        ("Esc", "close the replay"),
                         (
                             "1 … 7",
                             "shaded, normals, depth, nodes, box tests, triangle tests, repeated tests",
