@@ -2,7 +2,7 @@
 //! handles input; a worker thread owns the scene and the BVH and renders frames
 //! (see `worker`). Panels are plain functions of the app state.
 
-mod export;
+pub mod export;
 mod orbit;
 mod panels;
 pub mod replay;
