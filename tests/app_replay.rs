@@ -136,6 +136,26 @@ fn export_writes_the_view_as_png_and_the_counters_as_csv() {
     assert_eq!(image.dimensions(), (w, hgt));
     assert_eq!(image.as_raw(), &shown.rgba, "the view as shown");
 
+    // With a replay open, the saved view shows it too, as the viewport does.
+    h.key_press(Key::P);
+    h.run_steps(1);
+    click_at(&mut h, IN_VIEW);
+    assert!(h.state().replay.is_some());
+    let shown = h.state().shown.clone().expect("a frame");
+    let with_replay = dir.join("replay.png");
+    h.state_mut().export(Export::ViewPng, &with_replay).unwrap();
+    let image = image::open(&with_replay).expect("a PNG").to_rgba8();
+    let drawn = image
+        .as_raw()
+        .chunks(4)
+        .zip(shown.rgba.chunks(4))
+        .filter(|(a, b)| a != b)
+        .count();
+    assert!(
+        drawn > 50,
+        "the replay's box and ray are drawn ({drawn} pixels)"
+    );
+
     let csv = dir.join("counters.csv");
     h.state_mut().export(Export::CountersCsv, &csv).unwrap();
     let text = std::fs::read_to_string(&csv).unwrap();

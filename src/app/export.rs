@@ -4,6 +4,7 @@
 
 use super::BvhLabApp;
 use crate::render::export::{ExportError, save_counters_csv, save_png};
+use crate::render::replay::draw_picture;
 use eframe::egui;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -42,7 +43,16 @@ impl BvhLabApp {
     fn write_export(&self, what: Export, path: &Path) -> Result<(), ExportError> {
         let shown = self.shown.as_ref().ok_or(ExportError::NoFrame)?;
         match what {
-            Export::ViewPng => save_png(&shown.rgba, shown.job.width, shown.job.height, path),
+            Export::ViewPng => {
+                let size = (shown.job.width, shown.job.height);
+                // The replay is drawn over the view by the UI: draw it into the copy too.
+                let mut rgba = shown.rgba.clone();
+                if let Some(view) = &self.replay {
+                    let picture = view.replay.picture(view.stop, self.ray_length());
+                    draw_picture(&picture, &mut rgba, size, &shown.job.camera);
+                }
+                save_png(&rgba, size.0, size.1, path)
+            }
             Export::CountersCsv => save_counters_csv(&shown.frame, path),
         }
     }

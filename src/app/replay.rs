@@ -6,9 +6,8 @@
 
 use super::BvhLabApp;
 use super::worker::{Command, ReplayRequest};
-use crate::accel::replay::Step;
 use crate::render::RayKind;
-use crate::render::replay::{Replay, ReplayHit};
+use crate::render::replay::{Ink, Replay, ReplayHit};
 use eframe::egui::{self, Color32, Stroke};
 use glam::Vec3;
 use std::sync::Arc;
@@ -51,21 +50,6 @@ impl ReplayView {
     }
 }
 
-const BOX_EDGES: [(usize, usize); 12] = [
-    (0, 1),
-    (2, 3),
-    (4, 5),
-    (6, 7),
-    (0, 2),
-    (1, 3),
-    (4, 6),
-    (5, 7),
-    (0, 4),
-    (1, 5),
-    (2, 6),
-    (3, 7),
-];
-
 impl BvhLabApp {
     /// Replays the ray of pixel (x, y) of the shown frame: the primary ray, or the shadow
     /// ray when the view shows shadow rays.
@@ -89,6 +73,14 @@ impl BvhLabApp {
         self.worker.send(Command::Replay(request));
     }
 
+    /// How far to draw a ray that has no hit yet: twice the scene's size.
+    pub fn ray_length(&self) -> f32 {
+        2.0 * self
+            .scene
+            .as_ref()
+            .map_or(10.0, |s| s.bounds().diagonal().max(1e-3))
+    }
+
     /// Steps the replay; true if there is one to step.
     pub fn replay_go(&mut self, go: Go) -> bool {
         match &mut self.replay {
@@ -101,9 +93,8 @@ impl BvhLabApp {
     }
 }
 
-/// Draws the replay over the viewport `rect`: the ray up to its exit (or the best hit), the
-/// boxes visited before in faint lines, the box of the current stop bright, and the best
-/// hit so far as a dot.
+/// Draws the replay's picture at the shown stop over the viewport `rect` (seen through the
+/// shown frame's camera, so it stays in place in the world when the camera turns).
 pub fn draw(app: &BvhLabApp, painter: &egui::Painter, rect: egui::Rect) {
     let (Some(view), Some(shown)) = (&app.replay, &app.shown) else {
         return;
@@ -116,8 +107,16 @@ pub fn draw(app: &BvhLabApp, painter: &egui::Painter, rect: egui::Rect) {
             rect.min.y + y / job.height as f32 * rect.height(),
         ))
     };
-    // A segment split in pieces, so a part behind the eye drops out without the rest.
-    let segment = |a: Vec3, b: Vec3, stroke: Stroke| {
+    let picture = view.replay.picture(view.stop, app.ray_length());
+    for &(a, b, ink) in &picture.segments {
+        let [r, g, bl, alpha] = ink.color();
+        let width = match ink {
+            Ink::Current => 2.5,
+            Ink::Ray => 2.0,
+            Ink::Visited | Ink::VisitedLeaf => 1.0,
+        };
+        let stroke = Stroke::new(width, Color32::from_rgba_unmultiplied(r, g, bl, alpha));
+        // In pieces, so a part behind the eye drops out without the rest.
         const PIECES: usize = 8;
         for k in 0..PIECES {
             let p = a.lerp(b, k as f32 / PIECES as f32);
@@ -126,48 +125,8 @@ pub fn draw(app: &BvhLabApp, painter: &egui::Painter, rect: egui::Rect) {
                 painter.line_segment([p, q], stroke);
             }
         }
-    };
-    let replay = &view.replay;
-    let r = &replay.ray;
-    let best = view.best_so_far();
-    for k in 0..=view.stop.min(replay.stops() - 1) {
-        let Some((step, corners)) = replay.visit_at(k) else {
-            continue;
-        };
-        let current = k == view.stop;
-        let leaf = matches!(
-            step,
-            Step::Visit {
-                what: crate::accel::replay::Visited::Leaf,
-                ..
-            }
-        );
-        let stroke = if current {
-            Stroke::new(2.5, Color32::from_rgb(255, 210, 60))
-        } else if leaf {
-            Stroke::new(1.0, Color32::from_rgba_unmultiplied(120, 220, 140, 110))
-        } else {
-            Stroke::new(1.0, Color32::from_rgba_unmultiplied(150, 170, 255, 90))
-        };
-        for (i, j) in BOX_EDGES {
-            segment(corners[i], corners[j], stroke);
-        }
     }
-    // The ray: from its origin to the best hit so far, or a long way along it.
-    let scene_size = app
-        .scene
-        .as_ref()
-        .map_or(10.0, |s| s.bounds().diagonal().max(1e-3));
-    let end = best.map_or(r.tmax.min(r.tmin + 2.0 * scene_size), |h| h.t);
-    let start = r.origin + r.direction * r.tmin;
-    segment(
-        start,
-        r.origin + r.direction * end,
-        Stroke::new(2.0, Color32::from_rgb(255, 90, 90)),
-    );
-    if let Some(h) = best
-        && let Some(p) = to_screen(r.origin + r.direction * h.t)
-    {
+    if let Some(p) = picture.best.and_then(to_screen) {
         painter.circle_filled(p, 5.0, Color32::from_rgb(255, 90, 90));
         painter.circle_stroke(p, 5.0, Stroke::new(1.5, Color32::WHITE));
     }

@@ -181,6 +181,111 @@ fn interval(b: &Aabb, ray: &Ray) -> Option<(f32, f32)> {
     (t0 <= t1).then_some((t0, t1))
 }
 
+/// How a line of the replay's picture is drawn.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Ink {
+    /// The box of the visit shown.
+    Current,
+    /// An interior node (or cell) visited before it.
+    Visited,
+    /// A leaf visited before it.
+    VisitedLeaf,
+    /// The ray.
+    Ray,
+}
+
+impl Ink {
+    /// RGBA, alpha = opacity.
+    pub fn color(self) -> [u8; 4] {
+        match self {
+            Ink::Current => [255, 210, 60, 255],
+            Ink::Visited => [150, 170, 255, 90],
+            Ink::VisitedLeaf => [120, 220, 140, 110],
+            Ink::Ray => [255, 90, 90, 255],
+        }
+    }
+}
+
+/// What the replay draws over the view at one stop, in world space: box edges and the ray
+/// as segments, and the best hit so far.
+#[derive(Clone, Debug, Default)]
+pub struct Picture {
+    pub segments: Vec<(Vec3, Vec3, Ink)>,
+    pub best: Option<Vec3>,
+}
+
+/// The twelve edges of a box as pairs of corner indices (see `box_corners`).
+const BOX_EDGES: [(usize, usize); 12] = [
+    (0, 1),
+    (2, 3),
+    (4, 5),
+    (6, 7),
+    (0, 2),
+    (1, 3),
+    (4, 6),
+    (5, 7),
+    (0, 4),
+    (1, 5),
+    (2, 6),
+    (3, 7),
+];
+
+/// Draws `picture` into `rgba` (`width` × `height`, 4 bytes a pixel) as `camera` sees it,
+/// on top of everything (as the app draws it over the view).
+pub fn draw_picture(
+    picture: &Picture,
+    rgba: &mut [u8],
+    (width, height): (u32, u32),
+    camera: &crate::scene::Camera,
+) {
+    let mut plot = |x: f32, y: f32, c: [u8; 4]| {
+        if !(x >= 0.0 && y >= 0.0 && x < width as f32 && y < height as f32) {
+            return;
+        }
+        let i = 4 * (y as usize * width as usize + x as usize);
+        if let Some(px) = rgba.get_mut(i..i + 4) {
+            let a = u32::from(c[3]);
+            for k in 0..3 {
+                px[k] = ((u32::from(px[k]) * (255 - a) + u32::from(c[k]) * a) / 255) as u8;
+            }
+        }
+    };
+    for &(a, b, ink) in &picture.segments {
+        // In pieces, so a part behind the eye drops out without the rest.
+        const PIECES: usize = 8;
+        for k in 0..PIECES {
+            let p = a.lerp(b, k as f32 / PIECES as f32);
+            let q = a.lerp(b, (k + 1) as f32 / PIECES as f32);
+            let (Some(p), Some(q)) = (
+                camera.project(p, width, height),
+                camera.project(q, width, height),
+            ) else {
+                continue;
+            };
+            let n = (p.0 - q.0).abs().max((p.1 - q.1).abs());
+            if !n.is_finite() {
+                continue;
+            }
+            let n = (2.0 * n).ceil().clamp(1.0, 16384.0) as u32;
+            for s in 0..=n {
+                let f = s as f32 / n as f32;
+                plot(p.0 + (q.0 - p.0) * f, p.1 + (q.1 - p.1) * f, ink.color());
+            }
+        }
+    }
+    if let Some(hit) = picture.best
+        && let Some((x, y, _)) = camera.project(hit, width, height)
+    {
+        for dy in -3..=3 {
+            for dx in -3..=3 {
+                if dx * dx + dy * dy <= 9 {
+                    plot(x + dx as f32, y + dy as f32, Ink::Ray.color());
+                }
+            }
+        }
+    }
+}
+
 /// The eight corners of a box: bit k of the index picks max on axis k.
 pub fn box_corners(b: &Aabb) -> [Vec3; 8] {
     std::array::from_fn(|k| {
@@ -240,6 +345,39 @@ impl Replay {
             }
         }
         best
+    }
+
+    /// The picture at stop `stop`: the boxes visited up to it (its own highlighted), and
+    /// the ray from its start to the best hit so far, or `length` along it without one.
+    pub fn picture(&self, stop: usize, length: f32) -> Picture {
+        let mut segments = Vec::new();
+        let stop = stop.min(self.stops() - 1);
+        for k in 0..=stop {
+            let Some((step, corners)) = self.visit_at(k) else {
+                continue;
+            };
+            let ink = match step {
+                _ if k == stop => Ink::Current,
+                Step::Visit {
+                    what: Visited::Leaf,
+                    ..
+                } => Ink::VisitedLeaf,
+                _ => Ink::Visited,
+            };
+            segments.extend(
+                BOX_EDGES
+                    .iter()
+                    .map(|&(i, j)| (corners[i], corners[j], ink)),
+            );
+        }
+        let r = &self.ray;
+        let best = self.best_after(self.stop_range(stop).end);
+        let end = best.map_or(r.tmax.min(r.tmin + length), |h| h.t);
+        segments.push((r.at(r.tmin), r.at(end), Ink::Ray));
+        Picture {
+            segments,
+            best: best.map(|h| r.at(h.t)),
+        }
     }
 
     /// What the steps re-create of the counters (see `counters_of`).
