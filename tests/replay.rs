@@ -121,7 +121,21 @@ fn assert_replay_matches_frame(
 
 /// Random pixels (and the centre, which hits on every built-in view) of a small frame.
 fn check_scene(scene: &Scene, configs: &[(String, StructureParams)], seed: u64) {
-    let settings = RenderSettings::for_scene(scene, W, H);
+    check_view(
+        scene,
+        &RenderSettings::for_scene(scene, W, H),
+        configs,
+        seed,
+    );
+}
+
+fn check_view(
+    scene: &Scene,
+    settings: &RenderSettings,
+    configs: &[(String, StructureParams)],
+    seed: u64,
+) {
+    let settings = *settings;
     let mut rng = Rng::new(seed);
     let mut pixels = vec![(W / 2, H / 2)];
     pixels.extend((0..8).map(|_| (rng.below(W as usize) as u32, rng.below(H as usize) as u32)));
@@ -143,6 +157,24 @@ fn replays_recreate_the_counters_and_hits_of_every_structure_on_every_builtin_sc
         let scene = builtin::by_name(spec).unwrap().unwrap();
         check_scene(&scene, &configs, 100 + k as u64);
     }
+}
+
+#[test]
+fn replays_recreate_the_counters_inside_sponza() {
+    let Some(dir) = common::shared_scenes() else {
+        eprintln!("BVHLAB_SCENES not set: skipping the shared scenes");
+        return;
+    };
+    let scene = Scene::load(dir.join("sponza.obj").to_str().unwrap()).unwrap();
+    let mut settings = RenderSettings::for_scene(&scene, W, H);
+    settings.camera.eye = glam::Vec3::new(-14.0, 3.0, 0.0);
+    settings.camera.look_at = glam::Vec3::new(10.0, 5.0, 0.0);
+    settings.light = glam::Vec3::new(0.0, 14.0, 0.0);
+    let configs: Vec<_> = configurations()
+        .into_iter()
+        .filter(|(name, p)| !p.kind.is_brute_force() && !name.starts_with("bvh "))
+        .collect();
+    check_view(&scene, &settings, &configs, 3);
 }
 
 #[test]
