@@ -311,7 +311,8 @@ impl TwoLevel {
         }
     }
 
-    /// The BVH2 any-hit walk of `blas`'s tree.
+    /// The BVH2 any-hit walk of `blas`'s tree; its triangles are `first` on in the
+    /// flattened scene (as a replay names them).
     #[inline(always)]
     fn blas_any<I: Intersector, S: Stats>(
         &self,
