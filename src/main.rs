@@ -43,6 +43,9 @@ enum Command {
     Bench(cli::bench::BenchArgs),
     /// Time the explorer's frames (preview and full size) and its drag-to-refit frames.
     Frames(cli::frames::FramesArgs),
+    /// Replay one pixel's ray step by step: nodes visited, children tested, pushes, pops and
+    /// skips, triangle tests (text or --json).
+    Replay(cli::replay::ReplayArgs),
     /// Trace a binary file of rays (closest hit or --any) and write the hits in input order.
     Trace(cli::trace::TraceArgs),
     /// Numerical stress suite: leaks, slab test, degenerate triangles, f64 agreement, shadow
@@ -61,6 +64,7 @@ fn main() -> Result<()> {
         Some(Command::Bench(args)) => cli::bench::run(args),
         Some(Command::Frames(args)) => cli::frames::run(args),
         Some(Command::Trace(args)) => cli::trace::run(args),
+        Some(Command::Replay(args)) => cli::replay::run(args),
         Some(Command::Stress(args)) => cli::stress::run(args),
     };
     match result {

@@ -6,7 +6,8 @@
 use super::bvh::traverse::T_SCALE;
 use super::outline::{Outline, OutlineNode};
 use super::{Accel, BestHit, Hit, Stats};
-use crate::accel::stats::count_locally;
+use crate::accel::replay::{Level, Step, Visited, entered};
+use crate::accel::stats::{count_locally, record};
 use crate::geometry::aabb::{SlabRay, slab_entry};
 use crate::geometry::{Aabb, Intersector, Ray, Triangle};
 
@@ -78,6 +79,11 @@ impl BruteForce {
         }
     }
 
+    /// The one traversal step: the whole scene.
+    fn visit_step(&self) -> Step {
+        Step::visit(0, Visited::Scene, Level::Single, self.bounds)
+    }
+
     /// With the early out, the scene's box first: a ray that misses it costs one box test.
     #[inline(always)]
     fn misses_scene<S: Stats>(&self, slab: &SlabRay, ray: &Ray, stats: &mut S) -> bool {
@@ -85,7 +91,11 @@ impl BruteForce {
             return false;
         }
         stats.box_tests(1);
-        self.bounds.slab_test(slab, ray.tmin, ray.tmax) == f32::INFINITY
+        let entry = self.bounds.slab_test(slab, ray.tmin, ray.tmax);
+        record(stats, || Step::Bounds {
+            entry: entered(entry),
+        });
+        entry == f32::INFINITY
     }
 
     /// With the early out, whether the ray pierces triangle `i`'s box within (tmin, tmax).
@@ -95,11 +105,18 @@ impl BruteForce {
             return true;
         }
         stats.box_tests(1);
-        slab_entry(&self.boxes[i], slab, ray.tmin, ray.tmax * T_SCALE) != f32::INFINITY
+        let pierced =
+            slab_entry(&self.boxes[i], slab, ray.tmin, ray.tmax * T_SCALE) != f32::INFINITY;
+        record(stats, || Step::TriangleBox {
+            triangle: i as u64,
+            pierced,
+        });
+        pierced
     }
 
     fn closest_counted<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
         stats.node_visit();
+        record(stats, || self.visit_step());
         let slab = SlabRay::new(ray);
         if self.misses_scene(&slab, ray, stats) {
             return None;
@@ -111,7 +128,12 @@ impl BruteForce {
                 continue;
             }
             stats.triangle_test();
-            if let Some(h) = I::intersect(&data, ray, tri, ray.tmin, best.limit) {
+            let hit = I::intersect(&data, ray, tri, ray.tmin, best.limit);
+            record(stats, || Step::Triangle {
+                triangle: i as u64,
+                t: hit.map(|h| h.t),
+            });
+            if let Some(h) = hit {
                 best.offer(h, i as u64);
             }
         }
@@ -120,6 +142,7 @@ impl BruteForce {
 
     fn occluded_counted<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
         stats.node_visit();
+        record(stats, || self.visit_step());
         let slab = SlabRay::new(ray);
         if self.misses_scene(&slab, ray, stats) {
             return false;
@@ -130,7 +153,12 @@ impl BruteForce {
                 return false;
             }
             stats.triangle_test();
-            I::intersect(&data, ray, &self.triangles[i], ray.tmin, ray.tmax).is_some()
+            let hit = I::intersect(&data, ray, &self.triangles[i], ray.tmin, ray.tmax);
+            record(stats, || Step::Triangle {
+                triangle: i as u64,
+                t: hit.map(|h| h.t),
+            });
+            hit.is_some()
         })
     }
 }

@@ -9,6 +9,8 @@
 //! triangle's test does not depend on the cell it was found in, and a hit beyond the
 //! current cell is kept as the best so far rather than thrown away.
 
+use super::replay::Step;
+use super::stats::record;
 use super::{BestHit, Stats};
 use crate::geometry::{Intersector, Ray, Triangle};
 
@@ -88,11 +90,18 @@ impl Mailbox {
         for &id in ids {
             let tri = id & !SHARED;
             if id & SHARED != 0 && !self.admit(tri, stats) {
+                record(stats, || Step::Mailboxed {
+                    triangle: tri.into(),
+                });
                 continue;
             }
             stats.triangle_test();
-            if let Some(h) = I::intersect(data, ray, &triangles[tri as usize], ray.tmin, best.limit)
-            {
+            let hit = I::intersect(data, ray, &triangles[tri as usize], ray.tmin, best.limit);
+            record(stats, || Step::Triangle {
+                triangle: tri.into(),
+                t: hit.map(|h| h.t),
+            });
+            if let Some(h) = hit {
                 best.offer(h, tri);
             }
         }
@@ -110,10 +119,18 @@ impl Mailbox {
         for &id in ids {
             let tri = id & !SHARED;
             if id & SHARED != 0 && !self.admit(tri, stats) {
+                record(stats, || Step::Mailboxed {
+                    triangle: tri.into(),
+                });
                 continue;
             }
             stats.triangle_test();
-            if I::intersect(data, ray, &triangles[tri as usize], ray.tmin, ray.tmax).is_some() {
+            let hit = I::intersect(data, ray, &triangles[tri as usize], ray.tmin, ray.tmax);
+            record(stats, || Step::Triangle {
+                triangle: tri.into(),
+                t: hit.map(|h| h.t),
+            });
+            if hit.is_some() {
                 return true;
             }
         }

@@ -1,6 +1,8 @@
 //! Statistics sinks: the same traversal code counts the work it does when given `Counters`,
-//! and compiles the counting away when given the zero-sized `NoStats`.
+//! and compiles the counting away when given the zero-sized `NoStats`. A `Recorder` (see
+//! `replay`) also keeps every step, so the replay of a ray comes from the same code.
 
+use super::replay::Step;
 use std::ops::AddAssign;
 
 pub trait Stats: Default {
@@ -20,6 +22,20 @@ pub trait Stats: Default {
     /// Adds the counts of `other`: a query counts into a sink of its own, which stays in
     /// registers while it runs, and adds it to the caller's once at the end.
     fn absorb(&mut self, other: Self);
+    /// Whether this sink keeps the traversal's steps (the replay): structures build a
+    /// `Step` only when it does, so the other sinks pay nothing for it.
+    const RECORDING: bool = false;
+    /// One step of the traversal, in the order it happened.
+    #[inline(always)]
+    fn record(&mut self, _step: Step) {}
+}
+
+/// Hands `step()` to a recording sink; compiled away for the others.
+#[inline(always)]
+pub fn record<S: Stats>(stats: &mut S, step: impl FnOnce() -> Step) {
+    if S::RECORDING {
+        stats.record(step());
+    }
 }
 
 /// Runs `query` with a sink of its own, which stays in registers while the query runs, and

@@ -3,8 +3,10 @@
 //! (see `worker`). Panels are plain functions of the app state.
 
 mod bucket_plot;
+pub mod export;
 mod orbit;
 mod panels;
+pub mod replay;
 pub mod screenshot;
 pub mod settings;
 mod viewport;
@@ -41,6 +43,8 @@ pub enum Tool {
     Orbit,
     /// Click picks a triangle, drag moves it (or its object) and refits.
     Move,
+    /// Click replays the pixel's ray step by step.
+    Replay,
 }
 
 /// A drag of triangles in progress.
@@ -101,6 +105,13 @@ pub struct BvhLabApp {
     pub snapshot: Option<Arc<Scene>>,
     picked: worker::Picked,
     pub screenshot: Option<ScreenshotPlan>,
+    /// The ray replay being stepped through, and why the last one failed.
+    pub replay: Option<replay::ReplayView>,
+    pub replay_error: Option<String>,
+    /// The outcome of the last export (the file written, or why not).
+    pub export_status: Option<Result<String, String>>,
+    /// A path chosen in a save dialog, and what to save there.
+    save_slot: export::SaveSlot,
 }
 
 impl BvhLabApp {
@@ -163,6 +174,10 @@ impl BvhLabApp {
             snapshot: None,
             picked: Arc::new(Mutex::new(None)),
             screenshot: launch.screenshot,
+            replay: None,
+            replay_error: None,
+            export_status: None,
+            save_slot: Arc::new(Mutex::new(None)),
         }
     }
 
@@ -185,6 +200,7 @@ impl BvhLabApp {
                     self.load_error = None;
                     self.selection = None;
                     self.walk = None;
+                    self.replay = None;
                     self.building = true;
                 }
                 Reply::LoadFailed { error, .. } => self.load_error = Some(error),
@@ -203,6 +219,8 @@ impl BvhLabApp {
                         self.walk = Some(node.min(outline.nodes.len().saturating_sub(1) as u32));
                     }
                     self.outline = outline;
+                    // The replayed steps name nodes of the old structure.
+                    self.replay = None;
                     self.report = Some(*report);
                     self.bvh_report = bvh_report.map(|b| *b);
                     self.build_error = None;
@@ -248,6 +266,15 @@ impl BvhLabApp {
                     self.shown = Some(shown);
                 }
                 Reply::Snapshot(scene) => self.snapshot = Some(scene),
+                Reply::Replayed(Ok(replay)) => {
+                    let mut view = replay::ReplayView::new(replay);
+                    if let Some(r) = self.screenshot.as_ref().and_then(|p| p.replay) {
+                        view.stop = r.visit.saturating_sub(1).min(view.replay.stops() - 1);
+                    }
+                    self.replay = Some(view);
+                    self.replay_error = None;
+                }
+                Reply::Replayed(Err(e)) => self.replay_error = Some(e),
                 Reply::Idle(_) => {}
             }
         }
@@ -423,6 +450,7 @@ impl eframe::App for BvhLabApp {
         let replies = self.worker.poll();
         self.handle_replies(&ctx, replies);
         self.take_picked_file();
+        self.take_save_path();
         self.take_dropped_files(&ctx);
         self.shortcuts(&ctx);
 
@@ -451,10 +479,14 @@ impl eframe::App for BvhLabApp {
             ctx.request_repaint_after(Duration::from_millis(100));
         }
         let settled = self.settled();
-        if let Some(plan) = &mut self.screenshot
-            && plan.step(settled, &ctx)
-        {
-            self.scripted_refit();
+        let action = match &mut self.screenshot {
+            Some(plan) => plan.step(settled, &ctx),
+            None => screenshot::Action::None,
+        };
+        match action {
+            screenshot::Action::Refit => self.scripted_refit(),
+            screenshot::Action::Replay(r) => self.scripted_replay(r),
+            screenshot::Action::None => {}
         }
     }
 
@@ -496,6 +528,21 @@ impl BvhLabApp {
                 ctx.request_repaint();
             }
         });
+    }
+
+    /// For a replay screenshot: replay the ray through a point of the view.
+    fn scripted_replay(&mut self, r: screenshot::ReplayShot) {
+        let Some(shown) = &self.shown else { return };
+        let (w, h) = (shown.job.width, shown.job.height);
+        let x = ((r.at[0] * w as f32) as u32).min(w - 1);
+        let y = ((r.at[1] * h as f32) as u32).min(h - 1);
+        self.tool = Tool::Replay;
+        self.replay_pixel(x, y);
+        // A primary ray seen from its own eye is a point: turn the camera to see it from
+        // the side (the replay is drawn in the world, so it stays where it is).
+        let height = self.viewport_px[1] as f32;
+        self.orbit.rotate(height * 0.25, height * 0.06, height);
+        self.last_interaction = Some(Instant::now());
     }
 
     /// For the refit screenshot: drag the triangle under the centre of the view away, so its

@@ -56,6 +56,8 @@ pub fn top_bar(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             ui.label("left drag:");
             ui.selectable_value(&mut app.tool, Tool::Orbit, "orbit (O)");
             ui.selectable_value(&mut app.tool, Tool::Move, "move triangles (M)");
+            ui.selectable_value(&mut app.tool, Tool::Replay, "replay a ray (P)")
+                .on_hover_text("Click a pixel, then step through its ray's traversal with ← / →");
             ui.separator();
             let scale = ui.add(
                 egui::Slider::new(&mut app.settings.ui_scale, 0.75..=2.5)
@@ -505,6 +507,10 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         super::bucket_plot::show(ui, costs, own.then_some(info.sah_cost));
         ui.separator();
     }
+    if app.replay.is_some() || app.replay_error.is_some() || app.tool == Tool::Replay {
+        super::replay::section(app, ui);
+        ui.separator();
+    }
     ui.heading("Build");
     if let Some(r) = &app.report {
         egui::Grid::new("report")
@@ -591,6 +597,7 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             });
     }
     sah_check_section(app, ui);
+    super::export::section(app, ui);
     if app.bvh_report.is_none() {
         return;
     }
@@ -731,6 +738,12 @@ pub fn help_window(app: &mut BvhLabApp, ctx: &egui::Context) {
                         ("F", "frame the whole scene"),
                         ("R", "back to the scene's own view"),
                         ("O / M", "orbit tool / move-triangles tool"),
+                        ("P", "replay tool: click a pixel to replay its ray"),
+                        (
+                            "Left / Right, Home / End",
+                            "replay: previous / next visit, first / last visit",
+                        ),
+                        ("Esc", "close the replay"),
                         (
                             "1 … 7",
                             "shaded, normals, depth, nodes, box tests, triangle tests, repeated tests",

@@ -25,8 +25,27 @@ pub enum Shot {
 enum Stage {
     Settling,
     Refitting,
+    Replaying,
     Requested,
     Closing,
+}
+
+/// A replay to show in the shot: the ray through `at` (0..1 across and down the view), at
+/// visit `visit` (counted from 1; past the last, the last).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReplayShot {
+    pub at: [f32; 2],
+    pub visit: usize,
+}
+
+/// What the app is to do for the plan.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Action {
+    None,
+    /// Drag an object away (the refit shot).
+    Refit,
+    /// Replay the ray through this point of the view.
+    Replay(ReplayShot),
 }
 
 /// What the screenshot run saved: the path, or why it could not.
@@ -42,6 +61,8 @@ pub struct ScreenshotPlan {
     pub level: Option<u32>,
     /// The node the tree walk opens at (the bucket-cost plot shows its splits).
     pub walk: Option<u32>,
+    /// Replay the ray through this point of the view (0..1 across and down) and show it.
+    pub replay: Option<ReplayShot>,
     pub result: Outcome,
     stage: Stage,
     started: Instant,
@@ -59,6 +80,7 @@ impl ScreenshotPlan {
             height,
             level: None,
             walk: None,
+            replay: None,
             result: Arc::new(Mutex::new(None)),
             stage: Stage::Settling,
             started: Instant::now(),
@@ -95,22 +117,26 @@ impl ScreenshotPlan {
     }
 
     /// Advances the plan; `settled` says the worker is idle and the full frame is shown.
-    /// Returns true once when the app should perform the scripted drag of a refit shot.
-    pub fn step(&mut self, settled: bool, ctx: &egui::Context) -> bool {
+    /// Returns, once, what the app is to do before the shot (the scripted drag of a refit
+    /// shot, the replay of a replay shot).
+    pub fn step(&mut self, settled: bool, ctx: &egui::Context) -> Action {
         if self.started.elapsed() > TIMEOUT && self.stage != Stage::Closing {
             self.finish(Err(format!("the frame did not settle within {TIMEOUT:?}")));
         }
-        let mut refit = false;
+        let mut action = Action::None;
         match self.stage {
             Stage::Settling if settled => {
                 if self.shot == Shot::Refit {
                     self.stage = Stage::Refitting;
-                    refit = true;
+                    action = Action::Refit;
+                } else if let Some(r) = self.replay {
+                    self.stage = Stage::Replaying;
+                    action = Action::Replay(r);
                 } else {
                     self.request(ctx);
                 }
             }
-            Stage::Refitting if settled => self.request(ctx),
+            Stage::Refitting | Stage::Replaying if settled => self.request(ctx),
             Stage::Requested if self.result.lock().is_ok_and(|r| r.is_some()) => {
                 self.stage = Stage::Closing;
             }
@@ -119,7 +145,7 @@ impl ScreenshotPlan {
         }
         // Keep frames coming until the window closes.
         ctx.request_repaint_after(Duration::from_millis(50));
-        refit
+        action
     }
 
     fn request(&mut self, ctx: &egui::Context) {

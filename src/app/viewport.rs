@@ -3,6 +3,7 @@
 //! counters of the pixel under the cursor.
 
 use super::panels::{Step, legend};
+use super::replay::Go;
 use super::settings::ViewMode;
 use super::{BvhLabApp, Drag, Tool};
 use crate::scene::Camera;
@@ -26,6 +27,7 @@ pub fn show(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         painter.image(tex.id(), rect, uv, egui::Color32::WHITE);
     }
     handle_input(app, ui, &response, rect);
+    super::replay::draw(app, &painter, rect);
     app.probe = response.hover_pos().map(|p| {
         [
             (p.x - rect.min.x) / rect.width(),
@@ -131,6 +133,13 @@ fn handle_input(app: &mut BvhLabApp, ui: &egui::Ui, response: &egui::Response, r
     {
         app.selection = pick(app, rect, pos);
     }
+    if response.clicked()
+        && app.tool == Tool::Replay
+        && let Some(pos) = response.interact_pointer_pos()
+        && let Some((x, y)) = pixel_at(app, rect, pos)
+    {
+        app.replay_pixel(x, y);
+    }
     if response.hovered() {
         let scroll = ui.input(|i| i.smooth_scroll_delta.y);
         if scroll != 0.0 {
@@ -217,16 +226,35 @@ impl BvhLabApp {
         if pressed(Key::M) {
             self.tool = Tool::Move;
         }
+        if pressed(Key::P) {
+            self.tool = Tool::Replay;
+        }
+        if pressed(Key::Escape) {
+            self.replay = None;
+        }
+        // While a replay is open the arrows step through it, not the tree walk.
+        if self.replay.is_some() {
+            for (k, go) in [
+                (Key::ArrowLeft, Go::Previous),
+                (Key::ArrowRight, Go::Next),
+                (Key::Home, Go::First),
+                (Key::End, Go::Last),
+            ] {
+                if pressed(k) {
+                    self.replay_go(go);
+                }
+            }
+        }
         if pressed(Key::W) {
             self.walk = if self.walk.is_some() { None } else { Some(0) };
         }
         if pressed(Key::ArrowUp) {
             self.walk_to(Step::Parent);
         }
-        if pressed(Key::ArrowLeft) {
+        if pressed(Key::ArrowLeft) && self.replay.is_none() {
             self.walk_to(Step::Left);
         }
-        if pressed(Key::ArrowRight) {
+        if pressed(Key::ArrowRight) && self.replay.is_none() {
             self.walk_to(Step::Right);
         }
         if pressed(Key::F) {

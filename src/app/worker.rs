@@ -16,7 +16,8 @@ use crate::accel::{Outline, StructureReport};
 use crate::bench::sah_check::{mean_work_of, random_lines};
 use crate::geometry::Aabb;
 use crate::render::overlay::{OutlinedBox, outline_boxes, palette, tint_triangles};
-use crate::render::{Frame, Mode, RenderSettings, colorize, trace};
+use crate::render::replay::{Replay, replay_pixel};
+use crate::render::{Frame, Mode, RayKind, RenderSettings, colorize, trace};
 use crate::scene::{Camera, Scene};
 use glam::Vec3;
 use std::cell::RefCell;
@@ -74,6 +75,18 @@ pub enum Command {
     /// Send the scene with its triangles where they are now (after moves).
     Snapshot,
     Undo,
+    /// Trace one pixel's ray again, recording its traversal (the ray replay).
+    Replay(ReplayRequest),
+}
+
+/// A pixel of a frame whose ray to replay: its primary ray, or its shadow ray.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReplayRequest {
+    pub camera: Camera,
+    pub width: u32,
+    pub height: u32,
+    pub pixel: (u32, u32),
+    pub rays: RayKind,
 }
 
 /// What the walk's current node is, in the lecture's terms.
@@ -161,6 +174,8 @@ pub enum Reply {
     },
     Frame(Arc<Shown>),
     Snapshot(Arc<Scene>),
+    /// The recorded traversal of a pixel's ray, or why there is none.
+    Replayed(Result<Arc<Replay>, String>),
     /// Every command up to this sequence number has been handled.
     Idle(u64),
 }
@@ -420,6 +435,10 @@ impl State {
                     }
                 }
             }
+            Command::Replay(request) => {
+                let replayed = self.replay(&request);
+                self.reply(Reply::Replayed(replayed));
+            }
             Command::Undo => {
                 let step = if self.gesture.is_empty() {
                     self.undo.pop().unwrap_or_default()
@@ -518,6 +537,23 @@ impl State {
             rebuild_time,
             bvh_refit_time,
         });
+    }
+
+    /// Replays a pixel through the structure as it is now, in the scene as it is now.
+    fn replay(&self, r: &ReplayRequest) -> Result<Arc<Replay>, String> {
+        let (Some(scene), Some(structure)) = (&self.scene, &self.structure) else {
+            return Err("there is no structure to replay yet".into());
+        };
+        let settings = RenderSettings {
+            width: r.width,
+            height: r.height,
+            camera: r.camera,
+            light: scene.light(),
+            ..RenderSettings::for_scene(scene, r.width, r.height)
+        };
+        replay_pixel::<crate::geometry::Watertight>(structure, scene, &settings, r.pixel, r.rays)
+            .map(Arc::new)
+            .map_err(|e| e.to_string())
     }
 
     fn render(&mut self, job: RenderJob) {

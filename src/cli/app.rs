@@ -71,6 +71,27 @@ pub struct ScreenshotArgs {
     /// Open the tree walk at this node (0 = the root), with its bucket-cost plot.
     #[arg(long)]
     pub walk: Option<u32>,
+    /// Replay the ray through this point of the view, given as fractions u,v of its width
+    /// and height (0,0 top left), and show it in the shot; the camera then turns 45° so the
+    /// ray is seen from the side.
+    #[arg(long, value_parser = parse_fraction_pair)]
+    pub replay: Option<[f32; 2]>,
+    /// With --replay: the visit shown, counted from 1 (default: the last).
+    #[arg(long, requires = "replay")]
+    pub replay_visit: Option<usize>,
+}
+
+fn parse_fraction_pair(s: &str) -> Result<[f32; 2], String> {
+    let bad = || format!("expected u,v with each between 0 and 1, got '{s}'");
+    let (u, v) = s.split_once(',').ok_or_else(bad)?;
+    let f = |t: &str| {
+        t.trim()
+            .parse::<f32>()
+            .ok()
+            .filter(|x| (0.0..=1.0).contains(x))
+            .ok_or_else(bad)
+    };
+    Ok([f(u)?, f(v)?])
 }
 
 pub fn screenshot(args: ScreenshotArgs) -> Result<()> {
@@ -89,6 +110,10 @@ pub fn screenshot(args: ScreenshotArgs) -> Result<()> {
     let mut plan = ScreenshotPlan::new(args.out, shot, args.width, args.height);
     plan.level = args.level;
     plan.walk = args.walk;
+    plan.replay = args.replay.map(|at| bvhlab::app::screenshot::ReplayShot {
+        at,
+        visit: args.replay_visit.unwrap_or(usize::MAX),
+    });
     run_app(Launch {
         scene: Some(args.scene),
         accel: Some(accel),

@@ -4,6 +4,7 @@ pub mod app;
 pub mod bench;
 pub mod frames;
 pub mod render;
+pub mod replay;
 pub mod stats;
 pub mod stress;
 pub mod trace;

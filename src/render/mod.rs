@@ -3,8 +3,10 @@
 //! the work each pixel's rays took.
 
 pub mod colormap;
+pub mod export;
 pub mod frame;
 pub mod overlay;
+pub mod replay;
 
 pub use frame::{CounterSummary, Frame, FrameSummary, RayKind, Sample};
 
@@ -196,7 +198,7 @@ fn shade<A: Accel, I: Intersector, S: Stats + Into<Counters>>(
         .map_or(Vec3::splat(0.7), |o| scene.objects[o].color);
     let mut shadow = S::default();
     let (lit, cos_light) = if settings.shadows {
-        let shadow_ray = SurfacePoint::on_triangle(tri, hit.u, hit.v).ray_towards(normal, light);
+        let shadow_ray = shadow_ray(tri, ray, &hit, light);
         let occluded = accel.any_hit::<I, _>(&shadow_ray, &mut shadow);
         (!occluded, normal.dot(shadow_ray.direction).max(0.0))
     } else {
@@ -213,6 +215,13 @@ fn shade<A: Accel, I: Intersector, S: Stats + Into<Counters>>(
         primary: primary.into(),
         shadow: shadow.into(),
     }
+}
+
+/// The shadow ray from `hit` (of `ray`, on triangle `tri`) towards the light: spawned off
+/// the surface on the side the ray came from.
+pub fn shadow_ray(tri: &crate::geometry::Triangle, ray: &Ray, hit: &Hit, light: Vec3) -> Ray {
+    let normal = tri.facing_normal(ray.direction);
+    SurfacePoint::on_triangle(tri, hit.u, hit.v).ray_towards(normal, light)
 }
 
 impl Frame {

@@ -7,6 +7,8 @@
 
 use super::Bvh;
 use super::build::MAX_DEPTH;
+use crate::accel::replay::{Child, Level, Order, Step, Visited, entered};
+use crate::accel::stats::record;
 use crate::accel::{Accel, BestHit, Hit, Stats, TraversalOrder};
 use crate::geometry::aabb::{SlabRay, slab_entry};
 use crate::geometry::{Intersector, Ray, gamma};
@@ -43,7 +45,11 @@ impl Bvh {
         let nodes = &self.nodes;
         stats.box_tests(1);
         let root = &nodes[0];
-        if slab_entry(&root.corners, &slab, ray.tmin, ray.tmax) == f32::INFINITY {
+        let root_entry = slab_entry(&root.corners, &slab, ray.tmin, ray.tmax);
+        record(stats, || Step::Bounds {
+            entry: entered(root_entry),
+        });
+        if root_entry == f32::INFINITY {
             return None;
         }
         let data = I::prepare(ray);
@@ -55,11 +61,17 @@ impl Bvh {
         loop {
             stats.node_visit();
             let node = &nodes[index];
+            record(stats, || self.visit_step(index));
             if node.is_leaf() {
                 for i in node.prim_range() {
                     stats.triangle_test();
                     let tri = &self.triangles[i];
-                    if let Some(h) = I::intersect(&data, ray, tri, ray.tmin, best.limit) {
+                    let hit = I::intersect(&data, ray, tri, ray.tmin, best.limit);
+                    record(stats, || Step::Triangle {
+                        triangle: self.prim_indices[i].into(),
+                        t: hit.map(|h| h.t),
+                    });
+                    if let Some(h) = hit {
                         best.offer(h, self.prim_indices[i]);
                         box_tmax = best.t * T_SCALE;
                     }
@@ -75,8 +87,15 @@ impl Bvh {
                     std::mem::swap(&mut da, &mut db);
                     std::mem::swap(&mut ia, &mut ib);
                 }
+                let order = if ORDERED {
+                    Order::Nearest
+                } else {
+                    Order::Fixed
+                };
+                record(stats, || self.children_step([(ia, da), (ib, db)], order));
                 if da != f32::INFINITY {
                     if db != f32::INFINITY {
+                        record(stats, || self.push_step(ib, db));
                         stack[sp] = (ib as u32, db);
                         sp += 1;
                     }
@@ -94,6 +113,9 @@ impl Bvh {
                 }
                 sp -= 1;
                 let (next, entry) = stack[sp];
+                record(stats, || {
+                    self.pop_step(next as usize, entry, box_tmax, best.t)
+                });
                 if entry <= box_tmax {
                     index = next as usize;
                     break;
@@ -117,7 +139,11 @@ impl Bvh {
         stats.box_tests(1);
         let root = &nodes[0];
         let tmax = ray.tmax * T_SCALE;
-        if slab_entry(&root.corners, &slab, ray.tmin, tmax) == f32::INFINITY {
+        let root_entry = slab_entry(&root.corners, &slab, ray.tmin, tmax);
+        record(stats, || Step::Bounds {
+            entry: entered(root_entry),
+        });
+        if root_entry == f32::INFINITY {
             return false;
         }
         let data = I::prepare(ray);
@@ -127,10 +153,16 @@ impl Bvh {
         loop {
             stats.node_visit();
             let node = &nodes[index];
+            record(stats, || self.visit_step(index));
             if node.is_leaf() {
                 for i in node.prim_range() {
                     stats.triangle_test();
-                    if I::intersect(&data, ray, &self.triangles[i], ray.tmin, ray.tmax).is_some() {
+                    let hit = I::intersect(&data, ray, &self.triangles[i], ray.tmin, ray.tmax);
+                    record(stats, || Step::Triangle {
+                        triangle: self.prim_indices[i].into(),
+                        t: hit.map(|h| h.t),
+                    });
+                    if hit.is_some() {
                         return true;
                     }
                 }
@@ -138,10 +170,15 @@ impl Bvh {
                 let l = node.left_first as usize;
                 let [a, b] = nodes.pair(l);
                 stats.box_tests(2);
-                let hit_a = slab_entry(&a.corners, &slab, ray.tmin, tmax) != f32::INFINITY;
-                let hit_b = slab_entry(&b.corners, &slab, ray.tmin, tmax) != f32::INFINITY;
+                let da = slab_entry(&a.corners, &slab, ray.tmin, tmax);
+                let db = slab_entry(&b.corners, &slab, ray.tmin, tmax);
+                record(stats, || {
+                    self.children_step([(l, da), (l + 1, db)], Order::AnyHit)
+                });
+                let (hit_a, hit_b) = (da != f32::INFINITY, db != f32::INFINITY);
                 if hit_a {
                     if hit_b {
+                        record(stats, || self.push_step(l + 1, db));
                         stack[sp] = l as u32 + 1;
                         sp += 1;
                     }
@@ -157,6 +194,75 @@ impl Bvh {
             }
             sp -= 1;
             index = stack[sp] as usize;
+            record(stats, || Step::Pop {
+                node: index as u32,
+                leaf: nodes[index].is_leaf(),
+                entry: None,
+            });
+        }
+    }
+}
+
+// The steps of a BVH2 walk, for a recording sink; shared by the BVH2 and the two levels.
+impl Bvh {
+    pub(crate) fn visit_step_at(&self, index: usize, level: Level) -> Step {
+        let node = &self.nodes[index];
+        let what = if node.is_leaf() {
+            Visited::Leaf
+        } else {
+            Visited::Node
+        };
+        Step::visit(index, what, level, node.bounds())
+    }
+
+    fn visit_step(&self, index: usize) -> Step {
+        self.visit_step_at(index, Level::Single)
+    }
+
+    /// Two children in the order they are taken, with their entry distances (+∞: missed).
+    pub(crate) fn children_step(&self, children: [(usize, f32); 2], order: Order) -> Step {
+        let children: Vec<Child> = children
+            .iter()
+            .map(|&(i, t)| Child {
+                node: i as u32,
+                leaf: self.nodes[i].is_leaf(),
+                entry: entered(t),
+            })
+            .collect();
+        let first = children.iter().find(|c| c.entry.is_some()).map(|c| c.node);
+        Step::Children {
+            children,
+            first,
+            order,
+        }
+    }
+
+    pub(crate) fn push_step(&self, index: usize, entry: f32) -> Step {
+        Step::Push {
+            node: index as u32,
+            leaf: self.nodes[index].is_leaf(),
+            entry,
+        }
+    }
+
+    /// A node popped with entry `entry`: visited if it starts within `reach` (the best
+    /// hit so far, `best`, widened for rounding), skipped otherwise.
+    pub(crate) fn pop_step(&self, index: usize, entry: f32, reach: f32, best: f32) -> Step {
+        let leaf = self.nodes[index].is_leaf();
+        let node = index as u32;
+        if entry <= reach {
+            Step::Pop {
+                node,
+                leaf,
+                entry: Some(entry),
+            }
+        } else {
+            Step::Skip {
+                node,
+                leaf,
+                entry,
+                best,
+            }
         }
     }
 }

@@ -10,7 +10,8 @@
 
 use super::Grid;
 use crate::accel::bvh::traverse::T_SCALE;
-use crate::accel::stats::count_locally;
+use crate::accel::replay::{Level, Step, Visited, entered};
+use crate::accel::stats::{count_locally, record};
 use crate::accel::{Accel, BestHit, Hit, Mailbox, NoStats, Stats};
 use crate::geometry::aabb::SlabRay;
 use crate::geometry::{Aabb, Intersector, Ray};
@@ -47,11 +48,13 @@ impl Grid {
         mut visit: impl FnMut(usize, &mut S) -> Next,
     ) {
         stats.box_tests(1);
-        if self
+        let entry = self
             .bounds
-            .slab_test(&SlabRay::new(ray), ray.tmin, ray.tmax)
-            == f32::INFINITY
-        {
+            .slab_test(&SlabRay::new(ray), ray.tmin, ray.tmax);
+        record(stats, || Step::Bounds {
+            entry: entered(entry),
+        });
+        if entry == f32::INFINITY {
             return;
         }
         let o = ray.origin.as_dvec3();
@@ -88,6 +91,10 @@ impl Grid {
         let exit = widened64(t1);
         loop {
             stats.node_visit();
+            record(stats, || {
+                let bounds = self.cell_bounds(idx);
+                Step::visit(self.linear(idx), Visited::Cell, Level::Single, bounds)
+            });
             let until = match visit(self.linear(idx), stats) {
                 Next::Until(t) => t.min(exit),
                 Next::Stop => return,
@@ -101,23 +108,28 @@ impl Grid {
             };
             // The next cell is entered at next[k]; past `until` it cannot hold a hit that
             // beats (or ties) the best one, or lies beyond tmax.
+            let t = next[k] as f32;
             if next[k] > until {
+                record(stats, || Step::Stop { t });
                 return;
             }
             if step[k] > 0 {
                 idx[k] += 1;
                 if idx[k] == self.res[k] {
+                    record(stats, || Step::Stop { t });
                     return;
                 }
                 next[k] = (self.plane(k, idx[k] + 1) - o[k]) * inv[k];
             } else {
                 if idx[k] == 0 {
+                    record(stats, || Step::Stop { t });
                     return;
                 }
                 idx[k] -= 1;
                 next[k] = (self.plane(k, idx[k]) - o[k]) * inv[k];
             }
             stats.box_tests(1);
+            record(stats, || Step::Cross { axis: k as u8, t });
         }
     }
 

@@ -10,10 +10,11 @@
 
 use super::{KdTree, MAX_DEPTH};
 use crate::accel::bvh::traverse::T_SCALE;
-use crate::accel::stats::count_locally;
+use crate::accel::replay::{Level, Step, Visited, entered};
+use crate::accel::stats::{count_locally, record};
 use crate::accel::{Accel, BestHit, Hit, Mailbox, Stats};
 use crate::geometry::aabb::SlabRay;
-use crate::geometry::{Intersector, Ray};
+use crate::geometry::{Aabb, Intersector, Ray};
 
 /// The stack holds at most one cell per level below the root.
 const STACK_SIZE: usize = MAX_DEPTH as usize + 1;
@@ -97,8 +98,16 @@ impl KdTree {
     /// The ray's interval inside the root cell, widened for rounding, or `None` if it
     /// misses the tree's bounds within (tmin, tmax).
     #[inline(always)]
-    fn root_interval(&self, ray: &Ray, slab: &SlabRay) -> Option<(f32, f32)> {
+    fn root_interval<S: Stats>(
+        &self,
+        ray: &Ray,
+        slab: &SlabRay,
+        stats: &mut S,
+    ) -> Option<(f32, f32)> {
         let entry = self.bounds.slab_test(slab, ray.tmin, ray.tmax);
+        record(stats, || Step::Bounds {
+            entry: entered(entry),
+        });
         if entry == f32::INFINITY {
             return None;
         }
@@ -174,7 +183,7 @@ impl KdTree {
     ) -> Option<Hit> {
         let slab = SlabRay::new(ray);
         stats.box_tests(1);
-        let (t0, t1) = self.root_interval(ray, &slab)?;
+        let (t0, t1) = self.root_interval(ray, &slab, stats)?;
         let plane_ray = PlaneRay::new(&slab);
         let data = I::prepare(ray);
         let mut best = BestHit::new(ray);
@@ -187,10 +196,13 @@ impl KdTree {
         loop {
             stats.node_visit();
             let node = &self.nodes[index];
+            record(stats, || self.visit_step(index));
             if !node.is_leaf() {
                 stats.box_tests(1);
                 let (next, later) = self.step(index, &plane_ray, tmin, tmax, reach);
+                record(stats, || self.plane_step(index, &plane_ray, next.0, later));
                 if let Some(entry) = later {
+                    record(stats, || self.push_step(entry));
                     stack[sp] = entry;
                     sp += 1;
                 }
@@ -199,11 +211,19 @@ impl KdTree {
             } else {
                 for &tri in node.leaf_refs(&self.refs) {
                     if !mailbox.admit(tri, stats) {
+                        record(stats, || Step::Mailboxed {
+                            triangle: tri.into(),
+                        });
                         continue;
                     }
                     stats.triangle_test();
                     let t = &self.triangles[tri as usize];
-                    if let Some(h) = I::intersect(&data, ray, t, ray.tmin, best.limit) {
+                    let hit = I::intersect(&data, ray, t, ray.tmin, best.limit);
+                    record(stats, || Step::Triangle {
+                        triangle: tri.into(),
+                        t: hit.map(|h| h.t),
+                    });
+                    if let Some(h) = hit {
                         best.offer(h, tri);
                         reach = best.t * T_SCALE;
                     }
@@ -216,6 +236,7 @@ impl KdTree {
                 }
                 sp -= 1;
                 let (next, start, end) = stack[sp];
+                record(stats, || self.pop_step(next, start, reach, best.t));
                 if start <= reach {
                     (index, tmin, tmax) = (next as usize, start, end);
                     break;
@@ -245,7 +266,7 @@ impl KdTree {
     ) -> bool {
         let slab = SlabRay::new(ray);
         stats.box_tests(1);
-        let Some((t0, t1)) = self.root_interval(ray, &slab) else {
+        let Some((t0, t1)) = self.root_interval(ray, &slab, stats) else {
             return false;
         };
         let plane_ray = PlaneRay::new(&slab);
@@ -258,10 +279,13 @@ impl KdTree {
         loop {
             stats.node_visit();
             let node = &self.nodes[index];
+            record(stats, || self.visit_step(index));
             if !node.is_leaf() {
                 stats.box_tests(1);
                 let (next, later) = self.step(index, &plane_ray, tmin, tmax, reach);
+                record(stats, || self.plane_step(index, &plane_ray, next.0, later));
                 if let Some(entry) = later {
+                    record(stats, || self.push_step(entry));
                     stack[sp] = entry;
                     sp += 1;
                 }
@@ -270,11 +294,19 @@ impl KdTree {
             } else {
                 for &tri in node.leaf_refs(&self.refs) {
                     if !mailbox.admit(tri, stats) {
+                        record(stats, || Step::Mailboxed {
+                            triangle: tri.into(),
+                        });
                         continue;
                     }
                     stats.triangle_test();
                     let t = &self.triangles[tri as usize];
-                    if I::intersect(&data, ray, t, ray.tmin, ray.tmax).is_some() {
+                    let hit = I::intersect(&data, ray, t, ray.tmin, ray.tmax);
+                    record(stats, || Step::Triangle {
+                        triangle: tri.into(),
+                        t: hit.map(|h| h.t),
+                    });
+                    if hit.is_some() {
                         return true;
                     }
                 }
@@ -284,6 +316,79 @@ impl KdTree {
             }
             sp -= 1;
             (index, tmin, tmax) = (stack[sp].0 as usize, stack[sp].1, stack[sp].2);
+            record(stats, || self.pop_step(stack[sp].0, tmin, reach, reach));
+        }
+    }
+}
+
+// The steps of the walk, for a recording sink.
+impl KdTree {
+    fn is_leaf(&self, index: u32) -> bool {
+        self.nodes[index as usize].is_leaf()
+    }
+
+    /// The cell of node `index`: the root's box cut by the planes on the way down to it
+    /// (nodes are stored depth first, the below child right after its parent).
+    fn cell_bounds(&self, index: usize) -> Aabb {
+        let mut cell = self.bounds;
+        let mut at = 0;
+        while at != index && !self.nodes[at].is_leaf() {
+            let node = &self.nodes[at];
+            let (axis, split) = (node.axis(), node.split());
+            if index < node.above_child() {
+                cell.max[axis] = split;
+                at += 1;
+            } else {
+                cell.min[axis] = split;
+                at = node.above_child();
+            }
+        }
+        cell
+    }
+
+    fn visit_step(&self, index: usize) -> Step {
+        let what = if self.nodes[index].is_leaf() {
+            Visited::Leaf
+        } else {
+            Visited::Node
+        };
+        Step::visit(index, what, Level::Single, self.cell_bounds(index))
+    }
+
+    fn plane_step(&self, index: usize, ray: &PlaneRay, near: usize, far: Option<Pending>) -> Step {
+        let node = &self.nodes[index];
+        let axis = node.axis() & 3;
+        Step::Plane {
+            axis: axis as u8,
+            t: (node.split() - ray.origin[axis]) * ray.inv_dir[axis],
+            near: near as u32,
+            far: far.map(|p| p.0),
+        }
+    }
+
+    fn push_step(&self, (node, entry, _): Pending) -> Step {
+        Step::Push {
+            node,
+            leaf: self.is_leaf(node),
+            entry,
+        }
+    }
+
+    fn pop_step(&self, node: u32, entry: f32, reach: f32, best: f32) -> Step {
+        let leaf = self.is_leaf(node);
+        if entry <= reach {
+            Step::Pop {
+                node,
+                leaf,
+                entry: Some(entry),
+            }
+        } else {
+            Step::Skip {
+                node,
+                leaf,
+                entry,
+                best,
+            }
         }
     }
 }

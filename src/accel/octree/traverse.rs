@@ -7,8 +7,10 @@
 
 use super::Octree;
 use crate::accel::grid::dda::{Next, widened, widened64};
-use crate::accel::stats::count_locally;
+use crate::accel::replay::{Child, Level, Step, Visited, entered};
+use crate::accel::stats::{count_locally, record};
 use crate::accel::{Accel, BestHit, Hit, Mailbox, Stats};
+use crate::geometry::Aabb;
 use crate::geometry::aabb::SlabRay;
 use crate::geometry::{Intersector, Ray};
 use glam::DVec3;
@@ -39,11 +41,13 @@ impl Octree {
         mut visit: impl FnMut(&[u32], &mut S) -> Next,
     ) {
         stats.box_tests(1);
-        if self
+        let entry = self
             .bounds
-            .slab_test(&SlabRay::new(ray), ray.tmin, ray.tmax)
-            == f32::INFINITY
-        {
+            .slab_test(&SlabRay::new(ray), ray.tmin, ray.tmax);
+        record(stats, || Step::Bounds {
+            entry: entered(entry),
+        });
+        if entry == f32::INFINITY {
             return;
         }
         let o = ray.origin.as_dvec3();
@@ -76,6 +80,18 @@ impl Octree {
         loop {
             stats.node_visit();
             let node = self.nodes[cell.node as usize];
+            record(stats, || {
+                let what = if node.is_leaf() {
+                    Visited::Leaf
+                } else {
+                    Visited::Node
+                };
+                let bounds = Aabb::new(
+                    cell.min.as_vec3(),
+                    (cell.min + DVec3::splat(cell.size)).as_vec3(),
+                );
+                Step::visit(cell.node as usize, what, Level::Single, bounds)
+            });
             if node.is_leaf() {
                 let refs = &self.refs[node.first as usize..(node.first + node.count) as usize];
                 match visit(refs, stats) {
@@ -125,6 +141,19 @@ impl Octree {
                     start = t;
                 }
                 pieces[n] = (octant, start, cell.t1);
+                record(stats, || Step::Octants {
+                    children: pieces[..=n]
+                        .iter()
+                        .filter_map(|&(oct, a, _)| {
+                            let child = node.child(oct)?;
+                            Some(Child {
+                                node: child,
+                                leaf: self.nodes[child as usize].is_leaf(),
+                                entry: Some(a as f32),
+                            })
+                        })
+                        .collect(),
+                });
                 for &(oct, a, b) in pieces[..=n].iter().rev() {
                     if let Some(child) = node.child(oct) {
                         let corner = DVec3::new(
@@ -140,6 +169,11 @@ impl Octree {
                             size: half,
                         };
                         sp += 1;
+                        record(stats, || Step::Push {
+                            node: child,
+                            leaf: self.nodes[child as usize].is_leaf(),
+                            entry: a as f32,
+                        });
                     }
                 }
             }
@@ -149,6 +183,24 @@ impl Octree {
                     return;
                 }
                 sp -= 1;
+                record(stats, || {
+                    let (node, entry) = (stack[sp].node, stack[sp].t0 as f32);
+                    let leaf = self.nodes[node as usize].is_leaf();
+                    if stack[sp].t0 <= until {
+                        Step::Pop {
+                            node,
+                            leaf,
+                            entry: Some(entry),
+                        }
+                    } else {
+                        Step::Skip {
+                            node,
+                            leaf,
+                            entry,
+                            best: until as f32,
+                        }
+                    }
+                });
                 if stack[sp].t0 <= until {
                     cell = stack[sp];
                     break;

@@ -5,7 +5,8 @@
 
 use super::TwoLevel;
 use crate::accel::bvh::traverse::{STACK_SIZE, T_SCALE};
-use crate::accel::stats::count_locally;
+use crate::accel::replay::{Level, Order, Step, entered};
+use crate::accel::stats::{count_locally, record};
 use crate::accel::{Accel, BestHit, Hit, Stats, TraversalOrder};
 use crate::geometry::aabb::{SlabRay, slab_entry};
 use crate::geometry::{Intersector, Ray};
@@ -66,7 +67,11 @@ impl TwoLevel {
         let world = Descent::<I>::new(ray);
         let nodes = &self.tlas.nodes;
         stats.box_tests(1);
-        if slab_entry(&nodes[0].corners, &world.slab, ray.tmin, ray.tmax) == f32::INFINITY {
+        let root_entry = slab_entry(&nodes[0].corners, &world.slab, ray.tmin, ray.tmax);
+        record(stats, || Step::Bounds {
+            entry: entered(root_entry),
+        });
+        if root_entry == f32::INFINITY {
             return None;
         }
         let mut local = Descent::<I>::new(ray);
@@ -78,10 +83,12 @@ impl TwoLevel {
         loop {
             stats.node_visit();
             let node = &nodes[index];
+            record(stats, || self.tlas.visit_step_at(index, Level::Top));
             if node.is_leaf() {
                 for k in node.prim_range() {
                     let i = self.tlas.prim_indices[k] as usize;
                     let instance = &self.instances[i];
+                    record(stats, || Step::Instance { instance: i as u32 });
                     local.enter(instance, &world);
                     self.blas_closest::<I, S, ORDERED>(
                         instance.mesh,
@@ -103,8 +110,17 @@ impl TwoLevel {
                     std::mem::swap(&mut da, &mut db);
                     std::mem::swap(&mut ia, &mut ib);
                 }
+                let order = if ORDERED {
+                    Order::Nearest
+                } else {
+                    Order::Fixed
+                };
+                record(stats, || {
+                    self.tlas.children_step([(ia, da), (ib, db)], order)
+                });
                 if da != f32::INFINITY {
                     if db != f32::INFINITY {
+                        record(stats, || self.tlas.push_step(ib, db));
                         stack[sp] = (ib as u32, db);
                         sp += 1;
                     }
@@ -121,6 +137,9 @@ impl TwoLevel {
                 }
                 sp -= 1;
                 let (next, entry) = stack[sp];
+                record(stats, || {
+                    self.tlas.pop_step(next as usize, entry, box_tmax, best.t)
+                });
                 if entry <= box_tmax {
                     index = next as usize;
                     break;
@@ -146,7 +165,11 @@ impl TwoLevel {
         let (ray, nodes) = (&d.ray, &blas.nodes);
         let mut box_tmax = best.t * T_SCALE;
         stats.box_tests(1);
-        if slab_entry(&nodes[0].corners, &d.slab, ray.tmin, box_tmax) == f32::INFINITY {
+        let root_entry = slab_entry(&nodes[0].corners, &d.slab, ray.tmin, box_tmax);
+        record(stats, || Step::Bounds {
+            entry: entered(root_entry),
+        });
+        if root_entry == f32::INFINITY {
             return;
         }
         let mut sp = 0;
@@ -154,11 +177,17 @@ impl TwoLevel {
         loop {
             stats.node_visit();
             let node = &nodes[index];
+            record(stats, || blas.visit_step_at(index, Level::Bottom));
             if node.is_leaf() {
                 for i in node.prim_range() {
                     stats.triangle_test();
                     let tri = &blas.triangles[i];
-                    if let Some(h) = I::intersect(&d.data, ray, tri, ray.tmin, best.limit) {
+                    let hit = I::intersect(&d.data, ray, tri, ray.tmin, best.limit);
+                    record(stats, || Step::Triangle {
+                        triangle: first + u64::from(blas.prim_indices[i]),
+                        t: hit.map(|h| h.t),
+                    });
+                    if let Some(h) = hit {
                         best.offer(h, first + u64::from(blas.prim_indices[i]));
                         box_tmax = best.t * T_SCALE;
                     }
@@ -174,8 +203,15 @@ impl TwoLevel {
                     std::mem::swap(&mut da, &mut db);
                     std::mem::swap(&mut ia, &mut ib);
                 }
+                let order = if ORDERED {
+                    Order::Nearest
+                } else {
+                    Order::Fixed
+                };
+                record(stats, || blas.children_step([(ia, da), (ib, db)], order));
                 if da != f32::INFINITY {
                     if db != f32::INFINITY {
+                        record(stats, || blas.push_step(ib, db));
                         d.stack[sp] = (ib as u32, db);
                         sp += 1;
                     }
@@ -192,6 +228,9 @@ impl TwoLevel {
                 }
                 sp -= 1;
                 let (next, entry) = d.stack[sp];
+                record(stats, || {
+                    blas.pop_step(next as usize, entry, box_tmax, best.t)
+                });
                 if entry <= box_tmax {
                     index = next as usize;
                     break;
@@ -205,7 +244,11 @@ impl TwoLevel {
         let nodes = &self.tlas.nodes;
         let tmax = ray.tmax * T_SCALE;
         stats.box_tests(1);
-        if slab_entry(&nodes[0].corners, &world.slab, ray.tmin, tmax) == f32::INFINITY {
+        let root_entry = slab_entry(&nodes[0].corners, &world.slab, ray.tmin, tmax);
+        record(stats, || Step::Bounds {
+            entry: entered(root_entry),
+        });
+        if root_entry == f32::INFINITY {
             return false;
         }
         let mut local = Descent::<I>::new(ray);
@@ -215,11 +258,19 @@ impl TwoLevel {
         loop {
             stats.node_visit();
             let node = &nodes[index];
+            record(stats, || self.tlas.visit_step_at(index, Level::Top));
             if node.is_leaf() {
                 for k in node.prim_range() {
-                    let instance = &self.instances[self.tlas.prim_indices[k] as usize];
+                    let i = self.tlas.prim_indices[k] as usize;
+                    let instance = &self.instances[i];
+                    record(stats, || Step::Instance { instance: i as u32 });
                     local.enter(instance, &world);
-                    if self.blas_any::<I, S>(instance.mesh, &mut local, stats) {
+                    if self.blas_any::<I, S>(
+                        instance.mesh,
+                        self.first_triangle[i],
+                        &mut local,
+                        stats,
+                    ) {
                         return true;
                     }
                 }
@@ -227,10 +278,16 @@ impl TwoLevel {
                 let l = node.left_first as usize;
                 let [a, b] = nodes.pair(l);
                 stats.box_tests(2);
-                let hit_a = slab_entry(&a.corners, &world.slab, ray.tmin, tmax) != f32::INFINITY;
-                let hit_b = slab_entry(&b.corners, &world.slab, ray.tmin, tmax) != f32::INFINITY;
+                let da = slab_entry(&a.corners, &world.slab, ray.tmin, tmax);
+                let db = slab_entry(&b.corners, &world.slab, ray.tmin, tmax);
+                record(stats, || {
+                    self.tlas
+                        .children_step([(l, da), (l + 1, db)], Order::AnyHit)
+                });
+                let (hit_a, hit_b) = (da != f32::INFINITY, db != f32::INFINITY);
                 if hit_a {
                     if hit_b {
+                        record(stats, || self.tlas.push_step(l + 1, db));
                         stack[sp] = l as u32 + 1;
                         sp += 1;
                     }
@@ -246,14 +303,21 @@ impl TwoLevel {
             }
             sp -= 1;
             index = stack[sp] as usize;
+            record(stats, || Step::Pop {
+                node: index as u32,
+                leaf: nodes[index].is_leaf(),
+                entry: None,
+            });
         }
     }
 
-    /// The BVH2 any-hit walk of `blas`'s tree.
+    /// The BVH2 any-hit walk of `blas`'s tree; its triangles are `first` on in the
+    /// flattened scene (as a replay names them).
     #[inline(always)]
     fn blas_any<I: Intersector, S: Stats>(
         &self,
         blas: usize,
+        first: u64,
         d: &mut Descent<I>,
         stats: &mut S,
     ) -> bool {
@@ -261,7 +325,11 @@ impl TwoLevel {
         let (ray, nodes) = (&d.ray, &blas.nodes);
         let tmax = ray.tmax * T_SCALE;
         stats.box_tests(1);
-        if slab_entry(&nodes[0].corners, &d.slab, ray.tmin, tmax) == f32::INFINITY {
+        let root_entry = slab_entry(&nodes[0].corners, &d.slab, ray.tmin, tmax);
+        record(stats, || Step::Bounds {
+            entry: entered(root_entry),
+        });
+        if root_entry == f32::INFINITY {
             return false;
         }
         let mut sp = 0;
@@ -269,11 +337,17 @@ impl TwoLevel {
         loop {
             stats.node_visit();
             let node = &nodes[index];
+            record(stats, || blas.visit_step_at(index, Level::Bottom));
             if node.is_leaf() {
                 for i in node.prim_range() {
                     stats.triangle_test();
                     let tri = &blas.triangles[i];
-                    if I::intersect(&d.data, ray, tri, ray.tmin, ray.tmax).is_some() {
+                    let hit = I::intersect(&d.data, ray, tri, ray.tmin, ray.tmax);
+                    record(stats, || Step::Triangle {
+                        triangle: first + u64::from(blas.prim_indices[i]),
+                        t: hit.map(|h| h.t),
+                    });
+                    if hit.is_some() {
                         return true;
                     }
                 }
@@ -281,10 +355,15 @@ impl TwoLevel {
                 let l = node.left_first as usize;
                 let [a, b] = nodes.pair(l);
                 stats.box_tests(2);
-                let hit_a = slab_entry(&a.corners, &d.slab, ray.tmin, tmax) != f32::INFINITY;
-                let hit_b = slab_entry(&b.corners, &d.slab, ray.tmin, tmax) != f32::INFINITY;
+                let da = slab_entry(&a.corners, &d.slab, ray.tmin, tmax);
+                let db = slab_entry(&b.corners, &d.slab, ray.tmin, tmax);
+                record(stats, || {
+                    blas.children_step([(l, da), (l + 1, db)], Order::AnyHit)
+                });
+                let (hit_a, hit_b) = (da != f32::INFINITY, db != f32::INFINITY);
                 if hit_a {
                     if hit_b {
+                        record(stats, || blas.push_step(l + 1, db));
                         d.stack[sp] = (l as u32 + 1, 0.0);
                         sp += 1;
                     }
@@ -300,6 +379,11 @@ impl TwoLevel {
             }
             sp -= 1;
             index = d.stack[sp].0 as usize;
+            record(stats, || Step::Pop {
+                node: index as u32,
+                leaf: nodes[index].is_leaf(),
+                entry: None,
+            });
         }
     }
 }

@@ -12,6 +12,8 @@ use super::node::INTERIOR;
 use crate::accel::bvh::build::MAX_DEPTH;
 use crate::accel::bvh::packet::PACKET_SIZE;
 use crate::accel::bvh::traverse::T_SCALE;
+use crate::accel::replay::{Child, Level, Order, Step, Visited};
+use crate::accel::stats::record;
 use crate::accel::{Accel, BestHit, Hit, Stats, TraversalOrder};
 use crate::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab};
 use crate::geometry::simd::{SimdLevel, WideRay};
@@ -104,7 +106,12 @@ impl<const W: usize> WideBvh<W> {
             .zip(&self.prim_indices[range])
         {
             stats.triangle_test();
-            if let Some(h) = I::intersect(data, ray, tri, ray.tmin, best.limit) {
+            let hit = I::intersect(data, ray, tri, ray.tmin, best.limit);
+            record(stats, || Step::Triangle {
+                triangle: index.into(),
+                t: hit.map(|h| h.t),
+            });
+            if let Some(h) = hit {
                 best.offer(h, index);
                 found = true;
             }
@@ -132,6 +139,7 @@ impl<const W: usize> WideBvh<W> {
         };
         loop {
             stats.node_visit();
+            record(stats, || self.visit_step(cur));
             if cur.count != INTERIOR {
                 if self.leaf_closest::<I, S>(cur, &data, ray, &mut best, stats) {
                     box_tmax = best.t * T_SCALE;
@@ -145,6 +153,12 @@ impl<const W: usize> WideBvh<W> {
                 // the entry points below are compiled for it.
                 let mut mask =
                     unsafe { K::entries(&node.bounds, &wray, ray.tmin, box_tmax, &mut entry) };
+                let order = if ORDERED {
+                    Order::Nearest
+                } else {
+                    Order::Fixed
+                };
+                record(stats, || self.children_step(cur.child, mask, &entry, order));
                 if mask != 0 {
                     let lane = |i: u32| Entry {
                         child: node.child[i as usize],
@@ -161,12 +175,14 @@ impl<const W: usize> WideBvh<W> {
                         let a = lane(mask.trailing_zeros());
                         let b = lane((mask & (mask - 1)).trailing_zeros());
                         let (near, far) = if b.entry < a.entry { (b, a) } else { (a, b) };
+                        record(stats, || push_step(far));
                         stack.push(far);
                         cur = near;
                         continue;
                     }
                     if ORDERED {
                         while mask != 0 {
+                            record(stats, || push_step(lane(mask.trailing_zeros())));
                             stack.push(lane(mask.trailing_zeros()));
                             mask &= mask - 1;
                             n += 1;
@@ -176,11 +192,13 @@ impl<const W: usize> WideBvh<W> {
                         // Naive order: the first child on top.
                         while mask != 0 {
                             let i = 31 - mask.leading_zeros();
+                            record(stats, || push_step(lane(i)));
                             stack.push(lane(i));
                             mask &= !(1 << i);
                         }
                     }
                     if let Some(e) = stack.pop() {
+                        record(stats, || pop_step(e));
                         cur = e;
                         continue;
                     }
@@ -191,10 +209,11 @@ impl<const W: usize> WideBvh<W> {
                 match stack.pop() {
                     None => return best.hit(),
                     Some(e) if e.entry <= box_tmax => {
+                        record(stats, || pop_step(e));
                         cur = e;
                         break;
                     }
-                    Some(_) => {}
+                    Some(e) => record(stats, || skip_step(e, best.t)),
                 }
             }
         }
@@ -219,11 +238,20 @@ impl<const W: usize> WideBvh<W> {
         };
         loop {
             stats.node_visit();
+            record(stats, || self.visit_step(cur));
             if cur.count != INTERIOR {
                 let range = cur.child as usize..(cur.child + cur.count) as usize;
-                for tri in &self.triangles[range] {
+                for (tri, &index) in self.triangles[range.clone()]
+                    .iter()
+                    .zip(&self.prim_indices[range])
+                {
                     stats.triangle_test();
-                    if I::intersect(&data, ray, tri, ray.tmin, ray.tmax).is_some() {
+                    let hit = I::intersect(&data, ray, tri, ray.tmin, ray.tmax);
+                    record(stats, || Step::Triangle {
+                        triangle: index.into(),
+                        t: hit.map(|h| h.t),
+                    });
+                    if hit.is_some() {
                         return true;
                     }
                 }
@@ -235,17 +263,22 @@ impl<const W: usize> WideBvh<W> {
                 // SAFETY: as in `closest_with`.
                 let mut mask =
                     unsafe { K::entries(&node.bounds, &wray, ray.tmin, tmax, &mut entry) };
+                record(stats, || {
+                    self.children_step(cur.child, mask, &entry, Order::AnyHit)
+                });
                 if mask != 0 {
                     let i = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
                     while mask != 0 {
                         let j = mask.trailing_zeros() as usize;
                         mask &= mask - 1;
-                        stack.push(Entry {
+                        let e = Entry {
                             child: node.child[j],
                             count: node.count[j],
                             entry: entry[j],
-                        });
+                        };
+                        record(stats, || push_step(e));
+                        stack.push(e);
                     }
                     cur = Entry {
                         child: node.child[i],
@@ -257,8 +290,86 @@ impl<const W: usize> WideBvh<W> {
             }
             match stack.pop() {
                 None => return false,
-                Some(e) => cur = e,
+                Some(e) => {
+                    record(stats, || pop_step(e));
+                    cur = e;
+                }
             }
+        }
+    }
+}
+
+// The steps of the walk, for a recording sink. A child is named by its node index, a leaf
+// by its first triangle slot.
+fn push_step(e: Entry) -> Step {
+    Step::Push {
+        node: e.child,
+        leaf: e.count != INTERIOR,
+        entry: e.entry,
+    }
+}
+
+fn pop_step(e: Entry) -> Step {
+    Step::Pop {
+        node: e.child,
+        leaf: e.count != INTERIOR,
+        entry: Some(e.entry),
+    }
+}
+
+fn skip_step(e: Entry, best: f32) -> Step {
+    Step::Skip {
+        node: e.child,
+        leaf: e.count != INTERIOR,
+        entry: e.entry,
+        best,
+    }
+}
+
+impl<const W: usize> WideBvh<W> {
+    /// The box of a child to visit: the root's, or that of the lane that holds it.
+    fn visit_step(&self, e: Entry) -> Step {
+        let leaf = e.count != INTERIOR;
+        let bounds = if e.child == 0 && !leaf {
+            self.nodes[0].bounds()
+        } else {
+            self.nodes
+                .iter()
+                .flat_map(|n| (0..n.child_count()).map(move |l| (n, l)))
+                .find(|&(n, l)| n.child[l] == e.child && n.count[l] == e.count)
+                .map_or(crate::geometry::Aabb::EMPTY, |(n, l)| n.child_bounds(l))
+        };
+        let what = if leaf { Visited::Leaf } else { Visited::Node };
+        Step::visit(e.child as usize, what, Level::Single, bounds)
+    }
+
+    /// The children of node `index` in lane order: where the ray enters those in `mask`.
+    fn children_step(&self, index: u32, mask: u32, entry: &[f32; W], order: Order) -> Step {
+        let node = &self.nodes[index as usize];
+        let children: Vec<Child> = (0..node.child_count())
+            .map(|l| Child {
+                node: node.child[l],
+                leaf: !node.is_interior(l),
+                entry: (mask >> l & 1 == 1).then_some(entry[l]),
+            })
+            .collect();
+        // Front to back the nearest entered child is taken first (of equal ones, the lower
+        // lane of two, the higher of more, as the sort leaves them); the lowest otherwise.
+        let entered: Vec<(f32, u32)> = children
+            .iter()
+            .filter_map(|c| Some((c.entry?, c.node)))
+            .collect();
+        let nearest = |a: &&(f32, u32), b: &&(f32, u32)| a.0.total_cmp(&b.0);
+        let first = match order {
+            Order::Nearest if entered.len() > 2 => entered.iter().rev().min_by(nearest),
+            Order::Nearest => entered.iter().min_by(nearest),
+            _ => entered.first(),
+        }
+        .map(|c| c.1);
+        Step::Children {
+            children,
+            first,
+            order,
         }
     }
 }

@@ -1,0 +1,188 @@
+//! UI tests of the ray replay and the export, driven like a user: the replay tool chosen by
+//! its label, a click on the viewport, the arrow keys, Home and End; the export writing the
+//! shown view and its counters, and saying clearly when it cannot.
+
+mod common;
+
+use bvhlab::app::BvhLabApp;
+use bvhlab::app::export::Export;
+use bvhlab::render::RayKind;
+use bvhlab::render::export::CSV_HEADER;
+use common::app::{launch, settle};
+use eframe::egui::{self, Key};
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+
+fn app(scene: &str) -> Harness<'static, BvhLabApp> {
+    launch(
+        Harness::builder().with_size(egui::vec2(1400.0, 900.0)),
+        scene,
+        |_| {},
+    )
+}
+
+/// A click of the left button at `pos` (press and release without moving).
+fn click_at(h: &mut Harness<'static, BvhLabApp>, pos: egui::Pos2) {
+    h.hover_at(pos);
+    h.run_steps(1);
+    h.drag_at(pos);
+    h.run_steps(1);
+    h.drop_at(pos);
+    h.run_steps(1);
+    settle(h);
+}
+
+/// A point inside the viewport (between the two side panels), on the Cornell box's back
+/// wall or one of its boxes.
+const IN_VIEW: egui::Pos2 = egui::pos2(560.0, 480.0);
+
+fn stop(h: &Harness<'static, BvhLabApp>) -> usize {
+    h.state().replay.as_ref().expect("a replay").stop
+}
+
+#[test]
+fn clicking_a_pixel_replays_its_ray_and_the_keys_step_through_it() {
+    let mut h = app("cornell");
+    h.get_by_label("replay a ray (P)").click();
+    settle(&mut h);
+    click_at(&mut h, IN_VIEW);
+    let view = h.state().replay.clone().expect("the click replayed a ray");
+    let replay = view.replay.clone();
+    assert_eq!(replay.rays, RayKind::Primary);
+    // The replay is the clicked pixel's ray: the frame's counts and hit for that pixel.
+    let shown = h.state().shown.clone().expect("a frame");
+    let (x, y) = replay.pixel;
+    let sample = *shown.frame.sample(x, y).expect("the pixel is in the frame");
+    assert_eq!(replay.counters, sample.primary);
+    assert_eq!(
+        replay.hit.map(|h| (h.triangle, h.t.to_bits())),
+        sample
+            .is_hit()
+            .then_some((sample.triangle, sample.t.to_bits()))
+    );
+    let visits = replay.visit_count();
+    assert!(visits > 2, "the ray visits several nodes");
+    assert_eq!(visits as u32, sample.primary.nodes_visited);
+    assert_eq!(view.stop, 0);
+    assert!(h.query_by_label(&format!("visit 1 of {visits}")).is_some());
+
+    h.key_press(Key::ArrowRight);
+    h.run_steps(2);
+    assert_eq!(stop(&h), 1);
+    assert!(h.query_by_label(&format!("visit 2 of {visits}")).is_some());
+    h.key_press(Key::End);
+    h.run_steps(2);
+    assert_eq!(stop(&h), visits - 1);
+    // The last visit's stop shows the hit as the best so far.
+    let best = h.state().replay.as_ref().unwrap().best_so_far();
+    assert_eq!(best, replay.hit);
+    h.key_press(Key::ArrowRight);
+    h.run_steps(2);
+    assert_eq!(stop(&h), visits - 1, "no step past the last visit");
+    h.key_press(Key::Home);
+    h.run_steps(2);
+    assert_eq!(stop(&h), 0);
+    h.key_press(Key::ArrowLeft);
+    h.run_steps(2);
+    assert_eq!(stop(&h), 0, "no step before the first visit");
+    h.get_by_label("next visit").click();
+    h.run_steps(2);
+    assert_eq!(stop(&h), 1);
+    // While the replay is open the arrows step it, not the tree walk.
+    assert_eq!(h.state().walk, None);
+
+    // With shadow rays shown, a click replays the pixel's shadow ray.
+    h.key_press(Key::S);
+    h.run_steps(1);
+    settle(&mut h);
+    click_at(&mut h, IN_VIEW);
+    let shadow = h.state().replay.clone().expect("replayed").replay;
+    assert_eq!(shadow.rays, RayKind::Shadow);
+    let shown = h.state().shown.clone().unwrap();
+    let sample = *shown.frame.sample(shadow.pixel.0, shadow.pixel.1).unwrap();
+    assert_eq!(shadow.counters, sample.shadow);
+    assert_eq!(shadow.hit.is_some(), !sample.lit);
+
+    h.key_press(Key::Escape);
+    h.run_steps(2);
+    assert!(h.state().replay.is_none(), "Esc closes the replay");
+}
+
+#[test]
+fn a_new_structure_closes_a_replay_of_the_old_one() {
+    let mut h = app("cornell");
+    h.key_press(Key::P);
+    h.run_steps(1);
+    click_at(&mut h, IN_VIEW);
+    assert!(h.state().replay.is_some());
+    h.get_by_label("object median").click();
+    settle(&mut h);
+    assert!(h.state().replay.is_none());
+}
+
+#[test]
+fn export_writes_the_view_as_png_and_the_counters_as_csv() {
+    let mut h = app("cornell");
+    assert!(h.query_by_label("Save view as PNG…").is_some());
+    assert!(h.query_by_label("Save counters as CSV…").is_some());
+    let dir = std::env::temp_dir().join(format!("bvhlab-export-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let shown = h.state().shown.clone().expect("a frame");
+    let (w, hgt) = (shown.job.width, shown.job.height);
+
+    let png = dir.join("view.png");
+    h.state_mut().export(Export::ViewPng, &png).unwrap();
+    let image = image::open(&png).expect("a PNG").to_rgba8();
+    assert_eq!(image.dimensions(), (w, hgt));
+    assert_eq!(image.as_raw(), &shown.rgba, "the view as shown");
+
+    // With a replay open, the saved view shows it too, as the viewport does.
+    h.key_press(Key::P);
+    h.run_steps(1);
+    click_at(&mut h, IN_VIEW);
+    assert!(h.state().replay.is_some());
+    let shown = h.state().shown.clone().expect("a frame");
+    let with_replay = dir.join("replay.png");
+    h.state_mut().export(Export::ViewPng, &with_replay).unwrap();
+    let image = image::open(&with_replay).expect("a PNG").to_rgba8();
+    let drawn = image
+        .as_raw()
+        .chunks(4)
+        .zip(shown.rgba.chunks(4))
+        .filter(|(a, b)| a != b)
+        .count();
+    assert!(
+        drawn > 50,
+        "the replay's box and ray are drawn ({drawn} pixels)"
+    );
+
+    let csv = dir.join("counters.csv");
+    h.state_mut().export(Export::CountersCsv, &csv).unwrap();
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines[0], CSV_HEADER);
+    assert_eq!(lines.len() as u32, 1 + w * hgt);
+    let (x, y) = (w / 2, hgt / 2);
+    let s = shown.frame.sample(x, y).unwrap();
+    let row: Vec<&str> = lines[1 + (y * w + x) as usize].split(',').collect();
+    assert_eq!(
+        row[0..3],
+        [x.to_string(), y.to_string(), s.triangle.to_string()]
+    );
+    assert_eq!(row[5], s.primary.nodes_visited.to_string());
+    assert_eq!(row[9], s.shadow.nodes_visited.to_string());
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("saved").is_some());
+
+    // A path that cannot be written is a clear error, shown in the panel; nothing breaks.
+    let bad = dir.join("no-such-dir").join("view.png");
+    let e = h.state_mut().export(Export::ViewPng, &bad).unwrap_err();
+    assert!(
+        e.contains("cannot write") && e.contains("no-such-dir"),
+        "{e}"
+    );
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("cannot write").is_some());
+    assert!(h.state().shown.is_some());
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -1,0 +1,346 @@
+//! Ray replay: the recorded steps of a pixel's ray re-create the frame's counters for that
+//! pixel (nodes visited, box tests, triangle tests) and its closest hit, exactly, for the
+//! primary and the shadow ray, on every built-in scene and every structure; and
+//! `bvhlab replay` prints them, as text or as one JSON object of the documented shape.
+
+mod common;
+
+use bvhlab::accel::replay::Step;
+use bvhlab::accel::structure::{self, AccelKind, Structure, StructureParams};
+use bvhlab::accel::{Strategy, TraversalOrder};
+use bvhlab::geometry::Watertight;
+use bvhlab::render::replay::{Replay, ReplayError, replay_pixel};
+use bvhlab::render::{self, RayKind, RenderSettings};
+use bvhlab::scene::island::{self, Detail};
+use bvhlab::scene::{Scene, builtin};
+use common::{Rng, SMALL_BUILTINS};
+use std::process::Command;
+
+const W: u32 = 40;
+const H: u32 = 30;
+
+/// Every structure, the BVH2 once per builder and in naive order, the spatial structures
+/// with mailboxing off too.
+fn configurations() -> Vec<(String, StructureParams)> {
+    let mut out = Vec::new();
+    for kind in AccelKind::ALL {
+        out.push((kind.label().to_string(), StructureParams::of_kind(kind)));
+        if kind.is_spatial() {
+            let mut p = StructureParams::of_kind(kind);
+            p.mailbox = false;
+            out.push((format!("{} without mailbox", kind.label()), p));
+        }
+        if kind.is_bvh() || kind == AccelKind::TwoLevel {
+            let mut p = StructureParams::of_kind(kind);
+            p.order = TraversalOrder::Naive;
+            out.push((format!("{} naive order", kind.label()), p));
+        }
+    }
+    for strategy in Strategy::ALL {
+        let mut p = StructureParams::of_kind(AccelKind::Bvh);
+        p.bvh.strategy = strategy;
+        out.push((format!("bvh {}", strategy.label()), p));
+    }
+    out
+}
+
+/// The pixel's replay against what the frame counted and found for it.
+fn assert_replay_matches_frame(
+    s: &Structure,
+    scene: &Scene,
+    settings: &RenderSettings,
+    frame: &render::Frame,
+    (x, y): (u32, u32),
+    what: &str,
+) {
+    let sample = frame.sample(x, y).expect("pixel in the frame");
+    let check = |replay: &Replay, counted: &bvhlab::accel::Counters, kind: &str| {
+        let what = format!("{what}, pixel ({x}, {y}), {kind}");
+        assert_eq!(&replay.counters, counted, "{what}: recorder counts");
+        let from_steps = replay.counters_from_steps();
+        assert_eq!(
+            (
+                from_steps.nodes_visited,
+                from_steps.box_tests,
+                from_steps.triangle_tests
+            ),
+            (
+                counted.nodes_visited,
+                counted.box_tests,
+                counted.triangle_tests
+            ),
+            "{what}: the steps re-create the counters"
+        );
+        assert_eq!(replay.visit_count() as u32, counted.nodes_visited, "{what}");
+        let visit_json = replay
+            .to_json()
+            .get("steps")
+            .and_then(|s| s.as_array().cloned())
+            .unwrap_or_default()
+            .iter()
+            .filter(|s| s["kind"] == "visit")
+            .count();
+        assert_eq!(
+            visit_json as u32, counted.nodes_visited,
+            "{what}: JSON visits"
+        );
+    };
+    let primary =
+        replay_pixel::<Watertight>(s, scene, settings, (x, y), RayKind::Primary).expect(what);
+    check(&primary, &sample.primary, "primary ray");
+    let want = sample
+        .is_hit()
+        .then_some((sample.triangle, sample.t.to_bits()));
+    let got = primary.hit.map(|h| (h.triangle, h.t.to_bits()));
+    assert_eq!(got, want, "{what}, pixel ({x}, {y}): closest hit");
+    match replay_pixel::<Watertight>(s, scene, settings, (x, y), RayKind::Shadow) {
+        Ok(shadow) => {
+            assert!(sample.is_hit(), "{what}: a shadow ray for a missed pixel");
+            check(&shadow, &sample.shadow, "shadow ray");
+            assert_eq!(
+                shadow.hit.is_some(),
+                !sample.lit,
+                "{what}, pixel ({x}, {y}): shadow ray occluded"
+            );
+            // Any hit stops at its first hit: nothing is tested after it.
+            if let Some(last) = shadow.steps.iter().rposition(Step::is_triangle_test) {
+                let first_hit = shadow
+                    .steps
+                    .iter()
+                    .position(|s| matches!(s, Step::Triangle { t: Some(_), .. }));
+                assert!(
+                    first_hit.is_none_or(|f| f == last),
+                    "{what}: tested past a hit"
+                );
+            }
+        }
+        Err(ReplayError::NoShadowRay { .. }) => assert!(!sample.is_hit(), "{what}"),
+        Err(e) => panic!("{what}: {e}"),
+    }
+}
+
+/// Random pixels (and the centre, which hits on every built-in view) of a small frame.
+fn check_scene(scene: &Scene, configs: &[(String, StructureParams)], seed: u64) {
+    check_view(
+        scene,
+        &RenderSettings::for_scene(scene, W, H),
+        configs,
+        seed,
+    );
+}
+
+fn check_view(
+    scene: &Scene,
+    settings: &RenderSettings,
+    configs: &[(String, StructureParams)],
+    seed: u64,
+) {
+    let settings = *settings;
+    let mut rng = Rng::new(seed);
+    let mut pixels = vec![(W / 2, H / 2)];
+    pixels.extend((0..8).map(|_| (rng.below(W as usize) as u32, rng.below(H as usize) as u32)));
+    for (name, params) in configs {
+        let built = structure::build_scene(scene, params, &Default::default())
+            .unwrap_or_else(|e| panic!("{}: {name}: {e}", scene.name));
+        let frame = render::trace(&built.structure, scene, &settings);
+        for &pixel in &pixels {
+            let what = format!("{} {name}", scene.name);
+            assert_replay_matches_frame(&built.structure, scene, &settings, &frame, pixel, &what);
+        }
+    }
+}
+
+#[test]
+fn replays_recreate_the_counters_and_hits_of_every_structure_on_every_builtin_scene() {
+    let configs = configurations();
+    for (k, spec) in SMALL_BUILTINS.iter().enumerate() {
+        let scene = builtin::by_name(spec).unwrap().unwrap();
+        check_scene(&scene, &configs, 100 + k as u64);
+    }
+}
+
+#[test]
+fn replays_recreate_the_counters_inside_sponza() {
+    let Some(dir) = common::shared_scenes() else {
+        eprintln!("BVHLAB_SCENES not set: skipping the shared scenes");
+        return;
+    };
+    let scene = Scene::load(dir.join("sponza.obj").to_str().unwrap()).unwrap();
+    let mut settings = RenderSettings::for_scene(&scene, W, H);
+    settings.camera.eye = glam::Vec3::new(-14.0, 3.0, 0.0);
+    settings.camera.look_at = glam::Vec3::new(10.0, 5.0, 0.0);
+    settings.light = glam::Vec3::new(0.0, 14.0, 0.0);
+    let configs: Vec<_> = configurations()
+        .into_iter()
+        .filter(|(name, p)| !p.kind.is_brute_force() && !name.starts_with("bvh "))
+        .collect();
+    check_view(&scene, &settings, &configs, 3);
+}
+
+#[test]
+fn replays_of_the_island_walk_the_tlas_then_each_instance_blas() {
+    let scene = island::island(40, &Detail::SMALL);
+    let two_level: Vec<_> = configurations()
+        .into_iter()
+        .filter(|(_, p)| p.kind == AccelKind::TwoLevel)
+        .collect();
+    check_scene(&scene, &two_level, 7);
+    // The centre ray enters instances, and each BLAS visit follows an instance step.
+    let built = structure::build_scene(&scene, &two_level[0].1, &Default::default()).unwrap();
+    let settings = RenderSettings::for_scene(&scene, W, H);
+    let replay = replay_pixel::<Watertight>(
+        &built.structure,
+        &scene,
+        &settings,
+        (W / 2, H / 2),
+        RayKind::Primary,
+    )
+    .unwrap();
+    let first_instance = replay
+        .steps
+        .iter()
+        .position(|s| matches!(s, Step::Instance { .. }))
+        .expect("the centre ray enters an instance");
+    let first_blas = replay.steps.iter().position(|s| {
+        matches!(
+            s,
+            Step::Visit {
+                level: bvhlab::accel::replay::Level::Bottom,
+                ..
+            }
+        )
+    });
+    assert!(first_blas.is_some_and(|b| b > first_instance));
+}
+
+#[test]
+fn front_to_back_skips_nodes_that_start_beyond_the_best_hit() {
+    // Walls one behind the other: the nearest hides the rest, whose nodes are popped and
+    // skipped.
+    let scene = builtin::by_name("walls").unwrap().unwrap();
+    let built = structure::build_scene(
+        &scene,
+        &StructureParams::of_kind(AccelKind::Bvh),
+        &Default::default(),
+    )
+    .unwrap();
+    let settings = RenderSettings::for_scene(&scene, W, H);
+    let skipped: usize = (0..H)
+        .flat_map(|y| (0..W).map(move |x| (x, y)))
+        .map(|p| {
+            let r = replay_pixel::<Watertight>(
+                &built.structure,
+                &scene,
+                &settings,
+                p,
+                RayKind::Primary,
+            )
+            .unwrap();
+            r.steps
+                .iter()
+                .filter(|s| match s {
+                    Step::Skip { entry, best, .. } => entry > best,
+                    _ => false,
+                })
+                .count()
+        })
+        .sum();
+    assert!(skipped > 0, "no node was skipped on the walls");
+}
+
+#[test]
+fn a_pixel_outside_the_image_is_an_error() {
+    let scene = builtin::by_name("cornell").unwrap().unwrap();
+    let built =
+        structure::build_scene(&scene, &StructureParams::default(), &Default::default()).unwrap();
+    let settings = RenderSettings::for_scene(&scene, W, H);
+    let e = replay_pixel::<Watertight>(
+        &built.structure,
+        &scene,
+        &settings,
+        (W, 0),
+        RayKind::Primary,
+    )
+    .unwrap_err();
+    assert!(e.to_string().contains("outside"), "{e}");
+}
+
+fn bvhlab(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_bvhlab"))
+        .args(args)
+        .env_remove("RUST_BACKTRACE")
+        .output()
+        .expect("bvhlab runs")
+}
+
+#[test]
+fn the_replay_command_prints_the_documented_json() {
+    for accel in ["bvh", "kdtree", "grid", "two-level"] {
+        for shadow in [false, true] {
+            let mut args = vec![
+                "replay", "--scene", "cornell", "--pixel", "20,15", "--width", "40", "--height",
+                "30", "--accel", accel, "--json",
+            ];
+            if shadow {
+                args.push("--shadow");
+            }
+            let out = bvhlab(&args);
+            assert!(
+                out.status.success(),
+                "{}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+            let json: serde_json::Value =
+                serde_json::from_slice(&out.stdout).expect("one JSON object");
+            let ray = &json["ray"];
+            for key in ["origin", "direction"] {
+                assert_eq!(ray[key].as_array().map(Vec::len), Some(3), "{accel} {key}");
+            }
+            // A primary ray has no end: +∞, which JSON writes as null.
+            assert!(ray["tmin"].is_number() && (ray["tmax"].is_number() || ray["tmax"].is_null()));
+            let steps = json["steps"].as_array().expect("steps");
+            assert!(steps.iter().all(|s| s["kind"].is_string()));
+            let visits = steps.iter().filter(|s| s["kind"] == "visit").count() as u64;
+            let counters = &json["counters"];
+            assert_eq!(counters["nodes_visited"].as_u64(), Some(visits), "{accel}");
+            assert!(counters["box_tests"].is_u64() && counters["triangle_tests"].is_u64());
+            let hit = &json["hit"];
+            if !shadow {
+                // The centre of the Cornell box hits its back wall.
+                assert!(
+                    hit["triangle"].is_u64() && hit["t"].is_number(),
+                    "{accel}: {hit}"
+                );
+            } else {
+                assert!(hit.is_null() || hit["triangle"].is_u64(), "{accel}: {hit}");
+            }
+        }
+    }
+}
+
+#[test]
+fn the_replay_command_prints_readable_steps_and_clear_errors() {
+    let out = bvhlab(&[
+        "replay", "--scene", "cornell", "--pixel", "20,15", "--width", "40", "--height", "30",
+    ]);
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("visit 1: node 0"), "{text}");
+    assert!(text.contains("test triangle"), "{text}");
+    assert!(text.contains("nodes visited"), "{text}");
+    for (args, says) in [
+        (vec!["--pixel", "40,0"], "outside"),
+        (vec!["--pixel", "1"], "x,y"),
+        (vec!["--pixel", "a,b"], "x,y"),
+    ] {
+        let mut all = vec![
+            "replay", "--scene", "cornell", "--width", "40", "--height", "30",
+        ];
+        all.extend(args);
+        let out = bvhlab(&all);
+        assert!(!out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(says), "{err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}
