@@ -269,8 +269,12 @@ fn view_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             let s = &mut app.settings;
             ui.horizontal_wrapped(|ui| {
                 for (k, m) in ViewMode::ALL.into_iter().enumerate() {
+                    // The split of the levels means something only for the two levels.
+                    if m.is_two_level() && s.accel != AccelKind::TwoLevel {
+                        continue;
+                    }
                     ui.selectable_value(&mut s.mode, m, m.label())
-                        .on_hover_text(format!("key {}", k + 1));
+                        .on_hover_text(format!("key {}", (k + 1) % 10));
                 }
             });
             if s.mode.is_heatmap() {
@@ -564,7 +568,16 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 ui.strong("primary mean / max");
                 ui.strong("shadow mean / max");
                 ui.end_row();
+                let two_level =
+                    s.counter(
+                        crate::render::RayKind::Primary,
+                        crate::accel::Counter::TopNodesVisited,
+                    )
+                    .max > 0;
                 for which in crate::accel::Counter::ALL {
+                    if which.is_two_level() && !two_level {
+                        continue;
+                    }
                     ui.label(which.label());
                     for rays in [
                         crate::render::RayKind::Primary,

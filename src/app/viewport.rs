@@ -188,6 +188,9 @@ impl BvhLabApp {
             Key::Num5,
             Key::Num6,
             Key::Num7,
+            Key::Num8,
+            Key::Num9,
+            Key::Num0,
         ]
         .into_iter()
         .zip(ViewMode::ALL)

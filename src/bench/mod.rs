@@ -67,6 +67,11 @@ pub struct MeanWork {
     pub box_tests: f64,
     pub triangle_tests: f64,
     pub repeated_tests: f64,
+    /// Two-level structures: of `nodes` and `box_tests`, those in the top level, and the
+    /// instances entered (all 0 for other structures).
+    pub top_nodes: f64,
+    pub top_box_tests: f64,
+    pub instances_entered: f64,
 }
 
 impl RaySetResult {
@@ -307,16 +312,22 @@ pub fn mean_work(accel: &Structure, sets: &RaySets) -> [MeanWork; 3] {
                     c.box_tests,
                     c.triangle_tests,
                     c.repeated_tests,
+                    c.top_nodes_visited,
+                    c.top_box_tests,
+                    c.instances_entered,
                 ]
                 .map(u64::from)
             })
-            .reduce(|| [0; 4], |a, b| std::array::from_fn(|k| a[k] + b[k]));
+            .reduce(|| [0; 7], |a, b| std::array::from_fn(|k| a[k] + b[k]));
         let n = rays.len().max(1) as f64;
         MeanWork {
             nodes: sum[0] as f64 / n,
             box_tests: sum[1] as f64 / n,
             triangle_tests: sum[2] as f64 / n,
             repeated_tests: sum[3] as f64 / n,
+            top_nodes: sum[4] as f64 / n,
+            top_box_tests: sum[5] as f64 / n,
+            instances_entered: sum[6] as f64 / n,
         }
     };
     [
@@ -489,6 +500,13 @@ impl BenchResult {
                 v["mean_box_tests"] = round3(m.box_tests).into();
                 v["mean_triangle_tests"] = round3(m.triangle_tests).into();
                 v["mean_repeated_tests"] = round3(m.repeated_tests).into();
+                if self.params.kind == AccelKind::TwoLevel {
+                    v["mean_top_nodes"] = round3(m.top_nodes).into();
+                    v["mean_bottom_nodes"] = round3(m.nodes - m.top_nodes).into();
+                    v["mean_top_box_tests"] = round3(m.top_box_tests).into();
+                    v["mean_bottom_box_tests"] = round3(m.box_tests - m.top_box_tests).into();
+                    v["mean_instances_entered"] = round3(m.instances_entered).into();
+                }
                 if let Some(ns) = r.ns_per_step(m.nodes) {
                     v["ns_per_step"] = round3(ns).into();
                 }
