@@ -544,6 +544,15 @@ fn moving_instances_rebuilds_the_top_level_only_and_equals_a_full_rebuild() {
     }
     assert!(hits > rays.len() / 2, "{hits} hits");
 
+    // The refitted top level and one built again over the moved instances agree.
+    let mut rebuilt_top = moved.clone();
+    rebuilt_top.rebuild_top_level().unwrap();
+    for ray in &rays {
+        let refitted = moved.closest_hit::<Watertight, _>(ray, &mut NoStats);
+        let again = rebuilt_top.closest_hit::<Watertight, _>(ray, &mut NoStats);
+        assert_eq!(refitted, again, "{ray:?}");
+    }
+
     // Bad moves change nothing.
     let before = moved.instances.clone();
     let singular = Affine3A::from_scale(Vec3::new(0.0, 1.0, 1.0));

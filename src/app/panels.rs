@@ -469,7 +469,21 @@ fn refit_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 );
                 app.settings.auto_rebuild_percent = auto.then_some(p);
             });
-            if app.settings.accel.can_refit() {
+            if app.settings.accel == AccelKind::TwoLevel {
+                if let Some((refit, flat)) = app.last_instance_move {
+                    ui.label(format!(
+                        "last move: the instance moved, the top level refitted in {:.3} ms",
+                        refit.as_secs_f64() * 1e3
+                    ));
+                    ui.label(match flat {
+                        Some(f) => format!(
+                            "a BVH over the flattened scene refits the same move in {:.2} ms",
+                            f.as_secs_f64() * 1e3
+                        ),
+                        None => "the scene is too large to flatten: no flat BVH to refit".into(),
+                    });
+                }
+            } else if app.settings.accel.can_refit() {
                 if let Some(t) = app.last_refit {
                     ui.label(format!("last refit {:.2} ms", t.as_secs_f64() * 1e3));
                 }

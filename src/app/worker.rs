@@ -63,6 +63,13 @@ pub enum Command {
         triangles: Arc<Vec<u32>>,
         delta: Vec3,
     },
+    /// Move scene object `object` by `delta` as a whole: under the two levels its instance
+    /// moves and only the top level is refitted; under any other structure its triangles
+    /// move as with `Move`.
+    MoveObject {
+        object: usize,
+        delta: Vec3,
+    },
     /// The drag that made the last moves is over: they form one undo step.
     EndGesture,
     /// Build again over the triangles as they are now.
@@ -122,6 +129,13 @@ pub enum Reply {
     RebuiltAfterMove {
         rebuild_time: Duration,
         bvh_refit_time: Option<Duration>,
+    },
+    /// An instance moved and the top level was refitted; beside it, what refitting a BVH
+    /// over the flattened scene for the same move took (`None` for a scene too large to
+    /// flatten).
+    InstanceMoved {
+        refit_time: Duration,
+        flat_refit_time: Option<Duration>,
     },
     Frame(Arc<Shown>),
     Snapshot(Arc<Scene>),
@@ -264,8 +278,15 @@ struct State {
     /// For partial refits of the current tree; made at the first move after a build.
     refit_index: Option<RefitIndex>,
     /// Moves of the drag in progress, then finished drags (for undo).
-    gesture: Vec<(Arc<Vec<u32>>, Vec3)>,
-    undo: Vec<Vec<(Arc<Vec<u32>>, Vec3)>>,
+    gesture: Vec<Motion>,
+    undo: Vec<Vec<Motion>>,
+}
+
+/// One move, as undo replays it backwards.
+#[derive(Clone)]
+enum Motion {
+    Triangles(Arc<Vec<u32>>, Vec3),
+    Object(usize, Vec3),
 }
 
 /// Undo keeps this many drags.
@@ -364,7 +385,12 @@ impl State {
             }
             Command::Move { triangles, delta } => {
                 self.move_triangles(&triangles, delta);
-                self.gesture.push((triangles, delta));
+                self.gesture.push(Motion::Triangles(triangles, delta));
+            }
+            Command::MoveObject { object, delta } => {
+                if self.move_object(object, delta) {
+                    self.gesture.push(Motion::Object(object, delta));
+                }
             }
             Command::EndGesture => {
                 if !self.gesture.is_empty() {
@@ -380,8 +406,15 @@ impl State {
                 } else {
                     std::mem::take(&mut self.gesture)
                 };
-                for (triangles, delta) in step.iter().rev() {
-                    self.move_triangles(triangles, -*delta);
+                for motion in step.iter().rev() {
+                    match motion {
+                        Motion::Triangles(triangles, delta) => {
+                            self.move_triangles(triangles, -*delta)
+                        }
+                        Motion::Object(object, delta) => {
+                            self.move_object(*object, -*delta);
+                        }
+                    }
                 }
             }
         }
@@ -470,6 +503,81 @@ impl State {
             rebuild_time,
             bvh_refit_time,
         });
+    }
+
+    /// Moves object `object` by `delta`; true if it moved. Under the two levels: its
+    /// instance (the scene's own, or the object itself as an instance of its triangles)
+    /// moves, and the top level is refitted.
+    fn move_object(&mut self, object: usize, delta: Vec3) -> bool {
+        let (Some(scene), Some(structure)) = (&mut self.scene, &mut self.structure) else {
+            return false;
+        };
+        let Some(range) = scene.objects.get(object).map(|o| o.range()) else {
+            return false;
+        };
+        let Structure::TwoLevel(tl) = structure else {
+            // Any other structure moves the object's triangles.
+            let triangles: Arc<Vec<u32>> = Arc::new(range.map(|t| t as u32).collect());
+            self.move_triangles(&triangles, delta);
+            return true;
+        };
+        let start = Instant::now();
+        let moved = if scene.instances.is_empty() {
+            // Each object is an instance of its own triangles: the triangles move in the
+            // scene, the instance in the structure.
+            let Some(current) = tl.instances.get(object) else {
+                return false;
+            };
+            let transform = glam::Affine3A::from_translation(delta) * current.transform;
+            let ok = tl.move_instance(object, transform).is_ok();
+            if ok {
+                for t in &mut scene.triangles[range.clone()] {
+                    for v in &mut t.v {
+                        *v += delta;
+                    }
+                }
+            }
+            ok
+        } else {
+            let Some(i) = scene.instance_of_object(object) else {
+                return false;
+            };
+            match scene.translate_instance(i, delta) {
+                Ok(placed) => {
+                    let ok = tl.move_instance(i, placed.transform).is_ok();
+                    if !ok {
+                        let _ = scene.translate_instance(i, -delta);
+                    }
+                    ok
+                }
+                Err(_) => false,
+            }
+        };
+        if !moved {
+            return false;
+        }
+        let refit_time = start.elapsed();
+        self.version += 1;
+        // Beside it: a BVH over the flattened scene, refitted for the same triangles.
+        let p = self.params.bvh;
+        if self.reference_bvh.is_none()
+            && scene.is_flattened()
+            && let Ok((bvh, _)) = bvh::build(&scene.triangles, &bvh::BuildParams::default())
+        {
+            let index = RefitIndex::new(&bvh);
+            self.reference_bvh = Some((bvh, index));
+        }
+        let flat_refit_time = self.reference_bvh.as_mut().map(|(bvh, index)| {
+            let triangles: Vec<u32> = range.map(|t| t as u32).collect();
+            let start = Instant::now();
+            let _ = bvh.refit_moved(index, &scene.triangles, &triangles, p.c_trav, p.c_isect);
+            start.elapsed()
+        });
+        self.reply(Reply::InstanceMoved {
+            refit_time,
+            flat_refit_time,
+        });
+        true
     }
 
     fn render(&mut self, job: RenderJob) {

@@ -4,7 +4,10 @@
 //! Both levels are BVH8s (the BVH2 collapsed, traced with SIMD slab tests): the fastest
 //! layout, as a two-level ray takes as many steps as a flat one and more.
 
+pub mod refit;
 mod traverse;
+
+pub use refit::TopLevelIndex;
 
 use super::bvh::wide::{CollapseParams, UnsupportedSimd};
 use super::bvh::{self, BuildError, Bvh8};
@@ -33,8 +36,10 @@ pub struct TwoLevel {
     pub order: TraversalOrder,
     /// The slab kernel both levels run.
     pub simd: SimdLevel,
-    /// The build parameters, kept to rebuild the top level when an instance moves.
+    /// The build parameters, kept to rebuild the top level.
     pub params: BuildParams,
+    /// Where each instance sits in the TLAS, for refitting it when one moves.
+    pub top_index: TopLevelIndex,
 }
 
 /// Why an instance could not be moved.
@@ -115,6 +120,7 @@ pub fn build(
     };
     progress.store(scene.unique_triangles(), Ordering::Relaxed);
     let two_level = TwoLevel {
+        top_index: TopLevelIndex::new(&tlas, scene.instances.len()),
         blases,
         instances: scene.instances.to_vec(),
         first_triangle,
@@ -147,7 +153,7 @@ const WORLD_BOX_DEPTH: u32 = 2;
 /// nodes down to `WORLD_BOX_DEPTH` (the identity keeps the mesh's own box).
 pub fn instance_world_box(instance: &Instance, blas: &Bvh8) -> Aabb {
     let root = &blas.nodes[0];
-    if instance.is_identity() {
+    if instance.is_identity() || WORLD_BOX_DEPTH == 0 {
         return instance.world_bounds(&root.bounds());
     }
     let mut world = Aabb::EMPTY;
@@ -174,15 +180,21 @@ fn build_tlas(
     instances: &[Instance],
     params: &BuildParams,
 ) -> Result<Bvh8, BuildError> {
+    // Each box transforms up to 64 of its BLAS's boxes: in parallel for many instances.
+    let world: Vec<Aabb> = instances
+        .par_iter()
+        .with_min_len(1024)
+        .map(|instance| {
+            blases
+                .get(instance.mesh)
+                .map_or(Aabb::EMPTY, |blas| instance_world_box(instance, blas))
+        })
+        .collect();
     let mut boxes = Vec::with_capacity(instances.len());
     let mut placed = Vec::with_capacity(instances.len());
-    for (i, instance) in instances.iter().enumerate() {
-        let Some(blas) = blases.get(instance.mesh) else {
-            continue;
-        };
-        let world = instance_world_box(instance, blas);
-        if !world.is_empty() {
-            boxes.push(Triangle::new(world.min, world.max, world.max));
+    for (i, w) in world.iter().enumerate() {
+        if !w.is_empty() {
+            boxes.push(Triangle::new(w.min, w.max, w.max));
             placed.push(i as u32);
         }
     }
@@ -211,25 +223,43 @@ impl TwoLevel {
             + self.first_triangle.len() * std::mem::size_of::<u64>()
     }
 
-    /// Places instance `i` by `transform` and rebuilds the top level only: the meshes do
-    /// not change, so neither do their BLASes. The lecture's dynamic scene: millions of
-    /// triangles, but only hundreds of objects to sort again.
+    /// Places instance `i` by `transform` and updates the top level only: the meshes do
+    /// not change, so neither do their BLASes (the lecture's dynamic scene: millions of
+    /// triangles, but only hundreds of objects). The TLAS is refitted: the instance's leaf
+    /// box and the boxes above it (`refit`), far cheaper than sorting all instances again.
     pub fn move_instance(&mut self, i: usize, transform: Affine3A) -> Result<(), MoveError> {
         let instance = self.instances.get_mut(i).ok_or(MoveError::NoInstance(i))?;
         let old = std::mem::replace(instance, Instance::new(instance.mesh, transform)?);
-        match build_tlas(&self.blases, &self.instances, &self.params) {
-            Ok(mut tlas) => {
-                tlas.order = self.order;
-                tlas.simd = self.simd;
-                self.tlas = tlas;
-                Ok(())
-            }
-            Err(e) => {
-                // Moved out of range (a box beyond f32): the instance stays where it was.
-                self.instances[i] = old;
-                Err(e.into())
-            }
+        let moved = &self.instances[i];
+        let world = self
+            .blases
+            .get(moved.mesh)
+            .map_or(Aabb::EMPTY, |b| instance_world_box(moved, b));
+        if self.top_index.holds(i) && !(world.min.is_finite() && world.max.is_finite()) {
+            // Moved out of range (a box beyond f32): the instance stays where it was.
+            self.instances[i] = old;
+            return Err(BuildError::NonFinite(i).into());
         }
+        // An empty mesh's instance is in no leaf: the TLAS does not depend on it.
+        refit::refit_instance(
+            &mut self.tlas,
+            &self.top_index,
+            &self.blases,
+            &self.instances,
+            i,
+        );
+        Ok(())
+    }
+
+    /// Builds the top level again over the instances where they are now (after moves,
+    /// whose refits loosen it): the BLASes stay.
+    pub fn rebuild_top_level(&mut self) -> Result<(), BuildError> {
+        let mut tlas = build_tlas(&self.blases, &self.instances, &self.params)?;
+        tlas.order = self.order;
+        tlas.simd = self.simd;
+        self.top_index = TopLevelIndex::new(&tlas, self.instances.len());
+        self.tlas = tlas;
+        Ok(())
     }
 
     /// Chooses the slab kernel of both levels (no rebuild); one this CPU lacks is an error
