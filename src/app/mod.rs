@@ -89,6 +89,10 @@ pub struct BvhLabApp {
     /// Under the two levels: the last instance move's top-level refit, and what refitting
     /// a BVH over the flattened scene took for it (`None`: too large to flatten).
     pub last_instance_move: Option<(Duration, Option<Duration>)>,
+    /// Under the two levels: the object last grabbed as a whole, and its instance's
+    /// transform once it has moved (before, the scene's own), per object moved.
+    pub selected_object: Option<usize>,
+    pub moved_transforms: std::collections::HashMap<usize, glam::Affine3A>,
     /// When the last move was sent, to time move → refitted frame.
     move_sent: Option<Instant>,
     pub drag_latency: Option<Duration>,
@@ -155,6 +159,8 @@ impl BvhLabApp {
             last_refit: None,
             last_rebuild: None,
             last_instance_move: None,
+            selected_object: None,
+            moved_transforms: Default::default(),
             move_sent: None,
             drag_latency: None,
             walk: None,
@@ -186,6 +192,8 @@ impl BvhLabApp {
                     self.scene = Some(scene);
                     self.load_error = None;
                     self.selection = None;
+                    self.selected_object = None;
+                    self.moved_transforms.clear();
                     self.walk = None;
                     self.building = true;
                 }
@@ -228,7 +236,12 @@ impl BvhLabApp {
                 Reply::InstanceMoved {
                     refit_time,
                     flat_refit_time,
-                } => self.last_instance_move = Some((refit_time, flat_refit_time)),
+                    object,
+                    transform,
+                } => {
+                    self.last_instance_move = Some((refit_time, flat_refit_time));
+                    self.moved_transforms.insert(object, transform);
+                }
                 Reply::Frame(shown) => {
                     if let Some(t) = self.move_sent.take() {
                         self.drag_latency = Some(t.elapsed());

@@ -470,6 +470,7 @@ fn refit_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 app.settings.auto_rebuild_percent = auto.then_some(p);
             });
             if app.settings.accel == AccelKind::TwoLevel {
+                instance_transform(app, ui);
                 if let Some((refit, flat)) = app.last_instance_move {
                     ui.label(format!(
                         "last move: the instance moved, the top level refitted in {:.3} ms",
@@ -506,6 +507,38 @@ fn refit_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 ));
             }
         });
+}
+
+/// The grabbed object's instance: which it is and its transform (object → world).
+fn instance_transform(app: &BvhLabApp, ui: &mut egui::Ui) {
+    let (Some(object), Some(scene)) = (app.selected_object, &app.scene) else {
+        return;
+    };
+    let Some(name) = scene.objects.get(object).map(|o| o.name.clone()) else {
+        return;
+    };
+    // Before its first move: the scene's own instance, or the object as an instance of
+    // its own triangles (the identity).
+    let instance = scene.instance_of_object(object);
+    let transform = app
+        .moved_transforms
+        .get(&object)
+        .copied()
+        .unwrap_or_else(|| {
+            instance.map_or(glam::Affine3A::IDENTITY, |i| scene.instances[i].transform)
+        });
+    ui.label(match instance {
+        Some(i) => format!("instance {i} ('{name}'), object → world:"),
+        None => format!("'{name}' as an instance of its own triangles, object → world:"),
+    });
+    let m = transform.matrix3;
+    let t = transform.translation;
+    for row in 0..3 {
+        ui.monospace(format!(
+            "[{:>8.3} {:>8.3} {:>8.3} | {:>9.3}]",
+            m.x_axis[row], m.y_axis[row], m.z_axis[row], t[row]
+        ));
+    }
 }
 
 pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {

@@ -179,6 +179,7 @@ fn start_drag(app: &mut BvhLabApp, rect: egui::Rect, pos: egui::Pos2) {
             .and_then(|t| app.scene.as_ref()?.object_of(t));
         if let Some(object) = object {
             app.selection = u32::try_from(s.triangle).ok();
+            app.selected_object = Some(object);
             app.drag = Some(Drag {
                 triangles: Arc::new(Vec::new()),
                 object: Some(object),

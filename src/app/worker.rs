@@ -136,6 +136,9 @@ pub enum Reply {
     InstanceMoved {
         refit_time: Duration,
         flat_refit_time: Option<Duration>,
+        /// The moved object and its instance's transform now.
+        object: usize,
+        transform: glam::Affine3A,
     },
     Frame(Arc<Shown>),
     Snapshot(Arc<Scene>),
@@ -522,13 +525,14 @@ impl State {
             return true;
         };
         let start = Instant::now();
+        let mut transform = glam::Affine3A::IDENTITY;
         let moved = if scene.instances.is_empty() {
             // Each object is an instance of its own triangles: the triangles move in the
             // scene, the instance in the structure.
             let Some(current) = tl.instances.get(object) else {
                 return false;
             };
-            let transform = glam::Affine3A::from_translation(delta) * current.transform;
+            transform = glam::Affine3A::from_translation(delta) * current.transform;
             let ok = tl.move_instance(object, transform).is_ok();
             if ok {
                 for t in &mut scene.triangles[range.clone()] {
@@ -544,6 +548,7 @@ impl State {
             };
             match scene.translate_instance(i, delta) {
                 Ok(placed) => {
+                    transform = placed.transform;
                     let ok = tl.move_instance(i, placed.transform).is_ok();
                     if !ok {
                         let _ = scene.translate_instance(i, -delta);
@@ -576,6 +581,8 @@ impl State {
         self.reply(Reply::InstanceMoved {
             refit_time,
             flat_refit_time,
+            object,
+            transform,
         });
         true
     }

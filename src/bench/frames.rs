@@ -67,6 +67,7 @@ fn frame_after(worker: &mut Worker) -> Option<Step> {
             Reply::InstanceMoved {
                 refit_time,
                 flat_refit_time,
+                ..
             } => {
                 step.refit += refit_time;
                 step.flat_refit = flat_refit_time;

@@ -518,7 +518,7 @@ impl BenchResult {
         };
         let r = &self.report;
         let b = &self.params.bvh;
-        serde_json::json!({
+        let mut json = serde_json::json!({
             "scene": self.scene,
             "accel": self.params.kind.label(),
             "triangles": self.triangles,
@@ -530,7 +530,8 @@ impl BenchResult {
             "treelet_rounds": b.treelet_rounds,
             "max_leaf_size": b.max_leaf_size,
             "mailbox": self.params.mailbox,
-            "simd": self.params.kind.is_wide().then(|| self.params.simd.label()),
+            "simd": (self.params.kind.is_wide() || self.params.kind == AccelKind::TwoLevel)
+                .then(|| self.params.simd.label()),
             "build_ms": round3(r.build_ms()),
             "bytes": r.bytes,
             "sah_cost": self.bvh_report.as_ref().map(|b| round3(b.tree.sah_cost)),
@@ -555,7 +556,22 @@ impl BenchResult {
                 "tied_primary_hits": p.tied_primary_hits,
                 "differing_primary_hits": p.differing_primary_hits,
             })),
-        })
+        });
+        // The two levels' build times, each level on its own (their sum is `build_ms`).
+        for (detail, key) in [
+            ("BLAS builds", "blas_build_ms"),
+            ("TLAS build", "tlas_build_ms"),
+        ] {
+            let ms = r
+                .details
+                .iter()
+                .find(|(k, _)| k == detail)
+                .and_then(|(_, v)| v.trim_end_matches(" ms").parse::<f64>().ok());
+            if let Some(ms) = ms {
+                json[key] = round3(ms).into();
+            }
+        }
+        json
     }
 }
 
