@@ -361,7 +361,7 @@ fn dragging_an_object_under_the_two_levels_moves_its_instance() {
     let moved_by = app.moved_transforms[&object].translation;
     assert!(moved_by.length() > 0.0, "the instance moved: {moved_by}");
     assert!(app.moved_transforms[&object].matrix3 == glam::Mat3A::IDENTITY);
-    h.get_by_label_contains("as an instance of its own triangles, object → world");
+    h.get_by_label_contains("as an instance of its own triangles, object to world");
     // The moved instance is traced through its inverse transform: the same triangles as a
     // fresh BVH2 over the moved triangles, t within the rounding of the translation.
     h.state_mut().request_snapshot();

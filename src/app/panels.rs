@@ -509,7 +509,7 @@ fn refit_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         });
 }
 
-/// The grabbed object's instance: which it is and its transform (object → world).
+/// The grabbed object's instance: which it is and its transform (object to world).
 fn instance_transform(app: &BvhLabApp, ui: &mut egui::Ui) {
     let (Some(object), Some(scene)) = (app.selected_object, &app.scene) else {
         return;
@@ -528,8 +528,8 @@ fn instance_transform(app: &BvhLabApp, ui: &mut egui::Ui) {
             instance.map_or(glam::Affine3A::IDENTITY, |i| scene.instances[i].transform)
         });
     ui.label(match instance {
-        Some(i) => format!("instance {i} ('{name}'), object → world:"),
-        None => format!("'{name}' as an instance of its own triangles, object → world:"),
+        Some(i) => format!("instance {i} ('{name}'), object to world:"),
+        None => format!("'{name}' as an instance of its own triangles, object to world:"),
     });
     let m = transform.matrix3;
     let t = transform.translation;
