@@ -645,3 +645,32 @@ fn instances_in_the_same_place_tie_as_the_flattened_scene_does() {
         assert!(hits > 500, "{hits} hits");
     }
 }
+
+#[test]
+fn every_slab_kernel_gives_the_same_hits_and_counts() {
+    use bvhlab::geometry::simd::SimdLevel;
+    let scene = instanced_scene(40, 51);
+    let params = two_level_params(TraversalOrder::FrontToBack);
+    let mut built = structure::build_scene(&scene, &params, &Default::default())
+        .unwrap()
+        .structure;
+    let mut rays = common::rays(&scene.bounds(), 2000, 52);
+    rays.extend(rays_at_triangles(&scene, 2000, 53));
+    let trace = |s: &Structure| -> Vec<_> {
+        rays.iter()
+            .map(|r| {
+                let mut c = Counters::default();
+                let hit = s.closest_hit::<Watertight, _>(r, &mut c);
+                (hit, c, s.any_hit::<Watertight, _>(r, &mut NoStats))
+            })
+            .collect()
+    };
+    built.set_simd(SimdLevel::Portable).unwrap();
+    let portable = trace(&built);
+    assert!(portable.iter().any(|(h, ..)| h.is_some()));
+    for level in SimdLevel::available() {
+        built.set_simd(level).unwrap();
+        assert_eq!(built.simd(), Some(level));
+        assert!(trace(&built) == portable, "{}", level.label());
+    }
+}
