@@ -529,7 +529,11 @@ impl State {
         let moved = if scene.instances.is_empty() {
             // Each object is an instance of its own triangles: the triangles move in the
             // scene, the instance in the structure.
-            let Some(current) = tl.instances.get(object) else {
+            // (Only where the structure's instances are the objects: a scene whose objects
+            // do not cover its triangles in order is one instance of them all.)
+            let is_object = tl.instances.len() == scene.objects.len()
+                && tl.first_triangle.get(object) == Some(&(range.start as u64));
+            let Some(current) = tl.instances.get(object).filter(|_| is_object) else {
                 return false;
             };
             transform = glam::Affine3A::from_translation(delta) * current.transform;
