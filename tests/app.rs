@@ -341,3 +341,63 @@ fn a_grid_over_its_cell_cap_is_an_error_and_the_previous_grid_stays() {
     );
     assert!(app.shown.is_some());
 }
+
+#[test]
+fn dragging_an_object_under_the_two_levels_moves_its_instance() {
+    let mut h = app("cornell");
+    choose_structure(&mut h, bvhlab::accel::AccelKind::TwoLevel.title());
+    assert_eq!(h.state().report.clone().unwrap().structure, "two-level");
+    drag_an_object(&mut h);
+    let app = h.state();
+    let (refit, flat) = app.last_instance_move.expect("the instance moved");
+    assert!(refit > std::time::Duration::ZERO);
+    assert!(
+        flat.is_some(),
+        "the cornell box flattens: its BVH refit is timed"
+    );
+    assert!(app.last_rebuild.is_none(), "nothing was rebuilt");
+    // The grabbed object's instance and its transform, now a translation, are shown.
+    let object = app.selected_object.expect("an object was grabbed");
+    let moved_by = app.moved_transforms[&object].translation;
+    assert!(moved_by.length() > 0.0, "the instance moved: {moved_by}");
+    assert!(app.moved_transforms[&object].matrix3 == glam::Mat3A::IDENTITY);
+    h.get_by_label_contains("as an instance of its own triangles, object to world");
+    // The moved instance is traced through its inverse transform: the same triangles as a
+    // fresh BVH2 over the moved triangles, t within the rounding of the translation.
+    h.state_mut().request_snapshot();
+    settle(&mut h);
+    let app = h.state();
+    let moved = app.snapshot.clone().expect("snapshot");
+    assert_ne!(
+        moved.triangles,
+        bvhlab::scene::Scene::load("cornell").unwrap().triangles,
+        "the object moved"
+    );
+    let shown = app.shown.clone().unwrap();
+    let (fresh, _) = build(&moved.triangles, &BuildParams::default()).unwrap();
+    let settings = RenderSettings {
+        width: shown.job.width,
+        height: shown.job.height,
+        camera: shown.job.camera,
+        light: moved.light(),
+        mode: shown.job.mode,
+        heat_max: None,
+        shadows: true,
+        counters: true,
+    };
+    let expected = render(&fresh, &moved, &settings);
+    let (mut other_triangle, mut worst) = (0, 0.0f32);
+    for (a, b) in shown.frame.samples.iter().zip(&expected.samples) {
+        if a.triangle != b.triangle {
+            other_triangle += 1;
+        } else if a.is_hit() {
+            worst = worst.max((a.t - b.t).abs() / b.t.max(1.0));
+        }
+    }
+    // Rays through an edge may name the neighbour within that rounding.
+    assert!(
+        other_triangle <= expected.samples.len() / 1000,
+        "{other_triangle} pixels hit another triangle"
+    );
+    assert!(worst < 1e-4, "t differs by {worst} relative");
+}

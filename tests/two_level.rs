@@ -544,6 +544,15 @@ fn moving_instances_rebuilds_the_top_level_only_and_equals_a_full_rebuild() {
     }
     assert!(hits > rays.len() / 2, "{hits} hits");
 
+    // The refitted top level and one built again over the moved instances agree.
+    let mut rebuilt_top = moved.clone();
+    rebuilt_top.rebuild_top_level().unwrap();
+    for ray in &rays {
+        let refitted = moved.closest_hit::<Watertight, _>(ray, &mut NoStats);
+        let again = rebuilt_top.closest_hit::<Watertight, _>(ray, &mut NoStats);
+        assert_eq!(refitted, again, "{ray:?}");
+    }
+
     // Bad moves change nothing.
     let before = moved.instances.clone();
     let singular = Affine3A::from_scale(Vec3::new(0.0, 1.0, 1.0));
@@ -634,5 +643,34 @@ fn instances_in_the_same_place_tie_as_the_flattened_scene_does() {
             }
         }
         assert!(hits > 500, "{hits} hits");
+    }
+}
+
+#[test]
+fn every_slab_kernel_gives_the_same_hits_and_counts() {
+    use bvhlab::geometry::simd::SimdLevel;
+    let scene = instanced_scene(40, 51);
+    let params = two_level_params(TraversalOrder::FrontToBack);
+    let mut built = structure::build_scene(&scene, &params, &Default::default())
+        .unwrap()
+        .structure;
+    let mut rays = common::rays(&scene.bounds(), 2000, 52);
+    rays.extend(rays_at_triangles(&scene, 2000, 53));
+    let trace = |s: &Structure| -> Vec<_> {
+        rays.iter()
+            .map(|r| {
+                let mut c = Counters::default();
+                let hit = s.closest_hit::<Watertight, _>(r, &mut c);
+                (hit, c, s.any_hit::<Watertight, _>(r, &mut NoStats))
+            })
+            .collect()
+    };
+    built.set_simd(SimdLevel::Portable).unwrap();
+    let portable = trace(&built);
+    assert!(portable.iter().any(|(h, ..)| h.is_some()));
+    for level in SimdLevel::available() {
+        built.set_simd(level).unwrap();
+        assert_eq!(built.simd(), Some(level));
+        assert!(trace(&built) == portable, "{}", level.label());
     }
 }

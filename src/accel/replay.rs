@@ -239,6 +239,6 @@ pub fn counters_of(steps: &[Step]) -> Counters {
         nodes_visited: steps.iter().filter(|s| s.is_visit()).count() as u32,
         box_tests: steps.iter().map(Step::box_tests).sum(),
         triangle_tests: steps.iter().filter(|s| s.is_triangle_test()).count() as u32,
-        repeated_tests: 0,
+        ..Counters::default()
     }
 }

@@ -19,6 +19,20 @@ pub trait Stats: Default {
     /// The triangle about to be tested was tested before by the same ray: a structure that
     /// references a triangle from several cells repeats the test unless it mailboxes.
     fn repeated_test(&mut self);
+    /// A step in the top level of a two-level structure: counted as a node visit and, by
+    /// sinks that split the levels, as a top-level one.
+    #[inline(always)]
+    fn top_node_visit(&mut self) {
+        self.node_visit();
+    }
+    /// `n` box tests in the top level (counted as box tests, and split as above).
+    #[inline(always)]
+    fn top_box_tests(&mut self, n: u32) {
+        self.box_tests(n);
+    }
+    /// The ray was carried into an instance's space to walk its bottom-level structure.
+    #[inline(always)]
+    fn instance_entered(&mut self) {}
     /// Adds the counts of `other`: a query counts into a sink of its own, which stays in
     /// registers while it runs, and adds it to the caller's once at the end.
     fn absorb(&mut self, other: Self);
@@ -76,6 +90,12 @@ pub struct Counters {
     /// `triangle_tests`); always 0 for structures that reference each triangle once, and
     /// for spatial structures with mailboxing on.
     pub repeated_tests: u32,
+    /// Of `nodes_visited` and `box_tests`, those in the top level of a two-level structure
+    /// (the rest were in its bottom levels); 0 for every other structure.
+    pub top_nodes_visited: u32,
+    pub top_box_tests: u32,
+    /// Instances whose bottom-level structure the ray walked.
+    pub instances_entered: u32,
 }
 
 impl Stats for Counters {
@@ -97,6 +117,20 @@ impl Stats for Counters {
         self.repeated_tests += 1;
     }
     #[inline(always)]
+    fn top_node_visit(&mut self) {
+        self.nodes_visited += 1;
+        self.top_nodes_visited += 1;
+    }
+    #[inline(always)]
+    fn top_box_tests(&mut self, n: u32) {
+        self.box_tests += n;
+        self.top_box_tests += n;
+    }
+    #[inline(always)]
+    fn instance_entered(&mut self) {
+        self.instances_entered += 1;
+    }
+    #[inline(always)]
     fn absorb(&mut self, other: Counters) {
         *self += other;
     }
@@ -115,6 +149,9 @@ impl AddAssign for Counters {
         self.box_tests += o.box_tests;
         self.triangle_tests += o.triangle_tests;
         self.repeated_tests += o.repeated_tests;
+        self.top_nodes_visited += o.top_nodes_visited;
+        self.top_box_tests += o.top_box_tests;
+        self.instances_entered += o.instances_entered;
     }
 }
 
@@ -126,6 +163,9 @@ impl Counters {
             Counter::BoxTests => self.box_tests,
             Counter::TriangleTests => self.triangle_tests,
             Counter::RepeatedTests => self.repeated_tests,
+            Counter::TopNodesVisited => self.top_nodes_visited,
+            Counter::BottomNodesVisited => self.nodes_visited - self.top_nodes_visited,
+            Counter::InstancesEntered => self.instances_entered,
         }
     }
 }
@@ -136,15 +176,32 @@ pub enum Counter {
     BoxTests,
     TriangleTests,
     RepeatedTests,
+    /// Two-level structures: the nodes visited in the top level, in the bottom levels, and
+    /// the instances entered.
+    TopNodesVisited,
+    BottomNodesVisited,
+    InstancesEntered,
 }
 
 impl Counter {
-    pub const ALL: [Counter; 4] = [
+    pub const ALL: [Counter; 7] = [
         Counter::NodesVisited,
         Counter::BoxTests,
         Counter::TriangleTests,
         Counter::RepeatedTests,
+        Counter::TopNodesVisited,
+        Counter::BottomNodesVisited,
+        Counter::InstancesEntered,
     ];
+
+    /// Whether the counter splits the levels of a two-level structure (always 0 or the
+    /// whole count for the others).
+    pub fn is_two_level(self) -> bool {
+        matches!(
+            self,
+            Counter::TopNodesVisited | Counter::BottomNodesVisited | Counter::InstancesEntered
+        )
+    }
 
     pub fn label(self) -> &'static str {
         match self {
@@ -152,6 +209,9 @@ impl Counter {
             Counter::BoxTests => "box tests",
             Counter::TriangleTests => "triangle tests",
             Counter::RepeatedTests => "repeated triangle tests",
+            Counter::TopNodesVisited => "top-level nodes visited",
+            Counter::BottomNodesVisited => "bottom-level nodes visited",
+            Counter::InstancesEntered => "instances entered",
         }
     }
 }

@@ -166,8 +166,8 @@ impl StructureParams {
     /// Checks the parameters of the chosen structure.
     pub fn validate(&self) -> Result<(), StructureError> {
         match self.kind {
-            AccelKind::Bvh | AccelKind::TwoLevel => self.bvh.validate()?,
-            AccelKind::Bvh4 | AccelKind::Bvh8 => {
+            AccelKind::Bvh => self.bvh.validate()?,
+            AccelKind::Bvh4 | AccelKind::Bvh8 | AccelKind::TwoLevel => {
                 self.bvh.validate()?;
                 if !self.simd.supported() {
                     return Err(UnsupportedSimd(self.simd).into());
@@ -284,6 +284,7 @@ pub fn build_two_level(
 ) -> Result<Built, StructureError> {
     let (mut tl, report) = two_level::build(scene, &params.bvh, progress)?;
     tl.set_order(params.order);
+    tl.set_simd(params.simd)?;
     Ok(Built {
         structure: Structure::TwoLevel(tl),
         report,
@@ -441,6 +442,7 @@ impl Structure {
         match self {
             Structure::Bvh4(w) => w.set_simd(level),
             Structure::Bvh8(w) => w.set_simd(level),
+            Structure::TwoLevel(t) => t.set_simd(level),
             _ => Ok(()),
         }
     }
@@ -450,6 +452,7 @@ impl Structure {
         match self {
             Structure::Bvh4(w) => Some(w.simd),
             Structure::Bvh8(w) => Some(w.simd),
+            Structure::TwoLevel(t) => Some(t.simd),
             _ => None,
         }
     }

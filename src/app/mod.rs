@@ -50,6 +50,8 @@ pub enum Tool {
 /// A drag of triangles in progress.
 struct Drag {
     triangles: Arc<Vec<u32>>,
+    /// Under the two levels with "move its whole object": the object whose instance moves.
+    object: Option<usize>,
     /// Distance from the eye to the grabbed point: sets how far a pixel moves it.
     depth: f32,
 }
@@ -91,6 +93,13 @@ pub struct BvhLabApp {
     /// Under a structure that cannot refit: the last rebuild after a move, and what a BVH
     /// refit of the same move took.
     pub last_rebuild: Option<(Duration, Option<Duration>)>,
+    /// Under the two levels: the last instance move's top-level refit, and what refitting
+    /// a BVH over the flattened scene took for it (`None`: too large to flatten).
+    pub last_instance_move: Option<(Duration, Option<Duration>)>,
+    /// Under the two levels: the object last grabbed as a whole, and its instance's
+    /// transform once it has moved (before, the scene's own), per object moved.
+    pub selected_object: Option<usize>,
+    pub moved_transforms: std::collections::HashMap<usize, glam::Affine3A>,
     /// When the last move was sent, to time move → refitted frame.
     move_sent: Option<Instant>,
     pub drag_latency: Option<Duration>,
@@ -164,6 +173,9 @@ impl BvhLabApp {
             sah_prediction: None,
             last_refit: None,
             last_rebuild: None,
+            last_instance_move: None,
+            selected_object: None,
+            moved_transforms: Default::default(),
             move_sent: None,
             drag_latency: None,
             walk: None,
@@ -199,6 +211,8 @@ impl BvhLabApp {
                     self.scene = Some(scene);
                     self.load_error = None;
                     self.selection = None;
+                    self.selected_object = None;
+                    self.moved_transforms.clear();
                     self.walk = None;
                     self.replay = None;
                     self.building = true;
@@ -247,6 +261,15 @@ impl BvhLabApp {
                     rebuild_time,
                     bvh_refit_time,
                 } => self.last_rebuild = Some((rebuild_time, bvh_refit_time)),
+                Reply::InstanceMoved {
+                    refit_time,
+                    flat_refit_time,
+                    object,
+                    transform,
+                } => {
+                    self.last_instance_move = Some((refit_time, flat_refit_time));
+                    self.moved_transforms.insert(object, transform);
+                }
                 Reply::Frame(shown) => {
                     if let Some(t) = self.move_sent.take() {
                         self.drag_latency = Some(t.elapsed());
@@ -388,6 +411,13 @@ impl BvhLabApp {
     pub fn move_triangles(&mut self, triangles: Arc<Vec<u32>>, delta: glam::Vec3) {
         self.move_sent = Some(Instant::now());
         self.worker.send(Command::Move { triangles, delta });
+    }
+
+    /// Moves scene object `object` by `delta` as a whole (under the two levels, its
+    /// instance: only the top level is refitted).
+    pub fn move_object(&mut self, object: usize, delta: glam::Vec3) {
+        self.move_sent = Some(Instant::now());
+        self.worker.send(Command::MoveObject { object, delta });
     }
 
     /// Asks the worker for the scene as it is now; it arrives in `snapshot`.

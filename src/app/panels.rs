@@ -272,8 +272,12 @@ fn view_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             let s = &mut app.settings;
             ui.horizontal_wrapped(|ui| {
                 for (k, m) in ViewMode::ALL.into_iter().enumerate() {
+                    // The split of the levels means something only for the two levels.
+                    if m.is_two_level() && s.accel != AccelKind::TwoLevel {
+                        continue;
+                    }
                     ui.selectable_value(&mut s.mode, m, m.label())
-                        .on_hover_text(format!("key {}", k + 1));
+                        .on_hover_text(format!("key {}", (k + 1) % 10));
                 }
             });
             if s.mode.is_heatmap() {
@@ -468,7 +472,22 @@ fn refit_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 );
                 app.settings.auto_rebuild_percent = auto.then_some(p);
             });
-            if app.settings.accel.can_refit() {
+            if app.settings.accel == AccelKind::TwoLevel {
+                instance_transform(app, ui);
+                if let Some((refit, flat)) = app.last_instance_move {
+                    ui.label(format!(
+                        "last move: the instance moved, the top level refitted in {:.3} ms",
+                        refit.as_secs_f64() * 1e3
+                    ));
+                    ui.label(match flat {
+                        Some(f) => format!(
+                            "a BVH over the flattened scene refits the same move in {:.2} ms",
+                            f.as_secs_f64() * 1e3
+                        ),
+                        None => "the scene is too large to flatten: no flat BVH to refit".into(),
+                    });
+                }
+            } else if app.settings.accel.can_refit() {
                 if let Some(t) = app.last_refit {
                     ui.label(format!("last refit {:.2} ms", t.as_secs_f64() * 1e3));
                 }
@@ -491,6 +510,38 @@ fn refit_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 ));
             }
         });
+}
+
+/// The grabbed object's instance: which it is and its transform (object to world).
+fn instance_transform(app: &BvhLabApp, ui: &mut egui::Ui) {
+    let (Some(object), Some(scene)) = (app.selected_object, &app.scene) else {
+        return;
+    };
+    let Some(name) = scene.objects.get(object).map(|o| o.name.clone()) else {
+        return;
+    };
+    // Before its first move: the scene's own instance, or the object as an instance of
+    // its own triangles (the identity).
+    let instance = scene.instance_of_object(object);
+    let transform = app
+        .moved_transforms
+        .get(&object)
+        .copied()
+        .unwrap_or_else(|| {
+            instance.map_or(glam::Affine3A::IDENTITY, |i| scene.instances[i].transform)
+        });
+    ui.label(match instance {
+        Some(i) => format!("instance {i} ('{name}'), object to world:"),
+        None => format!("'{name}' as an instance of its own triangles, object to world:"),
+    });
+    let m = transform.matrix3;
+    let t = transform.translation;
+    for row in 0..3 {
+        ui.monospace(format!(
+            "[{:>8.3} {:>8.3} {:>8.3} | {:>9.3}]",
+            m.x_axis[row], m.y_axis[row], m.z_axis[row], t[row]
+        ));
+    }
 }
 
 pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
@@ -583,7 +634,16 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 ui.strong("primary mean / max");
                 ui.strong("shadow mean / max");
                 ui.end_row();
+                let two_level =
+                    s.counter(
+                        crate::render::RayKind::Primary,
+                        crate::accel::Counter::TopNodesVisited,
+                    )
+                    .max > 0;
                 for which in crate::accel::Counter::ALL {
+                    if which.is_two_level() && !two_level {
+                        continue;
+                    }
                     ui.label(which.label());
                     for rays in [
                         crate::render::RayKind::Primary,

@@ -25,10 +25,15 @@ pub enum ViewMode {
     Triangles,
     /// Triangle tests a ray repeated: spatial structures without mailboxing.
     Repeated,
+    /// Two-level structures: nodes visited in the top level, in the bottom levels, and the
+    /// instances entered.
+    TopNodes,
+    BottomNodes,
+    Instances,
 }
 
 impl ViewMode {
-    pub const ALL: [ViewMode; 7] = [
+    pub const ALL: [ViewMode; 10] = [
         ViewMode::Shaded,
         ViewMode::Normals,
         ViewMode::Depth,
@@ -36,6 +41,9 @@ impl ViewMode {
         ViewMode::Boxes,
         ViewMode::Triangles,
         ViewMode::Repeated,
+        ViewMode::TopNodes,
+        ViewMode::BottomNodes,
+        ViewMode::Instances,
     ];
 
     pub fn label(self) -> &'static str {
@@ -47,13 +55,30 @@ impl ViewMode {
             ViewMode::Boxes => "box tests",
             ViewMode::Triangles => "triangle tests",
             ViewMode::Repeated => "repeated tests",
+            ViewMode::TopNodes => "top-level nodes",
+            ViewMode::BottomNodes => "bottom-level nodes",
+            ViewMode::Instances => "instances entered",
         }
     }
 
     pub fn is_heatmap(self) -> bool {
         matches!(
             self,
-            ViewMode::Nodes | ViewMode::Boxes | ViewMode::Triangles | ViewMode::Repeated
+            ViewMode::Nodes
+                | ViewMode::Boxes
+                | ViewMode::Triangles
+                | ViewMode::Repeated
+                | ViewMode::TopNodes
+                | ViewMode::BottomNodes
+                | ViewMode::Instances
+        )
+    }
+
+    /// Whether the mode shows a count only a two-level structure makes.
+    pub fn is_two_level(self) -> bool {
+        matches!(
+            self,
+            ViewMode::TopNodes | ViewMode::BottomNodes | ViewMode::Instances
         )
     }
 
@@ -71,6 +96,9 @@ impl ViewMode {
             ViewMode::Boxes => Mode::Heatmap(Counter::BoxTests, rays),
             ViewMode::Triangles => Mode::Heatmap(Counter::TriangleTests, rays),
             ViewMode::Repeated => Mode::Heatmap(Counter::RepeatedTests, rays),
+            ViewMode::TopNodes => Mode::Heatmap(Counter::TopNodesVisited, rays),
+            ViewMode::BottomNodes => Mode::Heatmap(Counter::BottomNodesVisited, rays),
+            ViewMode::Instances => Mode::Heatmap(Counter::InstancesEntered, rays),
         }
     }
 }

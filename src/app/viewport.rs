@@ -6,8 +6,10 @@ use super::panels::{Step, legend};
 use super::replay::Go;
 use super::settings::ViewMode;
 use super::{BvhLabApp, Drag, Tool};
+use crate::accel::AccelKind;
 use crate::scene::Camera;
 use eframe::egui::{self, Key, PointerButton, Sense};
+use std::sync::Arc;
 use std::time::Instant;
 
 pub fn show(app: &mut BvhLabApp, ui: &mut egui::Ui) {
@@ -111,8 +113,13 @@ fn handle_input(app: &mut BvhLabApp, ui: &egui::Ui, response: &egui::Response, r
             let s = 2.0 * drag.depth * (cam.fov_y_deg.to_radians() * 0.5).tan() / height.max(1.0);
             let delta = (right * d.x - up * d.y) * s;
             if delta != glam::Vec3::ZERO {
-                let set = drag.triangles.clone();
-                app.move_triangles(set, delta);
+                match drag.object {
+                    Some(object) => app.move_object(object, delta),
+                    None => {
+                        let set = drag.triangles.clone();
+                        app.move_triangles(set, delta);
+                    }
+                }
             }
         } else if !moving {
             app.orbit.rotate(d.x, d.y, height);
@@ -170,12 +177,33 @@ fn start_drag(app: &mut BvhLabApp, rect: egui::Rect, pos: egui::Pos2) {
     else {
         return;
     };
-    let Some(triangle) = s.is_hit().then(|| u32::try_from(s.triangle).ok()).flatten() else {
+    if !s.is_hit() {
+        return;
+    }
+    // Under the two levels a whole object moves as its instance: the top level is refitted.
+    // This works for any triangle number, also past 32 bits (the island).
+    if app.settings.accel == AccelKind::TwoLevel && app.settings.move_whole_object {
+        let object = usize::try_from(s.triangle)
+            .ok()
+            .and_then(|t| app.scene.as_ref()?.object_of(t));
+        if let Some(object) = object {
+            app.selection = u32::try_from(s.triangle).ok();
+            app.selected_object = Some(object);
+            app.drag = Some(Drag {
+                triangles: Arc::new(Vec::new()),
+                object: Some(object),
+                depth: s.t,
+            });
+            return;
+        }
+    }
+    let Some(triangle) = u32::try_from(s.triangle).ok() else {
         return;
     };
     app.selection = Some(triangle);
     app.drag = Some(Drag {
         triangles: app.drag_set(triangle),
+        object: None,
         depth: s.t,
     });
 }
@@ -197,6 +225,9 @@ impl BvhLabApp {
             Key::Num5,
             Key::Num6,
             Key::Num7,
+            Key::Num8,
+            Key::Num9,
+            Key::Num0,
         ]
         .into_iter()
         .zip(ViewMode::ALL)

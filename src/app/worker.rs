@@ -68,6 +68,13 @@ pub enum Command {
         triangles: Arc<Vec<u32>>,
         delta: Vec3,
     },
+    /// Move scene object `object` by `delta` as a whole: under the two levels its instance
+    /// moves and only the top level is refitted; under any other structure its triangles
+    /// move as with `Move`.
+    MoveObject {
+        object: usize,
+        delta: Vec3,
+    },
     /// The drag that made the last moves is over: they form one undo step.
     EndGesture,
     /// Build again over the triangles as they are now.
@@ -171,6 +178,16 @@ pub enum Reply {
     RebuiltAfterMove {
         rebuild_time: Duration,
         bvh_refit_time: Option<Duration>,
+    },
+    /// An instance moved and the top level was refitted; beside it, what refitting a BVH
+    /// over the flattened scene for the same move took (`None` for a scene too large to
+    /// flatten).
+    InstanceMoved {
+        refit_time: Duration,
+        flat_refit_time: Option<Duration>,
+        /// The moved object and its instance's transform now.
+        object: usize,
+        transform: glam::Affine3A,
     },
     Frame(Arc<Shown>),
     Snapshot(Arc<Scene>),
@@ -316,8 +333,8 @@ struct State {
     /// For partial refits of the current tree; made at the first move after a build.
     refit_index: Option<RefitIndex>,
     /// Moves of the drag in progress, then finished drags (for undo).
-    gesture: Vec<(Arc<Vec<u32>>, Vec3)>,
-    undo: Vec<Vec<(Arc<Vec<u32>>, Vec3)>>,
+    gesture: Vec<Motion>,
+    undo: Vec<Vec<Motion>>,
     /// The walk node's split costs, kept while the tree, the node and the parameters stay.
     split_costs: RefCell<Option<(SplitCostsKey, Arc<SplitCosts>)>>,
 }
@@ -327,6 +344,13 @@ struct SplitCostsKey {
     version: u64,
     node: usize,
     params: StructureParams,
+}
+
+/// One move, as undo replays it backwards.
+#[derive(Clone)]
+enum Motion {
+    Triangles(Arc<Vec<u32>>, Vec3),
+    Object(usize, Vec3),
 }
 
 /// Undo keeps this many drags.
@@ -425,7 +449,12 @@ impl State {
             }
             Command::Move { triangles, delta } => {
                 self.move_triangles(&triangles, delta);
-                self.gesture.push((triangles, delta));
+                self.gesture.push(Motion::Triangles(triangles, delta));
+            }
+            Command::MoveObject { object, delta } => {
+                if self.move_object(object, delta) {
+                    self.gesture.push(Motion::Object(object, delta));
+                }
             }
             Command::EndGesture => {
                 if !self.gesture.is_empty() {
@@ -445,8 +474,15 @@ impl State {
                 } else {
                     std::mem::take(&mut self.gesture)
                 };
-                for (triangles, delta) in step.iter().rev() {
-                    self.move_triangles(triangles, -*delta);
+                for motion in step.iter().rev() {
+                    match motion {
+                        Motion::Triangles(triangles, delta) => {
+                            self.move_triangles(triangles, -*delta)
+                        }
+                        Motion::Object(object, delta) => {
+                            self.move_object(*object, -*delta);
+                        }
+                    }
                 }
             }
         }
@@ -554,6 +590,89 @@ impl State {
         replay_pixel::<crate::geometry::Watertight>(structure, scene, &settings, r.pixel, r.rays)
             .map(Arc::new)
             .map_err(|e| e.to_string())
+    }
+
+    /// Moves object `object` by `delta`; true if it moved. Under the two levels: its
+    /// instance (the scene's own, or the object itself as an instance of its triangles)
+    /// moves, and the top level is refitted.
+    fn move_object(&mut self, object: usize, delta: Vec3) -> bool {
+        let (Some(scene), Some(structure)) = (&mut self.scene, &mut self.structure) else {
+            return false;
+        };
+        let Some(range) = scene.objects.get(object).map(|o| o.range()) else {
+            return false;
+        };
+        let Structure::TwoLevel(tl) = structure else {
+            // Any other structure moves the object's triangles.
+            let triangles: Arc<Vec<u32>> = Arc::new(range.map(|t| t as u32).collect());
+            self.move_triangles(&triangles, delta);
+            return true;
+        };
+        let start = Instant::now();
+        let mut transform = glam::Affine3A::IDENTITY;
+        let moved = if scene.instances.is_empty() {
+            // Each object is an instance of its own triangles: the triangles move in the
+            // scene, the instance in the structure.
+            // (Only where the structure's instances are the objects: a scene whose objects
+            // do not cover its triangles in order is one instance of them all.)
+            let is_object = tl.instances.len() == scene.objects.len()
+                && tl.first_triangle.get(object) == Some(&(range.start as u64));
+            let Some(current) = tl.instances.get(object).filter(|_| is_object) else {
+                return false;
+            };
+            transform = glam::Affine3A::from_translation(delta) * current.transform;
+            let ok = tl.move_instance(object, transform).is_ok();
+            if ok {
+                for t in &mut scene.triangles[range.clone()] {
+                    for v in &mut t.v {
+                        *v += delta;
+                    }
+                }
+            }
+            ok
+        } else {
+            let Some(i) = scene.instance_of_object(object) else {
+                return false;
+            };
+            match scene.translate_instance(i, delta) {
+                Ok(placed) => {
+                    transform = placed.transform;
+                    let ok = tl.move_instance(i, placed.transform).is_ok();
+                    if !ok {
+                        let _ = scene.translate_instance(i, -delta);
+                    }
+                    ok
+                }
+                Err(_) => false,
+            }
+        };
+        if !moved {
+            return false;
+        }
+        let refit_time = start.elapsed();
+        self.version += 1;
+        // Beside it: a BVH over the flattened scene, refitted for the same triangles.
+        let p = self.params.bvh;
+        if self.reference_bvh.is_none()
+            && scene.is_flattened()
+            && let Ok((bvh, _)) = bvh::build(&scene.triangles, &bvh::BuildParams::default())
+        {
+            let index = RefitIndex::new(&bvh);
+            self.reference_bvh = Some((bvh, index));
+        }
+        let flat_refit_time = self.reference_bvh.as_mut().map(|(bvh, index)| {
+            let triangles: Vec<u32> = range.map(|t| t as u32).collect();
+            let start = Instant::now();
+            let _ = bvh.refit_moved(index, &scene.triangles, &triangles, p.c_trav, p.c_isect);
+            start.elapsed()
+        });
+        self.reply(Reply::InstanceMoved {
+            refit_time,
+            flat_refit_time,
+            object,
+            transform,
+        });
+        true
     }
 
     fn render(&mut self, job: RenderJob) {

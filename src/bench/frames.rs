@@ -42,6 +42,9 @@ pub struct DragTime {
     /// Medians of the two parts of a step: the refit or rebuild, and tracing the new frame.
     pub refit: Duration,
     pub trace: Duration,
+    /// Under the two levels, where an instance moves: the median refit of a BVH over the
+    /// flattened scene for the same move (`None` if the scene is too large to flatten).
+    pub flat_refit: Option<Duration>,
 }
 
 /// What the worker did for the command just sent.
@@ -50,6 +53,7 @@ struct Step {
     /// Time spent tracing the frame, if one came.
     trace: Option<Duration>,
     refit: Duration,
+    flat_refit: Option<Duration>,
 }
 
 /// Waits for the frame of the command just sent; `None` if the worker went quiet.
@@ -60,6 +64,14 @@ fn frame_after(worker: &mut Worker) -> Option<Step> {
             Reply::Frame(f) => step.trace = Some(f.frame.summary.trace_time),
             Reply::Refitted { refit_time, .. } => step.refit += refit_time,
             Reply::RebuiltAfterMove { rebuild_time, .. } => step.refit += rebuild_time,
+            Reply::InstanceMoved {
+                refit_time,
+                flat_refit_time,
+                ..
+            } => {
+                step.refit += refit_time;
+                step.flat_refit = flat_refit_time;
+            }
             _ => {}
         }
     }
@@ -130,35 +142,52 @@ pub fn run(
         }
     }
     // Drag: move the largest object back and forth, one refitted preview frame per move.
-    let object = scene
+    // Under the two levels its instance moves (the scene need not store its triangles).
+    let (o, object) = scene
         .objects
         .iter()
-        .max_by_key(|o| o.count)
+        .enumerate()
+        .max_by_key(|(_, o)| o.count)
         .ok_or("the scene has no objects")?;
-    let moved: Arc<Vec<u32>> = Arc::new(object.range().map(|t| t as u32).collect());
+    let instanced = params.kind == crate::accel::AccelKind::TwoLevel;
+    let moved: Arc<Vec<u32>> = if instanced {
+        Arc::new(Vec::new())
+    } else {
+        Arc::new(object.range().map(|t| t as u32).collect())
+    };
     let step = scene.bounds().diagonal() * 0.002;
     let preview = sizes.first().copied().unwrap_or((640, 360, true));
     let mut drags = Vec::new();
-    // A scene that does not store its triangles cannot move them: no drag to time.
-    let drag_modes: &[Mode] = if scene.is_flattened() { &modes } else { &[] };
+    // A flat structure over a scene that does not store its triangles cannot move them.
+    let drag_modes: &[Mode] = if instanced || scene.is_flattened() {
+        &modes
+    } else {
+        &[]
+    };
     for &mode in drag_modes {
         // The app tints the selection while it is dragged.
         let mut dragged = job(camera, mode, preview);
-        dragged.overlay.selected = Some(moved.clone());
+        dragged.overlay.selected = (!instanced).then(|| moved.clone());
         worker.send(Command::Render(dragged));
         frame_after(&mut worker).ok_or("no frame")?;
-        let (mut times, mut refits, mut traces) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut times, mut refits, mut traces, mut flat) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for k in 0..runs.max(10) {
             let delta = if k % 2 == 0 { Vec3::X } else { -Vec3::X } * step;
             let start = Instant::now();
-            worker.send(Command::Move {
-                triangles: moved.clone(),
-                delta,
+            worker.send(if instanced {
+                Command::MoveObject { object: o, delta }
+            } else {
+                Command::Move {
+                    triangles: moved.clone(),
+                    delta,
+                }
             });
             let step = frame_after(&mut worker).ok_or("no frame after a move")?;
             times.push(start.elapsed());
             refits.push(step.refit);
             traces.push(step.trace.unwrap_or_default());
+            flat.extend(step.flat_refit);
         }
         let step_time = median(times);
         drags.push(DragTime {
@@ -167,6 +196,7 @@ pub fn run(
             median: step_time,
             refit: median(refits),
             trace: median(traces),
+            flat_refit: (!flat.is_empty()).then(|| median(flat)),
         });
     }
     Ok(FrameReport {
@@ -174,6 +204,6 @@ pub fn run(
         triangles: scene.placed_triangles(),
         frames,
         drags,
-        moved: moved.len(),
+        moved: object.count,
     })
 }

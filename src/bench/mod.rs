@@ -69,6 +69,11 @@ pub struct MeanWork {
     pub box_tests: f64,
     pub triangle_tests: f64,
     pub repeated_tests: f64,
+    /// Two-level structures: of `nodes` and `box_tests`, those in the top level, and the
+    /// instances entered (all 0 for other structures).
+    pub top_nodes: f64,
+    pub top_box_tests: f64,
+    pub instances_entered: f64,
 }
 
 impl RaySetResult {
@@ -466,6 +471,13 @@ impl BenchResult {
                 v["mean_box_tests"] = round3(m.box_tests).into();
                 v["mean_triangle_tests"] = round3(m.triangle_tests).into();
                 v["mean_repeated_tests"] = round3(m.repeated_tests).into();
+                if self.params.kind == AccelKind::TwoLevel {
+                    v["mean_top_nodes"] = round3(m.top_nodes).into();
+                    v["mean_bottom_nodes"] = round3(m.nodes - m.top_nodes).into();
+                    v["mean_top_box_tests"] = round3(m.top_box_tests).into();
+                    v["mean_bottom_box_tests"] = round3(m.box_tests - m.top_box_tests).into();
+                    v["mean_instances_entered"] = round3(m.instances_entered).into();
+                }
                 if let Some(ns) = r.ns_per_step(m.nodes) {
                     v["ns_per_step"] = round3(ns).into();
                 }
@@ -477,7 +489,7 @@ impl BenchResult {
         };
         let r = &self.report;
         let b = &self.params.bvh;
-        serde_json::json!({
+        let mut json = serde_json::json!({
             "scene": self.scene,
             "accel": self.params.kind.label(),
             "triangles": self.triangles,
@@ -489,7 +501,8 @@ impl BenchResult {
             "treelet_rounds": b.treelet_rounds,
             "max_leaf_size": b.max_leaf_size,
             "mailbox": self.params.mailbox,
-            "simd": self.params.kind.is_wide().then(|| self.params.simd.label()),
+            "simd": (self.params.kind.is_wide() || self.params.kind == AccelKind::TwoLevel)
+                .then(|| self.params.simd.label()),
             "build_ms": round3(r.build_ms()),
             "bytes": r.bytes,
             "sah_cost": self.bvh_report.as_ref().map(|b| round3(b.tree.sah_cost)),
@@ -515,7 +528,22 @@ impl BenchResult {
                 "tied_primary_hits": p.tied_primary_hits,
                 "differing_primary_hits": p.differing_primary_hits,
             })),
-        })
+        });
+        // The two levels' build times, each level on its own (their sum is `build_ms`).
+        for (detail, key) in [
+            ("BLAS builds", "blas_build_ms"),
+            ("TLAS build", "tlas_build_ms"),
+        ] {
+            let ms = r
+                .details
+                .iter()
+                .find(|(k, _)| k == detail)
+                .and_then(|(_, v)| v.trim_end_matches(" ms").parse::<f64>().ok());
+            if let Some(ms) = ms {
+                json[key] = round3(ms).into();
+            }
+        }
+        json
     }
 }
 

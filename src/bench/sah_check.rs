@@ -122,15 +122,21 @@ pub fn mean_work_of(accel: &Structure, rays: &[Ray], any_hit: bool) -> MeanWork 
                 c.box_tests,
                 c.triangle_tests,
                 c.repeated_tests,
+                c.top_nodes_visited,
+                c.top_box_tests,
+                c.instances_entered,
             ]
             .map(u64::from)
         })
-        .reduce(|| [0; 4], |a, b| std::array::from_fn(|k| a[k] + b[k]));
+        .reduce(|| [0; 7], |a, b| std::array::from_fn(|k| a[k] + b[k]));
     let n = rays.len().max(1) as f64;
     MeanWork {
         nodes: sum[0] as f64 / n,
         box_tests: sum[1] as f64 / n,
         triangle_tests: sum[2] as f64 / n,
         repeated_tests: sum[3] as f64 / n,
+        top_nodes: sum[4] as f64 / n,
+        top_box_tests: sum[5] as f64 / n,
+        instances_entered: sum[6] as f64 / n,
     }
 }

@@ -200,8 +200,20 @@ pub fn run(args: BenchArgs) -> Result<()> {
             let step = set
                 .ns_per_step(m.nodes)
                 .map_or(String::new(), |ns| format!(" {ns:>6.1} ns per step"));
+            let levels = if r.params.kind == AccelKind::TwoLevel {
+                format!(
+                    "  (top {:.1} nodes, {:.1} boxes; bottom {:.1} nodes, {:.1} boxes; {:.1} instances entered)",
+                    m.top_nodes,
+                    m.top_box_tests,
+                    m.nodes - m.top_nodes,
+                    m.box_tests - m.top_box_tests,
+                    m.instances_entered
+                )
+            } else {
+                String::new()
+            };
             format!(
-                "  {:>8.1} nodes {:>8.1} triangle tests per ray{step}",
+                "  {:>8.1} nodes {:>8.1} triangle tests per ray{step}{levels}",
                 m.nodes, m.triangle_tests
             )
         });

@@ -3,6 +3,7 @@
 
 use super::{BuildArgs, ViewArgs, load_scene};
 use anyhow::{Result, anyhow};
+use bvhlab::accel::AccelKind;
 use bvhlab::bench::frames;
 use clap::Args;
 
@@ -48,13 +49,24 @@ pub fn run(args: FramesArgs) -> Result<()> {
             1.0 / f.median.as_secs_f64().max(1e-9)
         );
     }
+    let two_level = params.kind == AccelKind::TwoLevel;
     for d in &r.drags {
+        let flat = match (two_level, d.flat_refit) {
+            (false, _) => String::new(),
+            (true, Some(f)) => format!(
+                "; a flattened BVH2 refits it in {:.1} ms",
+                f.as_secs_f64() * 1e3
+            ),
+            (true, None) => "; too large to flatten".into(),
+        };
         out!(
-            "  drag, {:<30} {:>7.1} ms/step   ({:.1} frames/s; {} {:.1} ms, trace {:.1} ms)",
+            "  drag, {:<30} {:>7.1} ms/step   ({:.1} frames/s; {} {:.2} ms, trace {:.1} ms{flat})",
             d.mode.label(),
             d.median.as_secs_f64() * 1e3,
             d.fps,
-            if params.kind.can_refit() {
+            if two_level {
+                "top-level refit"
+            } else if params.kind.can_refit() {
                 "refit"
             } else {
                 "rebuild"
@@ -65,6 +77,13 @@ pub fn run(args: FramesArgs) -> Result<()> {
     }
     if r.drags.is_empty() {
         out!("  (no drag: the scene does not store its triangles to move them)");
+    } else if two_level {
+        out!(
+            "  (a drag step moves one instance of {} triangles, refits the top level, and traces the {}×{} preview)",
+            r.moved,
+            sizes[0].0,
+            sizes[0].1
+        );
     } else {
         out!(
             "  (a drag step moves {} triangles, refits or rebuilds, and traces the {}×{} preview)",

@@ -204,6 +204,12 @@ pub enum ModeArg {
     Triangles,
     /// Heatmap of repeated triangle tests (spatial structures with --mailbox false).
     Repeated,
+    /// Two-level structure: heatmap of nodes visited in the top level (TLAS).
+    TopNodes,
+    /// Two-level structure: heatmap of nodes visited in the bottom levels (BLASes).
+    BottomNodes,
+    /// Two-level structure: heatmap of instances entered.
+    Instances,
 }
 
 impl BuildArgs {

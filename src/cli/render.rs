@@ -63,6 +63,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
         ModeArg::Boxes => Mode::Heatmap(Counter::BoxTests, rays),
         ModeArg::Triangles => Mode::Heatmap(Counter::TriangleTests, rays),
         ModeArg::Repeated => Mode::Heatmap(Counter::RepeatedTests, rays),
+        ModeArg::TopNodes => Mode::Heatmap(Counter::TopNodesVisited, rays),
+        ModeArg::BottomNodes => Mode::Heatmap(Counter::BottomNodesVisited, rays),
+        ModeArg::Instances => Mode::Heatmap(Counter::InstancesEntered, rays),
     };
     let settings = RenderSettings {
         width: args.width,
@@ -109,6 +112,18 @@ pub fn run(args: RenderArgs) -> Result<()> {
             c(Counter::RepeatedTests).mean,
             c(Counter::RepeatedTests).max,
         );
+        if c(Counter::TopNodesVisited).max > 0 {
+            out!(
+                "  {:<13} mean (max): {:.1} ({}) top-level nodes, {:.1} ({}) bottom-level nodes, {:.1} ({}) instances entered",
+                "",
+                c(Counter::TopNodesVisited).mean,
+                c(Counter::TopNodesVisited).max,
+                c(Counter::BottomNodesVisited).mean,
+                c(Counter::BottomNodesVisited).max,
+                c(Counter::InstancesEntered).mean,
+                c(Counter::InstancesEntered).max,
+            );
+        }
     }
     if let Some(max) = frame.heat_max {
         out!("heatmap scale: 0 (dark purple) to {max} (yellow)");

@@ -46,6 +46,8 @@ pub enum ReplayError {
     },
     #[error("pixel ({x}, {y}) hits nothing, so it has no shadow ray")]
     NoShadowRay { x: u32, y: u32 },
+    #[error("the two levels cannot be replayed yet: their 8-wide top level records no steps")]
+    TwoLevels,
 }
 
 /// Replays pixel (x, y) of the frame `settings` describes: its primary ray, or with
@@ -57,6 +59,9 @@ pub fn replay_pixel<I: Intersector>(
     (x, y): (u32, u32),
     rays: RayKind,
 ) -> Result<Replay, ReplayError> {
+    if let Structure::TwoLevel(_) = structure {
+        return Err(ReplayError::TwoLevels);
+    }
     let (width, height) = (settings.width.max(1), settings.height.max(1));
     if x >= width || y >= height {
         return Err(ReplayError::OutsideImage {

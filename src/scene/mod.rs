@@ -227,6 +227,53 @@ impl Scene {
         }
     }
 
+    /// Moves instance `i` of the scene's own instances by `delta` (its transform, then a
+    /// translation); a stored flattened copy of its triangles is placed again. The meshes
+    /// and every other instance stay: the move a two-level structure refits its top level
+    /// for. An error (nothing moved) for no such instance or a transform out of range.
+    pub fn translate_instance(
+        &mut self,
+        i: usize,
+        delta: Vec3,
+    ) -> Result<Instance, TransformError> {
+        let Some(old) = self.instances.get(i) else {
+            return Err(TransformError::NonFinite);
+        };
+        let transform = glam::Affine3A::from_translation(delta) * old.transform;
+        let moved = Instance::new(old.mesh, transform)?;
+        if self.is_flattened() {
+            // Instances with triangles are the objects, in order.
+            let count = |k: &Instance| self.meshes.get(k.mesh).map_or(0, |m| m.triangles.len());
+            let first: usize = self.instances[..i].iter().map(count).sum();
+            if let Some(mesh) = self.meshes.get(moved.mesh) {
+                for (dst, t) in self.triangles[first..].iter_mut().zip(&mesh.triangles) {
+                    *dst = moved.place(t);
+                }
+            }
+        }
+        self.instances[i] = moved;
+        Ok(moved)
+    }
+
+    /// The scene's own instance that object `object` places (objects are its instances
+    /// of non-empty meshes, in order); `None` for a scene without instances of its own.
+    pub fn instance_of_object(&self, object: usize) -> Option<usize> {
+        let mut k = 0;
+        for (i, inst) in self.instances.iter().enumerate() {
+            if self
+                .meshes
+                .get(inst.mesh)
+                .is_some_and(|m| !m.triangles.is_empty())
+            {
+                if k == object {
+                    return Some(i);
+                }
+                k += 1;
+            }
+        }
+        None
+    }
+
     pub fn bounds(&self) -> Aabb {
         if !self.is_flattened() {
             let mesh_bounds: Vec<Aabb> = self

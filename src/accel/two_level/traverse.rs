@@ -1,20 +1,34 @@
-//! Two-level traversal: the ray walks the TLAS front to back like any BVH; at a leaf it is
-//! carried into the instance's object space by the inverse transform and walks the BLAS
-//! there. The direction is not renormalised, so t along the object-space ray is the world
-//! t: the BLAS search is clipped to the best world hit so far, and hits compare directly.
+//! Two-level traversal: the ray walks the TLAS front to back like any wide BVH; at a leaf
+//! lane it is carried into the instance's object space by the inverse transform and walks
+//! the BLAS there. The direction is not renormalised, so t along the object-space ray is
+//! the world t: the BLAS search is clipped to the best world hit so far, and hits compare
+//! directly.
+//!
+//! The TLAS walk is written once, generic over the SIMD slab kernel, with an entry point
+//! compiled for each instruction set; a BLAS is walked by the BVH8's own traversal.
+//! Counting: a TLAS node or instance popped is a top-level node visited, and each child of
+//! a TLAS node a top-level box test; the BLAS walks count as the BVH8 does.
 
 use super::TwoLevel;
-use crate::accel::bvh::traverse::{STACK_SIZE, T_SCALE};
-use crate::accel::replay::{Level, Order, Step, entered};
-use crate::accel::stats::{count_locally, record};
+use crate::accel::bvh::build::MAX_DEPTH;
+use crate::accel::bvh::traverse::T_SCALE;
+use crate::accel::bvh::wide::node::INTERIOR;
+use crate::accel::stats::count_locally;
 use crate::accel::{Accel, BestHit, Hit, Stats, TraversalOrder};
-use crate::geometry::aabb::{SlabRay, slab_entry};
+use crate::geometry::intersect::TriangleHit;
+use crate::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab};
+use crate::geometry::simd::{SimdLevel, WideRay};
 use crate::geometry::{Intersector, Ray};
 use crate::scene::Instance;
+use std::mem::MaybeUninit;
 
-/// `ray` in the instance's object space: the same t reaches the same point.
+/// `ray` in the instance's object space: the same t reaches the same point. The identity
+/// leaves the ray as it is, signs of zero components included.
 #[inline(always)]
 fn to_object(instance: &Instance, ray: &Ray) -> Ray {
+    if instance.is_identity() {
+        return *ray;
+    }
     Ray {
         origin: instance.inverse.transform_point3(ray.origin),
         direction: instance.inverse.transform_vector3(ray.direction),
@@ -22,368 +36,293 @@ fn to_object(instance: &Instance, ray: &Ray) -> Ray {
     }
 }
 
-/// The part of a query that the TLAS hands down to a BLAS: the ray in the instance's space
-/// with what the box and triangle tests precompute for it, and one stack for every BLAS
-/// the ray enters, so entering an instance costs no more than its transform.
-struct Descent<I: Intersector> {
-    ray: Ray,
-    slab: SlabRay,
-    data: I::RayData,
-    stack: [(u32, f32); STACK_SIZE],
+/// A TLAS child still to visit: a node (`count == INTERIOR`) or a leaf lane's instances,
+/// and the distance at which the ray enters its box.
+#[derive(Clone, Copy)]
+struct Entry {
+    child: u32,
+    count: u32,
+    entry: f32,
 }
 
-impl<I: Intersector> Descent<I> {
-    fn new(ray: &Ray) -> Self {
-        Descent {
-            ray: *ray,
-            slab: SlabRay::new(ray),
-            data: I::prepare(ray),
-            stack: [(0, 0.0); STACK_SIZE],
-        }
+/// Each level leaves at most 7 children on the stack, and the TLAS is no deeper than the
+/// BVH2 it was collapsed from.
+const STACK_SIZE: usize = 7 * MAX_DEPTH + 1;
+
+/// The TLAS stack, left uninitialised (clearing it would cost more than a short walk); its
+/// storage is a local of the walk, as a `MaybeUninit` inside a struct value gets zeroed.
+struct Stack<'a> {
+    storage: &'a mut MaybeUninit<[Entry; STACK_SIZE]>,
+    len: usize,
+}
+
+impl<'a> Stack<'a> {
+    #[inline(always)]
+    fn new(storage: &'a mut MaybeUninit<[Entry; STACK_SIZE]>) -> Self {
+        Stack { storage, len: 0 }
     }
 
-    /// Carries the world ray `world` into `instance`'s space (nothing to do for the
-    /// identity, whose descent is the world one).
     #[inline(always)]
-    fn enter(&mut self, instance: &Instance, world: &Descent<I>) {
-        if instance.is_identity() {
-            self.ray = world.ray;
-            self.slab = world.slab;
-            self.data = world.data;
-        } else {
-            self.ray = to_object(instance, &world.ray);
-            self.slab = SlabRay::new(&self.ray);
-            self.data = I::prepare(&self.ray);
+    fn slots(&mut self) -> *mut Entry {
+        self.storage.as_mut_ptr().cast()
+    }
+
+    #[inline(always)]
+    fn push(&mut self, e: Entry) {
+        assert!(self.len < STACK_SIZE);
+        // SAFETY: in bounds (checked above); writing needs no initialised value.
+        unsafe { self.slots().add(self.len).write(e) };
+        self.len += 1;
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<Entry> {
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        // SAFETY: entries below `len` were written by `push` and not popped since.
+        Some(unsafe { self.slots().add(self.len).read() })
+    }
+
+    /// Orders the top `n` entries so the nearest is on top (insertion sort: n ≤ 8).
+    #[inline(always)]
+    fn sort_top(&mut self, n: usize) {
+        let base = self.len - n;
+        // SAFETY: the top n entries were just pushed, so they are initialised and in bounds.
+        let top = unsafe { std::slice::from_raw_parts_mut(self.slots().add(base), n) };
+        for i in 1..top.len() {
+            let e = top[i];
+            let mut j = i;
+            while j > 0 && top[j - 1].entry < e.entry {
+                top[j] = top[j - 1];
+                j -= 1;
+            }
+            top[j] = e;
         }
     }
 }
 
 impl TwoLevel {
-    fn closest<I: Intersector, S: Stats, const ORDERED: bool>(
+    /// Walks instance `i`'s BLAS with the world ray `ray`, offering its hits to `best`
+    /// under their flattened numbers. The BLAS ray ends just past the best hit so far
+    /// (`best.limit`), so that a tie on a lower-numbered triangle still wins as in the
+    /// flattened scene.
+    #[inline(always)]
+    fn enter_closest<I: Intersector, S: Stats>(
+        &self,
+        i: usize,
+        ray: &Ray,
+        best: &mut BestHit,
+        stats: &mut S,
+    ) {
+        stats.instance_entered();
+        let instance = &self.instances[i];
+        let local = Ray {
+            tmax: best.limit,
+            ..to_object(instance, ray)
+        };
+        if let Some(h) = self.blases[instance.mesh].closest_hit::<I, S>(&local, stats) {
+            let hit = TriangleHit {
+                t: h.t,
+                u: h.u,
+                v: h.v,
+            };
+            best.offer(hit, self.first_triangle[i] + h.triangle);
+        }
+    }
+
+    #[inline(always)]
+    fn closest_with<K: WideSlab<8>, I: Intersector, S: Stats, const ORDERED: bool>(
         &self,
         ray: &Ray,
         stats: &mut S,
     ) -> Option<Hit> {
-        let world = Descent::<I>::new(ray);
-        let nodes = &self.tlas.nodes;
-        stats.box_tests(1);
-        let root_entry = slab_entry(&nodes[0].corners, &world.slab, ray.tmin, ray.tmax);
-        record(stats, || Step::Bounds {
-            entry: entered(root_entry),
-        });
-        if root_entry == f32::INFINITY {
-            return None;
-        }
-        let mut local = Descent::<I>::new(ray);
+        let tlas = &self.tlas;
+        let wray = WideRay::new(ray);
         let mut best = BestHit::new(ray);
         let mut box_tmax = ray.tmax * T_SCALE;
-        let mut stack = [(0u32, 0.0f32); STACK_SIZE];
-        let mut sp = 0;
-        let mut index = 0usize;
+        let mut storage = MaybeUninit::uninit();
+        let mut stack = Stack::new(&mut storage);
+        let mut entry = [0.0f32; 8];
+        let mut cur = Entry {
+            child: 0,
+            count: INTERIOR,
+            entry: ray.tmin,
+        };
         loop {
-            stats.node_visit();
-            let node = &nodes[index];
-            record(stats, || self.tlas.visit_step_at(index, Level::Top));
-            if node.is_leaf() {
-                for k in node.prim_range() {
-                    let i = self.tlas.prim_indices[k] as usize;
-                    let instance = &self.instances[i];
-                    record(stats, || Step::Instance { instance: i as u32 });
-                    local.enter(instance, &world);
-                    self.blas_closest::<I, S, ORDERED>(
-                        instance.mesh,
-                        self.first_triangle[i],
-                        &mut local,
-                        &mut best,
-                        stats,
-                    );
-                    box_tmax = best.t * T_SCALE;
+            stats.top_node_visit();
+            if cur.count != INTERIOR {
+                for k in cur.child..cur.child + cur.count {
+                    let i = tlas.prim_indices[k as usize] as usize;
+                    self.enter_closest::<I, S>(i, ray, &mut best, stats);
                 }
+                box_tmax = best.t * T_SCALE;
             } else {
-                let l = node.left_first as usize;
-                let [a, b] = nodes.pair(l);
-                stats.box_tests(2);
-                let mut da = slab_entry(&a.corners, &world.slab, ray.tmin, box_tmax);
-                let mut db = slab_entry(&b.corners, &world.slab, ray.tmin, box_tmax);
-                let (mut ia, mut ib) = (l, l + 1);
-                if ORDERED && db < da {
-                    std::mem::swap(&mut da, &mut db);
-                    std::mem::swap(&mut ia, &mut ib);
+                let node = &tlas.nodes[cur.child as usize];
+                if S::COUNTING {
+                    stats.top_box_tests(node.child_count() as u32);
                 }
-                let order = if ORDERED {
-                    Order::Nearest
-                } else {
-                    Order::Fixed
+                // SAFETY: the TLAS only selects a kernel its CPU supports (`set_simd`), and
+                // the entry points below are compiled for it.
+                let mut mask =
+                    unsafe { K::entries(&node.bounds, &wray, ray.tmin, box_tmax, &mut entry) };
+                let lane = |i: u32| Entry {
+                    child: node.child[i as usize],
+                    count: node.count[i as usize],
+                    entry: entry[i as usize],
                 };
-                record(stats, || {
-                    self.tlas.children_step([(ia, da), (ib, db)], order)
-                });
-                if da != f32::INFINITY {
-                    if db != f32::INFINITY {
-                        record(stats, || self.tlas.push_step(ib, db));
-                        stack[sp] = (ib as u32, db);
-                        sp += 1;
-                    }
-                    index = ia;
-                    continue;
-                } else if db != f32::INFINITY {
-                    index = ib;
+                if mask != 0 && mask & (mask - 1) == 0 {
+                    cur = lane(mask.trailing_zeros());
                     continue;
                 }
+                let mut n = 0;
+                while mask != 0 {
+                    // Naive order: pushed last first, so the first child is on top.
+                    let i = if ORDERED {
+                        mask.trailing_zeros()
+                    } else {
+                        31 - mask.leading_zeros()
+                    };
+                    stack.push(lane(i));
+                    mask &= !(1 << i);
+                    n += 1;
+                }
+                if ORDERED && n > 1 {
+                    stack.sort_top(n);
+                }
             }
+            // Pop the next child the ray can still reach before the best hit.
             loop {
-                if sp == 0 {
-                    return best.hit();
-                }
-                sp -= 1;
-                let (next, entry) = stack[sp];
-                record(stats, || {
-                    self.tlas.pop_step(next as usize, entry, box_tmax, best.t)
-                });
-                if entry <= box_tmax {
-                    index = next as usize;
-                    break;
+                match stack.pop() {
+                    None => return best.hit(),
+                    Some(e) if e.entry <= box_tmax => {
+                        cur = e;
+                        break;
+                    }
+                    Some(_) => {}
                 }
             }
         }
     }
 
-    /// The BVH2 closest-hit walk of `blas`'s tree, offering its hits to the query's `best`
-    /// under their flattened numbers (`first` + the mesh's own). `best.limit` lets a hit
-    /// at exactly the best t through, so that a tie on a lower-numbered triangle still wins
-    /// as in the flattened scene.
     #[inline(always)]
-    fn blas_closest<I: Intersector, S: Stats, const ORDERED: bool>(
+    fn occluded_with<K: WideSlab<8>, I: Intersector, S: Stats>(
         &self,
-        blas: usize,
-        first: u64,
-        d: &mut Descent<I>,
-        best: &mut BestHit,
-        stats: &mut S,
-    ) {
-        let blas = &self.blases[blas];
-        let (ray, nodes) = (&d.ray, &blas.nodes);
-        let mut box_tmax = best.t * T_SCALE;
-        stats.box_tests(1);
-        let root_entry = slab_entry(&nodes[0].corners, &d.slab, ray.tmin, box_tmax);
-        record(stats, || Step::Bounds {
-            entry: entered(root_entry),
-        });
-        if root_entry == f32::INFINITY {
-            return;
-        }
-        let mut sp = 0;
-        let mut index = 0usize;
-        loop {
-            stats.node_visit();
-            let node = &nodes[index];
-            record(stats, || blas.visit_step_at(index, Level::Bottom));
-            if node.is_leaf() {
-                for i in node.prim_range() {
-                    stats.triangle_test();
-                    let tri = &blas.triangles[i];
-                    let hit = I::intersect(&d.data, ray, tri, ray.tmin, best.limit);
-                    record(stats, || Step::Triangle {
-                        triangle: first + u64::from(blas.prim_indices[i]),
-                        t: hit.map(|h| h.t),
-                    });
-                    if let Some(h) = hit {
-                        best.offer(h, first + u64::from(blas.prim_indices[i]));
-                        box_tmax = best.t * T_SCALE;
-                    }
-                }
-            } else {
-                let l = node.left_first as usize;
-                let [a, b] = nodes.pair(l);
-                stats.box_tests(2);
-                let mut da = slab_entry(&a.corners, &d.slab, ray.tmin, box_tmax);
-                let mut db = slab_entry(&b.corners, &d.slab, ray.tmin, box_tmax);
-                let (mut ia, mut ib) = (l, l + 1);
-                if ORDERED && db < da {
-                    std::mem::swap(&mut da, &mut db);
-                    std::mem::swap(&mut ia, &mut ib);
-                }
-                let order = if ORDERED {
-                    Order::Nearest
-                } else {
-                    Order::Fixed
-                };
-                record(stats, || blas.children_step([(ia, da), (ib, db)], order));
-                if da != f32::INFINITY {
-                    if db != f32::INFINITY {
-                        record(stats, || blas.push_step(ib, db));
-                        d.stack[sp] = (ib as u32, db);
-                        sp += 1;
-                    }
-                    index = ia;
-                    continue;
-                } else if db != f32::INFINITY {
-                    index = ib;
-                    continue;
-                }
-            }
-            loop {
-                if sp == 0 {
-                    return;
-                }
-                sp -= 1;
-                let (next, entry) = d.stack[sp];
-                record(stats, || {
-                    blas.pop_step(next as usize, entry, box_tmax, best.t)
-                });
-                if entry <= box_tmax {
-                    index = next as usize;
-                    break;
-                }
-            }
-        }
-    }
-
-    fn occluded<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
-        let world = Descent::<I>::new(ray);
-        let nodes = &self.tlas.nodes;
-        let tmax = ray.tmax * T_SCALE;
-        stats.box_tests(1);
-        let root_entry = slab_entry(&nodes[0].corners, &world.slab, ray.tmin, tmax);
-        record(stats, || Step::Bounds {
-            entry: entered(root_entry),
-        });
-        if root_entry == f32::INFINITY {
-            return false;
-        }
-        let mut local = Descent::<I>::new(ray);
-        let mut stack = [0u32; STACK_SIZE];
-        let mut sp = 0;
-        let mut index = 0usize;
-        loop {
-            stats.node_visit();
-            let node = &nodes[index];
-            record(stats, || self.tlas.visit_step_at(index, Level::Top));
-            if node.is_leaf() {
-                for k in node.prim_range() {
-                    let i = self.tlas.prim_indices[k] as usize;
-                    let instance = &self.instances[i];
-                    record(stats, || Step::Instance { instance: i as u32 });
-                    local.enter(instance, &world);
-                    if self.blas_any::<I, S>(
-                        instance.mesh,
-                        self.first_triangle[i],
-                        &mut local,
-                        stats,
-                    ) {
-                        return true;
-                    }
-                }
-            } else {
-                let l = node.left_first as usize;
-                let [a, b] = nodes.pair(l);
-                stats.box_tests(2);
-                let da = slab_entry(&a.corners, &world.slab, ray.tmin, tmax);
-                let db = slab_entry(&b.corners, &world.slab, ray.tmin, tmax);
-                record(stats, || {
-                    self.tlas
-                        .children_step([(l, da), (l + 1, db)], Order::AnyHit)
-                });
-                let (hit_a, hit_b) = (da != f32::INFINITY, db != f32::INFINITY);
-                if hit_a {
-                    if hit_b {
-                        record(stats, || self.tlas.push_step(l + 1, db));
-                        stack[sp] = l as u32 + 1;
-                        sp += 1;
-                    }
-                    index = l;
-                    continue;
-                } else if hit_b {
-                    index = l + 1;
-                    continue;
-                }
-            }
-            if sp == 0 {
-                return false;
-            }
-            sp -= 1;
-            index = stack[sp] as usize;
-            record(stats, || Step::Pop {
-                node: index as u32,
-                leaf: nodes[index].is_leaf(),
-                entry: None,
-            });
-        }
-    }
-
-    /// The BVH2 any-hit walk of `blas`'s tree; its triangles are `first` on in the
-    /// flattened scene (as a replay names them).
-    #[inline(always)]
-    fn blas_any<I: Intersector, S: Stats>(
-        &self,
-        blas: usize,
-        first: u64,
-        d: &mut Descent<I>,
+        ray: &Ray,
         stats: &mut S,
     ) -> bool {
-        let blas = &self.blases[blas];
-        let (ray, nodes) = (&d.ray, &blas.nodes);
+        let tlas = &self.tlas;
+        let wray = WideRay::new(ray);
         let tmax = ray.tmax * T_SCALE;
-        stats.box_tests(1);
-        let root_entry = slab_entry(&nodes[0].corners, &d.slab, ray.tmin, tmax);
-        record(stats, || Step::Bounds {
-            entry: entered(root_entry),
-        });
-        if root_entry == f32::INFINITY {
-            return false;
-        }
-        let mut sp = 0;
-        let mut index = 0usize;
+        let mut storage = MaybeUninit::uninit();
+        let mut stack = Stack::new(&mut storage);
+        let mut entry = [0.0f32; 8];
+        let mut cur = Entry {
+            child: 0,
+            count: INTERIOR,
+            entry: ray.tmin,
+        };
         loop {
-            stats.node_visit();
-            let node = &nodes[index];
-            record(stats, || blas.visit_step_at(index, Level::Bottom));
-            if node.is_leaf() {
-                for i in node.prim_range() {
-                    stats.triangle_test();
-                    let tri = &blas.triangles[i];
-                    let hit = I::intersect(&d.data, ray, tri, ray.tmin, ray.tmax);
-                    record(stats, || Step::Triangle {
-                        triangle: first + u64::from(blas.prim_indices[i]),
-                        t: hit.map(|h| h.t),
-                    });
-                    if hit.is_some() {
+            stats.top_node_visit();
+            if cur.count != INTERIOR {
+                for k in cur.child..cur.child + cur.count {
+                    stats.instance_entered();
+                    let instance = &self.instances[tlas.prim_indices[k as usize] as usize];
+                    let local = to_object(instance, ray);
+                    if self.blases[instance.mesh].any_hit::<I, S>(&local, stats) {
                         return true;
                     }
                 }
             } else {
-                let l = node.left_first as usize;
-                let [a, b] = nodes.pair(l);
-                stats.box_tests(2);
-                let da = slab_entry(&a.corners, &d.slab, ray.tmin, tmax);
-                let db = slab_entry(&b.corners, &d.slab, ray.tmin, tmax);
-                record(stats, || {
-                    blas.children_step([(l, da), (l + 1, db)], Order::AnyHit)
-                });
-                let (hit_a, hit_b) = (da != f32::INFINITY, db != f32::INFINITY);
-                if hit_a {
-                    if hit_b {
-                        record(stats, || blas.push_step(l + 1, db));
-                        d.stack[sp] = (l as u32 + 1, 0.0);
-                        sp += 1;
-                    }
-                    index = l;
-                    continue;
-                } else if hit_b {
-                    index = l + 1;
-                    continue;
+                let node = &tlas.nodes[cur.child as usize];
+                if S::COUNTING {
+                    stats.top_box_tests(node.child_count() as u32);
+                }
+                // SAFETY: as in `closest_with`.
+                let mut mask =
+                    unsafe { K::entries(&node.bounds, &wray, ray.tmin, tmax, &mut entry) };
+                while mask != 0 {
+                    let j = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    stack.push(Entry {
+                        child: node.child[j],
+                        count: node.count[j],
+                        entry: entry[j],
+                    });
                 }
             }
-            if sp == 0 {
-                return false;
+            match stack.pop() {
+                None => return false,
+                Some(e) => cur = e,
             }
-            sp -= 1;
-            index = d.stack[sp].0 as usize;
-            record(stats, || Step::Pop {
-                node: index as u32,
-                leaf: nodes[index].is_leaf(),
-                entry: None,
-            });
+        }
+    }
+}
+
+/// Entry points compiled for each instruction set: the TLAS walk and its kernel are inlined
+/// into them.
+macro_rules! entry_points {
+    ($closest:ident, $occluded:ident, $kernel:ty, $features:literal) => {
+        impl TwoLevel {
+            #[target_feature(enable = $features)]
+            fn $closest<I: Intersector, S: Stats, const ORDERED: bool>(
+                &self,
+                ray: &Ray,
+                stats: &mut S,
+            ) -> Option<Hit> {
+                self.closest_with::<$kernel, I, S, ORDERED>(ray, stats)
+            }
+
+            #[target_feature(enable = $features)]
+            fn $occluded<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
+                self.occluded_with::<$kernel, I, S>(ray, stats)
+            }
+        }
+    };
+}
+
+#[cfg(target_arch = "x86_64")]
+entry_points!(closest_sse41, occluded_sse41, Sse41, "sse4.1");
+#[cfg(target_arch = "x86_64")]
+entry_points!(closest_avx2, occluded_avx2, Avx2, "avx2");
+#[cfg(target_arch = "x86_64")]
+entry_points!(closest_avx512, occluded_avx512, Avx512, "avx512f,avx512vl");
+
+impl TwoLevel {
+    #[inline(always)]
+    fn closest_dispatch<I: Intersector, S: Stats, const ORDERED: bool>(
+        &self,
+        ray: &Ray,
+        stats: &mut S,
+    ) -> Option<Hit> {
+        match self.simd {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `simd` only holds a level this CPU supports (`set_simd`).
+            SimdLevel::Sse41 => unsafe { self.closest_sse41::<I, S, ORDERED>(ray, stats) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above.
+            SimdLevel::Avx2 => unsafe { self.closest_avx2::<I, S, ORDERED>(ray, stats) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above.
+            SimdLevel::Avx512 => unsafe { self.closest_avx512::<I, S, ORDERED>(ray, stats) },
+            _ => self.closest_with::<Portable, I, S, ORDERED>(ray, stats),
+        }
+    }
+
+    #[inline(always)]
+    fn occluded_dispatch<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
+        match self.simd {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `simd` only holds a level this CPU supports (`set_simd`).
+            SimdLevel::Sse41 => unsafe { self.occluded_sse41::<I, S>(ray, stats) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above.
+            SimdLevel::Avx2 => unsafe { self.occluded_avx2::<I, S>(ray, stats) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above.
+            SimdLevel::Avx512 => unsafe { self.occluded_avx512::<I, S>(ray, stats) },
+            _ => self.occluded_with::<Portable, I, S>(ray, stats),
         }
     }
 }
@@ -391,12 +330,12 @@ impl TwoLevel {
 impl Accel for TwoLevel {
     fn closest_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
         count_locally(stats, |s| match self.order {
-            TraversalOrder::FrontToBack => self.closest::<I, S, true>(ray, s),
-            TraversalOrder::Naive => self.closest::<I, S, false>(ray, s),
+            TraversalOrder::FrontToBack => self.closest_dispatch::<I, S, true>(ray, s),
+            TraversalOrder::Naive => self.closest_dispatch::<I, S, false>(ray, s),
         })
     }
 
     fn any_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
-        count_locally(stats, |s| self.occluded::<I, S>(ray, s))
+        count_locally(stats, |s| self.occluded_dispatch::<I, S>(ray, s))
     }
 }
