@@ -555,7 +555,7 @@ fn build_wide<const W: usize>(
         leaves,
         empty_leaves: 0,
         max_depth: wide.depth,
-        references: wide.prim_indices.len(),
+        references: wide.triangle_count,
         largest_leaf,
         details: vec![
             ("builder".into(), params.bvh.strategy.label().into()),

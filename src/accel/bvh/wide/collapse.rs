@@ -6,17 +6,22 @@
 //! (Ylitie, Karras and Laine 2017, §3.1) rather than greedily opening the largest child:
 //! C(n, i) is the least cost of the subtree under n when it may take i slots of its wide
 //! parent:
-//! - C(n, 1) = min(leaf: A(n)·C_isect·N(n), node: A(n)·C_trav + D(n, W)),
+//! - C(n, 1) = min(leaf: A(n)·(C_trav + C_isect·L(n)), node: A(n)·C_trav + D(n, W)),
 //! - C(n, i) = min(C(n, i − 1), D(n, i)) for i ≥ 2,
-//! - D(n, i) = min over k of C(left, k) + C(right, i − k): n opened, its slots shared.
+//! - D(n, i) = min over k of C(left, k) + C(right, i − k): n opened, its slots shared,
 //!
-//! Triangles are copied in the order of the wide leaves, so each leaf's triangles are
-//! contiguous whatever builder made the BVH2.
+//! where L(n) counts the lanes of the blocks of four that n's triangles fill as a leaf: a block
+//! is tested whole, and a leaf is a traversal step of its own (popped, its blocks loaded), so
+//! the program prefers few leaves that fill their blocks.
+//!
+//! Triangles are copied in the order of the wide leaves into blocks of four (`leaf`), so each
+//! leaf's triangles are contiguous whatever builder made the BVH2.
 
 use super::WideBvh;
+use super::leaf::{PADDING, leaf_lanes};
 use super::node::{INTERIOR, WideNode};
 use crate::accel::bvh::Bvh;
-use crate::geometry::simd::SimdLevel;
+use crate::geometry::simd::{BLOCK, SimdLevel, TriangleBlock};
 
 /// The costs the collapse minimises, and the largest leaf it may form.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -26,6 +31,19 @@ pub struct CollapseParams {
     /// A subtree becomes a leaf only if it holds at most this many triangles (a BVH2 leaf
     /// stays a leaf whatever its size).
     pub max_leaf_size: u32,
+}
+
+impl CollapseParams {
+    /// The cost of a leaf of `count` triangles per unit of area: its step and its blocks'
+    /// lanes.
+    pub fn leaf_cost(&self, count: u32) -> f32 {
+        leaf_cost(self.c_trav, self.c_isect, count)
+    }
+}
+
+/// C_trav + C_isect·L(count): a leaf's step and its blocks' lanes.
+pub fn leaf_cost(c_trav: f32, c_isect: f32, count: u32) -> f32 {
+    c_trav + c_isect * leaf_lanes(count) as f32
 }
 
 impl Default for CollapseParams {
@@ -59,7 +77,7 @@ impl<const W: usize> Costs<W> {
             let area = node.bounds().surface_area();
             if node.is_leaf() {
                 tris[i] = node.count;
-                cost[i] = [area * p.c_isect * node.count as f32; W];
+                cost[i] = [area * p.leaf_cost(node.count); W];
                 leaf[i] = true;
                 continue;
             }
@@ -68,7 +86,7 @@ impl<const W: usize> Costs<W> {
             let d = |slots: usize| distribute(&cost[l], &cost[r], slots).0;
             let as_node = area * p.c_trav + d(W);
             let as_leaf = if tris[i] <= p.max_leaf_size {
-                area * p.c_isect * tris[i] as f32
+                area * p.leaf_cost(tris[i])
             } else {
                 f32::INFINITY
             };
@@ -102,8 +120,9 @@ impl<const W: usize> WideBvh<W> {
         let costs = Costs::<W>::new(bvh, params);
         let mut out = WideBvh {
             nodes: vec![WideNode::default()],
-            triangles: Vec::with_capacity(bvh.triangles.len()),
+            blocks: Vec::with_capacity(bvh.triangles.len().div_ceil(BLOCK)),
             prim_indices: Vec::with_capacity(bvh.prim_indices.len()),
+            triangle_count: bvh.triangles.len(),
             order: bvh.order,
             simd: SimdLevel::detect(),
             depth: 1,
@@ -124,13 +143,19 @@ impl<const W: usize> WideBvh<W> {
             for (lane, &s) in slots.iter().enumerate() {
                 node.set_child_bounds(lane, bvh.nodes[s].bounds());
                 if costs.leaf[s] {
-                    node.child[lane] = out.triangles.len() as u32;
-                    let before = out.triangles.len();
-                    for t in bvh.triangles_under_leaf_order(s) {
-                        out.triangles.push(bvh.triangles[t]);
-                        out.prim_indices.push(bvh.prim_indices[t]);
+                    let tris = bvh.triangles_under_leaf_order(s);
+                    node.child[lane] = out.prim_indices.len() as u32;
+                    node.count[lane] = tris.len() as u32;
+                    for chunk in tris.chunks(BLOCK) {
+                        let mut block = TriangleBlock::EMPTY;
+                        let mut index = [PADDING; BLOCK];
+                        for (l, &t) in chunk.iter().enumerate() {
+                            block.set(l, &bvh.triangles[t]);
+                            index[l] = bvh.prim_indices[t];
+                        }
+                        out.blocks.push(block);
+                        out.prim_indices.extend(index);
                     }
-                    node.count[lane] = (out.triangles.len() - before) as u32;
                 } else {
                     let child = out.nodes.len();
                     out.nodes.push(WideNode::default());

@@ -4,30 +4,37 @@
 //!
 //! The BVH2 stays the teaching tree and the one every builder produces; a wide tree is its
 //! collapse (`collapse`), traced by one traversal (`traverse`) generic over the SIMD slab
-//! kernel chosen at run time (`crate::geometry::simd`). Hits equal the BVH2's bit for bit.
+//! kernel chosen at run time (`crate::geometry::simd`), whose leaves hold their triangles in
+//! blocks of four tested by one SIMD watertight test (`leaf`). Hits equal the BVH2's bit for
+//! bit.
 
 pub mod collapse;
+pub mod leaf;
 pub mod node;
 pub mod packet;
 pub mod refit;
 pub mod traverse;
 
 pub use collapse::CollapseParams;
+pub use leaf::{PADDING, leaf_lanes};
 pub use node::WideNode;
 
 use super::TraversalOrder;
 use crate::accel::{Outline, OutlineNode};
-use crate::geometry::simd::SimdLevel;
-use crate::geometry::{Aabb, Triangle};
+use crate::geometry::Aabb;
+use crate::geometry::simd::{BLOCK, SimdLevel, TriangleBlock};
 
 #[derive(Clone, Debug)]
 pub struct WideBvh<const W: usize> {
     /// Node 0 is the root; every node's interior children come after it.
     pub nodes: Vec<WideNode<W>>,
-    /// The triangles in the order of the wide leaves.
-    pub triangles: Vec<Triangle>,
-    /// Leaf order → scene triangle index.
+    /// The leaves' triangles in blocks of four (slot = block · 4 + lane), each leaf starting
+    /// a block of its own.
+    pub blocks: Vec<TriangleBlock>,
+    /// Slot → scene triangle index (`PADDING` for a padding lane).
     pub prim_indices: Vec<u32>,
+    /// The triangles the tree was built over.
+    pub triangle_count: usize,
     pub order: TraversalOrder,
     /// The slab kernel the traversal runs (one this machine supports).
     pub simd: SimdLevel,
@@ -55,7 +62,7 @@ impl<const W: usize> WideBvh<W> {
 
     pub fn bytes(&self) -> usize {
         self.nodes.len() * std::mem::size_of::<WideNode<W>>()
-            + self.triangles.len() * std::mem::size_of::<Triangle>()
+            + self.blocks.len() * std::mem::size_of::<TriangleBlock>()
             + self.prim_indices.len() * std::mem::size_of::<u32>()
     }
 
@@ -68,12 +75,13 @@ impl<const W: usize> WideBvh<W> {
             .count()
     }
 
-    /// The SAH cost of the wide tree, as the collapse minimised it: C_trav per interior node
-    /// and C_isect per triangle, each weighted by its box's area relative to the root's.
+    /// The SAH cost of the wide tree, as the collapse minimised it: C_trav per interior node,
+    /// and per leaf C_trav plus C_isect per lane of its blocks (a block is tested whole,
+    /// padding included), each weighted by its box's area relative to the root's.
     pub fn sah_cost(&self, c_trav: f32, c_isect: f32) -> f64 {
         let root_area = self.nodes[0].bounds().surface_area() as f64;
         if root_area <= 0.0 {
-            return c_isect as f64 * self.triangles.len() as f64;
+            return c_isect as f64 * self.prim_indices.len() as f64;
         }
         let mut sum = c_trav as f64 * root_area;
         for n in &self.nodes {
@@ -83,19 +91,27 @@ impl<const W: usize> WideBvh<W> {
                     * if n.is_interior(lane) {
                         c_trav as f64
                     } else {
-                        c_isect as f64 * n.count[lane] as f64
+                        collapse::leaf_cost(c_trav, c_isect, n.count[lane]) as f64
                     };
             }
         }
         sum / root_area
     }
 
-    /// Checks that each triangle is in exactly one leaf, every child box is exactly the
-    /// union of its subtree's boxes or triangles, and interior children come after their parent.
+    /// Checks that each triangle is in exactly one leaf, every leaf starts a block and is
+    /// padded to its end, every child box is exactly the union of its subtree's boxes or
+    /// triangles, and interior children come after their parent.
     pub fn validate(&self) -> Result<(), String> {
-        let n = self.triangles.len();
+        let n = self.triangle_count;
+        let slots = self.blocks.len() * BLOCK;
+        if self.prim_indices.len() != slots {
+            return Err(format!(
+                "{} indices for {slots} slots",
+                self.prim_indices.len()
+            ));
+        }
         let mut seen = vec![false; n];
-        for &i in &self.prim_indices {
+        for &i in self.prim_indices.iter().filter(|&&i| i != PADDING) {
             let slot = seen
                 .get_mut(i as usize)
                 .ok_or_else(|| format!("triangle index {i} out of range"))?;
@@ -104,6 +120,7 @@ impl<const W: usize> WideBvh<W> {
             }
         }
         let mut covered = 0usize;
+        let mut lanes = 0usize;
         for (i, node) in self.nodes.iter().enumerate() {
             let used = node.child_count();
             if node.count[used..].iter().any(|&c| c != 0) {
@@ -118,14 +135,27 @@ impl<const W: usize> WideBvh<W> {
                     }
                     self.nodes[c].bounds()
                 } else {
-                    let range = c..c + node.count[lane] as usize;
-                    if range.end > n {
-                        return Err(format!("node {i} lane {lane} leaf {range:?} beyond {n}"));
+                    let count = node.count[lane] as usize;
+                    let padded = c..c + leaf_lanes(count as u32) as usize;
+                    if c % BLOCK != 0 || padded.end > slots {
+                        return Err(format!("node {i} lane {lane}: leaf {padded:?} of {slots}"));
                     }
-                    covered += range.len();
-                    self.triangles[range]
-                        .iter()
-                        .fold(Aabb::EMPTY, |a, t| a.union(t.bounds()))
+                    covered += count;
+                    lanes += padded.len();
+                    let mut b = Aabb::EMPTY;
+                    for slot in padded {
+                        let (block, l) = (&self.blocks[slot / BLOCK], slot % BLOCK);
+                        let padding = slot >= c + count;
+                        if padding != (self.prim_indices[slot] == PADDING)
+                            || (padding && !block.is_padding(l))
+                        {
+                            return Err(format!("node {i} lane {lane}: slot {slot} misplaced"));
+                        }
+                        if !padding {
+                            b = b.union(block.triangle(l).bounds());
+                        }
+                    }
+                    b
                 };
                 // Exactly: a child's box is the union of what lies under it, no larger.
                 if b != inside {
@@ -133,8 +163,10 @@ impl<const W: usize> WideBvh<W> {
                 }
             }
         }
-        if covered != n {
-            return Err(format!("leaves hold {covered} of {n} triangles"));
+        if covered != n || lanes != slots {
+            return Err(format!(
+                "leaves hold {covered} of {n} triangles in {lanes} of {slots} slots"
+            ));
         }
         Ok(())
     }
