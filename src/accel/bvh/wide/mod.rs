@@ -137,7 +137,7 @@ impl<const W: usize> WideBvh<W> {
                 } else {
                     let count = node.count[lane] as usize;
                     let padded = c..c + leaf_lanes(count as u32) as usize;
-                    if c % BLOCK != 0 || padded.end > slots {
+                    if !c.is_multiple_of(BLOCK) || padded.end > slots {
                         return Err(format!("node {i} lane {lane}: leaf {padded:?} of {slots}"));
                     }
                     covered += count;
