@@ -18,10 +18,10 @@
 //! leaf's triangles are contiguous whatever builder made the BVH2.
 
 use super::WideBvh;
-use super::leaf::{PADDING, leaf_lanes};
+use super::leaf::{BlockPacker, leaf_lanes};
 use super::node::{INTERIOR, WideNode};
 use crate::accel::bvh::Bvh;
-use crate::geometry::simd::{BLOCK, SimdLevel, TriangleBlock};
+use crate::geometry::simd::{BLOCK, SimdLevel};
 
 /// The costs the collapse minimises, and the largest leaf it may form.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -135,6 +135,7 @@ impl<const W: usize> WideBvh<W> {
             open(bvh, &costs, 0, W, &mut s);
             s
         };
+        let mut packer = BlockPacker::default();
         // (wide node index, its BVH2 slots, depth), filled depth first.
         let mut work = vec![(0usize, root_slots, 1u32)];
         while let Some((index, slots, depth)) = work.pop() {
@@ -143,19 +144,13 @@ impl<const W: usize> WideBvh<W> {
             for (lane, &s) in slots.iter().enumerate() {
                 node.set_child_bounds(lane, bvh.nodes[s].bounds());
                 if costs.leaf[s] {
-                    let tris = bvh.triangles_under_leaf_order(s);
-                    node.child[lane] = out.prim_indices.len() as u32;
+                    let tris: Vec<_> = bvh
+                        .triangles_under_leaf_order(s)
+                        .into_iter()
+                        .map(|t| (bvh.triangles[t], bvh.prim_indices[t]))
+                        .collect();
+                    node.child[lane] = packer.place(&mut out.blocks, &mut out.prim_indices, &tris);
                     node.count[lane] = tris.len() as u32;
-                    for chunk in tris.chunks(BLOCK) {
-                        let mut block = TriangleBlock::EMPTY;
-                        let mut index = [PADDING; BLOCK];
-                        for (l, &t) in chunk.iter().enumerate() {
-                            block.set(l, &bvh.triangles[t]);
-                            index[l] = bvh.prim_indices[t];
-                        }
-                        out.blocks.push(block);
-                        out.prim_indices.extend(index);
-                    }
                 } else {
                     let child = out.nodes.len();
                     out.nodes.push(WideNode::default());

@@ -1,6 +1,6 @@
 //! A wide leaf: its triangles in blocks of four stored as structures of arrays
-//! (`TriangleBlock`), tested a block at a time by one SIMD triangle test. A leaf starts a
-//! block of its own; the lanes past its last triangle are padding (NaN, index `PADDING`).
+//! (`TriangleBlock`), tested a block at a time by one SIMD triangle test; lanes of a block
+//! that belong to other leaves are masked off.
 //!
 //! The answer is the scalar test's, triangle by triangle: the block test's hits are checked
 //! against the best hit as it shrinks, lane by lane in leaf order, and a lane the block test
@@ -10,17 +10,18 @@ use super::WideBvh;
 use crate::accel::{BestHit, Stats};
 use crate::geometry::intersect::TriangleHit;
 use crate::geometry::simd::{BLOCK, TriangleBlock, TriangleKernel};
-use crate::geometry::{Intersector, Ray};
+use crate::geometry::{Intersector, Ray, Triangle};
 
-/// The index of a padding lane.
+/// The index of a padding lane (a lane of no leaf, NaN).
 pub const PADDING: u32 = u32::MAX;
 
-/// The lanes a leaf of `count` triangles occupies: whole blocks.
+/// The lanes a leaf of `count` triangles costs a ray: whole blocks.
 pub fn leaf_lanes(count: u32) -> u32 {
     count.div_ceil(BLOCK as u32) * BLOCK as u32
 }
 
-/// A leaf: its first slot (a block boundary) and its triangle count.
+/// A leaf: its first slot (slot = block · 4 + lane) and its triangle count; its slots are
+/// contiguous and span no more blocks than its count needs.
 #[derive(Clone, Copy)]
 pub(super) struct Leaf {
     pub first: u32,
@@ -31,12 +32,69 @@ impl Leaf {
     /// The leaf's blocks, each with the mask of the lanes holding its triangles.
     #[inline(always)]
     fn blocks(self) -> impl Iterator<Item = (usize, u32)> {
-        let first = self.first as usize / BLOCK;
-        let end = self.first as usize + self.count as usize;
-        (first..end.div_ceil(BLOCK)).map(move |b| {
-            let used = (end - b * BLOCK).min(BLOCK);
-            (b, (1u32 << used) - 1)
+        let first = self.first as usize;
+        let end = first + self.count as usize;
+        (first / BLOCK..end.div_ceil(BLOCK)).map(move |b| {
+            let lo = first.max(b * BLOCK) - b * BLOCK;
+            let hi = end.min(b * BLOCK + BLOCK) - b * BLOCK;
+            (b, ((1u32 << hi) - 1) & !((1u32 << lo) - 1))
         })
+    }
+
+    /// Whether the slots span exactly the blocks the count needs.
+    pub fn is_compact(self) -> bool {
+        let (first, end) = (self.first as usize, (self.first + self.count) as usize);
+        end.div_ceil(BLOCK) - first / BLOCK == (self.count as usize).div_ceil(BLOCK)
+    }
+}
+
+/// Lays leaves out in blocks so that blocks fill up: a leaf of at most four triangles goes
+/// into the block with the fewest free lanes that still holds it (best fit), a larger one
+/// into new blocks, whose last free lanes are then open to small leaves. Every leaf spans
+/// as few blocks as its count needs, so a ray tests no more blocks than with padded leaves.
+#[derive(Default)]
+pub(super) struct BlockPacker {
+    /// `open[f]`: blocks whose last f lanes are free.
+    open: [Vec<usize>; BLOCK],
+}
+
+impl BlockPacker {
+    /// Places a leaf's triangles (with their scene indices); returns its first slot.
+    pub fn place(
+        &mut self,
+        blocks: &mut Vec<TriangleBlock>,
+        indices: &mut Vec<u32>,
+        tris: &[(Triangle, u32)],
+    ) -> u32 {
+        let n = tris.len();
+        let fit = (n.max(1)..BLOCK)
+            .filter(|_| n < BLOCK)
+            .find_map(|f| self.open[f].pop().map(|b| (b, f)));
+        let first = match fit {
+            Some((b, free)) => {
+                if free > n {
+                    self.open[free - n].push(b);
+                }
+                b * BLOCK + BLOCK - free
+            }
+            None => {
+                let b = blocks.len();
+                let count = n.div_ceil(BLOCK);
+                blocks.extend(std::iter::repeat_n(TriangleBlock::EMPTY, count));
+                indices.extend(std::iter::repeat_n(PADDING, count * BLOCK));
+                let free = count * BLOCK - n;
+                if free > 0 {
+                    self.open[free].push(b + count - 1);
+                }
+                b * BLOCK
+            }
+        };
+        for (k, (tri, index)) in tris.iter().enumerate() {
+            let slot = first + k;
+            blocks[slot / BLOCK].set(slot % BLOCK, tri);
+            indices[slot] = *index;
+        }
+        first as u32
     }
 }
 

@@ -98,9 +98,9 @@ impl<const W: usize> WideBvh<W> {
         sum / root_area
     }
 
-    /// Checks that each triangle is in exactly one leaf, every leaf starts a block and is
-    /// padded to its end, every child box is exactly the union of its subtree's boxes or
-    /// triangles, and interior children come after their parent.
+    /// Checks that each triangle is in exactly one leaf, every leaf spans no more blocks than
+    /// it needs, every lane of no leaf is padding, every child box is exactly the union of
+    /// its subtree's boxes or triangles, and interior children come after their parent.
     pub fn validate(&self) -> Result<(), String> {
         let n = self.triangle_count;
         let slots = self.blocks.len() * BLOCK;
@@ -119,8 +119,7 @@ impl<const W: usize> WideBvh<W> {
                 return Err(format!("triangle {i} appears twice"));
             }
         }
-        let mut covered = 0usize;
-        let mut lanes = 0usize;
+        let mut owned = vec![false; slots];
         for (i, node) in self.nodes.iter().enumerate() {
             let used = node.child_count();
             if node.count[used..].iter().any(|&c| c != 0) {
@@ -135,25 +134,22 @@ impl<const W: usize> WideBvh<W> {
                     }
                     self.nodes[c].bounds()
                 } else {
-                    let count = node.count[lane] as usize;
-                    let padded = c..c + leaf_lanes(count as u32) as usize;
-                    if !c.is_multiple_of(BLOCK) || padded.end > slots {
-                        return Err(format!("node {i} lane {lane}: leaf {padded:?} of {slots}"));
+                    let leaf = leaf::Leaf {
+                        first: c as u32,
+                        count: node.count[lane],
+                    };
+                    let range = c..c + node.count[lane] as usize;
+                    if range.end > slots || !leaf.is_compact() {
+                        return Err(format!("node {i} lane {lane}: leaf {range:?} of {slots}"));
                     }
-                    covered += count;
-                    lanes += padded.len();
                     let mut b = Aabb::EMPTY;
-                    for slot in padded {
-                        let (block, l) = (&self.blocks[slot / BLOCK], slot % BLOCK);
-                        let padding = slot >= c + count;
-                        if padding != (self.prim_indices[slot] == PADDING)
-                            || (padding && !block.is_padding(l))
+                    for slot in range {
+                        if std::mem::replace(&mut owned[slot], true)
+                            || self.prim_indices[slot] == PADDING
                         {
-                            return Err(format!("node {i} lane {lane}: slot {slot} misplaced"));
+                            return Err(format!("node {i} lane {lane}: slot {slot} taken"));
                         }
-                        if !padding {
-                            b = b.union(block.triangle(l).bounds());
-                        }
+                        b = b.union(self.blocks[slot / BLOCK].triangle(slot % BLOCK).bounds());
                     }
                     b
                 };
@@ -163,10 +159,16 @@ impl<const W: usize> WideBvh<W> {
                 }
             }
         }
-        if covered != n || lanes != slots {
-            return Err(format!(
-                "leaves hold {covered} of {n} triangles in {lanes} of {slots} slots"
-            ));
+        let covered = owned.iter().filter(|&&o| o).count();
+        if covered != n {
+            return Err(format!("leaves hold {covered} of {n} triangles"));
+        }
+        for (slot, _) in owned.iter().enumerate().filter(|(_, o)| !**o) {
+            if self.prim_indices[slot] != PADDING
+                || !self.blocks[slot / BLOCK].is_padding(slot % BLOCK)
+            {
+                return Err(format!("slot {slot} of no leaf is not padding"));
+            }
         }
         Ok(())
     }
