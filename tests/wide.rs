@@ -342,7 +342,7 @@ fn greedy_cost<const W: usize>(b2: &Bvh, p: &CollapseParams) -> f64 {
         for c in children {
             let node = &b2.nodes[c];
             if node.is_leaf() {
-                cost += p.leaf_cost(node.count) as f64 * area(c);
+                cost += p.c_isect as f64 * node.count as f64 * area(c);
             } else {
                 cost += p.c_trav as f64 * area(c);
                 open.push(c);

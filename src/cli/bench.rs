@@ -112,12 +112,10 @@ pub fn run(args: BenchArgs) -> Result<()> {
         light: args.view.light(&scene),
         width,
         height,
-        params: args
-            .build
-            .structure_params_for(match traced {
-                super::AccelArg::All => AccelKind::Bvh,
-                a => a.kind()?,
-            }),
+        params: args.build.structure_params_for(match traced {
+            super::AccelArg::All => AccelKind::Bvh,
+            a => a.kind()?,
+        }),
         builds: args.builds,
         runs: args.runs,
         intersector: args.intersector.kind(),

@@ -15,11 +15,6 @@ use crate::geometry::{Intersector, Ray, Triangle};
 /// The index of a padding lane (a lane of no leaf, NaN).
 pub const PADDING: u32 = u32::MAX;
 
-/// The lanes a leaf of `count` triangles costs a ray: whole blocks.
-pub fn leaf_lanes(count: u32) -> u32 {
-    count.div_ceil(BLOCK as u32) * BLOCK as u32
-}
-
 /// A leaf: its first slot (slot = block · 4 + lane) and its triangle count; its slots are
 /// contiguous and span no more blocks than its count needs.
 #[derive(Clone, Copy)]

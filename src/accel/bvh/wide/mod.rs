@@ -16,7 +16,7 @@ pub mod refit;
 pub mod traverse;
 
 pub use collapse::CollapseParams;
-pub use leaf::{PADDING, leaf_lanes};
+pub use leaf::PADDING;
 pub use node::WideNode;
 
 use super::TraversalOrder;
@@ -75,13 +75,12 @@ impl<const W: usize> WideBvh<W> {
             .count()
     }
 
-    /// The SAH cost of the wide tree, as the collapse minimised it: C_trav per interior node,
-    /// and per leaf C_trav plus C_isect per lane of its blocks (a block is tested whole,
-    /// padding included), each weighted by its box's area relative to the root's.
+    /// The SAH cost of the wide tree, as the collapse minimised it: C_trav per interior node
+    /// and C_isect per triangle, each weighted by its box's area relative to the root's.
     pub fn sah_cost(&self, c_trav: f32, c_isect: f32) -> f64 {
         let root_area = self.nodes[0].bounds().surface_area() as f64;
         if root_area <= 0.0 {
-            return c_isect as f64 * self.prim_indices.len() as f64;
+            return c_isect as f64 * self.triangle_count as f64;
         }
         let mut sum = c_trav as f64 * root_area;
         for n in &self.nodes {
@@ -91,7 +90,7 @@ impl<const W: usize> WideBvh<W> {
                     * if n.is_interior(lane) {
                         c_trav as f64
                     } else {
-                        collapse::leaf_cost(c_trav, c_isect, n.count[lane]) as f64
+                        c_isect as f64 * n.count[lane] as f64
                     };
             }
         }
