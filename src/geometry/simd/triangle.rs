@@ -29,16 +29,18 @@ impl TriangleBlock {
         v: [[[f32::NAN; BLOCK]; 3]; 3],
     };
 
+    #[inline]
     pub fn triangle(&self, lane: usize) -> Triangle {
         let p = |k: usize| Vec3::new(self.v[k][0][lane], self.v[k][1][lane], self.v[k][2][lane]);
         Triangle::new(p(0), p(1), p(2))
     }
 
+    #[inline]
     pub fn set(&mut self, lane: usize, tri: &Triangle) {
-        for (k, p) in tri.v.iter().enumerate() {
-            for axis in 0..3 {
-                self.v[k][axis][lane] = p[axis];
-            }
+        for (row, p) in self.v.iter_mut().zip(&tri.v) {
+            row[0][lane] = p.x;
+            row[1][lane] = p.y;
+            row[2][lane] = p.z;
         }
     }
 
