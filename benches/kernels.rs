@@ -1,6 +1,7 @@
 //! Micro benchmarks of the pieces a ray's time goes to, so a regression shows in the piece
 //! that regressed: the slab test (scalar and each SIMD kernel), the watertight triangle
-//! test, the BVH2 build, the collapse into BVH4 and BVH8, and single-ray traversal of each.
+//! test (scalar, and four at a time with each SIMD kernel), the BVH2 build, the collapse into
+//! BVH4 and BVH8, single-ray traversal of each, and the wide trees' refit of 10^6 triangles.
 //! `cargo bench --bench kernels` (add a name to filter, e.g. `cargo bench --bench kernels slab`).
 
 use bvhlab::accel::bvh::wide::CollapseParams;
@@ -8,7 +9,7 @@ use bvhlab::accel::bvh::{self, BuildParams, Bvh, WideBvh};
 use bvhlab::accel::{Accel, NoStats};
 use bvhlab::geometry::aabb::{SlabRay, slab_entry};
 use bvhlab::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab};
-use bvhlab::geometry::simd::{SimdLevel, WideRay};
+use bvhlab::geometry::simd::{BLOCK, SimdLevel, TriangleBlock, TriangleKernel, WideRay};
 use bvhlab::geometry::{Intersector, Ray, Triangle, Watertight};
 use bvhlab::scene::Scene;
 use divan::{Bencher, black_box};
@@ -154,6 +155,69 @@ fn triangle_watertight(b: Bencher) {
     });
 }
 
+/// The same 1024 triangles as 256 blocks of four.
+fn blocks(tris: &[Triangle]) -> Vec<TriangleBlock> {
+    tris.chunks(BLOCK)
+        .map(|c| {
+            let mut block = TriangleBlock::EMPTY;
+            for (lane, t) in c.iter().enumerate() {
+                block.set(lane, t);
+            }
+            block
+        })
+        .collect()
+}
+
+/// The ray against every block with kernel K: the lanes hit.
+#[inline(always)]
+fn block_hits<K: TriangleKernel>(blocks: &[TriangleBlock], ray: &Ray) -> u32 {
+    let data = Watertight::prepare(ray);
+    let mut hits = 0;
+    for block in blocks {
+        // SAFETY: every caller checked that the CPU supports K.
+        let h = unsafe {
+            Watertight::intersect_block::<K>(&data, ray, black_box(block), 0.0, f32::INFINITY)
+        };
+        hits += (h.hit | h.retest).count_ones();
+    }
+    hits
+}
+
+#[target_feature(enable = "sse4.1")]
+fn block_hits_sse41(blocks: &[TriangleBlock], ray: &Ray) -> u32 {
+    block_hits::<Sse41>(blocks, ray)
+}
+
+#[target_feature(enable = "avx2")]
+fn block_hits_avx2(blocks: &[TriangleBlock], ray: &Ray) -> u32 {
+    block_hits::<Avx2>(blocks, ray)
+}
+
+#[target_feature(enable = "avx512f,avx512vl")]
+fn block_hits_avx512(blocks: &[TriangleBlock], ray: &Ray) -> u32 {
+    block_hits::<Avx512>(blocks, ray)
+}
+
+#[divan::bench(args = SimdLevel::ALL.map(|l| l.label()))]
+fn triangle_watertight_blocks(b: Bencher, level: &str) {
+    let level = SimdLevel::from_label(level).unwrap();
+    if !level.supported() {
+        return;
+    }
+    let f = fixture();
+    let blocks = blocks(&f.triangles[..1024]);
+    let ray = f.rays[f.rays.len() / 2];
+    b.bench_local(|| match level {
+        SimdLevel::Portable => block_hits::<Portable>(&blocks, &ray),
+        // SAFETY: `level.supported()` was checked above.
+        SimdLevel::Sse41 => unsafe { block_hits_sse41(&blocks, &ray) },
+        // SAFETY: as above.
+        SimdLevel::Avx2 => unsafe { block_hits_avx2(&blocks, &ray) },
+        // SAFETY: as above.
+        SimdLevel::Avx512 => unsafe { block_hits_avx512(&blocks, &ray) },
+    });
+}
+
 #[divan::bench(sample_count = 10)]
 fn build_bvh2_binned_sah(b: Bencher) {
     let f = fixture();
@@ -188,4 +252,21 @@ where
 {
     let wide = WideBvh::<W>::collapse(&fixture().bvh2, &CollapseParams::default());
     trace(b, &wide);
+}
+
+/// A refit of a wide tree over 10^6 triangles after all of them moved (on the machine's
+/// threads: rayon's pool).
+#[divan::bench(consts = [4, 8], sample_count = 10)]
+fn refit_wide_1m<const W: usize>(b: Bencher) {
+    let scene = Scene::load("soup:1000000").expect("built-in scene");
+    let b2 = bvh::build(&scene.triangles, &BuildParams::default())
+        .unwrap()
+        .0;
+    let mut wide = WideBvh::<W>::collapse(&b2, &CollapseParams::default());
+    let moved: Vec<Triangle> = scene
+        .triangles
+        .iter()
+        .map(|t| Triangle::new(t.v[0] * 1.01, t.v[1] * 1.01, t.v[2] * 1.01))
+        .collect();
+    b.bench_local(|| wide.refit(black_box(&moved), 1.0, 1.0).unwrap());
 }

@@ -1,7 +1,8 @@
 //! The wide BVHs (BVH4, BVH8) against the BVH2 they are collapsed from: every SIMD kernel
 //! this machine has gives the BVH2's hits bit for bit (triangle, t, u, v), any hit agrees,
-//! counting changes nothing; the kernels equal the scalar slab test lane for lane; the
-//! collapse keeps every box around its subtree and costs no more than a greedy collapse.
+//! counting changes nothing; the slab kernels equal the scalar slab test and the triangle
+//! kernels the scalar watertight test lane for lane; the collapse keeps every box around its
+//! subtree and costs no more than a greedy collapse.
 
 mod common;
 
@@ -10,8 +11,8 @@ use bvhlab::accel::bvh::{self, BuildParams, Bvh, Strategy, TraversalOrder, WideB
 use bvhlab::accel::{Accel, Counters, Hit, NoStats};
 use bvhlab::geometry::aabb::{SlabRay, slab_entry};
 use bvhlab::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab};
-use bvhlab::geometry::simd::{SimdLevel, WideRay};
-use bvhlab::geometry::{Aabb, Ray, Triangle, Watertight};
+use bvhlab::geometry::simd::{BLOCK, SimdLevel, TriangleBlock, TriangleKernel, WideRay};
+use bvhlab::geometry::{Aabb, Intersector, Ray, Triangle, Watertight};
 use bvhlab::scene::Scene;
 use common::{Rng, SMALL_BUILTINS, degenerate_cases, rays, soup, view_rays};
 use glam::Vec3;
@@ -190,6 +191,129 @@ fn every_slab_kernel_equals_the_scalar_slab_test() {
     check::<8, Avx2>(SimdLevel::Avx2, &mut rng);
     check::<4, Avx512>(SimdLevel::Avx512, &mut rng);
     check::<8, Avx512>(SimdLevel::Avx512, &mut rng);
+}
+
+/// Each triangle kernel's lanes equal the scalar watertight test: hit or miss, and t, u, v
+/// bit for bit, on random triangles, triangles sharing edges, degenerate and tiny ones, rays
+/// through vertices and edges, axis-parallel rays with ±0 components and rays starting on a
+/// triangle; lanes it hands back to the scalar test are those the scalar test decides in f64,
+/// and padding never hits.
+#[test]
+fn every_triangle_kernel_equals_the_scalar_watertight_test() {
+    fn check<K: TriangleKernel>(level: SimdLevel, rng: &mut Rng) -> (usize, usize) {
+        if !level.supported() {
+            return (0, 0);
+        }
+        let unit = Aabb::new(Vec3::splat(-1.0), Vec3::ONE);
+        let (mut hits, mut retests) = (0, 0);
+        for case in 0..40_000 {
+            // Four triangles around a shared vertex p (edges shared pairwise), or random
+            // ones; some degenerate, one lane left as padding now and then.
+            let p = rng.vec3_in(&unit);
+            let ring: [Vec3; 5] = std::array::from_fn(|_| rng.vec3_in(&unit));
+            let mut tris: Vec<Option<Triangle>> = (0..BLOCK)
+                .map(|i| {
+                    Some(match (case + i) % 5 {
+                        0 => Triangle::new(p, ring[i], ring[i + 1]),
+                        1 => Triangle::new(p, p, ring[i]),
+                        2 => Triangle::new(p, ring[i], ring[i] * 2.0 - p),
+                        3 => {
+                            let c = rng.vec3_in(&unit);
+                            let s = 1e-4;
+                            Triangle::new(c, c + Vec3::X * s, c + Vec3::Y * s)
+                        }
+                        _ => Triangle::new(ring[i], ring[i + 1], rng.vec3_in(&unit)),
+                    })
+                })
+                .collect();
+            if case % 9 == 0 {
+                tris[case % BLOCK] = None;
+            }
+            let mut block = TriangleBlock::EMPTY;
+            for (lane, t) in tris.iter().enumerate() {
+                if let Some(t) = t {
+                    block.set(lane, t);
+                }
+            }
+            let aim = match case % 4 {
+                0 => p,
+                1 => ring[0] * 0.5 + ring[1] * 0.5,
+                _ => rng.vec3_in(&unit),
+            };
+            let origin = match case % 6 {
+                // On the first triangle's plane: t at or next to 0.
+                0 => match tris[0] {
+                    Some(t) => t.point(rng.f32() * 0.5, rng.f32() * 0.5),
+                    None => rng.vec3_in(&unit),
+                },
+                1 => aim - Vec3::new(0.0, 0.0, 2.0),
+                _ => rng.unit_vector() * 3.0,
+            };
+            let mut d = match case % 6 {
+                1 => Vec3::new(-0.0, 0.0, 1.0),
+                0 => rng.unit_vector(),
+                _ => aim - origin,
+            };
+            if case % 7 == 0 {
+                d.y = -0.0;
+            }
+            if d == Vec3::ZERO {
+                continue;
+            }
+            let ray = Ray::new(origin, d);
+            let (tmin, tmax) = (0.0, if case % 5 == 0 { 1.5 } else { f32::INFINITY });
+            let shear = Watertight::prepare(&ray);
+            // SAFETY: `level.supported()` was checked above.
+            let got = unsafe { K::watertight(&block, &shear, &ray, tmin, tmax) };
+            // SAFETY: the portable kernel has no requirement.
+            let portable = unsafe { Portable::watertight(&block, &shear, &ray, tmin, tmax) };
+            assert_eq!(
+                (got.hit, got.retest),
+                (portable.hit, portable.retest),
+                "{} case {case}: lanes differ from the portable kernel",
+                level.label()
+            );
+            for (lane, t) in tris.iter().enumerate() {
+                let (hit, retest) = (got.hit >> lane & 1 == 1, got.retest >> lane & 1 == 1);
+                let Some(t) = t else {
+                    assert!(!hit && !retest, "{} case {case}: padding", level.label());
+                    continue;
+                };
+                let expected = Watertight::intersect(&shear, &ray, t, tmin, tmax);
+                if retest {
+                    retests += 1;
+                    continue;
+                }
+                assert_eq!(
+                    hit,
+                    expected.is_some(),
+                    "{} case {case} lane {lane}: {t:?} {ray:?}",
+                    level.label()
+                );
+                if let Some(e) = expected {
+                    hits += 1;
+                    let lanes = (got.t[lane], got.u[lane], got.v[lane]);
+                    assert_eq!(
+                        [lanes.0, lanes.1, lanes.2].map(f32::to_bits),
+                        [e.t, e.u, e.v].map(f32::to_bits),
+                        "{} case {case} lane {lane}",
+                        level.label()
+                    );
+                }
+            }
+        }
+        (hits, retests)
+    }
+    let mut rng = Rng::new(5);
+    let (hits, retests) = check::<Portable>(SimdLevel::Portable, &mut rng);
+    // The cases reach both paths: hits decided by the lanes, and lanes handed back.
+    assert!(
+        hits > 1000 && retests > 100,
+        "{hits} hits, {retests} retests"
+    );
+    check::<Sse41>(SimdLevel::Sse41, &mut rng);
+    check::<Avx2>(SimdLevel::Avx2, &mut rng);
+    check::<Avx512>(SimdLevel::Avx512, &mut rng);
 }
 
 /// The greedy collapse the dynamic program must beat or tie: open the child with the

@@ -96,6 +96,16 @@ impl AccelKind {
         )
     }
 
+    /// The layout that traces fastest on this machine: the BVH8 where the CPU has 8-wide
+    /// vectors (AVX2 or AVX-512), the BVH4 with 4-wide SSE4.1, the BVH2 without SIMD.
+    pub fn fastest() -> AccelKind {
+        match SimdLevel::detect() {
+            SimdLevel::Avx2 | SimdLevel::Avx512 => AccelKind::Bvh8,
+            SimdLevel::Sse41 => AccelKind::Bvh4,
+            SimdLevel::Portable => AccelKind::Bvh,
+        }
+    }
+
     /// A wide BVH: the BVH2 collapsed, traced with SIMD slab tests.
     pub fn is_wide(self) -> bool {
         matches!(self, AccelKind::Bvh4 | AccelKind::Bvh8)
@@ -571,7 +581,7 @@ fn build_wide<const W: usize>(
         leaves,
         empty_leaves: 0,
         max_depth: wide.depth,
-        references: wide.prim_indices.len(),
+        references: wide.triangle_count,
         largest_leaf,
         details: vec![
             ("builder".into(), params.bvh.strategy.label().into()),

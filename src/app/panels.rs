@@ -146,8 +146,14 @@ fn build_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         .default_open(true)
         .show(ui, |ui| {
             let s = &mut app.settings;
+            // The layout this machine traces fastest says so (the default of a fresh start).
+            let selected = if s.accel == AccelKind::fastest() {
+                format!("{} (fastest here)", s.accel.title())
+            } else {
+                s.accel.title().to_string()
+            };
             egui::ComboBox::from_label("structure")
-                .selected_text(s.accel.title())
+                .selected_text(selected)
                 .show_ui(ui, |ui| {
                     for kind in AccelKind::ALL {
                         ui.selectable_value(&mut s.accel, kind, kind.title());

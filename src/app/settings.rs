@@ -180,7 +180,8 @@ impl Default for Settings {
         let oct = OctreeParams::default();
         Settings {
             scene: "cornell".into(),
-            accel: AccelKind::Bvh,
+            // Trace with the fastest layout until the user picks another.
+            accel: AccelKind::fastest(),
             mailbox: true,
             simd: SimdLevel::detect(),
             kd_c_trav: kd.c_trav,

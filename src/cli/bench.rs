@@ -99,17 +99,23 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let load_start = std::time::Instant::now();
     let scene = load_scene(&args.scene)?;
     let load_time = load_start.elapsed();
+    // The builders and the accuracy study compare BVH2 builds; the ray sets are traced with
+    // the fastest layout unless --accel names one.
+    let compares_builds = args.builders || args.accuracy;
+    let traced = if compares_builds {
+        args.build.accel_for(&scene)
+    } else {
+        args.build.accel_to_trace(&scene)
+    };
     let cfg = BenchConfig {
         camera: args.view.camera(&scene)?,
         light: args.view.light(&scene),
         width,
         height,
-        params: args
-            .build
-            .structure_params_for(match args.build.accel_for(&scene) {
-                super::AccelArg::All => AccelKind::Bvh,
-                a => a.kind()?,
-            }),
+        params: args.build.structure_params_for(match traced {
+            super::AccelArg::All => AccelKind::Bvh,
+            a => a.kind()?,
+        }),
         builds: args.builds,
         runs: args.runs,
         intersector: args.intersector.kind(),
@@ -161,8 +167,13 @@ pub fn run(args: BenchArgs) -> Result<()> {
         ),
         None => r.params.kind.title().to_string(),
     };
+    let fastest = if args.build.fastest_by_default(&scene) {
+        " (the fastest layout on this machine; --accel picks another)"
+    } else {
+        ""
+    };
     out!(
-        "{}: {} triangles, {} threads, {what}, {} intersector",
+        "{}: {} triangles, {} threads, {what}, {} intersector{fastest}",
         r.scene,
         r.triangles,
         r.threads,

@@ -25,7 +25,9 @@ use glam::Vec3;
 #[derive(Args, Clone)]
 pub struct BuildArgs {
     /// Acceleration structure (`all`: every structure, `bench` only). Default: two-level
-    /// for a scene with instances of its own (glTF, island), bvh otherwise.
+    /// for a scene with instances of its own (glTF, island); otherwise, for `render`, `bench`
+    /// and `trace`, the fastest layout this machine traces (bvh8 with AVX2 or AVX-512, bvh4
+    /// with SSE4.1 only), for the other commands bvh.
     #[arg(long, value_enum)]
     pub accel: Option<AccelArg>,
     /// Spatial structures: test a triangle once per ray even if several cells hold it
@@ -282,6 +284,26 @@ impl BuildArgs {
         })
     }
 
+    /// The structure to trace with: the one `--accel` names, or without it the two levels
+    /// where the scene has instances of its own, otherwise the fastest layout this machine
+    /// traces (`AccelKind::fastest`). `render`, `bench` and `trace` trace with it.
+    pub fn accel_to_trace(&self, scene: &Scene) -> AccelArg {
+        match self.accel {
+            Some(a) => a,
+            None if !scene.instances.is_empty() => AccelArg::TwoLevel,
+            None => match AccelKind::fastest() {
+                AccelKind::Bvh8 => AccelArg::Bvh8,
+                AccelKind::Bvh4 => AccelArg::Bvh4,
+                _ => AccelArg::Bvh,
+            },
+        }
+    }
+
+    /// Whether `accel_to_trace` chose the fastest layout because no `--accel` was given.
+    pub fn fastest_by_default(&self, scene: &Scene) -> bool {
+        self.accel.is_none() && scene.instances.is_empty()
+    }
+
     /// The parameters of the one structure `--accel` names (or `scene`'s default).
     pub fn structure_params(&self, scene: &Scene) -> Result<StructureParams> {
         Ok(self.structure_params_for(self.accel_for(scene).kind()?))
@@ -290,7 +312,21 @@ impl BuildArgs {
     /// Builds the structure `--accel` names (or `scene`'s default) over `scene` and says so
     /// on stderr.
     pub fn build(&self, scene: &Scene) -> Result<Built> {
-        let params = self.structure_params(scene)?;
+        self.build_kind(scene, self.accel_for(scene), "")
+    }
+
+    /// Builds the structure to trace with (`accel_to_trace`) and says so on stderr.
+    pub fn build_to_trace(&self, scene: &Scene) -> Result<Built> {
+        let note = if self.fastest_by_default(scene) {
+            " (the fastest layout on this machine; --accel picks another)"
+        } else {
+            ""
+        };
+        self.build_kind(scene, self.accel_to_trace(scene), note)
+    }
+
+    fn build_kind(&self, scene: &Scene, accel: AccelArg, note: &str) -> Result<Built> {
+        let params = self.structure_params_for(accel.kind()?);
         let built = structure::build_scene(scene, &params, &Default::default())
             .with_context(|| format!("cannot build the {}", params.kind.title()))?;
         let simd = built
@@ -299,7 +335,7 @@ impl BuildArgs {
             .map(|l| format!(", {} kernel", l.label()))
             .unwrap_or_default();
         eprintln!(
-            "built {} over {} triangles in {:.2} ms{simd}",
+            "built {} over {} triangles in {:.2} ms{simd}{note}",
             built.report.structure,
             built.report.triangles,
             built.report.build_ms()

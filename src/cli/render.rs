@@ -78,7 +78,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         counters: true,
     };
     let kind = args.intersector.kind();
-    let built = args.build.build(&scene)?;
+    let built = args.build.build_to_trace(&scene)?;
     let frame = with_intersector!(kind, I => render::render_with::<_, I>(&built.structure, &scene, &settings));
     let out = args.out.unwrap_or_else(|| {
         let name = format!("bvhlab-{}.png", sanitize(&scene.name));

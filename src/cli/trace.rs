@@ -53,7 +53,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
     let pool = thread_pool(args.threads)?;
     let start = Instant::now();
     let (output, answered) = pool.install(|| -> Result<(Vec<u8>, usize)> {
-        let built = args.build.build(&scene)?;
+        let built = args.build.build_to_trace(&scene)?;
         let s = &built.structure;
         with_intersector!(args.intersector.kind(), I => trace_all::<_, I>(s, &rays, args.any))
     })?;

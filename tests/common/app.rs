@@ -16,6 +16,8 @@ pub fn launch(
             cc,
             Launch {
                 scene: Some(scene),
+                // The BVH2, the teaching tree, whatever layout a fresh start would trace.
+                accel: Some(bvhlab::accel::AccelKind::Bvh),
                 fresh: true,
                 ..Default::default()
             },

@@ -105,21 +105,20 @@ impl RefitIndex {
 }
 
 impl RefitIndex {
-    /// Copies the `moved` scene triangles into their slots of `triangles` (leaf order) and
+    /// Hands each `moved` scene triangle and its slot to `copy` (slot, scene index) and
     /// returns the nodes whose boxes change (their leaves and every ancestor), children
     /// before parents: nodes come after their parents, so high index to low is bottom-up.
     pub(crate) fn dirty_nodes(
         &mut self,
-        triangles: &mut [Triangle],
-        scene: &[Triangle],
         moved: &[u32],
+        mut copy: impl FnMut(usize, usize),
     ) -> Vec<usize> {
         let mut dirty = Vec::new();
         for &t in moved {
             let Some(&slot) = self.slot_of.get(t as usize) else {
                 continue;
             };
-            triangles[slot as usize] = scene[t as usize];
+            copy(slot as usize, t as usize);
             // Queue the leaf and every ancestor not queued yet.
             let mut node = self.leaf_of[slot as usize];
             while node != u32::MAX && !self.queued[node as usize] {
@@ -154,7 +153,9 @@ impl Bvh {
             });
         }
         let sah_before = self.sah_cost(c_trav, c_isect);
-        for i in index.dirty_nodes(&mut self.triangles, scene, moved) {
+        let triangles = &mut self.triangles;
+        let dirty = index.dirty_nodes(moved, |slot, t| triangles[slot] = scene[t]);
+        for i in dirty {
             self.refit_node(i);
         }
         Ok(RefitReport {

@@ -210,7 +210,7 @@ fn build_tlas(
     for p in &mut tlas.prim_indices {
         *p = placed[*p as usize];
     }
-    tlas.triangles = Vec::new();
+    tlas.blocks = Vec::new();
     Ok(tlas)
 }
 
@@ -288,7 +288,7 @@ impl TwoLevel {
         let count = self
             .blases
             .get(self.instances[i].mesh)
-            .map_or(0, |b| b.triangles.len() as u64);
+            .map_or(0, |b| b.triangle_count as u64);
         first..first + count
     }
 
@@ -326,7 +326,7 @@ impl TwoLevel {
         let blas_nodes: usize = self.blases.iter().map(|b| b.nodes.len()).sum();
         let blas_leaves: usize = self.blases.iter().map(Bvh8::leaf_count).sum();
         let tlas_leaves = self.tlas.leaf_count();
-        let unique: usize = self.blases.iter().map(|b| b.triangles.len()).sum();
+        let unique: usize = self.blases.iter().map(|b| b.triangle_count).sum();
         let largest_leaf = self
             .blases
             .iter()

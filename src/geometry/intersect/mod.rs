@@ -8,8 +8,9 @@ mod watertight;
 
 pub use moller_trumbore::MollerTrumbore;
 pub use reference::ReferenceF64;
-pub use watertight::Watertight;
+pub use watertight::{Shear, Watertight};
 
+use super::simd::triangle::{BlockHits, TriangleBlock, TriangleKernel};
 use super::{Ray, Triangle};
 
 /// Where a ray meets a triangle: the distance t and the barycentric coordinates (u, v) of
@@ -36,6 +37,23 @@ pub trait Intersector: Copy + Default + Send + Sync + 'static {
         tmin: f32,
         tmax: f32,
     ) -> Option<TriangleHit>;
+
+    /// The four triangles of a wide leaf's block at once with the SIMD kernel `K`, where the
+    /// test has a block form that gives its own answers bit for bit; lanes it leaves to
+    /// `intersect` are marked `retest`. By default every lane is: the test runs lane by lane.
+    ///
+    /// # Safety
+    /// The CPU supports K's instruction set (`SimdLevel::supported`).
+    #[inline(always)]
+    unsafe fn intersect_block<K: TriangleKernel>(
+        _data: &Self::RayData,
+        _ray: &Ray,
+        _block: &TriangleBlock,
+        _tmin: f32,
+        _tmax: f32,
+    ) -> BlockHits {
+        BlockHits::RETEST_ALL
+    }
 }
 
 /// The intersector as a run-time choice (CLI flag, app setting). Code generic over

@@ -9,6 +9,7 @@
 
 use super::reference::gamma64;
 use super::{Intersector, TriangleHit};
+use crate::geometry::simd::triangle::{BlockHits, TriangleBlock, TriangleKernel};
 use crate::geometry::{Ray, Triangle, gamma};
 use glam::{DVec3, Vec3};
 
@@ -18,8 +19,9 @@ pub struct Watertight;
 /// The ray's shear: axis permutation (kx, ky, kz), kz the largest direction component.
 #[derive(Clone, Copy, Debug)]
 pub struct Shear {
-    k: [usize; 3],
-    s: Vec3,
+    pub k: [usize; 3],
+    /// (−d_kx / d_kz, −d_ky / d_kz, 1 / d_kz).
+    pub s: Vec3,
 }
 
 /// The axes of the ray's coordinate system: kz is the direction's largest component, kx and
@@ -50,6 +52,19 @@ impl Intersector for Watertight {
             k: [kx, ky, kz],
             s: Vec3::new(-d[kx] / d[kz], -d[ky] / d[kz], 1.0 / d[kz]),
         }
+    }
+
+    /// Four triangles per SIMD kernel call, each lane bit for bit this test (`simd::triangle`).
+    #[inline(always)]
+    unsafe fn intersect_block<K: TriangleKernel>(
+        shear: &Shear,
+        ray: &Ray,
+        block: &TriangleBlock,
+        tmin: f32,
+        tmax: f32,
+    ) -> BlockHits {
+        // SAFETY: the caller guarantees the CPU supports K's instruction set.
+        unsafe { K::watertight(block, shear, ray, tmin, tmax) }
     }
 
     #[inline(always)]

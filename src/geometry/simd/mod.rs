@@ -1,13 +1,16 @@
-//! SIMD kernels: one slab test over the W child boxes of a wide BVH node at once.
+//! SIMD kernels: one slab test over the W child boxes of a wide BVH node at once, and one
+//! watertight triangle test over a wide leaf's block of four triangles.
 //!
 //! Each kernel is written with `std::arch` for one instruction set and chosen at run time
 //! (`SimdLevel::detect`), with a portable path that gives identical answers on any machine.
-//! They compute exactly what the scalar `slab_entry` computes, lane by lane and in the same
-//! order of operations, so a wide BVH's hits equal the BVH2's bit for bit.
+//! They compute exactly what the scalar `slab_entry` and `Watertight` compute, lane by lane and
+//! in the same order of operations, so a wide BVH's hits equal the BVH2's bit for bit.
 
 pub mod slab;
+pub mod triangle;
 
 pub use slab::{WideRay, WideSlab};
+pub use triangle::{BLOCK, BlockHits, TriangleBlock, TriangleKernel};
 
 /// The instruction set a kernel is written for.
 #[derive(

@@ -4,30 +4,37 @@
 //!
 //! The BVH2 stays the teaching tree and the one every builder produces; a wide tree is its
 //! collapse (`collapse`), traced by one traversal (`traverse`) generic over the SIMD slab
-//! kernel chosen at run time (`crate::geometry::simd`). Hits equal the BVH2's bit for bit.
+//! kernel chosen at run time (`crate::geometry::simd`), whose leaves hold their triangles in
+//! blocks of four tested by one SIMD watertight test (`leaf`). Hits equal the BVH2's bit for
+//! bit.
 
 pub mod collapse;
+pub mod leaf;
 pub mod node;
 pub mod packet;
 pub mod refit;
 pub mod traverse;
 
 pub use collapse::CollapseParams;
+pub use leaf::PADDING;
 pub use node::WideNode;
 
 use super::TraversalOrder;
 use crate::accel::{Outline, OutlineNode};
-use crate::geometry::simd::SimdLevel;
-use crate::geometry::{Aabb, Triangle};
+use crate::geometry::Aabb;
+use crate::geometry::simd::{BLOCK, SimdLevel, TriangleBlock};
 
 #[derive(Clone, Debug)]
 pub struct WideBvh<const W: usize> {
     /// Node 0 is the root; every node's interior children come after it.
     pub nodes: Vec<WideNode<W>>,
-    /// The triangles in the order of the wide leaves.
-    pub triangles: Vec<Triangle>,
-    /// Leaf order → scene triangle index.
+    /// The leaves' triangles in blocks of four (slot = block · 4 + lane), each leaf starting
+    /// a block of its own.
+    pub blocks: Vec<TriangleBlock>,
+    /// Slot → scene triangle index (`PADDING` for a padding lane).
     pub prim_indices: Vec<u32>,
+    /// The triangles the tree was built over.
+    pub triangle_count: usize,
     pub order: TraversalOrder,
     /// The slab kernel the traversal runs (one this machine supports).
     pub simd: SimdLevel,
@@ -55,7 +62,7 @@ impl<const W: usize> WideBvh<W> {
 
     pub fn bytes(&self) -> usize {
         self.nodes.len() * std::mem::size_of::<WideNode<W>>()
-            + self.triangles.len() * std::mem::size_of::<Triangle>()
+            + self.blocks.len() * std::mem::size_of::<TriangleBlock>()
             + self.prim_indices.len() * std::mem::size_of::<u32>()
     }
 
@@ -73,7 +80,7 @@ impl<const W: usize> WideBvh<W> {
     pub fn sah_cost(&self, c_trav: f32, c_isect: f32) -> f64 {
         let root_area = self.nodes[0].bounds().surface_area() as f64;
         if root_area <= 0.0 {
-            return c_isect as f64 * self.triangles.len() as f64;
+            return c_isect as f64 * self.triangle_count as f64;
         }
         let mut sum = c_trav as f64 * root_area;
         for n in &self.nodes {
@@ -90,12 +97,20 @@ impl<const W: usize> WideBvh<W> {
         sum / root_area
     }
 
-    /// Checks that each triangle is in exactly one leaf, every child box is exactly the
-    /// union of its subtree's boxes or triangles, and interior children come after their parent.
+    /// Checks that each triangle is in exactly one leaf, every leaf spans no more blocks than
+    /// it needs, every lane of no leaf is padding, every child box is exactly the union of
+    /// its subtree's boxes or triangles, and interior children come after their parent.
     pub fn validate(&self) -> Result<(), String> {
-        let n = self.triangles.len();
+        let n = self.triangle_count;
+        let slots = self.blocks.len() * BLOCK;
+        if self.prim_indices.len() != slots {
+            return Err(format!(
+                "{} indices for {slots} slots",
+                self.prim_indices.len()
+            ));
+        }
         let mut seen = vec![false; n];
-        for &i in &self.prim_indices {
+        for &i in self.prim_indices.iter().filter(|&&i| i != PADDING) {
             let slot = seen
                 .get_mut(i as usize)
                 .ok_or_else(|| format!("triangle index {i} out of range"))?;
@@ -103,7 +118,7 @@ impl<const W: usize> WideBvh<W> {
                 return Err(format!("triangle {i} appears twice"));
             }
         }
-        let mut covered = 0usize;
+        let mut owned = vec![false; slots];
         for (i, node) in self.nodes.iter().enumerate() {
             let used = node.child_count();
             if node.count[used..].iter().any(|&c| c != 0) {
@@ -118,14 +133,24 @@ impl<const W: usize> WideBvh<W> {
                     }
                     self.nodes[c].bounds()
                 } else {
+                    let leaf = leaf::Leaf {
+                        first: c as u32,
+                        count: node.count[lane],
+                    };
                     let range = c..c + node.count[lane] as usize;
-                    if range.end > n {
-                        return Err(format!("node {i} lane {lane} leaf {range:?} beyond {n}"));
+                    if range.end > slots || !leaf.is_compact() {
+                        return Err(format!("node {i} lane {lane}: leaf {range:?} of {slots}"));
                     }
-                    covered += range.len();
-                    self.triangles[range]
-                        .iter()
-                        .fold(Aabb::EMPTY, |a, t| a.union(t.bounds()))
+                    let mut b = Aabb::EMPTY;
+                    for slot in range {
+                        if std::mem::replace(&mut owned[slot], true)
+                            || self.prim_indices[slot] == PADDING
+                        {
+                            return Err(format!("node {i} lane {lane}: slot {slot} taken"));
+                        }
+                        b = b.union(self.blocks[slot / BLOCK].triangle(slot % BLOCK).bounds());
+                    }
+                    b
                 };
                 // Exactly: a child's box is the union of what lies under it, no larger.
                 if b != inside {
@@ -133,8 +158,16 @@ impl<const W: usize> WideBvh<W> {
                 }
             }
         }
+        let covered = owned.iter().filter(|&&o| o).count();
         if covered != n {
             return Err(format!("leaves hold {covered} of {n} triangles"));
+        }
+        for (slot, _) in owned.iter().enumerate().filter(|(_, o)| !**o) {
+            if self.prim_indices[slot] != PADDING
+                || !self.blocks[slot / BLOCK].is_padding(slot % BLOCK)
+            {
+                return Err(format!("slot {slot} of no leaf is not padding"));
+            }
         }
         Ok(())
     }

@@ -8,14 +8,16 @@
 //! distances, the lowest triangle index, so the order of the visit does not matter).
 
 use super::WideBvh;
+use super::leaf::Leaf;
 use super::node::WideNode;
+use crate::accel::NoStats;
 use crate::accel::bvh::packet::PACKET_SIZE;
 use crate::accel::bvh::traverse::T_SCALE;
 use crate::accel::{BestHit, Hit};
 use crate::geometry::aabb::{SlabRay, slab_entry};
 use crate::geometry::frustum::RayInterval;
-use crate::geometry::simd::WideRay;
 use crate::geometry::simd::slab::WideSlab;
+use crate::geometry::simd::{TriangleKernel, WideRay};
 use crate::geometry::{Intersector, Ray};
 use glam::Vec3;
 
@@ -65,7 +67,7 @@ fn corners<const W: usize>(node: &WideNode<W>, lane: usize) -> [Vec3; 2] {
 impl<const W: usize> WideBvh<W> {
     /// The closest hit of each ray of `rays` (at most `PACKET_SIZE`).
     #[inline(always)]
-    pub(super) fn trace_packet<K: WideSlab<W>, I: Intersector>(
+    pub(super) fn trace_packet<K: WideSlab<W> + TriangleKernel, I: Intersector>(
         &self,
         rays: &[Ray],
         out: &mut [Option<Hit>],
@@ -168,20 +170,22 @@ impl<const W: usize> WideBvh<W> {
                 open = Some((node.child[lane] as usize, f));
                 continue;
             }
-            let range = node.child[lane] as usize..(node.child[lane] + node.count[lane]) as usize;
+            let leaf = Leaf {
+                first: node.child[lane],
+                count: node.count[lane],
+            };
             for i in f..n {
                 if i != f && !p.enters(&c, i) {
                     continue;
                 }
                 let r = &p.rays[i];
-                for k in range.clone() {
-                    if let Some(h) =
-                        I::intersect(&p.data[i], r, &self.triangles[k], r.tmin, p.best[i].limit)
-                    {
-                        p.best[i].offer(h, self.prim_indices[k]);
-                        p.box_tmax[i] = p.best[i].t * T_SCALE;
-                        found += 1;
-                    }
+                // SAFETY: as above.
+                let hit = unsafe {
+                    self.leaf_closest::<K, I, _>(leaf, &p.data[i], r, &mut p.best[i], &mut NoStats)
+                };
+                if hit {
+                    p.box_tmax[i] = p.best[i].t * T_SCALE;
+                    found += 1;
                 }
             }
             packet_tmax = p.packet_tmax();

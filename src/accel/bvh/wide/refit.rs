@@ -3,8 +3,10 @@
 //! drag keeps the fastest tree instead of falling back to the BVH2.
 
 use super::WideBvh;
+use super::leaf::PADDING;
 use super::node::WideNode;
 use crate::accel::bvh::refit::{RefitError, RefitIndex, RefitReport};
+use crate::geometry::simd::{BLOCK, TriangleBlock};
 use crate::geometry::{Aabb, Triangle};
 use rayon::prelude::*;
 
@@ -12,15 +14,24 @@ use rayon::prelude::*;
 const PARALLEL_REFIT: usize = 1 << 15;
 
 impl<const W: usize> WideBvh<W> {
-    /// The leaf lanes' boxes of `node`, from the triangles.
-    fn refit_leaves(node: &mut WideNode<W>, triangles: &[Triangle]) {
+    /// The leaf lanes' boxes of `node`, from the triangle blocks.
+    fn refit_leaves(node: &mut WideNode<W>, blocks: &[TriangleBlock]) {
         for lane in 0..node.child_count() {
             if !node.is_interior(lane) {
                 let first = node.child[lane] as usize;
-                let b = triangles[first..first + node.count[lane] as usize]
-                    .iter()
-                    .fold(Aabb::EMPTY, |b, t| b.union(t.bounds()));
+                let b = (first..first + node.count[lane] as usize).fold(Aabb::EMPTY, |b, slot| {
+                    b.union(blocks[slot / BLOCK].triangle(slot % BLOCK).bounds())
+                });
                 node.set_child_bounds(lane, b);
+            }
+        }
+    }
+
+    /// Copies the scene's triangles into a block's lanes (`index` its slots' indices).
+    fn refill(block: &mut TriangleBlock, index: &[u32], scene: &[Triangle]) {
+        for (lane, &t) in index.iter().enumerate() {
+            if t != PADDING {
+                block.set(lane, &scene[t as usize]);
             }
         }
     }
@@ -46,36 +57,35 @@ impl<const W: usize> WideBvh<W> {
         c_trav: f32,
         c_isect: f32,
     ) -> Result<RefitReport, RefitError> {
-        if scene.len() != self.triangles.len() {
+        if scene.len() != self.triangle_count {
             return Err(RefitError {
-                built: self.triangles.len(),
+                built: self.triangle_count,
                 given: scene.len(),
             });
         }
         let sah_before = self.sah_cost(c_trav, c_isect);
-        let triangles = &mut self.triangles;
-        let parallel = triangles.len() >= PARALLEL_REFIT;
-        let copy = |(dst, &src): (&mut Triangle, &u32)| *dst = scene[src as usize];
+        let parallel = scene.len() >= PARALLEL_REFIT;
+        let blocks = &mut self.blocks;
         if parallel {
-            triangles
+            blocks
                 .par_iter_mut()
-                .zip(self.prim_indices.par_iter())
-                .with_min_len(4096)
-                .for_each(copy);
-            let tris = &self.triangles;
+                .zip(self.prim_indices.par_chunks(BLOCK))
+                .with_min_len(1024)
+                .for_each(|(b, index)| Self::refill(b, index, scene));
+            let blocks = &self.blocks;
             self.nodes
                 .par_iter_mut()
                 .with_min_len(256)
-                .for_each(|n| Self::refit_leaves(n, tris));
+                .for_each(|n| Self::refit_leaves(n, blocks));
         } else {
-            triangles
+            blocks
                 .iter_mut()
-                .zip(self.prim_indices.iter())
-                .for_each(copy);
-            let tris = &self.triangles;
+                .zip(self.prim_indices.chunks(BLOCK))
+                .for_each(|(b, index)| Self::refill(b, index, scene));
+            let blocks = &self.blocks;
             self.nodes
                 .iter_mut()
-                .for_each(|n| Self::refit_leaves(n, tris));
+                .for_each(|n| Self::refit_leaves(n, blocks));
         }
         for i in (0..self.nodes.len()).rev() {
             self.refit_interior(i);
@@ -96,15 +106,19 @@ impl<const W: usize> WideBvh<W> {
         c_trav: f32,
         c_isect: f32,
     ) -> Result<RefitReport, RefitError> {
-        if scene.len() != self.triangles.len() || index.slot_of.len() != scene.len() {
+        if scene.len() != self.triangle_count || index.slot_of.len() != scene.len() {
             return Err(RefitError {
-                built: self.triangles.len(),
+                built: self.triangle_count,
                 given: scene.len(),
             });
         }
         let sah_before = self.sah_cost(c_trav, c_isect);
-        for i in index.dirty_nodes(&mut self.triangles, scene, moved) {
-            Self::refit_leaves(&mut self.nodes[i], &self.triangles);
+        let blocks = &mut self.blocks;
+        let dirty = index.dirty_nodes(moved, |slot, t| {
+            blocks[slot / BLOCK].set(slot % BLOCK, &scene[t]);
+        });
+        for i in dirty {
+            Self::refit_leaves(&mut self.nodes[i], &self.blocks);
             self.refit_interior(i);
         }
         Ok(RefitReport {
@@ -117,12 +131,13 @@ impl<const W: usize> WideBvh<W> {
 impl RefitIndex {
     /// The index of a wide tree: a slot's "leaf" is the wide node whose lane holds it.
     pub fn for_wide<const W: usize>(tree: &WideBvh<W>) -> Self {
-        let n = tree.prim_indices.len();
-        let mut slot_of = vec![0u32; n];
+        let mut slot_of = vec![0u32; tree.triangle_count];
         for (slot, &t) in tree.prim_indices.iter().enumerate() {
-            slot_of[t as usize] = slot as u32;
+            if t != PADDING {
+                slot_of[t as usize] = slot as u32;
+            }
         }
-        let mut leaf_of = vec![0u32; n];
+        let mut leaf_of = vec![0u32; tree.prim_indices.len()];
         let mut parent = vec![u32::MAX; tree.nodes.len()];
         for (i, node) in tree.nodes.iter().enumerate() {
             for lane in 0..node.child_count() {

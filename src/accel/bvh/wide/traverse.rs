@@ -5,9 +5,11 @@
 //! The traversal is written once, generic over the slab kernel; each SIMD level gets an
 //! entry point compiled for its instruction set (`#[target_feature]`), into which the
 //! generic code and the kernel are inlined. Counting: a wide node or a leaf popped is one
-//! node visited, and each child of a visited node one box test.
+//! node visited, each child of a visited node one box test, and each triangle of a leaf's
+//! blocks one triangle test (the block tests them at once; `leaf`).
 
 use super::WideBvh;
+use super::leaf::Leaf;
 use super::node::INTERIOR;
 use crate::accel::bvh::build::MAX_DEPTH;
 use crate::accel::bvh::packet::PACKET_SIZE;
@@ -16,7 +18,7 @@ use crate::accel::replay::{Child, Level, Order, Step, Visited};
 use crate::accel::stats::record;
 use crate::accel::{Accel, BestHit, Hit, Stats, TraversalOrder};
 use crate::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab};
-use crate::geometry::simd::{SimdLevel, WideRay};
+use crate::geometry::simd::{SimdLevel, TriangleKernel, WideRay};
 use crate::geometry::{Intersector, Ray};
 use std::mem::MaybeUninit;
 
@@ -89,38 +91,13 @@ impl<'a> Stack<'a> {
 }
 
 impl<const W: usize> WideBvh<W> {
-    /// The leaf's triangles against the ray, keeping the best hit.
     #[inline(always)]
-    fn leaf_closest<I: Intersector, S: Stats>(
-        &self,
-        e: Entry,
-        data: &I::RayData,
-        ray: &Ray,
-        best: &mut BestHit,
-        stats: &mut S,
-    ) -> bool {
-        let mut found = false;
-        let range = e.child as usize..(e.child + e.count) as usize;
-        for (tri, &index) in self.triangles[range.clone()]
-            .iter()
-            .zip(&self.prim_indices[range])
-        {
-            stats.triangle_test();
-            let hit = I::intersect(data, ray, tri, ray.tmin, best.limit);
-            record(stats, || Step::Triangle {
-                triangle: index.into(),
-                t: hit.map(|h| h.t),
-            });
-            if let Some(h) = hit {
-                best.offer(h, index);
-                found = true;
-            }
-        }
-        found
-    }
-
-    #[inline(always)]
-    fn closest_with<K: WideSlab<W>, I: Intersector, S: Stats, const ORDERED: bool>(
+    fn closest_with<
+        K: WideSlab<W> + TriangleKernel,
+        I: Intersector,
+        S: Stats,
+        const ORDERED: bool,
+    >(
         &self,
         ray: &Ray,
         stats: &mut S,
@@ -141,7 +118,13 @@ impl<const W: usize> WideBvh<W> {
             stats.node_visit();
             record(stats, || self.visit_step(cur));
             if cur.count != INTERIOR {
-                if self.leaf_closest::<I, S>(cur, &data, ray, &mut best, stats) {
+                let leaf = Leaf {
+                    first: cur.child,
+                    count: cur.count,
+                };
+                // SAFETY: a tree only selects a kernel its CPU supports (`set_simd`), and
+                // the entry points below are compiled for it.
+                if unsafe { self.leaf_closest::<K, I, S>(leaf, &data, ray, &mut best, stats) } {
                     box_tmax = best.t * T_SCALE;
                 }
             } else {
@@ -220,7 +203,7 @@ impl<const W: usize> WideBvh<W> {
     }
 
     #[inline(always)]
-    fn occluded_with<K: WideSlab<W>, I: Intersector, S: Stats>(
+    fn occluded_with<K: WideSlab<W> + TriangleKernel, I: Intersector, S: Stats>(
         &self,
         ray: &Ray,
         stats: &mut S,
@@ -240,20 +223,13 @@ impl<const W: usize> WideBvh<W> {
             stats.node_visit();
             record(stats, || self.visit_step(cur));
             if cur.count != INTERIOR {
-                let range = cur.child as usize..(cur.child + cur.count) as usize;
-                for (tri, &index) in self.triangles[range.clone()]
-                    .iter()
-                    .zip(&self.prim_indices[range])
-                {
-                    stats.triangle_test();
-                    let hit = I::intersect(&data, ray, tri, ray.tmin, ray.tmax);
-                    record(stats, || Step::Triangle {
-                        triangle: index.into(),
-                        t: hit.map(|h| h.t),
-                    });
-                    if hit.is_some() {
-                        return true;
-                    }
+                let leaf = Leaf {
+                    first: cur.child,
+                    count: cur.count,
+                };
+                // SAFETY: as in `closest_with`.
+                if unsafe { self.leaf_any::<K, I, S>(leaf, &data, ray, stats) } {
+                    return true;
                 }
             } else {
                 let node = &self.nodes[cur.child as usize];

@@ -1,0 +1,237 @@
+//! A wide leaf: its triangles in blocks of four stored as structures of arrays
+//! (`TriangleBlock`), tested a block at a time by one SIMD triangle test; lanes of a block
+//! that belong to other leaves are masked off.
+//!
+//! The answer is the scalar test's, triangle by triangle: the block test's hits are checked
+//! against the best hit as it shrinks, lane by lane in leaf order, and a lane the block test
+//! hands back (`retest`) is tested by the scalar test with the best hit of that moment.
+
+use super::WideBvh;
+use crate::accel::replay::Step;
+use crate::accel::stats::record;
+use crate::accel::{BestHit, Stats};
+use crate::geometry::intersect::TriangleHit;
+use crate::geometry::simd::{BLOCK, TriangleBlock, TriangleKernel};
+use crate::geometry::{Intersector, Ray, Triangle};
+
+/// The index of a padding lane (a lane of no leaf, NaN).
+pub const PADDING: u32 = u32::MAX;
+
+/// A leaf: its first slot (slot = block · 4 + lane) and its triangle count; its slots are
+/// contiguous and span no more blocks than its count needs.
+#[derive(Clone, Copy)]
+pub(super) struct Leaf {
+    pub first: u32,
+    pub count: u32,
+}
+
+impl Leaf {
+    /// The leaf's blocks, each with the mask of the lanes holding its triangles.
+    #[inline(always)]
+    fn blocks(self) -> impl Iterator<Item = (usize, u32)> {
+        let first = self.first as usize;
+        let end = first + self.count as usize;
+        (first / BLOCK..end.div_ceil(BLOCK)).map(move |b| {
+            let lo = first.max(b * BLOCK) - b * BLOCK;
+            let hi = end.min(b * BLOCK + BLOCK) - b * BLOCK;
+            (b, ((1u32 << hi) - 1) & !((1u32 << lo) - 1))
+        })
+    }
+
+    /// Whether the slots span exactly the blocks the count needs.
+    pub fn is_compact(self) -> bool {
+        let (first, end) = (self.first as usize, (self.first + self.count) as usize);
+        end.div_ceil(BLOCK) - first / BLOCK == (self.count as usize).div_ceil(BLOCK)
+    }
+}
+
+/// Lays leaves out in blocks so that blocks fill up: a leaf of at most four triangles goes
+/// into the block with the fewest free lanes that still holds it (best fit), a larger one
+/// into new blocks, whose last free lanes are then open to small leaves. Every leaf spans
+/// as few blocks as its count needs, so a ray tests no more blocks than with padded leaves.
+#[derive(Default)]
+pub(super) struct BlockPacker {
+    /// `open[f]`: blocks whose last f lanes are free.
+    open: [Vec<usize>; BLOCK],
+}
+
+impl BlockPacker {
+    /// Places a leaf's triangles (with their scene indices); returns its first slot.
+    pub fn place(
+        &mut self,
+        blocks: &mut Vec<TriangleBlock>,
+        indices: &mut Vec<u32>,
+        tris: &[(Triangle, u32)],
+    ) -> u32 {
+        let n = tris.len();
+        let fit = (n.max(1)..BLOCK)
+            .filter(|_| n < BLOCK)
+            .find_map(|f| self.open[f].pop().map(|b| (b, f)));
+        let first = match fit {
+            Some((b, free)) => {
+                if free > n {
+                    self.open[free - n].push(b);
+                }
+                b * BLOCK + BLOCK - free
+            }
+            None => {
+                let b = blocks.len();
+                let count = n.div_ceil(BLOCK);
+                blocks.extend(std::iter::repeat_n(TriangleBlock::EMPTY, count));
+                indices.extend(std::iter::repeat_n(PADDING, count * BLOCK));
+                let free = count * BLOCK - n;
+                if free > 0 {
+                    self.open[free].push(b + count - 1);
+                }
+                b * BLOCK
+            }
+        };
+        for (k, (tri, index)) in tris.iter().enumerate() {
+            let slot = first + k;
+            blocks[slot / BLOCK].set(slot % BLOCK, tri);
+            indices[slot] = *index;
+        }
+        first as u32
+    }
+}
+
+impl<const W: usize> WideBvh<W> {
+    /// The leaf's triangles against the ray, keeping the best hit; whether one was found.
+    ///
+    /// # Safety
+    /// The CPU supports K's instruction set.
+    #[inline(always)]
+    pub(super) unsafe fn leaf_closest<K: TriangleKernel, I: Intersector, S: Stats>(
+        &self,
+        leaf: Leaf,
+        data: &I::RayData,
+        ray: &Ray,
+        best: &mut BestHit,
+        stats: &mut S,
+    ) -> bool {
+        if S::RECORDING {
+            return self.leaf_recorded::<I, S>(leaf, data, ray, Some(best), stats);
+        }
+        let mut found = false;
+        for (b, used) in leaf.blocks() {
+            let block = &self.blocks[b];
+            for _ in 0..used.count_ones() {
+                stats.triangle_test();
+            }
+            // SAFETY: the caller guarantees K's instruction set.
+            let h = unsafe { I::intersect_block::<K>(data, ray, block, ray.tmin, best.limit) };
+            let mut lanes = (h.hit | h.retest) & used;
+            while lanes != 0 {
+                let lane = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                if let Some(hit) = lane_hit::<I>(&h, block, lane, data, ray, best.limit) {
+                    best.offer(hit, self.prim_indices[b * BLOCK + lane]);
+                    found = true;
+                }
+            }
+        }
+        found
+    }
+
+    /// Whether the ray hits any of the leaf's triangles within (tmin, tmax).
+    ///
+    /// # Safety
+    /// The CPU supports K's instruction set.
+    #[inline(always)]
+    pub(super) unsafe fn leaf_any<K: TriangleKernel, I: Intersector, S: Stats>(
+        &self,
+        leaf: Leaf,
+        data: &I::RayData,
+        ray: &Ray,
+        stats: &mut S,
+    ) -> bool {
+        if S::RECORDING {
+            return self.leaf_recorded::<I, S>(leaf, data, ray, None, stats);
+        }
+        for (b, used) in leaf.blocks() {
+            let block = &self.blocks[b];
+            for _ in 0..used.count_ones() {
+                stats.triangle_test();
+            }
+            // SAFETY: the caller guarantees K's instruction set.
+            let h = unsafe { I::intersect_block::<K>(data, ray, block, ray.tmin, ray.tmax) };
+            if h.hit & used != 0 {
+                return true;
+            }
+            let mut lanes = h.retest & used;
+            while lanes != 0 {
+                let lane = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                let tri = block.triangle(lane);
+                if I::intersect(data, ray, &tri, ray.tmin, ray.tmax).is_some() {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+}
+
+impl<const W: usize> WideBvh<W> {
+    /// A replay's leaf: each used lane by the scalar test (whose hits the block test equals
+    /// bit for bit), in lane order, one recorded step each. Closest hit with `best`, any
+    /// hit (stopping after the block that hits, as the block test does) without.
+    fn leaf_recorded<I: Intersector, S: Stats>(
+        &self,
+        leaf: Leaf,
+        data: &I::RayData,
+        ray: &Ray,
+        mut best: Option<&mut BestHit>,
+        stats: &mut S,
+    ) -> bool {
+        let mut found = false;
+        for (b, used) in leaf.blocks() {
+            let block = &self.blocks[b];
+            let mut lanes = used;
+            while lanes != 0 {
+                let lane = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                let index = self.prim_indices[b * BLOCK + lane];
+                let limit = best.as_ref().map_or(ray.tmax, |b| b.limit);
+                stats.triangle_test();
+                let hit = I::intersect(data, ray, &block.triangle(lane), ray.tmin, limit);
+                record(stats, || Step::Triangle {
+                    triangle: index.into(),
+                    t: hit.map(|h| h.t),
+                });
+                if let Some(h) = hit {
+                    found = true;
+                    if let Some(best) = best.as_mut() {
+                        best.offer(h, index);
+                    }
+                }
+            }
+            if found && best.is_none() {
+                return true;
+            }
+        }
+        found
+    }
+}
+
+/// The hit of one lane below `limit`: the block test's, or the scalar test's for a lane
+/// handed back. A block hit depends on the limit only through t < limit, so checking it
+/// against the limit of this moment gives what the scalar test would.
+#[inline(always)]
+fn lane_hit<I: Intersector>(
+    h: &crate::geometry::simd::BlockHits,
+    block: &TriangleBlock,
+    lane: usize,
+    data: &I::RayData,
+    ray: &Ray,
+    limit: f32,
+) -> Option<TriangleHit> {
+    if h.retest >> lane & 1 == 1 {
+        return I::intersect(data, ray, &block.triangle(lane), ray.tmin, limit);
+    }
+    (h.t[lane] < limit).then(|| TriangleHit {
+        t: h.t[lane],
+        u: h.u[lane],
+        v: h.v[lane],
+    })
+}
