@@ -5,7 +5,8 @@ use super::settings::{StrategyChoice, ViewMode};
 use super::{BvhLabApp, Tool};
 use crate::accel::AccelKind;
 use crate::accel::bvh::build::{
-    MAX_BUCKETS, MAX_LEAF_SIZE, MAX_TREELET_ROUNDS, MAX_TREELET_SIZE, MIN_BUCKETS, MIN_TREELET_SIZE,
+    MAX_BUCKETS, MAX_LEAF_SIZE, MAX_SPLIT_BUDGET, MAX_TREELET_ROUNDS, MAX_TREELET_SIZE,
+    MIN_BUCKETS, MIN_TREELET_SIZE,
 };
 use crate::accel::kdtree::{MAX_DEPTH as KD_MAX_DEPTH, MIN_BINS as KD_MIN_BINS};
 use crate::accel::octree::MAX_DEPTH as OCTREE_MAX_DEPTH;
@@ -232,11 +233,12 @@ fn bvh_parameters(ui: &mut egui::Ui, s: &mut super::settings::Settings) {
         (StrategyChoice::SahBinned, "binned SAH"),
         (StrategyChoice::Lbvh, "LBVH"),
         (StrategyChoice::LbvhTreelet, "LBVH + treelets"),
+        (StrategyChoice::Sbvh, "SBVH (spatial splits)"),
     ] {
         ui.radio_value(&mut s.strategy, choice, label);
     }
     ui.add_enabled(
-        s.strategy == StrategyChoice::SahBinned,
+        matches!(s.strategy, StrategyChoice::SahBinned | StrategyChoice::Sbvh),
         egui::Slider::new(&mut s.buckets, MIN_BUCKETS..=MAX_BUCKETS)
             .logarithmic(true)
             .text("buckets B"),
@@ -251,6 +253,25 @@ fn bvh_parameters(ui: &mut egui::Ui, s: &mut super::settings::Settings) {
         treelets,
         egui::Slider::new(&mut s.treelet_rounds, 0..=MAX_TREELET_ROUNDS).text("treelet rounds"),
     );
+    let sbvh = s.strategy == StrategyChoice::Sbvh;
+    ui.add_enabled(
+        sbvh,
+        egui::Slider::new(&mut s.split_alpha, 1e-8..=1.0)
+            .logarithmic(true)
+            .text("overlap threshold α"),
+    )
+    .on_hover_text("spatial splits only where the object split's children overlap by more than α × the root's area");
+    ui.add_enabled(
+        sbvh,
+        egui::Slider::new(&mut s.split_budget, 0.0..=MAX_SPLIT_BUDGET).text("split budget × N"),
+    )
+    .on_hover_text("at most this many duplicated references, per triangle");
+    let presplit = crate::accel::Strategy::from(s.strategy).takes_presplit();
+    ui.add_enabled(
+        presplit,
+        egui::Slider::new(&mut s.presplit, 0.0..=MAX_SPLIT_BUDGET).text("pre-split budget × N"),
+    )
+    .on_hover_text("extra references for the triangles that waste most box area (0 = off)");
     ui.add(
         egui::Slider::new(&mut s.max_leaf_size, 1..=MAX_LEAF_SIZE.min(64)).text("max leaf size"),
     );

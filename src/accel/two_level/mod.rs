@@ -141,7 +141,7 @@ fn build_tlas(
     }
     let tlas_params = BuildParams {
         max_leaf_size: 1,
-        ..*params
+        ..params.whole_references()
     };
     let (mut tlas, _) = bvh::build(&boxes, &tlas_params).map_err(|e| match e {
         BuildError::NonFinite(b) => BuildError::NonFinite(placed[b] as usize),
@@ -198,7 +198,7 @@ impl TwoLevel {
         let count = self
             .blases
             .get(self.instances[i].mesh)
-            .map_or(0, |b| b.triangles.len() as u64);
+            .map_or(0, |b| b.triangle_count as u64);
         first..first + count
     }
 
@@ -245,7 +245,7 @@ impl TwoLevel {
             .flat_map(|b| b.nodes.iter())
             .filter(|n| n.is_leaf() && n.count == 0)
             .count();
-        let unique: usize = self.blases.iter().map(|b| b.triangles.len()).sum();
+        let unique: usize = self.blases.iter().map(|b| b.triangle_count).sum();
         let largest_leaf = self
             .blases
             .iter()

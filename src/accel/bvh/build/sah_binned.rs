@@ -99,19 +99,41 @@ thread_local! {
     static SCRATCH: RefCell<Scratch> = RefCell::default();
 }
 
-pub fn split(refs: &mut [PrimRef], info: &NodeInfo, p: &BuildParams) -> Option<Split> {
-    let n = refs.len();
+/// The best binned object split of a node: its SAH cost (unnormalised, see
+/// `sah_split_cost`), where it cuts, and both children's boxes.
+#[derive(Clone, Copy)]
+pub struct ObjectSplit {
+    pub cost: f32,
+    axis: usize,
+    /// First bucket of the right side.
+    bucket: usize,
+    binning: Binning,
+    pub left: Box3A,
+    pub right: Box3A,
+}
+
+impl ObjectSplit {
+    /// Whether `r` goes to the left child.
+    #[inline(always)]
+    pub fn is_left(&self, r: &PrimRef) -> bool {
+        self.binning.bucket(r, self.axis) < self.bucket
+    }
+}
+
+/// The cheapest object split at a bucket boundary, or `None` if every centroid fell into
+/// one bucket.
+pub fn best(refs: &[PrimRef], info: &NodeInfo, p: &BuildParams) -> Option<ObjectSplit> {
     let b = p.buckets as usize;
     let binning = Binning::new(&info.centroids, b);
     let parent_area = info.bounds.surface_area();
 
-    // (cost, axis, first bucket of the right side)
-    let best = SCRATCH.with_borrow_mut(|s| {
+    SCRATCH.with_borrow_mut(|s| {
         s.bins.clear();
         s.bins.resize(3 * b, EMPTY_BIN);
         s.right_area.resize(3 * b, 0.0);
         s.right_count.resize(3 * b, 0);
         binning.fill_parallel(refs, &mut s.bins);
+        // (cost, axis, first bucket of the right side)
         let mut best: Option<(f32, usize, usize)> = None;
         // Empty buckets change neither side: the sweeps skip their unions and areas, and
         // only boundaries right after a non-empty bucket are candidates (the others repeat
@@ -152,14 +174,29 @@ pub fn split(refs: &mut [PrimRef], info: &NodeInfo, p: &BuildParams) -> Option<S
                 }
             }
         }
-        best
-    });
-    let Some((cost, axis, k)) = best else {
+        let (cost, axis, bucket) = best?;
+        let side = |range: std::ops::Range<usize>| {
+            range.fold(Box3A::EMPTY, |a, k| a.union(s.bins[3 * k + axis].bounds))
+        };
+        Some(ObjectSplit {
+            cost,
+            axis,
+            bucket,
+            binning,
+            left: side(0..bucket),
+            right: side(bucket..b),
+        })
+    })
+}
+
+pub fn split(refs: &mut [PrimRef], info: &NodeInfo, p: &BuildParams) -> Option<Split> {
+    let n = refs.len();
+    let Some(best) = best(refs, info, p) else {
         // Every centroid fell into one bucket (extents near the float resolution).
         return (n > p.max_leaf_size as usize).then(|| super::median::object_median(refs, info));
     };
-    if !sah_worth_splitting(n, cost, parent_area, p) {
+    if !sah_worth_splitting(n, best.cost, info.bounds.surface_area(), p) {
         return None;
     }
-    Some(partition(refs, |r| binning.bucket(r, axis) < k))
+    Some(partition(refs, |r| best.is_left(r)))
 }

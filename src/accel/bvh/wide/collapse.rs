@@ -100,10 +100,12 @@ impl<const W: usize> WideBvh<W> {
     /// The wide tree of minimal SAH cost over the same leaves' triangles as `bvh`.
     pub fn collapse(bvh: &Bvh, params: &CollapseParams) -> Self {
         let costs = Costs::<W>::new(bvh, params);
+        let split = bvh.duplicated_references() > 0;
         let mut out = WideBvh {
             nodes: vec![WideNode::default()],
             triangles: Vec::with_capacity(bvh.triangles.len()),
             prim_indices: Vec::with_capacity(bvh.prim_indices.len()),
+            triangle_count: bvh.triangle_count,
             order: bvh.order,
             simd: SimdLevel::detect(),
             depth: 1,
@@ -127,6 +129,10 @@ impl<const W: usize> WideBvh<W> {
                     node.child[lane] = out.triangles.len() as u32;
                     let before = out.triangles.len();
                     for t in bvh.triangles_under_leaf_order(s) {
+                        // Two parts of a split triangle folded into one leaf: one test does.
+                        if split && out.prim_indices[before..].contains(&bvh.prim_indices[t]) {
+                            continue;
+                        }
                         out.triangles.push(bvh.triangles[t]);
                         out.prim_indices.push(bvh.prim_indices[t]);
                     }

@@ -26,8 +26,10 @@ pub struct WideBvh<const W: usize> {
     pub nodes: Vec<WideNode<W>>,
     /// The triangles in the order of the wide leaves.
     pub triangles: Vec<Triangle>,
-    /// Leaf order → scene triangle index.
+    /// Leaf order → scene triangle index (repeated for a triangle with split references).
     pub prim_indices: Vec<u32>,
+    /// Distinct scene triangles the tree was built over.
+    pub triangle_count: usize,
     pub order: TraversalOrder,
     /// The slab kernel the traversal runs (one this machine supports).
     pub simd: SimdLevel,
@@ -73,7 +75,7 @@ impl<const W: usize> WideBvh<W> {
     pub fn sah_cost(&self, c_trav: f32, c_isect: f32) -> f64 {
         let root_area = self.nodes[0].bounds().surface_area() as f64;
         if root_area <= 0.0 {
-            return c_isect as f64 * self.triangles.len() as f64;
+            return c_isect as f64 * self.triangle_count as f64;
         }
         let mut sum = c_trav as f64 * root_area;
         for n in &self.nodes {
@@ -90,19 +92,21 @@ impl<const W: usize> WideBvh<W> {
         sum / root_area
     }
 
-    /// Checks that each triangle is in exactly one leaf, every child box is exactly the
-    /// union of its subtree's boxes or triangles, and interior children come after their parent.
+    /// Checks that each triangle is in some leaf (exactly one unless its reference was split,
+    /// and then its references' boxes cover it), every child box is exactly the union of its
+    /// subtree's boxes or triangles (a leaf with split references: within it), and interior
+    /// children come after their parent.
     pub fn validate(&self) -> Result<(), String> {
         let n = self.triangles.len();
-        let mut seen = vec![false; n];
-        for &i in &self.prim_indices {
-            let slot = seen
-                .get_mut(i as usize)
-                .ok_or_else(|| format!("triangle index {i} out of range"))?;
-            if std::mem::replace(slot, true) {
-                return Err(format!("triangle {i} appears twice"));
-            }
+        if self.prim_indices.len() != n {
+            return Err(format!(
+                "{} indices for {n} triangle copies",
+                self.prim_indices.len()
+            ));
         }
+        let references =
+            super::validate::references_per_triangle(&self.prim_indices, self.triangle_count)?;
+        let mut slot_box = vec![Aabb::EMPTY; n];
         let mut covered = 0usize;
         for (i, node) in self.nodes.iter().enumerate() {
             let used = node.child_count();
@@ -112,31 +116,49 @@ impl<const W: usize> WideBvh<W> {
             for lane in 0..used {
                 let b = node.child_bounds(lane);
                 let c = node.child[lane] as usize;
-                let inside = if node.is_interior(lane) {
+                let (inside, split) = if node.is_interior(lane) {
                     if c <= i || c >= self.nodes.len() {
                         return Err(format!("node {i} lane {lane} points to node {c}"));
                     }
-                    self.nodes[c].bounds()
+                    (self.nodes[c].bounds(), false)
                 } else {
                     let range = c..c + node.count[lane] as usize;
                     if range.end > n {
                         return Err(format!("node {i} lane {lane} leaf {range:?} beyond {n}"));
                     }
                     covered += range.len();
-                    self.triangles[range]
+                    let ids = &self.prim_indices[range.clone()];
+                    if (1..ids.len()).any(|a| ids[..a].contains(&ids[a])) {
+                        return Err(format!("node {i} lane {lane} holds a triangle twice"));
+                    }
+                    slot_box[range.clone()].fill(b);
+                    let split = ids.iter().any(|&t| references[t as usize] > 1);
+                    let whole = self.triangles[range]
                         .iter()
-                        .fold(Aabb::EMPTY, |a, t| a.union(t.bounds()))
+                        .fold(Aabb::EMPTY, |a, t| a.union(t.bounds()));
+                    (whole, split)
                 };
-                // Exactly: a child's box is the union of what lies under it, no larger.
-                if b != inside {
+                // Exactly: a child's box is the union of what lies under it, no larger. A
+                // leaf holding parts of split triangles has a box within their boxes.
+                let fits = if split {
+                    inside.contains(&b)
+                } else {
+                    b == inside
+                };
+                if !fits {
                     return Err(format!("node {i} lane {lane}: {b:?} is not {inside:?}"));
                 }
             }
         }
         if covered != n {
-            return Err(format!("leaves hold {covered} of {n} triangles"));
+            return Err(format!("leaves hold {covered} of {n} triangle copies"));
         }
-        Ok(())
+        super::validate::check_split_coverage(
+            &self.prim_indices,
+            &self.triangles,
+            &slot_box,
+            &references,
+        )
     }
 
     /// The tree for the explorer: wide nodes and their leaves, children contiguous.

@@ -4,7 +4,7 @@
 
 use super::WideBvh;
 use super::node::WideNode;
-use crate::accel::bvh::refit::{RefitError, RefitIndex, RefitReport};
+use crate::accel::bvh::refit::{RefitError, RefitIndex, RefitReport, slots_of};
 use crate::geometry::{Aabb, Triangle};
 use rayon::prelude::*;
 
@@ -46,9 +46,9 @@ impl<const W: usize> WideBvh<W> {
         c_trav: f32,
         c_isect: f32,
     ) -> Result<RefitReport, RefitError> {
-        if scene.len() != self.triangles.len() {
+        if scene.len() != self.triangle_count {
             return Err(RefitError {
-                built: self.triangles.len(),
+                built: self.triangle_count,
                 given: scene.len(),
             });
         }
@@ -96,9 +96,9 @@ impl<const W: usize> WideBvh<W> {
         c_trav: f32,
         c_isect: f32,
     ) -> Result<RefitReport, RefitError> {
-        if scene.len() != self.triangles.len() || index.slot_of.len() != scene.len() {
+        if scene.len() != self.triangle_count || index.triangles() != scene.len() {
             return Err(RefitError {
-                built: self.triangles.len(),
+                built: self.triangle_count,
                 given: scene.len(),
             });
         }
@@ -118,10 +118,7 @@ impl RefitIndex {
     /// The index of a wide tree: a slot's "leaf" is the wide node whose lane holds it.
     pub fn for_wide<const W: usize>(tree: &WideBvh<W>) -> Self {
         let n = tree.prim_indices.len();
-        let mut slot_of = vec![0u32; n];
-        for (slot, &t) in tree.prim_indices.iter().enumerate() {
-            slot_of[t as usize] = slot as u32;
-        }
+        let (first_slot, slots) = slots_of(&tree.prim_indices, tree.triangle_count);
         let mut leaf_of = vec![0u32; n];
         let mut parent = vec![u32::MAX; tree.nodes.len()];
         for (i, node) in tree.nodes.iter().enumerate() {
@@ -135,7 +132,8 @@ impl RefitIndex {
             }
         }
         RefitIndex {
-            slot_of,
+            first_slot,
+            slots,
             leaf_of,
             parent,
             queued: vec![false; tree.nodes.len()],
