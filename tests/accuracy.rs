@@ -127,9 +127,9 @@ fn accuracy_matrix_covers_every_builder_and_intersector() {
         seed: 3,
     };
     let rows = accuracy::run(&scene, &cfg, &mut |_| {}).unwrap();
-    assert_eq!(rows.len(), 11 * 3);
+    assert_eq!(rows.len(), 14 * 3);
     let builders = accuracy::builders();
-    assert_eq!(builders.len(), 11);
+    assert_eq!(builders.len(), 14);
     let buckets: Vec<u32> = builders
         .iter()
         .filter(|b| b.params.strategy == Strategy::SahBinned)

@@ -52,6 +52,7 @@ pub fn top_bar(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                         }
                     }
                 });
+            walls_angle_slider(app, ui, &current);
             ui.separator();
             ui.label("left drag:");
             ui.selectable_value(&mut app.tool, Tool::Orbit, "orbit (O)");
@@ -70,6 +71,44 @@ pub fn top_bar(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             }
         });
     });
+}
+
+/// On `walls-rotated`: the angle the walls are turned by, from 0° (the axis-aligned
+/// `walls`) to 90°. Loads the turned scene when the slider is let go.
+fn walls_angle_slider(app: &mut BvhLabApp, ui: &mut egui::Ui, current: &str) {
+    let (name, size) = match current.split_once(':') {
+        Some((name, size)) => (name, Some(size)),
+        None => (current, None),
+    };
+    let loaded = if name == "walls-rotated" {
+        builtin::WALLS_ROTATION_DEG
+    } else if let Some(angle) = name.strip_prefix("walls-rotated@") {
+        angle.parse().unwrap_or(builtin::WALLS_ROTATION_DEG)
+    } else {
+        return;
+    };
+    // While dragging, the slider shows the angle it will load, not the loaded one.
+    let id = ui.scope_id().with("walls angle");
+    let mut degrees = ui.data(|d| d.get_temp::<f32>(id)).unwrap_or(loaded);
+    let slider = ui
+        .add(
+            egui::Slider::new(&mut degrees, 0.0..=90.0)
+                .step_by(1.0)
+                .suffix("°")
+                .text("walls turned"),
+        )
+        .on_hover_text("turn the walls about +Y: their boxes grow to cover their neighbours");
+    if slider.dragged() {
+        ui.data_mut(|d| d.insert_temp(id, degrees));
+    }
+    if slider.drag_stopped() || (slider.changed() && !slider.dragged()) {
+        ui.data_mut(|d| d.remove::<f32>(id));
+        let mut spec = builtin::walls_rotated_spec(degrees);
+        if let Some(size) = size {
+            spec = format!("{spec}:{size}");
+        }
+        app.load(spec);
+    }
 }
 
 fn short_name(spec: &str) -> String {

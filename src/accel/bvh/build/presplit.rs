@@ -120,7 +120,8 @@ pub fn references(triangles: &[Triangle], budget: f32) -> Vec<PrimRef> {
         return whole();
     }
     // s_t = ⌊D · p_t⌋ with the largest D whose splits fit the budget (bisection; D = budget
-    // / Σp always fits).
+    // / Σp always fits). Triangles of equal priority cross each step together, so what the
+    // steps leave of the budget goes one split each to the largest remainders D · p_t − s_t.
     let splits_for = |d: f64| -> u64 { priorities.par_iter().map(|&p| (d * p) as u64).sum() };
     let (mut lo, mut hi) = (extra as f64 / total, 2.0 * extra as f64 / total);
     while splits_for(hi) <= extra {
@@ -136,13 +137,27 @@ pub fn references(triangles: &[Triangle], budget: f32) -> Vec<PrimRef> {
         }
     }
     let d = lo;
+    let mut splits: Vec<u64> = priorities.par_iter().map(|&p| (d * p) as u64).collect();
+    let left = extra.saturating_sub(splits.par_iter().sum()) as usize;
+    if left > 0 {
+        let mut by_remainder: Vec<(f64, u32)> = priorities
+            .par_iter()
+            .enumerate()
+            .filter(|(_, p)| **p > 0.0)
+            .map(|(i, &p)| (d * p - (d * p).floor(), i as u32))
+            .collect();
+        by_remainder.par_sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        for &(_, i) in by_remainder.iter().take(left) {
+            splits[i as usize] += 1;
+        }
+    }
     triangles
         .par_iter()
-        .zip(&priorities)
+        .zip(&splits)
         .enumerate()
-        .flat_map_iter(|(i, (t, &p))| {
+        .flat_map_iter(|(i, (t, &s))| {
             let mut out = Vec::new();
-            split(t, i as u32, t.bounds(), (d * p) as u64, &grid, &mut out);
+            split(t, i as u32, t.bounds(), s, &grid, &mut out);
             out
         })
         .collect()
