@@ -182,7 +182,7 @@ fn accuracy_matrix_covers_every_builder_and_intersector() {
     let csv = accuracy::csv(&rows);
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines[0], CSV_HEADER);
-    assert_eq!(lines.len(), 34);
+    assert_eq!(lines.len(), 1 + 14 * 3);
     let columns = CSV_HEADER.split(',').count();
     assert!(lines.iter().all(|l| l.split(',').count() == columns));
     let png = plot::render_png(&accuracy::pareto_plot(&rows)).unwrap();

@@ -86,12 +86,12 @@ pub fn builders() -> Vec<Builder> {
         ..with(strategy, 16)
     };
     out.push(Builder {
-        label: "LBVH, pre-split".into(),
+        label: "LBVH (pre-split)".into(),
         short: "lbvh+ps".into(),
         params: presplit(Strategy::Lbvh),
     });
     out.push(Builder {
-        label: "LBVH + treelets, pre-split".into(),
+        label: "LBVH + treelets (pre-split)".into(),
         short: "treelet+ps".into(),
         params: presplit(Strategy::LbvhTreelet),
     });

@@ -191,7 +191,7 @@ pub fn builder_variants(base: &BuildParams) -> Vec<BuildParams> {
 /// A builder's name in tables and plots: the strategy, and whether it pre-splits.
 pub fn builder_label(p: &BuildParams) -> String {
     if p.presplit > 0.0 && p.strategy.takes_presplit() {
-        format!("{}, pre-split", p.strategy.label())
+        format!("{} (pre-split)", p.strategy.label())
     } else {
         p.strategy.label().to_string()
     }
