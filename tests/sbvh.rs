@@ -346,7 +346,7 @@ fn bad_split_parameters_are_errors() {
             split_alpha: 2.0,
             ..sbvh()
         },
-        presplit(Strategy::Lbvh, 5.0),
+        presplit(Strategy::Lbvh, 17.0),
         presplit(Strategy::Lbvh, f32::INFINITY),
     ] {
         let err = build(&tris, &p).unwrap_err();

@@ -48,11 +48,11 @@ pub struct BuildArgs {
     #[arg(long, default_value_t = BuildParams::default().split_alpha)]
     pub split_alpha: f32,
     /// sbvh: at most this many duplicated references, as a fraction of the triangle count
-    /// (0..=4).
+    /// (0..=16).
     #[arg(long, default_value_t = BuildParams::default().split_budget)]
     pub split_budget: f32,
     /// lbvh, lbvh-treelet, sah-binned: pre-split the triangles that waste most box area,
-    /// adding at most this many references as a fraction of the triangle count (0..=4; 0 =
+    /// adding at most this many references as a fraction of the triangle count (0..=16; 0 =
     /// off).
     #[arg(long, default_value_t = BuildParams::default().presplit)]
     pub presplit: f32,

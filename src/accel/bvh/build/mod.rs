@@ -144,7 +144,7 @@ pub const MAX_TREELET_SIZE: u32 = treelet::MAX_TREELET as u32;
 pub const MAX_TREELET_ROUNDS: u32 = 16;
 /// Budgets for duplicated references (SBVH) and pre-splits, as fractions of the triangle
 /// count: at most this many times more references than triangles, beyond the first.
-pub const MAX_SPLIT_BUDGET: f32 = 4.0;
+pub const MAX_SPLIT_BUDGET: f32 = 16.0;
 
 impl BuildParams {
     pub fn with_strategy(strategy: Strategy) -> Self {
