@@ -115,7 +115,8 @@ pub fn references(triangles: &[Triangle], budget: f32) -> Vec<PrimRef> {
         .reduce(|| Aabb::EMPTY, Aabb::union);
     let grid = Grid::new(&bounds);
     let priorities: Vec<f64> = triangles.par_iter().map(|t| priority(t, &grid)).collect();
-    let total: f64 = priorities.par_iter().sum();
+    // Summed in order: a parallel f64 sum could differ in the last bit between thread counts.
+    let total: f64 = priorities.iter().sum();
     if total <= 0.0 {
         return whole();
     }
