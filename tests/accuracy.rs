@@ -127,9 +127,9 @@ fn accuracy_matrix_covers_every_builder_and_intersector() {
         seed: 3,
     };
     let rows = accuracy::run(&scene, &cfg, &mut |_| {}).unwrap();
-    assert_eq!(rows.len(), 11 * 3);
+    assert_eq!(rows.len(), 14 * 3);
     let builders = accuracy::builders();
-    assert_eq!(builders.len(), 11);
+    assert_eq!(builders.len(), 14);
     let buckets: Vec<u32> = builders
         .iter()
         .filter(|b| b.params.strategy == Strategy::SahBinned)
@@ -182,7 +182,7 @@ fn accuracy_matrix_covers_every_builder_and_intersector() {
     let csv = accuracy::csv(&rows);
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(lines[0], CSV_HEADER);
-    assert_eq!(lines.len(), 34);
+    assert_eq!(lines.len(), 1 + 14 * 3);
     let columns = CSV_HEADER.split(',').count();
     assert!(lines.iter().all(|l| l.split(',').count() == columns));
     let png = plot::render_png(&accuracy::pareto_plot(&rows)).unwrap();

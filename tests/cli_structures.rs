@@ -232,7 +232,7 @@ fn wide_bvhs_name_their_simd_kernel_and_trace_the_bvh2_hits_with_each() {
 
 #[test]
 fn bench_builders_reports_every_builder_on_the_same_rays() {
-    use bvhlab::accel::bvh::Strategy;
+    use bvhlab::accel::bvh::{BuildParams, Strategy};
     let mut args = vec!["bench", "--scene", "soup:600", "--builders", "--json"];
     args.extend(SMALL_BENCH);
     let out = bvhlab(&args);
@@ -243,9 +243,15 @@ fn bench_builders_reports_every_builder_on_the_same_rays() {
     );
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
     let builders = json["builders"].as_array().expect("a builders array");
-    assert_eq!(builders.len(), Strategy::ALL.len());
-    for (b, strategy) in builders.iter().zip(Strategy::ALL) {
-        assert_eq!(b["builder"], strategy.label());
+    let variants = bvhlab::bench::builder_variants(&BuildParams::default());
+    assert_eq!(builders.len(), variants.len());
+    assert_eq!(
+        variants.len(),
+        Strategy::ALL.len() + 3,
+        "three take pre-splits"
+    );
+    for (b, p) in builders.iter().zip(&variants) {
+        assert_eq!(b["builder"], bvhlab::bench::builder_label(p));
         assert!(b["sah_cost"].as_f64().is_some_and(|c| c >= 1.0));
         for set in ["primary", "diffuse"] {
             assert_eq!(b[set]["hits"], builders[0][set]["hits"], "{set}");
@@ -256,9 +262,10 @@ fn bench_builders_reports_every_builder_on_the_same_rays() {
     let mut args = vec!["bench", "--scene", "soup:600", "--builders"];
     args.extend(SMALL_BENCH);
     let table = String::from_utf8(bvhlab(&args).stdout).unwrap();
-    for strategy in Strategy::ALL {
-        assert!(table.contains(strategy.label()), "{}", strategy.label());
+    for p in &variants {
+        assert!(table.contains(&bvhlab::bench::builder_label(p)), "{p:?}");
     }
+    assert!(table.contains("% of SBVH's"), "{table}");
     assert!(table.contains("the same for every builder"), "{table}");
 
     let err = bvhlab(&[
@@ -314,4 +321,63 @@ fn treelet_flags_reach_the_build_and_bad_values_are_errors() {
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert!(stderr.contains(message), "{stderr}");
     }
+}
+
+#[test]
+fn tradeoff_and_rotation_sweep_write_their_csv_and_plot() {
+    let dir = std::env::temp_dir().join(format!("bvhlab-tradeoff-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (csv, png) = (dir.join("t.csv"), dir.join("t.png"));
+    let mut args = vec![
+        "bench",
+        "--scene",
+        "soup:600",
+        "--tradeoff",
+        "--csv",
+        csv.to_str().unwrap(),
+        "--plot",
+        png.to_str().unwrap(),
+    ];
+    args.extend(SMALL_BENCH);
+    let out = bvhlab(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("best from 100 k to"), "{text}");
+    let rows = std::fs::read_to_string(&csv).unwrap();
+    // Ten builders, 61 ray counts from 10^5 to 10^11.
+    assert_eq!(rows.lines().count(), 1 + 10 * 61);
+    assert!(png.exists() && png.with_extension("svg").exists());
+
+    let (csv, png) = (dir.join("r.csv"), dir.join("r.png"));
+    let mut args = vec![
+        "bench",
+        "--scene",
+        "walls:24",
+        "--rotation-sweep",
+        "--csv",
+        csv.to_str().unwrap(),
+        "--plot",
+        png.to_str().unwrap(),
+    ];
+    args.extend(SMALL_BENCH);
+    let out = bvhlab(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows = std::fs::read_to_string(&csv).unwrap();
+    // Three builders at ten angles.
+    assert_eq!(rows.lines().count(), 1 + 3 * 10);
+    assert!(rows.contains("\n45,SBVH,"), "{rows}");
+    assert!(png.exists());
+
+    let err = bvhlab(&["bench", "--scene", "cornell", "--rotation-sweep"]);
+    assert!(!err.status.success());
+    assert!(String::from_utf8_lossy(&err.stderr).contains("--scene walls"));
+    std::fs::remove_dir_all(&dir).ok();
 }

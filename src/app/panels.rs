@@ -5,7 +5,8 @@ use super::settings::{StrategyChoice, ViewMode};
 use super::{BvhLabApp, Tool};
 use crate::accel::AccelKind;
 use crate::accel::bvh::build::{
-    MAX_BUCKETS, MAX_LEAF_SIZE, MAX_TREELET_ROUNDS, MAX_TREELET_SIZE, MIN_BUCKETS, MIN_TREELET_SIZE,
+    MAX_BUCKETS, MAX_LEAF_SIZE, MAX_SPLIT_BUDGET, MAX_TREELET_ROUNDS, MAX_TREELET_SIZE,
+    MIN_BUCKETS, MIN_TREELET_SIZE,
 };
 use crate::accel::kdtree::{MAX_DEPTH as KD_MAX_DEPTH, MIN_BINS as KD_MIN_BINS};
 use crate::accel::octree::MAX_DEPTH as OCTREE_MAX_DEPTH;
@@ -52,6 +53,7 @@ pub fn top_bar(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                         }
                     }
                 });
+            walls_angle_slider(app, ui, &current);
             ui.separator();
             ui.label("left drag:");
             ui.selectable_value(&mut app.tool, Tool::Orbit, "orbit (O)");
@@ -72,6 +74,44 @@ pub fn top_bar(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             }
         });
     });
+}
+
+/// On `walls-rotated`: the angle the walls are turned by, from 0° (the axis-aligned
+/// `walls`) to 90°. Loads the turned scene when the slider is let go.
+fn walls_angle_slider(app: &mut BvhLabApp, ui: &mut egui::Ui, current: &str) {
+    let (name, size) = match current.split_once(':') {
+        Some((name, size)) => (name, Some(size)),
+        None => (current, None),
+    };
+    let loaded = if name == "walls-rotated" {
+        builtin::WALLS_ROTATION_DEG
+    } else if let Some(angle) = name.strip_prefix("walls-rotated@") {
+        angle.parse().unwrap_or(builtin::WALLS_ROTATION_DEG)
+    } else {
+        return;
+    };
+    // While dragging, the slider shows the angle it will load, not the loaded one.
+    let id = ui.scope_id().with("walls angle");
+    let mut degrees = ui.data(|d| d.get_temp::<f32>(id)).unwrap_or(loaded);
+    let slider = ui
+        .add(
+            egui::Slider::new(&mut degrees, 0.0..=90.0)
+                .step_by(1.0)
+                .suffix("°")
+                .text("walls turned"),
+        )
+        .on_hover_text("turn the walls about +Y: their boxes grow to cover their neighbours");
+    if slider.dragged() {
+        ui.data_mut(|d| d.insert_temp(id, degrees));
+    }
+    if slider.drag_stopped() || (slider.changed() && !slider.dragged()) {
+        ui.data_mut(|d| d.remove::<f32>(id));
+        let mut spec = builtin::walls_rotated_spec(degrees);
+        if let Some(size) = size {
+            spec = format!("{spec}:{size}");
+        }
+        app.load(spec);
+    }
 }
 
 fn short_name(spec: &str) -> String {
@@ -241,11 +281,12 @@ fn bvh_parameters(ui: &mut egui::Ui, s: &mut super::settings::Settings) {
         (StrategyChoice::SahBinned, "binned SAH"),
         (StrategyChoice::Lbvh, "LBVH"),
         (StrategyChoice::LbvhTreelet, "LBVH + treelets"),
+        (StrategyChoice::Sbvh, "SBVH (spatial splits)"),
     ] {
         ui.radio_value(&mut s.strategy, choice, label);
     }
     ui.add_enabled(
-        s.strategy == StrategyChoice::SahBinned,
+        matches!(s.strategy, StrategyChoice::SahBinned | StrategyChoice::Sbvh),
         egui::Slider::new(&mut s.buckets, MIN_BUCKETS..=MAX_BUCKETS)
             .logarithmic(true)
             .text("buckets B"),
@@ -260,6 +301,25 @@ fn bvh_parameters(ui: &mut egui::Ui, s: &mut super::settings::Settings) {
         treelets,
         egui::Slider::new(&mut s.treelet_rounds, 0..=MAX_TREELET_ROUNDS).text("treelet rounds"),
     );
+    let sbvh = s.strategy == StrategyChoice::Sbvh;
+    ui.add_enabled(
+        sbvh,
+        egui::Slider::new(&mut s.split_alpha, 1e-8..=1.0)
+            .logarithmic(true)
+            .text("overlap threshold α"),
+    )
+    .on_hover_text("spatial splits only where the object split's children overlap by more than α × the root's area");
+    ui.add_enabled(
+        sbvh,
+        egui::Slider::new(&mut s.split_budget, 0.0..=MAX_SPLIT_BUDGET).text("split budget × N"),
+    )
+    .on_hover_text("at most this many duplicated references, per triangle");
+    let presplit = crate::accel::Strategy::from(s.strategy).takes_presplit();
+    ui.add_enabled(
+        presplit,
+        egui::Slider::new(&mut s.presplit, 0.0..=MAX_SPLIT_BUDGET).text("pre-split budget × N"),
+    )
+    .on_hover_text("extra references for the triangles that waste most box area (0 = off)");
     ui.add(
         egui::Slider::new(&mut s.max_leaf_size, 1..=MAX_LEAF_SIZE.min(64)).text("max leaf size"),
     );

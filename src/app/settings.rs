@@ -111,6 +111,7 @@ pub enum StrategyChoice {
     SahBinned,
     Lbvh,
     LbvhTreelet,
+    Sbvh,
 }
 
 impl From<StrategyChoice> for Strategy {
@@ -122,6 +123,7 @@ impl From<StrategyChoice> for Strategy {
             StrategyChoice::SahBinned => Strategy::SahBinned,
             StrategyChoice::Lbvh => Strategy::Lbvh,
             StrategyChoice::LbvhTreelet => Strategy::LbvhTreelet,
+            StrategyChoice::Sbvh => Strategy::Sbvh,
         }
     }
 }
@@ -153,6 +155,11 @@ pub struct Settings {
     /// Leaves per treelet and rounds of LBVH + treelets.
     pub treelet_size: u32,
     pub treelet_rounds: u32,
+    /// SBVH: overlap threshold α and duplicated-reference budget (fraction of N).
+    pub split_alpha: f32,
+    pub split_budget: f32,
+    /// Pre-split budget (fraction of N) for LBVH, LBVH + treelets and binned SAH.
+    pub presplit: f32,
     pub max_leaf_size: u32,
     pub c_trav: f32,
     pub c_isect: f32,
@@ -197,6 +204,9 @@ impl Default for Settings {
             buckets: p.buckets,
             treelet_size: p.treelet_size,
             treelet_rounds: p.treelet_rounds,
+            split_alpha: p.split_alpha,
+            split_budget: p.split_budget,
+            presplit: p.presplit,
             max_leaf_size: p.max_leaf_size,
             c_trav: p.c_trav,
             c_isect: p.c_isect,
@@ -226,6 +236,9 @@ impl Settings {
             c_isect: self.c_isect,
             treelet_size: self.treelet_size,
             treelet_rounds: self.treelet_rounds,
+            split_alpha: self.split_alpha,
+            split_budget: self.split_budget,
+            presplit: self.presplit,
         }
     }
 

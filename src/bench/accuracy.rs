@@ -40,7 +40,7 @@ pub struct Builder {
 }
 
 /// Object median, spatial median, full-sweep SAH, binned SAH with B = 2, 4, 8, 16, 32, 64,
-/// LBVH and LBVH + treelets.
+/// LBVH, LBVH + treelets, both with pre-splits, and SBVH.
 pub fn builders() -> Vec<Builder> {
     let with = |strategy, buckets| BuildParams {
         strategy,
@@ -81,8 +81,30 @@ pub fn builders() -> Vec<Builder> {
         short: "treelet".into(),
         params: with(Strategy::LbvhTreelet, 16),
     });
+    let presplit = |strategy| BuildParams {
+        presplit: PRESPLIT_BUDGET,
+        ..with(strategy, 16)
+    };
+    out.push(Builder {
+        label: "LBVH (pre-split)".into(),
+        short: "lbvh+ps".into(),
+        params: presplit(Strategy::Lbvh),
+    });
+    out.push(Builder {
+        label: "LBVH + treelets (pre-split)".into(),
+        short: "treelet+ps".into(),
+        params: presplit(Strategy::LbvhTreelet),
+    });
+    out.push(Builder {
+        label: "SBVH".into(),
+        short: "sbvh".into(),
+        params: with(Strategy::Sbvh, 16),
+    });
     out
 }
+
+/// The pre-split budget the comparisons use: at most 30 % more references than triangles.
+pub const PRESPLIT_BUDGET: f32 = 0.3;
 
 /// One intersector with one builder on one scene.
 #[derive(Clone, Debug)]

@@ -7,9 +7,11 @@ pub mod compare;
 pub mod frames;
 pub mod plot;
 pub mod rays;
+pub mod rotation;
 pub mod sah_check;
 pub mod scaling;
 pub mod stress;
+pub mod tradeoff;
 
 use crate::accel::bvh::packet::PACKET_SIZE;
 use crate::accel::bvh::{BuildParams, BuildReport, Strategy};
@@ -167,22 +169,56 @@ pub fn run_all(
     run_each(scene, cfg, each, done)
 }
 
-/// Runs the benchmark of a BVH built by each of `strategies` (the other parameters from
-/// `cfg.params.bvh`) on the same ray sets, calling `done` after each.
+/// The builders `bench --builders` compares, as Karras and Aila's Table 1 does: every
+/// strategy, and the fast ones (LBVH, LBVH + treelets, binned SAH) again with pre-splits
+/// (`base.presplit`, or `accuracy::PRESPLIT_BUDGET` if it is 0). The other parameters come
+/// from `base`.
+pub fn builder_variants(base: &BuildParams) -> Vec<BuildParams> {
+    let budget = if base.presplit > 0.0 {
+        base.presplit
+    } else {
+        accuracy::PRESPLIT_BUDGET
+    };
+    let mut out = Vec::new();
+    for strategy in Strategy::ALL {
+        let plain = BuildParams {
+            strategy,
+            presplit: 0.0,
+            ..*base
+        };
+        out.push(plain);
+        if strategy.takes_presplit() {
+            out.push(BuildParams {
+                presplit: budget,
+                ..plain
+            });
+        }
+    }
+    out
+}
+
+/// A builder's name in tables and plots: the strategy, and whether it pre-splits.
+pub fn builder_label(p: &BuildParams) -> String {
+    if p.presplit > 0.0 && p.strategy.takes_presplit() {
+        format!("{} (pre-split)", p.strategy.label())
+    } else {
+        p.strategy.label().to_string()
+    }
+}
+
+/// Runs the benchmark of a BVH built with each of `builders` on the same ray sets, calling
+/// `done` after each.
 pub fn run_builders(
     scene: &Scene,
     cfg: &BenchConfig,
-    strategies: &[Strategy],
+    builders: &[BuildParams],
     done: &mut dyn FnMut(&BenchResult),
 ) -> Result<Vec<BenchResult>, BenchError> {
-    let each = strategies
+    let each = builders
         .iter()
-        .map(|&strategy| StructureParams {
+        .map(|&bvh| StructureParams {
             kind: AccelKind::Bvh,
-            bvh: BuildParams {
-                strategy,
-                ..cfg.params.bvh
-            },
+            bvh,
             ..cfg.params
         })
         .collect();
@@ -495,8 +531,12 @@ impl BenchResult {
             "triangles": self.triangles,
             "threads": self.threads,
             "intersector": self.intersector.label(),
-            "builder": b.strategy.label(),
+            "builder": builder_label(b),
             "buckets": b.buckets,
+            "presplit": b.presplit,
+            "split_alpha": b.split_alpha,
+            "split_budget": b.split_budget,
+            "duplicated_references": self.bvh_report.as_ref().map(|b| b.duplicated_references()),
             "treelet_size": b.treelet_size,
             "treelet_rounds": b.treelet_rounds,
             "max_leaf_size": b.max_leaf_size,

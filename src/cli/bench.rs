@@ -8,13 +8,13 @@ use bvhlab::accel::AccelKind;
 use bvhlab::accel::bvh::Strategy;
 use bvhlab::bench::accuracy::{self, AccuracyConfig};
 use bvhlab::bench::scaling::{self, ScalingConfig};
-use bvhlab::bench::{self, BenchConfig, plot};
+use bvhlab::bench::{self, BenchConfig, plot, rotation, tradeoff};
 use bvhlab::scene::Scene;
 use clap::{ArgGroup, Args};
 use std::path::PathBuf;
 
 #[derive(Args)]
-#[command(group(ArgGroup::new("study").args(["accuracy", "scaling"])))]
+#[command(group(ArgGroup::new("study").args(["accuracy", "scaling", "tradeoff", "rotation_sweep"])))]
 pub struct BenchArgs {
     /// Built-in scene name (optionally NAME:N) or path to an .obj, .gltf or .glb file.
     #[arg(long)]
@@ -52,10 +52,21 @@ pub struct BenchArgs {
     #[arg(long)]
     pub accuracy: bool,
     /// Every BVH builder (object median, spatial median, full-sweep SAH, binned SAH, LBVH,
-    /// LBVH + treelets) on the same ray sets, as one table: build ms, SAH cost, and Mrays/s
-    /// with its percentage of the best builder's.
-    #[arg(long, conflicts_with_all = ["accuracy", "scaling", "embree"])]
+    /// LBVH + treelets, SBVH, and binned SAH, LBVH and LBVH + treelets again with pre-splits:
+    /// --presplit, or 0.3) on the same ray sets, as one table: build ms, SAH cost, duplicated
+    /// references, and Mrays/s with its percentage of SBVH's.
+    #[arg(long, conflicts_with_all = ["accuracy", "scaling", "embree", "rotation_sweep"])]
     pub builders: bool,
+    /// The --builders table, then build + trace time against N diffuse rays per frame (10^5
+    /// to 10^11) from each builder's build time and diffuse Mrays/s: a CSV, a log–log plot,
+    /// and for which range of N each builder is best.
+    #[arg(long, conflicts_with = "embree")]
+    pub tradeoff: bool,
+    /// Turn the walls (--scene walls or walls:N) from 0° to 45° in steps of 5° and trace
+    /// each angle's own view with binned SAH, SBVH and pre-split LBVH + treelets: mean nodes
+    /// visited, triangle tests and Mrays/s against the angle, as a table, a CSV and a plot.
+    #[arg(long, conflicts_with = "embree")]
+    pub rotation_sweep: bool,
     /// How the cost per primary ray grows with the scene: every structure on the scene's own
     /// view at sizes from 10^3 to 10^6 triangles (soup, sphere, grass or teapot-in-stadium),
     /// one build per point; writes a CSV and log-log plots and prints the slopes.
@@ -65,12 +76,12 @@ pub struct BenchArgs {
     /// 1000,3000,10000,30000,100000,300000,1000000).
     #[arg(long, requires = "scaling", value_delimiter = ',')]
     pub sizes: Option<Vec<usize>>,
-    /// With --accuracy or --scaling: the CSV file (default: accuracy-<scene>.csv or
-    /// scaling-<scene>.csv).
+    /// With --accuracy, --scaling, --tradeoff or --rotation-sweep: the CSV file (default:
+    /// <study>-<scene>.csv).
     #[arg(long, requires = "study")]
     pub csv: Option<PathBuf>,
-    /// With --accuracy or --scaling: the plot PNG, with an SVG beside it (default:
-    /// accuracy-<scene>.png or scaling-<scene>.png).
+    /// With --accuracy, --scaling, --tradeoff or --rotation-sweep: the plot PNG, with an SVG
+    /// beside it (default: <study>-<scene>.png).
     #[arg(long, requires = "study")]
     pub plot: Option<PathBuf>,
     /// With --accuracy: random rays compared with the f64 reference besides the ray sets.
@@ -95,6 +106,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
     }
     if args.scaling {
         return run_scaling(&args, width, height);
+    }
+    if args.rotation_sweep {
+        return run_rotation_sweep(&args, width, height);
     }
     let load_start = std::time::Instant::now();
     let scene = load_scene(&args.scene)?;
@@ -134,12 +148,14 @@ pub fn run(args: BenchArgs) -> Result<()> {
             scene.name
         );
     }
-    if args.builders && args.build.accel.is_some_and(|a| a != super::AccelArg::Bvh) {
-        anyhow::bail!("--builders compares the BVH's builders: leave out --accel");
+    if (args.builders || args.tradeoff)
+        && args.build.accel.is_some_and(|a| a != super::AccelArg::Bvh)
+    {
+        anyhow::bail!("--builders and --tradeoff compare the BVH's builders: leave out --accel");
     }
     cfg.params.validate()?;
     let pool = thread_pool(args.threads)?;
-    if args.builders {
+    if args.builders || args.tradeoff {
         return run_builders(&args, &scene, &cfg, &pool);
     }
     if args.accuracy {
@@ -360,7 +376,7 @@ fn run_all(
 }
 
 /// `--builders`: every BVH builder on the same ray sets, as one table (or one JSON object
-/// with a `builders` array).
+/// with a `builders` array); with `--tradeoff` also the build-versus-trace study.
 fn run_builders(
     args: &BenchArgs,
     scene: &Scene,
@@ -368,66 +384,115 @@ fn run_builders(
     pool: &rayon::ThreadPool,
 ) -> Result<()> {
     let quiet = args.json;
+    let variants = bench::builder_variants(&cfg.params.bvh);
     let results = pool.install(|| {
-        bench::run_builders(scene, cfg, &Strategy::ALL, &mut |r| {
+        bench::run_builders(scene, cfg, &variants, &mut |r| {
             if !quiet {
-                eprintln!("  done: {}", r.params.bvh.strategy.label());
+                eprintln!("  done: {}", bench::builder_label(&r.params.bvh));
             }
         })
     })?;
+    let threads = results.first().map_or(0, |r| r.threads);
+    let lines: Vec<tradeoff::Line> = results
+        .iter()
+        .map(|r| tradeoff::Line {
+            builder: bench::builder_label(&r.params.bvh),
+            build_s: r.report.build_time.as_secs_f64(),
+            rays_per_s: r.diffuse.mrays_per_s() * 1e6,
+        })
+        .collect();
+    let mut written = None;
+    if args.tradeoff {
+        let (csv_path, plot_path) = output_paths(args, "tradeoff", &scene.name);
+        std::fs::write(&csv_path, tradeoff::csv(&scene.name, &lines))
+            .with_context(|| format!("cannot write {}", csv_path.display()))?;
+        let svg_path = plot::save(&tradeoff::figure(&scene.name, threads, &lines), &plot_path)?;
+        written = Some((csv_path, plot_path, svg_path));
+    }
     if args.json {
         let builders: Vec<serde_json::Value> = results.iter().map(|r| r.to_json()).collect();
+        let best: Vec<serde_json::Value> = tradeoff::best_ranges(&lines)
+            .iter()
+            .map(|b| {
+                serde_json::json!({
+                    "builder": lines[b.line].builder,
+                    "from_rays": b.from_rays,
+                    "to_rays": b.to_rays,
+                })
+            })
+            .collect();
         out!(
             "{}",
             serde_json::json!({
                 "scene": scene.name,
                 "triangles": scene.placed_triangles(),
-                "threads": results.first().map_or(0, |r| r.threads),
+                "threads": threads,
                 "builders": builders,
+                "tradeoff_best": args.tradeoff.then_some(best),
             })
         );
         return Ok(());
     }
+    // Percentages of SBVH's, as the paper's Table 1 gives them (of the best builder's if
+    // SBVH is not among them).
+    let sets = |r: &bench::BenchResult| [r.primary, r.diffuse, r.shadow];
+    let reference = results
+        .iter()
+        .find(|r| r.params.bvh.strategy == Strategy::Sbvh);
+    let base: Vec<f64> = (0..3)
+        .map(|k| match reference {
+            Some(r) => sets(r)[k].mrays_per_s(),
+            None => results
+                .iter()
+                .map(|r| sets(r)[k].mrays_per_s())
+                .fold(0.0, f64::max),
+        })
+        .collect();
     out!(
-        "{}: {} triangles, {} threads, {}×{} ray sets (Mrays/s, and % of the best builder's)",
+        "{}: {} triangles, {} threads, {}×{} ray sets (Mrays/s, and % of {}'s)",
         scene.name,
         scene.placed_triangles(),
-        results.first().map_or(0, |r| r.threads),
+        threads,
         cfg.width,
-        cfg.height
+        cfg.height,
+        if reference.is_some() {
+            "SBVH"
+        } else {
+            "the best builder"
+        }
     );
     out!(
-        "  {:<17} {:>9} {:>9} {:>15} {:>15} {:>15}",
+        "  {:<28} {:>9} {:>6} {:>9} {:>9} {:>15} {:>15} {:>15}",
         "builder",
         "build ms",
+        "% SBVH",
         "SAH cost",
+        "dup refs",
         "primary",
         "diffuse",
         "shadow"
     );
-    let sets = |r: &bench::BenchResult| [r.primary, r.diffuse, r.shadow];
-    let best: Vec<f64> = (0..3)
-        .map(|k| {
-            results
-                .iter()
-                .map(|r| sets(r)[k].mrays_per_s())
-                .fold(0.0, f64::max)
-        })
-        .collect();
+    let sbvh_build = reference.map(|r| r.report.build_ms());
     for r in &results {
         let cells: Vec<String> = sets(r)
             .iter()
-            .zip(&best)
+            .zip(&base)
             .map(|(s, &b)| {
                 let m = s.mrays_per_s();
                 format!("{m:>7.2} ({:>3.0} %)", 100.0 * m / b.max(1e-12))
             })
             .collect();
+        let bvh = r.bvh_report.as_ref();
         out!(
-            "  {:<17} {:>9.2} {:>9.2} {:>15} {:>15} {:>15}",
-            r.params.bvh.strategy.label(),
+            "  {:<28} {:>9.2} {:>6} {:>9.2} {:>9} {:>15} {:>15} {:>15}",
+            bench::builder_label(&r.params.bvh),
             r.report.build_ms(),
-            r.bvh_report.as_ref().map_or(f64::NAN, |b| b.tree.sah_cost),
+            sbvh_build.map_or("-".into(), |b| format!(
+                "{:.0}",
+                100.0 * r.report.build_ms() / b.max(1e-12)
+            )),
+            bvh.map_or(f64::NAN, |b| b.tree.sah_cost),
+            bvh.map_or(0, |b| b.duplicated_references()),
             cells[0],
             cells[1],
             cells[2]
@@ -436,10 +501,10 @@ fn run_builders(
     // Every BVH keeps the same closest-hit rule: the hit counts must not differ.
     let counts = |r: &bench::BenchResult| [r.primary.hits, r.diffuse.hits, r.shadow.hits];
     if let Some(first) = results.first() {
-        let differing: Vec<&str> = results
+        let differing: Vec<String> = results
             .iter()
             .filter(|r| counts(r) != counts(first))
-            .map(|r| r.params.bvh.strategy.label())
+            .map(|r| bench::builder_label(&r.params.bvh))
             .collect();
         if differing.is_empty() {
             let [p, d, s] = counts(first);
@@ -452,6 +517,25 @@ fn run_builders(
                 differing.join(", ")
             );
         }
+    }
+    if let Some((csv_path, plot_path, svg_path)) = written {
+        out!(
+            "  build + trace time of N diffuse rays per frame: T(N) = build + N / (diffuse rays/s)"
+        );
+        for b in tradeoff::best_ranges(&lines) {
+            out!(
+                "  best from {} to {} rays per frame: {}",
+                tradeoff::format_rays(b.from_rays),
+                tradeoff::format_rays(b.to_rays),
+                lines[b.line].builder
+            );
+        }
+        out!(
+            "  wrote {}, {} and {}",
+            csv_path.display(),
+            plot_path.display(),
+            svg_path.display()
+        );
     }
     Ok(())
 }
@@ -736,4 +820,116 @@ fn output_paths(args: &BenchArgs, study: &str, scene: &str) -> (PathBuf, PathBuf
         .clone()
         .unwrap_or_else(|| PathBuf::from(format!("{study}-{stem}.png")));
     (csv, plot)
+}
+
+/// `--rotation-sweep`: the walls turned from 0° to 45°, each builder traced from each angle's
+/// view; a table, a CSV and a plot.
+fn run_rotation_sweep(args: &BenchArgs, width: u32, height: u32) -> Result<()> {
+    let walls = match args.scene.split_once(':') {
+        None if args.scene == "walls" => None,
+        Some(("walls", n)) => Some(
+            n.replace('_', "")
+                .parse::<usize>()
+                .ok()
+                .filter(|&n| n > 0)
+                .with_context(|| format!("'{n}' is not a number of walls"))?,
+        ),
+        _ => anyhow::bail!(
+            "--rotation-sweep turns the walls: use --scene walls (or walls:N), not {}",
+            args.scene
+        ),
+    };
+    if args.view.eye.is_some() || args.view.look.is_some() || args.view.light.is_some() {
+        anyhow::bail!(
+            "--rotation-sweep traces each angle's own view: leave out --eye, --look and --light"
+        );
+    }
+    if args.build.accel.is_some_and(|a| a != super::AccelArg::Bvh) {
+        anyhow::bail!("--rotation-sweep compares BVH builders: leave out --accel");
+    }
+    let first = Scene::load(&bvhlab::scene::builtin::walls_rotated_spec(0.0))?;
+    let cfg = BenchConfig {
+        camera: first.camera(),
+        light: first.light(),
+        width,
+        height,
+        params: args.build.structure_params_for(AccelKind::Bvh),
+        builds: args.builds,
+        runs: args.runs,
+        intersector: args.intersector.kind(),
+        embree: false,
+    };
+    cfg.params.validate()?;
+    let pool = thread_pool(args.threads)?;
+    let quiet = args.json;
+    let rows = pool.install(|| {
+        rotation::run(walls, &rotation::DEFAULT_ANGLES, &cfg, &mut |r| {
+            if !quiet {
+                eprintln!("  done: {}°, {}", r.degrees, r.builder);
+            }
+        })
+    })?;
+    let threads = pool.current_num_threads();
+    let (csv_path, plot_path) = output_paths(args, "rotation", &args.scene);
+    std::fs::write(&csv_path, rotation::csv(&rows))
+        .with_context(|| format!("cannot write {}", csv_path.display()))?;
+    let svg_path = plot::save(&rotation::figure(&rows, threads), &plot_path)?;
+    if args.json {
+        let rows: Vec<serde_json::Value> = rows
+            .iter()
+            .map(|r| {
+                serde_json::json!({
+                    "degrees": r.degrees,
+                    "builder": r.builder,
+                    "build_ms": r.build_ms,
+                    "duplicated_references": r.duplicated_references,
+                    "mean_nodes": r.nodes,
+                    "mean_triangle_tests": r.triangle_tests,
+                    "primary_mrays_per_s": r.primary_mrays,
+                    "diffuse_mrays_per_s": r.diffuse_mrays,
+                })
+            })
+            .collect();
+        out!(
+            "{}",
+            serde_json::json!({ "threads": threads, "rows": rows })
+        );
+        return Ok(());
+    }
+    out!(
+        "{}: walls turned about +Y, {width}×{height} rays of each angle's view, {threads} threads",
+        args.scene
+    );
+    out!(
+        "  {:>5} {:<28} {:>9} {:>9} {:>9} {:>9} {:>9} {:>9}",
+        "angle",
+        "builder",
+        "build ms",
+        "dup refs",
+        "nodes",
+        "tri tests",
+        "primary",
+        "diffuse"
+    );
+    for r in &rows {
+        out!(
+            "  {:>4}° {:<28} {:>9.2} {:>9} {:>9.1} {:>9.1} {:>9.2} {:>9.2}",
+            r.degrees,
+            r.builder,
+            r.build_ms,
+            r.duplicated_references,
+            r.nodes,
+            r.triangle_tests,
+            r.primary_mrays,
+            r.diffuse_mrays
+        );
+    }
+    out!("  (nodes and triangle tests: mean per primary ray; primary and diffuse: Mrays/s)");
+    out!(
+        "  wrote {}, {} and {}",
+        csv_path.display(),
+        plot_path.display(),
+        svg_path.display()
+    );
+    Ok(())
 }

@@ -46,6 +46,19 @@ pub struct BuildArgs {
     /// Rounds of treelet restructuring for lbvh-treelet (0..=16).
     #[arg(long, default_value_t = BuildParams::default().treelet_rounds)]
     pub rounds: u32,
+    /// sbvh: try spatial splits where the object split's children overlap by more than this
+    /// fraction of the root's surface area (0..=1).
+    #[arg(long, default_value_t = BuildParams::default().split_alpha)]
+    pub split_alpha: f32,
+    /// sbvh: at most this many duplicated references, as a fraction of the triangle count
+    /// (0..=16).
+    #[arg(long, default_value_t = BuildParams::default().split_budget)]
+    pub split_budget: f32,
+    /// lbvh, lbvh-treelet, sah-binned: pre-split the triangles that waste most box area,
+    /// adding at most this many references as a fraction of the triangle count (0..=16; 0 =
+    /// off).
+    #[arg(long, default_value_t = BuildParams::default().presplit)]
+    pub presplit: f32,
     /// Maximum number of triangles in a leaf (1..=4096).
     #[arg(long, default_value_t = BuildParams::default().max_leaf_size)]
     pub max_leaf: u32,
@@ -121,6 +134,8 @@ pub enum BuilderArg {
     Lbvh,
     /// LBVH then Karras–Aila treelet restructuring (--treelet-size, --rounds).
     LbvhTreelet,
+    /// Binned SAH with spatial splits, Stich et al. 2009 (--split-alpha, --split-budget).
+    Sbvh,
 }
 
 #[derive(ValueEnum, Clone, Copy)]
@@ -224,6 +239,7 @@ impl BuildArgs {
                 BuilderArg::SahBinned => Strategy::SahBinned,
                 BuilderArg::Lbvh => Strategy::Lbvh,
                 BuilderArg::LbvhTreelet => Strategy::LbvhTreelet,
+                BuilderArg::Sbvh => Strategy::Sbvh,
             },
             buckets: self.buckets,
             max_leaf_size: self.max_leaf,
@@ -231,6 +247,9 @@ impl BuildArgs {
             c_isect: self.c_isect,
             treelet_size: self.treelet_size,
             treelet_rounds: self.rounds,
+            split_alpha: self.split_alpha,
+            split_budget: self.split_budget,
+            presplit: self.presplit,
         }
     }
 

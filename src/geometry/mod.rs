@@ -2,6 +2,7 @@
 //! triangles and the ray–triangle intersectors.
 
 pub mod aabb;
+pub mod clip;
 pub mod frustum;
 pub mod intersect;
 pub mod overlap;

@@ -58,8 +58,12 @@ pub fn by_name(spec: &str) -> Result<Option<Scene>, SceneError> {
             teapot_in_stadium(n)?
         }
         "grass" => grass(sized(100_000, 2)?),
-        "walls" => walls(sized(200, 12)?, false),
-        "walls-rotated" => walls(sized(200, 12)?, true),
+        "walls" => walls(sized(200, 12)?, 0.0, "walls"),
+        "walls-rotated" => walls(sized(200, 12)?, WALLS_ROTATION_DEG, "walls-rotated"),
+        _ if name.starts_with("walls-rotated@") => {
+            let degrees = walls_angle(name)?;
+            walls(sized(200, 12)?, degrees, name)
+        }
         "same-centroid" => same_centroid(sized(10_000, 1)?),
         "same-bbox" => same_bbox(sized(10_000, 1)?),
         "soup" => soup(sized(10_000, 1)?),
@@ -77,6 +81,26 @@ pub fn by_name(spec: &str) -> Result<Option<Scene>, SceneError> {
         _ => return Ok(None),
     };
     Ok(Some(scene))
+}
+
+/// How far `walls-rotated` turns the walls about +Y, in degrees.
+pub const WALLS_ROTATION_DEG: f32 = 30.0;
+
+/// The angle of `walls-rotated@DEG` (0 to 90 degrees).
+fn walls_angle(name: &str) -> Result<f32, SceneError> {
+    let text = name.trim_start_matches("walls-rotated@");
+    match text.parse::<f32>() {
+        Ok(a) if (0.0..=90.0).contains(&a) => Ok(a),
+        _ => Err(SceneError::BadParameter {
+            name: name.into(),
+            reason: format!("the angle '{text}' is not a number of degrees from 0 to 90"),
+        }),
+    }
+}
+
+/// The spec of the walls turned by `degrees` (`walls-rotated@DEG`), as `by_name` reads it.
+pub fn walls_rotated_spec(degrees: f32) -> String {
+    format!("walls-rotated@{degrees}")
 }
 
 fn no_parameter(name: &str, param: Option<&str>) -> Result<(), SceneError> {
@@ -295,10 +319,10 @@ fn grass(blades: usize) -> Scene {
 }
 
 /// `n` long thin slabs (10 × 2 × 0.1, 12 triangles each) in rows 0.5 apart, a few per row,
-/// the whole set about as wide as deep and centred on the origin. `rotated` turns the set
-/// (and the view and light with it) by 30° about +Y: the same picture, but every slab's
-/// bounding box grows to cover dozens of its neighbours.
-fn walls(n: usize, rotated: bool) -> Scene {
+/// the whole set about as wide as deep and centred on the origin. `degrees` turns the set
+/// (and the view and light with it) about +Y (`walls-rotated`: 30°): the same picture, but
+/// every slab's bounding box grows to cover dozens of its neighbours.
+fn walls(n: usize, degrees: f32, name: &str) -> Scene {
     const SIZE: Vec3 = vec3(10.0, 2.0, 0.1);
     const COLUMN_PITCH: f32 = 12.0;
     const ROW_PITCH: f32 = 0.5;
@@ -306,8 +330,8 @@ fn walls(n: usize, rotated: bool) -> Scene {
     let columns = ((n as f64 / 24.0).sqrt().round() as usize).max(1);
     let rows = n.div_ceil(columns);
     let place = |p: Vec3| {
-        if rotated {
-            turn_y(p, 30f32.to_radians())
+        if degrees != 0.0 {
+            turn_y(p, degrees.to_radians())
         } else {
             p
         }
@@ -318,7 +342,7 @@ fn walls(n: usize, rotated: bool) -> Scene {
         vec3(0.7, 0.75, 0.45),
     ];
 
-    let mut scene = Scene::new(if rotated { "walls-rotated" } else { "walls" });
+    let mut scene = Scene::new(name);
     for row in 0..rows {
         let z = (row as f32 - (rows - 1) as f32 / 2.0) * ROW_PITCH;
         let slabs: Vec<Triangle> = (0..columns.min(n - row * columns))

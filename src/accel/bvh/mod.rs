@@ -43,14 +43,21 @@ impl TraversalOrder {
 
 /// A BVH2 over a copy of the scene's triangles, stored in leaf order so that a leaf's
 /// triangles are contiguous in memory.
+///
+/// Leaves hold triangle *references*. Spatial splits (SBVH) and pre-splitting give a
+/// triangle several references, each in a different leaf whose box bounds only its part of
+/// the triangle; the triangle is then copied once per reference, and the hit still names it
+/// by its one scene index.
 #[derive(Clone, Debug)]
 pub struct Bvh {
     /// Node 0 is the root; a node's two children are adjacent and come after it.
     pub nodes: Nodes,
-    /// Leaf order → scene triangle index.
+    /// Leaf order → scene triangle index (repeated for a triangle with several references).
     pub prim_indices: Vec<u32>,
-    /// The scene's triangles in leaf order.
+    /// The scene's triangles in leaf order, one copy per reference.
     pub triangles: Vec<Triangle>,
+    /// Distinct scene triangles the tree was built over.
+    pub triangle_count: usize,
     pub order: TraversalOrder,
 }
 
@@ -108,7 +115,7 @@ impl Bvh {
         let root_area = self.root().bounds().surface_area() as f64;
         if root_area <= 0.0 {
             // A flat or point-like scene: every ray that hits the root hits everything.
-            return c_isect as f64 * self.triangles.len() as f64;
+            return c_isect as f64 * self.triangle_count as f64;
         }
         let term = |n: &Node| {
             let area = n.bounds().surface_area() as f64;
@@ -126,6 +133,11 @@ impl Bvh {
             .map(|c| c.iter().flat_map(|p| &p.0).map(term).sum())
             .collect();
         (term(self.root()) + parts.iter().sum::<f64>()) / root_area
+    }
+
+    /// References beyond one per triangle: what spatial splits or pre-splitting duplicated.
+    pub fn duplicated_references(&self) -> usize {
+        self.prim_indices.len() - self.triangle_count
     }
 
     /// Memory used by nodes, triangles and the index map.

@@ -1,6 +1,11 @@
 //! Refit after motion: keep the tree's topology, recompute every box bottom-up. O(nodes),
 //! far cheaper than a rebuild, and exact — but the boxes of a tree built for the old
 //! positions may now overlap more, which the SAH cost before and after shows.
+//!
+//! A leaf's box is refitted to its triangles' whole boxes. For a tree with split references
+//! (SBVH, pre-splitting) that is larger than the clipped box the build gave the leaf: still
+//! correct, since every box still holds what lies under it, but the spatial splits' gain is
+//! lost until the next rebuild.
 
 use super::Bvh;
 use crate::geometry::{Aabb, Triangle};
@@ -46,9 +51,9 @@ impl Bvh {
         c_trav: f32,
         c_isect: f32,
     ) -> Result<RefitReport, RefitError> {
-        if scene.len() != self.triangles.len() {
+        if scene.len() != self.triangle_count {
             return Err(RefitError {
-                built: self.triangles.len(),
+                built: self.triangle_count,
                 given: scene.len(),
             });
         }
@@ -67,12 +72,14 @@ impl Bvh {
 }
 
 /// What a partial refit needs to find the boxes a moved triangle touches: the leaf-order
-/// slot of each scene triangle, the leaf of each slot and the parent of each node. Valid as
+/// slots of each scene triangle, the leaf of each slot and the parent of each node. Valid as
 /// long as the tree's topology is (refits keep it; a rebuild needs a new one).
 #[derive(Clone, Debug, Default)]
 pub struct RefitIndex {
-    /// Scene triangle → its leaf-order slot.
-    pub(crate) slot_of: Vec<u32>,
+    /// Scene triangle t's leaf-order slots are `slots[first_slot[t]..first_slot[t + 1]]`:
+    /// one, or several when its reference was split.
+    pub(crate) first_slot: Vec<u32>,
+    pub(crate) slots: Vec<u32>,
     /// Slot → the node whose leaf holds it.
     pub(crate) leaf_of: Vec<u32>,
     /// Node → its parent (`u32::MAX` for the root).
@@ -83,10 +90,7 @@ pub struct RefitIndex {
 
 impl RefitIndex {
     pub fn new(bvh: &Bvh) -> Self {
-        let mut slot_of = vec![0u32; bvh.prim_indices.len()];
-        for (slot, &t) in bvh.prim_indices.iter().enumerate() {
-            slot_of[t as usize] = slot as u32;
-        }
+        let (first_slot, slots) = slots_of(&bvh.prim_indices, bvh.triangle_count);
         let mut leaf_of = vec![0u32; bvh.prim_indices.len()];
         for (i, n) in bvh.nodes.iter().enumerate() {
             if n.is_leaf() {
@@ -96,7 +100,8 @@ impl RefitIndex {
             }
         }
         RefitIndex {
-            slot_of,
+            first_slot,
+            slots,
             leaf_of,
             parent: bvh.parents(),
             queued: vec![false; bvh.nodes.len()],
@@ -104,8 +109,35 @@ impl RefitIndex {
     }
 }
 
+/// Groups the leaf-order slots by scene triangle (a counting sort over `prim_indices`).
+pub(crate) fn slots_of(prim_indices: &[u32], triangles: usize) -> (Vec<u32>, Vec<u32>) {
+    // Indices past `triangles` (a wide leaf block's padding lanes) have no triangle.
+    let mut first = vec![0u32; triangles + 1];
+    for &t in prim_indices.iter().filter(|&&t| (t as usize) < triangles) {
+        first[t as usize + 1] += 1;
+    }
+    for t in 0..triangles {
+        first[t + 1] += first[t];
+    }
+    let mut next = first.clone();
+    let mut slots = vec![0u32; first[triangles] as usize];
+    for (slot, &t) in prim_indices.iter().enumerate() {
+        if t as usize >= triangles {
+            continue;
+        }
+        slots[next[t as usize] as usize] = slot as u32;
+        next[t as usize] += 1;
+    }
+    (first, slots)
+}
+
 impl RefitIndex {
-    /// Hands each `moved` scene triangle and its slot to `copy` (slot, scene index) and
+    /// Scene triangles the index was made for.
+    pub(crate) fn triangles(&self) -> usize {
+        self.first_slot.len().saturating_sub(1)
+    }
+
+    /// Hands each `moved` scene triangle and each of its slots to `copy` (slot, scene index) and
     /// returns the nodes whose boxes change (their leaves and every ancestor), children
     /// before parents: nodes come after their parents, so high index to low is bottom-up.
     pub(crate) fn dirty_nodes(
@@ -115,16 +147,20 @@ impl RefitIndex {
     ) -> Vec<usize> {
         let mut dirty = Vec::new();
         for &t in moved {
-            let Some(&slot) = self.slot_of.get(t as usize) else {
+            let t = t as usize;
+            if t >= self.triangles() {
                 continue;
-            };
-            copy(slot as usize, t as usize);
-            // Queue the leaf and every ancestor not queued yet.
-            let mut node = self.leaf_of[slot as usize];
-            while node != u32::MAX && !self.queued[node as usize] {
-                self.queued[node as usize] = true;
-                dirty.push(node as usize);
-                node = self.parent[node as usize];
+            }
+            let range = self.first_slot[t] as usize..self.first_slot[t + 1] as usize;
+            for &slot in &self.slots[range] {
+                copy(slot as usize, t);
+                // Queue the leaf and every ancestor not queued yet.
+                let mut node = self.leaf_of[slot as usize];
+                while node != u32::MAX && !self.queued[node as usize] {
+                    self.queued[node as usize] = true;
+                    dirty.push(node as usize);
+                    node = self.parent[node as usize];
+                }
             }
         }
         dirty.sort_unstable_by(|a, b| b.cmp(a));
@@ -146,9 +182,9 @@ impl Bvh {
         c_trav: f32,
         c_isect: f32,
     ) -> Result<RefitReport, RefitError> {
-        if scene.len() != self.triangles.len() || index.slot_of.len() != scene.len() {
+        if scene.len() != self.triangle_count || index.triangles() != scene.len() {
             return Err(RefitError {
-                built: self.triangles.len(),
+                built: self.triangle_count,
                 given: scene.len(),
             });
         }

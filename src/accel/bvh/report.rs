@@ -57,6 +57,9 @@ pub struct BuildPhases {
     pub sah_before_rounds: Option<f64>,
     /// The SAH cost after each treelet round.
     pub sah_after_round: Vec<f64>,
+    /// SBVH: nodes split by a spatial split, and straddling references sent whole to one
+    /// side by reference unsplitting.
+    pub spatial_splits: Option<(usize, usize)>,
 }
 
 impl BuildPhases {
@@ -75,6 +78,9 @@ impl BuildPhases {
 pub struct BuildReport {
     pub params: BuildParams,
     pub triangles: usize,
+    /// Triangle references in the leaves: more than `triangles` when spatial splits or
+    /// pre-splitting duplicated some.
+    pub references: usize,
     pub build_time: Duration,
     pub tree: TreeStats,
     pub phases: BuildPhases,
@@ -84,11 +90,17 @@ impl BuildReport {
     pub fn new(bvh: &Bvh, params: &BuildParams, build_time: Duration) -> Self {
         BuildReport {
             params: *params,
-            triangles: bvh.triangles.len(),
+            triangles: bvh.triangle_count,
+            references: bvh.prim_indices.len(),
             build_time,
             tree: TreeStats::new(bvh, params.c_trav, params.c_isect),
             phases: BuildPhases::default(),
         }
+    }
+
+    /// References beyond one per triangle.
+    pub fn duplicated_references(&self) -> usize {
+        self.references.saturating_sub(self.triangles)
     }
 
     pub fn build_ms(&self) -> f64 {
@@ -107,6 +119,13 @@ impl BuildReport {
             rows.push(("treelet size n".into(), p.treelet_size.to_string()));
             rows.push(("treelet rounds".into(), p.treelet_rounds.to_string()));
         }
+        if p.strategy == super::Strategy::Sbvh {
+            rows.push(("overlap threshold α".into(), format!("{:e}", p.split_alpha)));
+            rows.push(("split budget".into(), format!("{} × N", p.split_budget)));
+        }
+        if p.strategy.takes_presplit() && p.presplit > 0.0 {
+            rows.push(("pre-split budget".into(), format!("{} × N", p.presplit)));
+        }
         rows.extend([
             ("max leaf size".into(), p.max_leaf_size.to_string()),
             (
@@ -114,6 +133,14 @@ impl BuildReport {
                 format!("{} / {}", p.c_trav, p.c_isect),
             ),
             ("triangles".into(), self.triangles.to_string()),
+            (
+                "duplicated references".into(),
+                format!(
+                    "{} (+{:.1} %)",
+                    self.duplicated_references(),
+                    100.0 * self.duplicated_references() as f64 / self.triangles.max(1) as f64
+                ),
+            ),
             ("build time".into(), format!("{:.2} ms", self.build_ms())),
             ("nodes".into(), t.nodes.to_string()),
             ("leaves".into(), t.leaves.to_string()),
@@ -144,6 +171,10 @@ impl BuildReport {
         }
         if let Some(before) = self.phases.sah_before_rounds {
             rows.push(("SAH cost before treelets".into(), format!("{before:.3}")));
+        }
+        if let Some((spatial, unsplit)) = self.phases.spatial_splits {
+            rows.push(("spatial splits".into(), spatial.to_string()));
+            rows.push(("unsplit references".into(), unsplit.to_string()));
         }
         for (k, cost) in self.phases.sah_after_round.iter().enumerate() {
             rows.push((

@@ -1,29 +1,25 @@
-//! The invariants every BVH keeps, checked explicitly: each triangle in exactly one leaf,
-//! each box enclosing its children and triangles, children after parents, depth bounded.
-//! Tests run it after every build and refit.
+//! The invariants every BVH keeps, checked explicitly: each triangle in some leaf (in exactly
+//! one unless its reference was split, and then the union of its references' boxes covers
+//! it), each box enclosing its children and triangles, children after parents, depth
+//! bounded. Tests run it after every build and refit.
 
 use super::Bvh;
 use super::build::MAX_DEPTH;
+use crate::geometry::{Aabb, Triangle};
 
 impl Bvh {
     pub fn validate(&self, max_leaf_size: u32) -> Result<(), String> {
         let n = self.triangles.len();
         if self.prim_indices.len() != n {
             return Err(format!(
-                "{} indices for {n} triangles",
+                "{} indices for {n} triangle copies",
                 self.prim_indices.len()
             ));
         }
-        let mut seen = vec![false; n];
-        for &i in &self.prim_indices {
-            let slot = seen
-                .get_mut(i as usize)
-                .ok_or_else(|| format!("triangle index {i} out of range"))?;
-            if std::mem::replace(slot, true) {
-                return Err(format!("triangle {i} appears twice"));
-            }
-        }
+        let boxes_of = references_per_triangle(&self.prim_indices, self.triangle_count)?;
         let mut covered = vec![false; n];
+        // Boxes of every leaf-order slot, to check the coverage of split references.
+        let mut slot_box = vec![Aabb::EMPTY; n];
         let depths = self.node_depths_checked()?;
         for (i, node) in self.nodes.iter().enumerate() {
             if depths[i] as usize > MAX_DEPTH {
@@ -38,13 +34,19 @@ impl Bvh {
                 if range.end > n {
                     return Err(format!("leaf {i} range {range:?} beyond {n} triangles"));
                 }
+                let ids = &self.prim_indices[range.clone()];
+                if (1..ids.len()).any(|a| ids[..a].contains(&ids[a])) {
+                    return Err(format!("leaf {i} holds a triangle twice"));
+                }
                 for k in range {
                     if std::mem::replace(&mut covered[k], true) {
                         return Err(format!("triangle slot {k} in two leaves"));
                     }
-                    if !b.contains(&self.triangles[k].bounds()) {
+                    let t = self.prim_indices[k] as usize;
+                    if boxes_of[t] == 1 && !b.contains(&self.triangles[k].bounds()) {
                         return Err(format!("leaf {i} box does not enclose triangle slot {k}"));
                     }
+                    slot_box[k] = b;
                 }
             } else {
                 let l = node.left_first as usize;
@@ -58,7 +60,7 @@ impl Bvh {
         if let Some(k) = covered.iter().position(|&c| !c) {
             return Err(format!("triangle slot {k} in no leaf"));
         }
-        Ok(())
+        check_split_coverage(&self.prim_indices, &self.triangles, &slot_box, &boxes_of)
     }
 
     /// Depths, checking on the way that every child index lies after its parent.
@@ -86,4 +88,69 @@ impl Bvh {
         }
         Ok(depth)
     }
+}
+
+/// How many references each scene triangle has; an error if an index is out of range or a
+/// triangle has none.
+pub(crate) fn references_per_triangle(
+    prim_indices: &[u32],
+    triangles: usize,
+) -> Result<Vec<u32>, String> {
+    let mut count = vec![0u32; triangles];
+    // u32::MAX marks a wide leaf block's padding lane: no triangle.
+    for &i in prim_indices.iter().filter(|&&i| i != u32::MAX) {
+        *count
+            .get_mut(i as usize)
+            .ok_or_else(|| format!("triangle index {i} out of range"))? += 1;
+    }
+    if let Some(t) = count.iter().position(|&c| c == 0) {
+        return Err(format!("triangle {t} is in no leaf"));
+    }
+    Ok(count)
+}
+
+/// Samples per triangle edge for the coverage check.
+const COVERAGE_SAMPLES: u32 = 8;
+
+/// Checks that every triangle with several references is covered by its references' leaf
+/// boxes: each sampled point of it (vertices, edges, interior) lies in one of them, up to
+/// the rounding of the sample itself. `slot_box[k]` is the box of the leaf holding slot k.
+pub(crate) fn check_split_coverage(
+    prim_indices: &[u32],
+    triangles: &[Triangle],
+    slot_box: &[Aabb],
+    references: &[u32],
+) -> Result<(), String> {
+    let (first, slots) = super::refit::slots_of(prim_indices, references.len());
+    for t in 0..references.len() {
+        if references[t] < 2 {
+            continue;
+        }
+        let mine = &slots[first[t] as usize..first[t + 1] as usize];
+        let tri = &triangles[mine[0] as usize];
+        let scale = tri
+            .bounds()
+            .min
+            .abs()
+            .max(tri.bounds().max.abs())
+            .max_element();
+        let pad = 1e-5 * scale.max(f32::MIN_POSITIVE);
+        let steps = COVERAGE_SAMPLES;
+        for i in 0..=steps {
+            for j in 0..=(steps - i) {
+                let p = tri.point(i as f32 / steps as f32, j as f32 / steps as f32);
+                let inside = mine.iter().any(|&k| {
+                    let b = slot_box[k as usize];
+                    Aabb::new(b.min - pad, b.max + pad).contains_point(p)
+                });
+                if !inside {
+                    return Err(format!(
+                        "triangle {t}: point {p:?} lies in none of its {} references' boxes",
+                        mine.len()
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
 }

@@ -7,11 +7,11 @@
 //! (≤ 64, so the recursion and the traversal stack stay small) and a cap on the total
 //! number of references stop it on any input.
 
-use super::clip::clipped_bounds;
 use super::node::KdNode;
 use super::split::{KdRef, Split, best_split};
 use super::{KdError, KdParams, KdTree, MAX_TRIANGLES};
 use crate::accel::StructureReport;
+use crate::geometry::clip::clipped_bounds;
 use crate::geometry::{Aabb, Triangle};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};

@@ -4,7 +4,6 @@
 //! for the triangles that several cells reference.
 
 mod build;
-mod clip;
 mod node;
 mod outline;
 mod split;

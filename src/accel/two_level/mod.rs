@@ -200,7 +200,7 @@ fn build_tlas(
     }
     let tlas_params = BuildParams {
         max_leaf_size: 1,
-        ..*params
+        ..params.whole_references()
     };
     let (tlas2, _) = bvh::build(&boxes, &tlas_params).map_err(|e| match e {
         BuildError::NonFinite(b) => BuildError::NonFinite(placed[b] as usize),

@@ -4,10 +4,11 @@
 //! build is a few parallel passes and never looks at the SAH; the tree follows the curve.
 
 use super::linked_tree::{LinkedNode, LinkedTree, SahCost};
+use super::prim::PrimRef;
 use super::radix_sort::{self, Keyed};
 use super::{BuildParams, PARALLEL_SUBTREE, Strategy, treelet};
 use crate::accel::bvh::report::BuildPhases;
-use crate::geometry::{Aabb, Triangle};
+use crate::geometry::Aabb;
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -247,11 +248,11 @@ impl Fill<'_> {
     }
 }
 
-/// Builds the LBVH (and, for `Strategy::LbvhTreelet`, restructures it) over `triangles`,
-/// which is not empty. Returns the nodes, the leaf order as triangle indices, and the time
-/// of each phase.
+/// Builds the LBVH (and, for `Strategy::LbvhTreelet`, restructures it) over the triangle
+/// references `refs`, which is not empty. Returns the nodes, the leaf order as triangle
+/// indices, and the time of each phase.
 pub fn build(
-    triangles: &[Triangle],
+    refs: &[PrimRef],
     params: &BuildParams,
 ) -> (crate::accel::bvh::Nodes, Vec<u32>, BuildPhases) {
     let sah = SahCost {
@@ -262,7 +263,7 @@ pub fn build(
     let mut phases = BuildPhases::default();
 
     let start = Instant::now();
-    let bounds: Vec<Aabb> = triangles.par_iter().map(Triangle::bounds).collect();
+    let bounds: Vec<Aabb> = refs.par_iter().map(|r| Aabb::new(r.min, r.max)).collect();
     let centroids = bounds
         .par_iter()
         .fold(|| CentroidBounds::EMPTY, |b, t| b.grow(centroid(t)))
@@ -315,7 +316,10 @@ pub fn build(
 
     let start = Instant::now();
     let (nodes, leaf_order) = tree.to_bvh_nodes(&sah);
-    let prim_indices = leaf_order.par_iter().map(|&k| order[k as usize]).collect();
+    let prim_indices = leaf_order
+        .par_iter()
+        .map(|&k| refs[order[k as usize] as usize].index)
+        .collect();
     phases.add("collapse", start.elapsed());
     (nodes, prim_indices, phases)
 }

@@ -11,16 +11,22 @@
 //! LBVH (`lbvh`) builds bottom-up instead, from primitives sorted along a Morton curve, and
 //! treelet restructuring (`treelet`) then improves that tree's SAH cost locally.
 //!
+//! The SBVH (`sbvh`) adds spatial splits to the binned SAH: a triangle's reference may be
+//! cut in two, each part bounded by the triangle clipped to its side. Pre-splitting
+//! (`presplit`) cuts the largest triangles' references before LBVH or binned SAH sees them.
+//!
 //! Primitives are represented by their bounding boxes; "centroid" means the centre of a
 //! primitive's box, as in pbrt and Embree.
 
 mod lbvh;
 pub mod linked_tree;
 mod median;
+pub mod presplit;
 mod prim;
 mod radix_sort;
 mod sah_binned;
 mod sah_sweep;
+mod sbvh;
 pub mod split_costs;
 pub mod treelet;
 
@@ -46,16 +52,19 @@ pub enum Strategy {
     Lbvh,
     /// LBVH improved by Karras and Aila's (2013) treelet restructuring.
     LbvhTreelet,
+    /// Stich, Friedrich and Dietrich 2009: binned SAH with object and spatial splits.
+    Sbvh,
 }
 
 impl Strategy {
-    pub const ALL: [Strategy; 6] = [
+    pub const ALL: [Strategy; 7] = [
         Strategy::ObjectMedian,
         Strategy::SpatialMedian,
         Strategy::SahSweep,
         Strategy::SahBinned,
         Strategy::Lbvh,
         Strategy::LbvhTreelet,
+        Strategy::Sbvh,
     ];
 
     pub fn label(self) -> &'static str {
@@ -66,7 +75,16 @@ impl Strategy {
             Strategy::SahBinned => "binned SAH",
             Strategy::Lbvh => "LBVH",
             Strategy::LbvhTreelet => "LBVH + treelets",
+            Strategy::Sbvh => "SBVH",
         }
+    }
+
+    /// Whether `presplit` applies: the builders that cannot split references themselves.
+    pub fn takes_presplit(self) -> bool {
+        matches!(
+            self,
+            Strategy::Lbvh | Strategy::LbvhTreelet | Strategy::SahBinned
+        )
     }
 
     pub fn is_sah(self) -> bool {
@@ -90,6 +108,16 @@ pub struct BuildParams {
     pub treelet_size: u32,
     /// Rounds of treelet restructuring.
     pub treelet_rounds: u32,
+    /// SBVH: the overlap threshold α. Spatial splits are tried only in nodes where the best
+    /// object split's children overlap by more than α times the root's surface area.
+    pub split_alpha: f32,
+    /// SBVH: at most this many references beyond one per triangle, as a fraction of the
+    /// triangle count.
+    pub split_budget: f32,
+    /// Pre-splitting for LBVH, LBVH + treelets and binned SAH: extra references, as a
+    /// fraction of the triangle count, given to the triangles that gain most from being
+    /// cut along the Morton grid. 0 turns it off.
+    pub presplit: f32,
 }
 
 impl Default for BuildParams {
@@ -102,6 +130,9 @@ impl Default for BuildParams {
             c_isect: 1.0,
             treelet_size: 7,
             treelet_rounds: 3,
+            split_alpha: 1e-5,
+            split_budget: 1.0,
+            presplit: 0.0,
         }
     }
 }
@@ -114,12 +145,29 @@ pub const MAX_TREELET_SIZE: u32 = treelet::MAX_TREELET as u32;
 /// More rounds change nothing: each round only roots treelets at subtrees of at least
 /// n·2^round primitives.
 pub const MAX_TREELET_ROUNDS: u32 = 16;
+/// Budgets for duplicated references (SBVH) and pre-splits, as fractions of the triangle
+/// count: at most this many times more references than triangles, beyond the first.
+pub const MAX_SPLIT_BUDGET: f32 = 16.0;
 
 impl BuildParams {
     pub fn with_strategy(strategy: Strategy) -> Self {
         BuildParams {
             strategy,
             ..Default::default()
+        }
+    }
+
+    /// The same parameters with references kept whole (no spatial splits, no pre-splits):
+    /// for primitives that are boxes rather than triangles, such as the top level's
+    /// instances. The SBVH becomes the binned SAH it extends.
+    pub fn whole_references(&self) -> Self {
+        BuildParams {
+            strategy: match self.strategy {
+                Strategy::Sbvh => Strategy::SahBinned,
+                s => s,
+            },
+            presplit: 0.0,
+            ..*self
         }
     }
 
@@ -135,6 +183,15 @@ impl BuildParams {
         }
         if self.treelet_rounds > MAX_TREELET_ROUNDS {
             return Err(BuildError::TreeletRounds(self.treelet_rounds));
+        }
+        for (name, value, max) in [
+            ("split budget", self.split_budget, MAX_SPLIT_BUDGET),
+            ("presplit budget", self.presplit, MAX_SPLIT_BUDGET),
+            ("overlap threshold α", self.split_alpha, 1.0),
+        ] {
+            if !(0.0..=max).contains(&value) {
+                return Err(BuildError::Fraction { name, value, max });
+            }
         }
         for (name, value) in [("C_trav", self.c_trav), ("C_isect", self.c_isect)] {
             if !(value.is_finite() && value >= 0.0) {
@@ -161,6 +218,12 @@ pub enum BuildError {
     TreeletSize(u32),
     #[error("{0} treelet rounds is more than {MAX_TREELET_ROUNDS}")]
     TreeletRounds(u32),
+    #[error("{name} {value} is outside 0..={max}")]
+    Fraction {
+        name: &'static str,
+        value: f32,
+        max: f32,
+    },
     #[error("{name} = {value} must be finite and non-negative (C_isect positive)")]
     Cost { name: &'static str, value: f32 },
     #[error("triangle {0} has a NaN or infinite vertex")]
@@ -203,16 +266,37 @@ pub fn build_with_progress(
         return Err(BuildError::NonFinite(i));
     }
     let start = Instant::now();
-    let (bvh, phases) = match params.strategy {
+    let mut phases = BuildPhases::default();
+    let presplit = params.presplit > 0.0 && params.strategy.takes_presplit();
+    let refs = if presplit {
+        let refs = presplit::references(triangles, params.presplit);
+        phases.add("pre-splitting", start.elapsed());
+        refs
+    } else {
+        whole_references(triangles)
+    };
+    let bvh = match params.strategy {
         Strategy::Lbvh | Strategy::LbvhTreelet if !triangles.is_empty() => {
-            let (nodes, prim_indices, phases) = lbvh::build(triangles, params);
+            let (nodes, prim_indices, lbvh_phases) = lbvh::build(&refs, params);
+            phases.times.extend(lbvh_phases.times);
+            phases.sah_before_rounds = lbvh_phases.sah_before_rounds;
+            phases.sah_after_round = lbvh_phases.sah_after_round;
             progress.fetch_add(triangles.len(), Ordering::Relaxed);
-            (in_leaf_order(triangles, nodes, prim_indices), phases)
+            in_leaf_order(triangles, nodes, prim_indices)
         }
-        _ => (
-            build_tree(triangles, params, progress),
-            BuildPhases::default(),
-        ),
+        Strategy::Sbvh if !triangles.is_empty() => {
+            let tree = sbvh::build(triangles, params);
+            progress.fetch_add(triangles.len(), Ordering::Relaxed);
+            phases.spatial_splits = Some((tree.spatial_splits, tree.unsplit));
+            in_leaf_order(triangles, Nodes::from_flat(&tree.nodes), tree.prims)
+        }
+        _ => build_tree(triangles, refs, params, progress),
+    };
+    // Two pieces of a pre-split triangle may share a leaf: one test of it is enough.
+    let bvh = if presplit {
+        without_repeats_in_leaves(bvh)
+    } else {
+        bvh
     };
     let build_time = start.elapsed();
     let mut report = BuildReport::new(&bvh, params, build_time);
@@ -220,26 +304,65 @@ pub fn build_with_progress(
     Ok((bvh, report))
 }
 
+/// One reference per triangle: its whole box.
+fn whole_references(triangles: &[Triangle]) -> Vec<PrimRef> {
+    triangles
+        .par_iter()
+        .enumerate()
+        .map(|(i, t)| PrimRef::new(t.bounds(), i as u32))
+        .collect()
+}
+
 /// The BVH over `nodes` with the triangles copied into leaf order.
 fn in_leaf_order(triangles: &[Triangle], nodes: Nodes, prim_indices: Vec<u32>) -> Bvh {
-    let triangles = prim_indices
+    let leaf_triangles = prim_indices
         .par_iter()
         .map(|&i| triangles[i as usize])
         .collect();
     Bvh {
         nodes,
         prim_indices,
-        triangles,
+        triangles: leaf_triangles,
+        triangle_count: triangles.len(),
         order: TraversalOrder::default(),
     }
 }
 
-fn build_tree(triangles: &[Triangle], params: &BuildParams, progress: &AtomicUsize) -> Bvh {
-    let mut refs: Vec<PrimRef> = triangles
-        .par_iter()
-        .enumerate()
-        .map(|(i, t)| PrimRef::new(t.bounds(), i as u32))
-        .collect();
+/// `bvh` with each leaf holding a triangle at most once (the leaf's box already bounds all
+/// the pieces it had of it). Leaves keep their boxes; the leaf order is compacted.
+fn without_repeats_in_leaves(mut bvh: Bvh) -> Bvh {
+    let mut prim_indices = Vec::with_capacity(bvh.prim_indices.len());
+    let mut triangles = Vec::with_capacity(bvh.triangles.len());
+    for i in 0..bvh.nodes.len() {
+        let node = bvh.nodes[i];
+        if !node.is_leaf() {
+            continue;
+        }
+        let first = prim_indices.len();
+        for k in node.prim_range() {
+            let t = bvh.prim_indices[k];
+            if !prim_indices[first..].contains(&t) {
+                prim_indices.push(t);
+                triangles.push(bvh.triangles[k]);
+            }
+        }
+        bvh.nodes[i] = Node::leaf(
+            node.bounds(),
+            first as u32,
+            (prim_indices.len() - first) as u32,
+        );
+    }
+    bvh.prim_indices = prim_indices;
+    bvh.triangles = triangles;
+    bvh
+}
+
+fn build_tree(
+    triangles: &[Triangle],
+    mut refs: Vec<PrimRef>,
+    params: &BuildParams,
+    progress: &AtomicUsize,
+) -> Bvh {
     let n = refs.len();
     let nodes = if n == 0 {
         Nodes::from_flat(&[Node::leaf(Aabb::EMPTY, 0, 0)])
@@ -351,8 +474,8 @@ impl Builder<'_> {
             Strategy::SpatialMedian => must_split.then(|| median::spatial_median(refs, info)),
             Strategy::SahSweep => sah_sweep::split(refs, info, p),
             Strategy::SahBinned => sah_binned::split(refs, info, p),
-            // An empty input reaches no split; non-empty ones are built by `lbvh`.
-            Strategy::Lbvh | Strategy::LbvhTreelet => None,
+            // An empty input reaches no split; non-empty ones are built by `lbvh` or `sbvh`.
+            Strategy::Lbvh | Strategy::LbvhTreelet | Strategy::Sbvh => None,
         }
     }
 }

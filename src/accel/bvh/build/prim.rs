@@ -69,6 +69,20 @@ impl Box3A {
         }
     }
 
+    /// The common part of two boxes; `EMPTY` if they are disjoint.
+    #[inline(always)]
+    pub fn intersect(&self, o: &Box3A) -> Box3A {
+        let b = Box3A {
+            min: self.min.max(o.min),
+            max: self.max.min(o.max),
+        };
+        if b.min.cmpgt(b.max).any() {
+            Box3A::EMPTY
+        } else {
+            b
+        }
+    }
+
     /// Surface area; 0 for an empty box.
     #[inline(always)]
     pub fn surface_area(&self) -> f32 {
@@ -135,6 +149,12 @@ impl NodeInfo {
         } else {
             refs.iter().fold(NodeInfo::EMPTY, fold)
         }
+    }
+}
+
+impl Default for NodeInfo {
+    fn default() -> Self {
+        NodeInfo::EMPTY
     }
 }
 

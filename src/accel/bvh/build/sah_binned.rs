@@ -105,6 +105,27 @@ thread_local! {
     static SCRATCH: RefCell<Scratch> = RefCell::default();
 }
 
+/// The best binned object split of a node: its SAH cost (unnormalised, see
+/// `sah_split_cost`), where it cuts, and both children's boxes.
+#[derive(Clone, Copy)]
+pub struct ObjectSplit {
+    pub cost: f32,
+    axis: usize,
+    /// First bucket of the right side.
+    bucket: usize,
+    binning: Binning,
+    pub left: Box3A,
+    pub right: Box3A,
+}
+
+impl ObjectSplit {
+    /// Whether `r` goes to the left child.
+    #[inline(always)]
+    pub fn is_left(&self, r: &PrimRef) -> bool {
+        self.binning.bucket(r, self.axis) < self.bucket
+    }
+}
+
 /// One bucket boundary of a node: the split that puts buckets `..k` of `axis` on the left.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Candidate {
@@ -180,27 +201,45 @@ fn candidates(
     });
 }
 
-pub fn split(refs: &mut [PrimRef], info: &NodeInfo, p: &BuildParams) -> Option<Split> {
-    let n = refs.len();
-    let binning = Binning::new(&info.centroids, p.buckets as usize);
-    let parent_area = info.bounds.surface_area();
-    // (cost, axis, first bucket of the right side); of equal costs the first offered wins.
-    // Only boundaries right after a non-empty bucket count: the others repeat a partition
-    // already costed.
+/// The cheapest object split at a bucket boundary (of equal costs the first offered; a
+/// boundary after an empty bucket repeats the one before), or `None` if every centroid
+/// fell into one bucket.
+pub fn best(refs: &[PrimRef], info: &NodeInfo, p: &BuildParams) -> Option<ObjectSplit> {
+    let b = p.buckets as usize;
+    let binning = Binning::new(&info.centroids, b);
     let mut best: Option<(f32, usize, usize)> = None;
-    candidates(refs, &binning, parent_area, p, |c| {
+    candidates(refs, &binning, info.bounds.surface_area(), p, |c| {
         if !c.repeats_previous && best.is_none_or(|(cost, _, _)| c.cost < cost) {
             best = Some((c.cost, c.axis, c.k));
         }
     });
-    let Some((cost, axis, k)) = best else {
+    let (cost, axis, bucket) = best?;
+    // The children's boxes from the bins `candidates` left in this thread's scratch.
+    SCRATCH.with_borrow(|s| {
+        let side = |range: std::ops::Range<usize>| {
+            range.fold(Box3A::EMPTY, |a, k| a.union(s.bins[3 * k + axis].bounds))
+        };
+        Some(ObjectSplit {
+            cost,
+            axis,
+            bucket,
+            binning,
+            left: side(0..bucket),
+            right: side(bucket..b),
+        })
+    })
+}
+
+pub fn split(refs: &mut [PrimRef], info: &NodeInfo, p: &BuildParams) -> Option<Split> {
+    let n = refs.len();
+    let Some(best) = best(refs, info, p) else {
         // Every centroid fell into one bucket (extents near the float resolution).
         return (n > p.max_leaf_size as usize).then(|| super::median::object_median(refs, info));
     };
-    if !sah_worth_splitting(n, cost, parent_area, p) {
+    if !sah_worth_splitting(n, best.cost, info.bounds.surface_area(), p) {
         return None;
     }
-    Some(partition(refs, |r| binning.bucket(r, axis) < k))
+    Some(partition(refs, |r| best.is_left(r)))
 }
 
 /// Every bucket boundary of the node over `refs`, with the plane's position along its

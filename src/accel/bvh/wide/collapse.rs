@@ -104,11 +104,12 @@ impl<const W: usize> WideBvh<W> {
     /// The wide tree of minimal SAH cost over the same leaves' triangles as `bvh`.
     pub fn collapse(bvh: &Bvh, params: &CollapseParams) -> Self {
         let costs = Costs::<W>::new(bvh, params);
+        let split = bvh.duplicated_references() > 0;
         let mut out = WideBvh {
             nodes: vec![WideNode::default()],
             blocks: Vec::with_capacity(bvh.triangles.len().div_ceil(BLOCK)),
             prim_indices: Vec::with_capacity(bvh.prim_indices.len()),
-            triangle_count: bvh.triangles.len(),
+            triangle_count: bvh.triangle_count,
             order: bvh.order,
             simd: SimdLevel::detect(),
             depth: 1,
@@ -130,11 +131,15 @@ impl<const W: usize> WideBvh<W> {
             for (lane, &s) in slots.iter().enumerate() {
                 node.set_child_bounds(lane, bvh.nodes[s].bounds());
                 if costs.leaf[s] {
-                    let tris: Vec<_> = bvh
-                        .triangles_under_leaf_order(s)
-                        .into_iter()
-                        .map(|t| (bvh.triangles[t], bvh.prim_indices[t]))
-                        .collect();
+                    let mut tris: Vec<_> = Vec::new();
+                    for t in bvh.triangles_under_leaf_order(s) {
+                        // Two parts of a split triangle folded into one leaf: one test does.
+                        let id = bvh.prim_indices[t];
+                        if split && tris.iter().any(|&(_, i)| i == id) {
+                            continue;
+                        }
+                        tris.push((bvh.triangles[t], id));
+                    }
                     node.child[lane] = packer.place(&mut out.blocks, &mut out.prim_indices, &tris);
                     node.count[lane] = tris.len() as u32;
                 } else {

@@ -21,19 +21,20 @@ pub use node::WideNode;
 
 use super::TraversalOrder;
 use crate::accel::{Outline, OutlineNode};
-use crate::geometry::Aabb;
 use crate::geometry::simd::{BLOCK, SimdLevel, TriangleBlock};
+use crate::geometry::{Aabb, Triangle};
 
 #[derive(Clone, Debug)]
 pub struct WideBvh<const W: usize> {
     /// Node 0 is the root; every node's interior children come after it.
     pub nodes: Vec<WideNode<W>>,
-    /// The leaves' triangles in blocks of four (slot = block · 4 + lane), each leaf starting
-    /// a block of its own.
+    /// The leaves' triangles in blocks of four (slot = block · 4 + lane), each leaf's slots
+    /// contiguous.
     pub blocks: Vec<TriangleBlock>,
-    /// Slot → scene triangle index (`PADDING` for a padding lane).
+    /// Slot → scene triangle index (`PADDING` for a padding lane; repeated for a triangle
+    /// with split references).
     pub prim_indices: Vec<u32>,
-    /// The triangles the tree was built over.
+    /// Distinct scene triangles the tree was built over.
     pub triangle_count: usize,
     pub order: TraversalOrder,
     /// The slab kernel the traversal runs (one this machine supports).
@@ -97,11 +98,12 @@ impl<const W: usize> WideBvh<W> {
         sum / root_area
     }
 
-    /// Checks that each triangle is in exactly one leaf, every leaf spans no more blocks than
-    /// it needs, every lane of no leaf is padding, every child box is exactly the union of
-    /// its subtree's boxes or triangles, and interior children come after their parent.
+    /// Checks that each triangle is in some leaf (exactly one unless its reference was split,
+    /// and then its references' boxes cover it), every leaf spans no more blocks than it
+    /// needs and holds a triangle once, every lane of no leaf is padding, every child box is
+    /// exactly the union of its subtree's boxes or triangles (a leaf with split references:
+    /// within it), and interior children come after their parent.
     pub fn validate(&self) -> Result<(), String> {
-        let n = self.triangle_count;
         let slots = self.blocks.len() * BLOCK;
         if self.prim_indices.len() != slots {
             return Err(format!(
@@ -109,15 +111,9 @@ impl<const W: usize> WideBvh<W> {
                 self.prim_indices.len()
             ));
         }
-        let mut seen = vec![false; n];
-        for &i in self.prim_indices.iter().filter(|&&i| i != PADDING) {
-            let slot = seen
-                .get_mut(i as usize)
-                .ok_or_else(|| format!("triangle index {i} out of range"))?;
-            if std::mem::replace(slot, true) {
-                return Err(format!("triangle {i} appears twice"));
-            }
-        }
+        let references =
+            super::validate::references_per_triangle(&self.prim_indices, self.triangle_count)?;
+        let mut slot_box = vec![Aabb::EMPTY; slots];
         let mut owned = vec![false; slots];
         for (i, node) in self.nodes.iter().enumerate() {
             let used = node.child_count();
@@ -127,11 +123,11 @@ impl<const W: usize> WideBvh<W> {
             for lane in 0..used {
                 let b = node.child_bounds(lane);
                 let c = node.child[lane] as usize;
-                let inside = if node.is_interior(lane) {
+                let (inside, split) = if node.is_interior(lane) {
                     if c <= i || c >= self.nodes.len() {
                         return Err(format!("node {i} lane {lane} points to node {c}"));
                     }
-                    self.nodes[c].bounds()
+                    (self.nodes[c].bounds(), false)
                 } else {
                     let leaf = leaf::Leaf {
                         first: c as u32,
@@ -141,26 +137,34 @@ impl<const W: usize> WideBvh<W> {
                     if range.end > slots || !leaf.is_compact() {
                         return Err(format!("node {i} lane {lane}: leaf {range:?} of {slots}"));
                     }
-                    let mut b = Aabb::EMPTY;
-                    for slot in range {
+                    let ids = &self.prim_indices[range.clone()];
+                    if (1..ids.len()).any(|a| ids[..a].contains(&ids[a])) {
+                        return Err(format!("node {i} lane {lane} holds a triangle twice"));
+                    }
+                    let mut whole = Aabb::EMPTY;
+                    for slot in range.clone() {
                         if std::mem::replace(&mut owned[slot], true)
                             || self.prim_indices[slot] == PADDING
                         {
                             return Err(format!("node {i} lane {lane}: slot {slot} taken"));
                         }
-                        b = b.union(self.blocks[slot / BLOCK].triangle(slot % BLOCK).bounds());
+                        whole = whole.union(self.slot_triangle(slot).bounds());
                     }
-                    b
+                    slot_box[range].fill(b);
+                    let split = ids.iter().any(|&t| references[t as usize] > 1);
+                    (whole, split)
                 };
-                // Exactly: a child's box is the union of what lies under it, no larger.
-                if b != inside {
+                // Exactly: a child's box is the union of what lies under it, no larger. A
+                // leaf holding parts of split triangles has a box within their boxes.
+                let fits = if split {
+                    inside.contains(&b)
+                } else {
+                    b == inside
+                };
+                if !fits {
                     return Err(format!("node {i} lane {lane}: {b:?} is not {inside:?}"));
                 }
             }
-        }
-        let covered = owned.iter().filter(|&&o| o).count();
-        if covered != n {
-            return Err(format!("leaves hold {covered} of {n} triangles"));
         }
         for (slot, _) in owned.iter().enumerate().filter(|(_, o)| !**o) {
             if self.prim_indices[slot] != PADDING
@@ -169,7 +173,18 @@ impl<const W: usize> WideBvh<W> {
                 return Err(format!("slot {slot} of no leaf is not padding"));
             }
         }
-        Ok(())
+        let slot_triangles: Vec<Triangle> = (0..slots).map(|k| self.slot_triangle(k)).collect();
+        super::validate::check_split_coverage(
+            &self.prim_indices,
+            &slot_triangles,
+            &slot_box,
+            &references,
+        )
+    }
+
+    /// The triangle in slot `slot` (block · 4 + lane).
+    fn slot_triangle(&self, slot: usize) -> Triangle {
+        self.blocks[slot / BLOCK].triangle(slot % BLOCK)
     }
 
     /// The tree for the explorer: wide nodes and their leaves, children contiguous.

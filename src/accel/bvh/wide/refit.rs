@@ -5,7 +5,7 @@
 use super::WideBvh;
 use super::leaf::PADDING;
 use super::node::WideNode;
-use crate::accel::bvh::refit::{RefitError, RefitIndex, RefitReport};
+use crate::accel::bvh::refit::{RefitError, RefitIndex, RefitReport, slots_of};
 use crate::geometry::simd::{BLOCK, TriangleBlock};
 use crate::geometry::{Aabb, Triangle};
 use rayon::prelude::*;
@@ -106,7 +106,7 @@ impl<const W: usize> WideBvh<W> {
         c_trav: f32,
         c_isect: f32,
     ) -> Result<RefitReport, RefitError> {
-        if scene.len() != self.triangle_count || index.slot_of.len() != scene.len() {
+        if scene.len() != self.triangle_count || index.triangles() != scene.len() {
             return Err(RefitError {
                 built: self.triangle_count,
                 given: scene.len(),
@@ -131,13 +131,9 @@ impl<const W: usize> WideBvh<W> {
 impl RefitIndex {
     /// The index of a wide tree: a slot's "leaf" is the wide node whose lane holds it.
     pub fn for_wide<const W: usize>(tree: &WideBvh<W>) -> Self {
-        let mut slot_of = vec![0u32; tree.triangle_count];
-        for (slot, &t) in tree.prim_indices.iter().enumerate() {
-            if t != PADDING {
-                slot_of[t as usize] = slot as u32;
-            }
-        }
-        let mut leaf_of = vec![0u32; tree.prim_indices.len()];
+        let n = tree.prim_indices.len();
+        let (first_slot, slots) = slots_of(&tree.prim_indices, tree.triangle_count);
+        let mut leaf_of = vec![0u32; n];
         let mut parent = vec![u32::MAX; tree.nodes.len()];
         for (i, node) in tree.nodes.iter().enumerate() {
             for lane in 0..node.child_count() {
@@ -150,7 +146,8 @@ impl RefitIndex {
             }
         }
         RefitIndex {
-            slot_of,
+            first_slot,
+            slots,
             leaf_of,
             parent,
             queued: vec![false; tree.nodes.len()],

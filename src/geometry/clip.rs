@@ -1,6 +1,6 @@
-//! Perfect splits need the part of a triangle inside a cell: the triangle is clipped to the
-//! cell's box (Sutherland–Hodgman, one half-space after another) and the clipped polygon's
-//! bounds are the triangle's bounds within that cell.
+//! The part of a triangle inside a box: the triangle is clipped to the box (Sutherland–Hodgman,
+//! one half-space after another) and the clipped polygon's bounds are the triangle's bounds
+//! within that box. The k-d tree's perfect splits and the SBVH's reference splitting use it.
 //!
 //! The clipping runs in f64 and the bounds are rounded outward to f32, so a triangle keeps
 //! every cell it touches: coordinates that are exact (input vertices, and a new vertex's
