@@ -9,7 +9,7 @@ mod traverse;
 
 pub use refit::TopLevelIndex;
 
-use super::bvh::wide::{CollapseParams, UnsupportedSimd};
+use super::bvh::wide::{CollapseParams, PADDING, UnsupportedSimd};
 use super::bvh::{self, BuildError, Bvh8};
 use super::{BuildParams, Outline, OutlineNode, StructureReport, TraversalOrder};
 use crate::geometry::simd::SimdLevel;
@@ -207,7 +207,8 @@ fn build_tlas(
         e => e,
     })?;
     let mut tlas = Bvh8::collapse(&tlas2, &collapse_params(params, 1));
-    for p in &mut tlas.prim_indices {
+    // Instance numbers for the box numbers the build saw (padding lanes stay padding).
+    for p in tlas.prim_indices.iter_mut().filter(|p| **p != PADDING) {
         *p = placed[*p as usize];
     }
     tlas.blocks = Vec::new();
