@@ -23,12 +23,7 @@ const H: u32 = 30;
 /// with mailboxing off too.
 fn configurations() -> Vec<(String, StructureParams)> {
     let mut out = Vec::new();
-    // The two levels' 8-wide top level records no steps yet: they are refused (tested
-    // below).
-    for kind in AccelKind::ALL
-        .into_iter()
-        .filter(|&k| k != AccelKind::TwoLevel)
-    {
+    for kind in AccelKind::ALL {
         out.push((kind.label().to_string(), StructureParams::of_kind(kind)));
         if kind.is_spatial() {
             let mut p = StructureParams::of_kind(kind);
@@ -108,7 +103,7 @@ fn assert_replay_matches_frame(
                 "{what}, pixel ({x}, {y}): shadow ray occluded"
             );
             // Any hit stops at its first hit: nothing is tested after it, but the rest of
-            // its block of four in a wide BVH's leaf, tested by the same instruction.
+            // its block of four in a wide leaf, tested by the same instruction.
             let tests: Vec<&Step> = shadow
                 .steps
                 .iter()
@@ -119,11 +114,10 @@ fn assert_replay_matches_frame(
                 .position(|s| matches!(s, Step::Triangle { t: Some(_), .. }))
             {
                 let after = tests.len() - 1 - first_hit;
-                let block_rest = if what.contains("bvh4") || what.contains("bvh8") {
-                    3
-                } else {
-                    0
-                };
+                let wide = ["bvh4", "bvh8", "two-level"]
+                    .iter()
+                    .any(|w| what.contains(w));
+                let block_rest = if wide { 3 } else { 0 };
                 assert!(after <= block_rest, "{what}: tested {after} past a hit");
             }
         }
@@ -191,20 +185,39 @@ fn replays_recreate_the_counters_inside_sponza() {
 }
 
 #[test]
-fn the_two_levels_are_refused_with_a_clear_error() {
+fn replays_of_the_island_walk_the_tlas_then_each_instance_blas() {
     let scene = island::island(40, &Detail::SMALL);
-    let p = StructureParams::of_kind(AccelKind::TwoLevel);
-    let built = structure::build_scene(&scene, &p, &Default::default()).unwrap();
+    let two_level: Vec<_> = configurations()
+        .into_iter()
+        .filter(|(_, p)| p.kind == AccelKind::TwoLevel)
+        .collect();
+    check_scene(&scene, &two_level, 7);
+    // The centre ray enters instances, and each BLAS visit follows an instance step.
+    let built = structure::build_scene(&scene, &two_level[0].1, &Default::default()).unwrap();
     let settings = RenderSettings::for_scene(&scene, W, H);
-    let err = replay_pixel::<Watertight>(
+    let replay = replay_pixel::<Watertight>(
         &built.structure,
         &scene,
         &settings,
         (W / 2, H / 2),
         RayKind::Primary,
     )
-    .unwrap_err();
-    assert!(err.to_string().contains("two levels"), "{err}");
+    .unwrap();
+    let first_instance = replay
+        .steps
+        .iter()
+        .position(|s| matches!(s, Step::Instance { .. }))
+        .expect("the centre ray enters an instance");
+    let first_blas = replay.steps.iter().position(|s| {
+        matches!(
+            s,
+            Step::Visit {
+                level: bvhlab::accel::replay::Level::Bottom,
+                ..
+            }
+        )
+    });
+    assert!(first_blas.is_some_and(|b| b > first_instance));
 }
 
 #[test]
@@ -269,7 +282,7 @@ fn bvhlab(args: &[&str]) -> std::process::Output {
 
 #[test]
 fn the_replay_command_prints_the_documented_json() {
-    for accel in ["bvh", "kdtree", "grid"] {
+    for accel in ["bvh", "kdtree", "grid", "two-level"] {
         for shadow in [false, true] {
             let mut args = vec![
                 "replay", "--scene", "cornell", "--pixel", "20,15", "--width", "40", "--height",

@@ -223,6 +223,15 @@ impl Stats for Recorder {
     fn repeated_test(&mut self) {
         self.counters.repeated_test();
     }
+    fn top_node_visit(&mut self) {
+        self.counters.top_node_visit();
+    }
+    fn top_box_tests(&mut self, n: u32) {
+        self.counters.top_box_tests(n);
+    }
+    fn instance_entered(&mut self) {
+        self.counters.instance_entered();
+    }
     fn absorb(&mut self, other: Recorder) {
         self.counters.absorb(other.counters);
         self.steps.extend(other.steps);

@@ -46,8 +46,6 @@ pub enum ReplayError {
     },
     #[error("pixel ({x}, {y}) hits nothing, so it has no shadow ray")]
     NoShadowRay { x: u32, y: u32 },
-    #[error("the two levels cannot be replayed yet: their 8-wide top level records no steps")]
-    TwoLevels,
 }
 
 /// Replays pixel (x, y) of the frame `settings` describes: its primary ray, or with
@@ -59,9 +57,6 @@ pub fn replay_pixel<I: Intersector>(
     (x, y): (u32, u32),
     rays: RayKind,
 ) -> Result<Replay, ReplayError> {
-    if let Structure::TwoLevel(_) = structure {
-        return Err(ReplayError::TwoLevels);
-    }
     let (width, height) = (settings.width.max(1), settings.height.max(1));
     if x >= width || y >= height {
         return Err(ReplayError::OutsideImage {
@@ -130,14 +125,20 @@ pub fn replay_ray<I: Intersector>(
     replay
 }
 
-/// Fills in each visit's entry and exit distances, in the space its box is in, and returns
-/// its corners in the world.
+/// Fills in each visit's entry and exit distances, in the space its box is in, numbers a
+/// BLAS's triangles as the scene does, and returns each visit's corners in the world.
 fn place_visits(structure: &Structure, ray: &Ray, steps: &mut [Step]) -> Vec<Option<[Vec3; 8]>> {
     let mut instance: Option<Affine3A> = None;
+    // A BLAS numbers its triangles from 0: the scene's number adds its instance's first.
+    let mut first_triangle = 0u64;
     let mut out = Vec::with_capacity(steps.len());
     for step in steps.iter_mut() {
         if let (Step::Instance { instance: i }, Structure::TwoLevel(tl)) = (&*step, structure) {
             instance = tl.instances.get(*i as usize).map(|i| i.transform);
+            first_triangle = tl.first_triangle.get(*i as usize).copied().unwrap_or(0);
+        }
+        if let (Step::Triangle { triangle, .. }, Structure::TwoLevel(_)) = (&mut *step, structure) {
+            *triangle += first_triangle;
         }
         let Step::Visit {
             bounds,
@@ -150,6 +151,10 @@ fn place_visits(structure: &Structure, ray: &Ray, steps: &mut [Step]) -> Vec<Opt
             out.push(None);
             continue;
         };
+        // A BLAS walks as a wide BVH of its own: its visits are the bottom level's.
+        if *level == Level::Single && matches!(structure, Structure::TwoLevel(_)) {
+            *level = Level::Bottom;
+        }
         let place = match level {
             Level::Bottom => instance.unwrap_or(Affine3A::IDENTITY),
             _ => Affine3A::IDENTITY,

@@ -13,7 +13,8 @@ use super::TwoLevel;
 use crate::accel::bvh::build::MAX_DEPTH;
 use crate::accel::bvh::traverse::T_SCALE;
 use crate::accel::bvh::wide::node::INTERIOR;
-use crate::accel::stats::count_locally;
+use crate::accel::replay::{Level, Order, Step};
+use crate::accel::stats::{count_locally, record};
 use crate::accel::{Accel, BestHit, Hit, Stats, TraversalOrder};
 use crate::geometry::intersect::TriangleHit;
 use crate::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab};
@@ -152,9 +153,13 @@ impl TwoLevel {
         };
         loop {
             stats.top_node_visit();
+            record(stats, || {
+                tlas.visit_step_at(cur.child, cur.count, Level::Top)
+            });
             if cur.count != INTERIOR {
                 for k in cur.child..cur.child + cur.count {
                     let i = tlas.prim_indices[k as usize] as usize;
+                    record(stats, || Step::Instance { instance: i as u32 });
                     self.enter_closest::<I, S>(i, ray, &mut best, stats);
                 }
                 box_tmax = best.t * T_SCALE;
@@ -167,6 +172,12 @@ impl TwoLevel {
                 // the entry points below are compiled for it.
                 let mut mask =
                     unsafe { K::entries(&node.bounds, &wray, ray.tmin, box_tmax, &mut entry) };
+                let order = if ORDERED {
+                    Order::Nearest
+                } else {
+                    Order::Fixed
+                };
+                record(stats, || tlas.children_step(cur.child, mask, &entry, order));
                 let lane = |i: u32| Entry {
                     child: node.child[i as usize],
                     count: node.count[i as usize],
@@ -225,10 +236,15 @@ impl TwoLevel {
         };
         loop {
             stats.top_node_visit();
+            record(stats, || {
+                tlas.visit_step_at(cur.child, cur.count, Level::Top)
+            });
             if cur.count != INTERIOR {
                 for k in cur.child..cur.child + cur.count {
                     stats.instance_entered();
-                    let instance = &self.instances[tlas.prim_indices[k as usize] as usize];
+                    let i = tlas.prim_indices[k as usize];
+                    record(stats, || Step::Instance { instance: i });
+                    let instance = &self.instances[i as usize];
                     let local = to_object(instance, ray);
                     if self.blases[instance.mesh].any_hit::<I, S>(&local, stats) {
                         return true;
@@ -242,6 +258,9 @@ impl TwoLevel {
                 // SAFETY: as in `closest_with`.
                 let mut mask =
                     unsafe { K::entries(&node.bounds, &wray, ray.tmin, tmax, &mut entry) };
+                record(stats, || {
+                    tlas.children_step(cur.child, mask, &entry, Order::AnyHit)
+                });
                 while mask != 0 {
                     let j = mask.trailing_zeros() as usize;
                     mask &= mask - 1;

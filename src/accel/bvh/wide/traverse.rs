@@ -305,22 +305,34 @@ fn skip_step(e: Entry, best: f32) -> Step {
 impl<const W: usize> WideBvh<W> {
     /// The box of a child to visit: the root's, or that of the lane that holds it.
     fn visit_step(&self, e: Entry) -> Step {
-        let leaf = e.count != INTERIOR;
-        let bounds = if e.child == 0 && !leaf {
+        self.visit_step_at(e.child, e.count, Level::Single)
+    }
+
+    /// The visit of the child `child` with leaf count `count` (`INTERIOR` for a node), as
+    /// the lanes name them, at `level` of a two-level structure.
+    pub(crate) fn visit_step_at(&self, child: u32, count: u32, level: Level) -> Step {
+        let leaf = count != INTERIOR;
+        let bounds = if child == 0 && !leaf {
             self.nodes[0].bounds()
         } else {
             self.nodes
                 .iter()
                 .flat_map(|n| (0..n.child_count()).map(move |l| (n, l)))
-                .find(|&(n, l)| n.child[l] == e.child && n.count[l] == e.count)
+                .find(|&(n, l)| n.child[l] == child && n.count[l] == count)
                 .map_or(crate::geometry::Aabb::EMPTY, |(n, l)| n.child_bounds(l))
         };
         let what = if leaf { Visited::Leaf } else { Visited::Node };
-        Step::visit(e.child as usize, what, Level::Single, bounds)
+        Step::visit(child as usize, what, level, bounds)
     }
 
     /// The children of node `index` in lane order: where the ray enters those in `mask`.
-    fn children_step(&self, index: u32, mask: u32, entry: &[f32; W], order: Order) -> Step {
+    pub(crate) fn children_step(
+        &self,
+        index: u32,
+        mask: u32,
+        entry: &[f32; W],
+        order: Order,
+    ) -> Step {
         let node = &self.nodes[index as usize];
         let children: Vec<Child> = (0..node.child_count())
             .map(|l| Child {
