@@ -10,9 +10,9 @@
 //! a TLAS node a top-level box test; the BLAS walks count as the BVH8 does.
 
 use super::TwoLevel;
-use crate::accel::bvh::build::MAX_DEPTH;
 use crate::accel::bvh::traverse::T_SCALE;
 use crate::accel::bvh::wide::node::INTERIOR;
+use crate::accel::bvh::wide::stack::{Entry, Stack};
 use crate::accel::replay::{Level, Order, Step};
 use crate::accel::stats::{count_locally, record};
 use crate::accel::{Accel, BestHit, Hit, Stats, TraversalOrder};
@@ -34,73 +34,6 @@ fn to_object(instance: &Instance, ray: &Ray) -> Ray {
         origin: instance.inverse.transform_point3(ray.origin),
         direction: instance.inverse.transform_vector3(ray.direction),
         ..*ray
-    }
-}
-
-/// A TLAS child still to visit: a node (`count == INTERIOR`) or a leaf lane's instances,
-/// and the distance at which the ray enters its box.
-#[derive(Clone, Copy)]
-struct Entry {
-    child: u32,
-    count: u32,
-    entry: f32,
-}
-
-/// Each level leaves at most 7 children on the stack, and the TLAS is no deeper than the
-/// BVH2 it was collapsed from.
-const STACK_SIZE: usize = 7 * MAX_DEPTH + 1;
-
-/// The TLAS stack, left uninitialised (clearing it would cost more than a short walk); its
-/// storage is a local of the walk, as a `MaybeUninit` inside a struct value gets zeroed.
-struct Stack<'a> {
-    storage: &'a mut MaybeUninit<[Entry; STACK_SIZE]>,
-    len: usize,
-}
-
-impl<'a> Stack<'a> {
-    #[inline(always)]
-    fn new(storage: &'a mut MaybeUninit<[Entry; STACK_SIZE]>) -> Self {
-        Stack { storage, len: 0 }
-    }
-
-    #[inline(always)]
-    fn slots(&mut self) -> *mut Entry {
-        self.storage.as_mut_ptr().cast()
-    }
-
-    #[inline(always)]
-    fn push(&mut self, e: Entry) {
-        assert!(self.len < STACK_SIZE);
-        // SAFETY: in bounds (checked above); writing needs no initialised value.
-        unsafe { self.slots().add(self.len).write(e) };
-        self.len += 1;
-    }
-
-    #[inline(always)]
-    fn pop(&mut self) -> Option<Entry> {
-        if self.len == 0 {
-            return None;
-        }
-        self.len -= 1;
-        // SAFETY: entries below `len` were written by `push` and not popped since.
-        Some(unsafe { self.slots().add(self.len).read() })
-    }
-
-    /// Orders the top `n` entries so the nearest is on top (insertion sort: n ≤ 8).
-    #[inline(always)]
-    fn sort_top(&mut self, n: usize) {
-        let base = self.len - n;
-        // SAFETY: the top n entries were just pushed, so they are initialised and in bounds.
-        let top = unsafe { std::slice::from_raw_parts_mut(self.slots().add(base), n) };
-        for i in 1..top.len() {
-            let e = top[i];
-            let mut j = i;
-            while j > 0 && top[j - 1].entry < e.entry {
-                top[j] = top[j - 1];
-                j -= 1;
-            }
-            top[j] = e;
-        }
     }
 }
 

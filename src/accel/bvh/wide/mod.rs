@@ -13,6 +13,7 @@ pub mod leaf;
 pub mod node;
 pub mod packet;
 pub mod refit;
+pub(crate) mod stack;
 pub mod traverse;
 
 pub use collapse::CollapseParams;

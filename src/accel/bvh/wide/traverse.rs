@@ -11,7 +11,7 @@
 use super::WideBvh;
 use super::leaf::Leaf;
 use super::node::INTERIOR;
-use crate::accel::bvh::build::MAX_DEPTH;
+use super::stack::{Entry, Stack};
 use crate::accel::bvh::packet::PACKET_SIZE;
 use crate::accel::bvh::traverse::T_SCALE;
 use crate::accel::replay::{Child, Level, Order, Step, Visited};
@@ -21,74 +21,6 @@ use crate::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab};
 use crate::geometry::simd::{SimdLevel, TriangleKernel, WideRay};
 use crate::geometry::{Intersector, Ray};
 use std::mem::MaybeUninit;
-
-/// A child still to visit: a node (`count == INTERIOR`) or a leaf's triangles, and the
-/// distance at which the ray enters its box.
-#[derive(Clone, Copy)]
-struct Entry {
-    child: u32,
-    count: u32,
-    entry: f32,
-}
-
-/// Each level leaves at most W − 1 ≤ 7 children on the stack, and no wide tree is deeper
-/// than the BVH2 it was collapsed from.
-const STACK_SIZE: usize = 7 * MAX_DEPTH + 1;
-
-/// The traversal stack, left uninitialised: a BVH8 stack is 8 KiB, and clearing it for
-/// every ray would cost more than many rays' whole traversal. Its storage is a local of the
-/// traversal (`MaybeUninit` inside a struct value was measured to be zeroed anyway).
-struct Stack<'a> {
-    storage: &'a mut MaybeUninit<[Entry; STACK_SIZE]>,
-    len: usize,
-}
-
-impl<'a> Stack<'a> {
-    #[inline(always)]
-    fn new(storage: &'a mut MaybeUninit<[Entry; STACK_SIZE]>) -> Self {
-        Stack { storage, len: 0 }
-    }
-
-    #[inline(always)]
-    fn slots(&mut self) -> *mut Entry {
-        self.storage.as_mut_ptr().cast()
-    }
-
-    #[inline(always)]
-    fn push(&mut self, e: Entry) {
-        assert!(self.len < STACK_SIZE);
-        // SAFETY: in bounds (checked above); writing needs no initialised value.
-        unsafe { self.slots().add(self.len).write(e) };
-        self.len += 1;
-    }
-
-    #[inline(always)]
-    fn pop(&mut self) -> Option<Entry> {
-        if self.len == 0 {
-            return None;
-        }
-        self.len -= 1;
-        // SAFETY: entries below `len` were written by `push` and not popped since.
-        Some(unsafe { self.slots().add(self.len).read() })
-    }
-
-    /// Orders the top `n` entries so the nearest is on top (insertion sort: n ≤ 8).
-    #[inline(always)]
-    fn sort_top(&mut self, n: usize) {
-        let base = self.len - n;
-        // SAFETY: the top n entries were just pushed, so they are initialised and in bounds.
-        let top = unsafe { std::slice::from_raw_parts_mut(self.slots().add(base), n) };
-        for i in 1..top.len() {
-            let e = top[i];
-            let mut j = i;
-            while j > 0 && top[j - 1].entry < e.entry {
-                top[j] = top[j - 1];
-                j -= 1;
-            }
-            top[j] = e;
-        }
-    }
-}
 
 impl<const W: usize> WideBvh<W> {
     #[inline(always)]

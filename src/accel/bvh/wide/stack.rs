@@ -1,0 +1,74 @@
+//! The stack of a wide traversal (a wide BVH's own, or the two levels' 8-wide top level):
+//! children still to visit with their entry distances, left uninitialised, the top few
+//! sorted nearest first.
+
+use crate::accel::bvh::build::MAX_DEPTH;
+use std::mem::MaybeUninit;
+
+/// A child still to visit: a node (`count == INTERIOR`) or a leaf's triangles, and the
+/// distance at which the ray enters its box.
+#[derive(Clone, Copy)]
+pub(crate) struct Entry {
+    pub child: u32,
+    pub count: u32,
+    pub entry: f32,
+}
+
+/// Each level leaves at most W − 1 ≤ 7 children on the stack, and no wide tree is deeper
+/// than the BVH2 it was collapsed from.
+pub(crate) const STACK_SIZE: usize = 7 * MAX_DEPTH + 1;
+
+/// The traversal stack, left uninitialised: a BVH8 stack is 8 KiB, and clearing it for
+/// every ray would cost more than many rays' whole traversal. Its storage is a local of the
+/// traversal (`MaybeUninit` inside a struct value was measured to be zeroed anyway).
+pub(crate) struct Stack<'a> {
+    storage: &'a mut MaybeUninit<[Entry; STACK_SIZE]>,
+    len: usize,
+}
+
+impl<'a> Stack<'a> {
+    #[inline(always)]
+    pub(crate) fn new(storage: &'a mut MaybeUninit<[Entry; STACK_SIZE]>) -> Self {
+        Stack { storage, len: 0 }
+    }
+
+    #[inline(always)]
+    fn slots(&mut self) -> *mut Entry {
+        self.storage.as_mut_ptr().cast()
+    }
+
+    #[inline(always)]
+    pub(crate) fn push(&mut self, e: Entry) {
+        assert!(self.len < STACK_SIZE);
+        // SAFETY: in bounds (checked above); writing needs no initialised value.
+        unsafe { self.slots().add(self.len).write(e) };
+        self.len += 1;
+    }
+
+    #[inline(always)]
+    pub(crate) fn pop(&mut self) -> Option<Entry> {
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        // SAFETY: entries below `len` were written by `push` and not popped since.
+        Some(unsafe { self.slots().add(self.len).read() })
+    }
+
+    /// Orders the top `n` entries so the nearest is on top (insertion sort: n ≤ 8).
+    #[inline(always)]
+    pub(crate) fn sort_top(&mut self, n: usize) {
+        let base = self.len - n;
+        // SAFETY: the top n entries were just pushed, so they are initialised and in bounds.
+        let top = unsafe { std::slice::from_raw_parts_mut(self.slots().add(base), n) };
+        for i in 1..top.len() {
+            let e = top[i];
+            let mut j = i;
+            while j > 0 && top[j - 1].entry < e.entry {
+                top[j] = top[j - 1];
+                j -= 1;
+            }
+            top[j] = e;
+        }
+    }
+}
