@@ -14,9 +14,8 @@ pub struct OutlinedBox {
     pub color: [u8; 4],
 }
 
-/// The twelve edges of a box as pairs of corner indices (bit k of a corner index picks max
-/// on axis k).
-const EDGES: [(usize, usize); 12] = [
+/// The twelve edges of a box as pairs of corner indices (see `box_corners`).
+pub const BOX_EDGES: [(usize, usize); 12] = [
     (0, 1),
     (2, 3),
     (4, 5),
@@ -31,12 +30,15 @@ const EDGES: [(usize, usize); 12] = [
     (3, 7),
 ];
 
-fn corner(b: &Aabb, k: usize) -> Vec3 {
-    Vec3::new(
-        if k & 1 == 0 { b.min.x } else { b.max.x },
-        if k & 2 == 0 { b.min.y } else { b.max.y },
-        if k & 4 == 0 { b.min.z } else { b.max.z },
-    )
+/// The eight corners of a box: bit k of the index picks max on axis k.
+pub fn box_corners(b: &Aabb) -> [Vec3; 8] {
+    std::array::from_fn(|k| {
+        Vec3::new(
+            if k & 1 == 0 { b.min.x } else { b.max.x },
+            if k & 2 == 0 { b.min.y } else { b.max.y },
+            if k & 4 == 0 { b.min.z } else { b.max.z },
+        )
+    })
 }
 
 /// Draws the outlines of `boxes` into `rgba` (the frame's size), seen through `camera`.
@@ -56,8 +58,9 @@ pub fn outline_boxes(
         if b.bounds.is_empty() {
             continue;
         }
-        for &(i, j) in &EDGES {
-            let (mut a, mut c) = (corner(&b.bounds, i), corner(&b.bounds, j));
+        let corners = box_corners(&b.bounds);
+        for &(i, j) in &BOX_EDGES {
+            let (mut a, mut c) = (corners[i], corners[j]);
             // Clip the edge to the part in front of the eye.
             let near = 1e-4 * (a - camera.eye).length().max((c - camera.eye).length());
             let (za, zc) = ((a - camera.eye).dot(forward), (c - camera.eye).dot(forward));

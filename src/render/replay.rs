@@ -3,6 +3,7 @@
 //! shown in order: the same traversal code, so the same counts and the same hit as the
 //! frame's pixel.
 
+use super::overlay::{BOX_EDGES, box_corners};
 use super::{RayKind, RenderSettings, shadow_ray};
 use crate::accel::replay::{Level, Step, Visited, counters_of};
 use crate::accel::{Accel, Counters, NoStats, Recorder, Structure};
@@ -224,22 +225,6 @@ pub struct Picture {
     pub best: Option<Vec3>,
 }
 
-/// The twelve edges of a box as pairs of corner indices (see `box_corners`).
-const BOX_EDGES: [(usize, usize); 12] = [
-    (0, 1),
-    (2, 3),
-    (4, 5),
-    (6, 7),
-    (0, 2),
-    (1, 3),
-    (4, 6),
-    (5, 7),
-    (0, 4),
-    (1, 5),
-    (2, 6),
-    (3, 7),
-];
-
 /// Draws `picture` into `rgba` (`width` × `height`, 4 bytes a pixel) as `camera` sees it,
 /// on top of everything (as the app draws it over the view).
 pub fn draw_picture(
@@ -294,17 +279,6 @@ pub fn draw_picture(
             }
         }
     }
-}
-
-/// The eight corners of a box: bit k of the index picks max on axis k.
-pub fn box_corners(b: &Aabb) -> [Vec3; 8] {
-    std::array::from_fn(|k| {
-        Vec3::new(
-            if k & 1 == 0 { b.min.x } else { b.max.x },
-            if k & 2 == 0 { b.min.y } else { b.max.y },
-            if k & 4 == 0 { b.min.z } else { b.max.z },
-        )
-    })
 }
 
 impl Replay {
