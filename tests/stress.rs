@@ -469,3 +469,78 @@ fn every_structure_passes_the_stress_suite_on_scenes_and_closed_meshes() {
         }
     }
 }
+
+/// The accuracy suite through the two levels: each closed mesh one BLAS, placed as
+/// instances that rotate, scale unevenly and mirror it; the must-hit rays, carried into the
+/// world by each instance's transform, never leak through the TLAS or the BLAS, and the
+/// flattened triangles by brute force confirm every one is a hit and agree with the closest
+/// hits up to the placement's rounding.
+#[test]
+fn closed_meshes_placed_as_rotated_scaled_mirrored_instances_never_leak() {
+    use bvhlab::accel::{AccelKind, StructureParams};
+    use bvhlab::bench::stress::instanced::{InstancedCase, instance_placements};
+    use bvhlab::bench::stress::suite::{StressConfig, run_instanced};
+    let placements = instance_placements();
+    assert!(
+        placements
+            .iter()
+            .any(|p| p.transform.matrix3.determinant() < 0.0),
+        "a mirror among the placements"
+    );
+    assert!(placements.iter().any(|p| {
+        let s = p.transform.to_scale_rotation_translation().0.abs();
+        s.max_element() > 1.5 * s.min_element()
+    }));
+    let params = StructureParams::of_kind(AccelKind::TwoLevel);
+    let mut mt_leaks = 0;
+    for mesh in ClosedMesh::all() {
+        let case = InstancedCase::new(&mesh, 4_000, 41, &params).unwrap();
+        assert_eq!(
+            case.rays.len(),
+            4_000 * placements.len(),
+            "{}",
+            case.label()
+        );
+        assert_eq!(
+            case.flattened.len(),
+            mesh.faces.len() * placements.len(),
+            "{}",
+            case.label()
+        );
+        let w = case.leaks::<Watertight>(case.rays.len());
+        assert_eq!(w.total(), 0, "watertight leaks on {}: {w:?}", case.label());
+        let f = case.leaks::<ReferenceF64>(0);
+        assert_eq!(f.total(), 0, "f64 leaks on {}: {f:?}", case.label());
+        mt_leaks += case.leaks::<MollerTrumbore>(0).bvh_closest;
+        // Against the flattened triangles: the same surface, up to the placement's rounding.
+        for a in [
+            case.placement_agreement::<Watertight>(4_000),
+            case.placement_agreement::<ReferenceF64>(4_000),
+        ] {
+            assert_eq!(a.rays, 4_000);
+            assert_eq!(a.mismatches + a.missing, 0, "{}: {a:?}", case.label());
+            assert!(a.max_error < 1.0, "{}: {a:?}", case.label());
+            // Rays aimed at edges and vertices: often the other triangle of the edge.
+            assert!(a.shared_point > 500, "{}: {a:?}", case.label());
+        }
+    }
+    // The rays are aimed at edges and vertices: hard enough to make Möller–Trumbore leak.
+    assert!(mt_leaks > 0, "Möller–Trumbore never leaked");
+    // The suite's part: counted per intersector, a leak is a failure.
+    let cfg = StressConfig {
+        leak_rays: 5_000,
+        brute_rays: 2_000,
+        structure: params,
+        ..StressConfig::tests()
+    };
+    let r = run_instanced(&ClosedMesh::torus(32, 16), &cfg).unwrap();
+    assert_eq!(r.placements.len(), placements.len());
+    assert_eq!(r.leaks[0].rays, 5_000);
+    assert_eq!(r.leaks[0].total() + r.leaks[2].total(), 0, "{r:?}");
+    assert_eq!(r.agreement[0].rays, 2_000);
+    assert_eq!(
+        r.agreement[0].mismatches + r.agreement[2].mismatches,
+        0,
+        "{r:?}"
+    );
+}

@@ -261,6 +261,32 @@ fn print_summary(r: &StressReport, timing: &Timing) -> Result<()> {
             t.brute_rays
         );
     }
+    if !r.instanced.is_empty() {
+        out!(
+            "through the two levels: each closed mesh as {} instances ({})",
+            r.instanced[0].placements.len(),
+            r.instanced[0].placements.join("; ")
+        );
+        for c in &r.instanced {
+            for (k, kind) in kinds.iter().enumerate() {
+                let (l, a) = (&c.leaks[k], &c.agreement[k]);
+                out!(
+                    "  {:<9} {:<16} {:>8} rays  leaks: {} closest, {} any-hit; {} of {} (flattened brute force); against the f64 reference: {} mismatches of {} ({} on the same triangle, {} at a shared edge or vertex)",
+                    c.label.split(' ').next().unwrap_or(""),
+                    kind.label(),
+                    l.rays,
+                    l.bvh_closest,
+                    l.bvh_any,
+                    l.brute_closest,
+                    l.brute_rays,
+                    a.mismatches,
+                    a.rays,
+                    a.same_triangle,
+                    a.shared_point
+                );
+            }
+        }
+    }
     let s = &r.slab;
     out!(
         "slab test vs exact rationals: {} cases, {} touching: {} missed, {} late entries; {} axis-parallel: {} wrong; {} clear misses: {} hit; {} NaN",

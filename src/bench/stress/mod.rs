@@ -5,6 +5,7 @@
 pub mod crossing;
 pub mod degenerate;
 pub mod grazing;
+pub mod instanced;
 pub mod leaks;
 pub mod meshes;
 pub mod shadow;

@@ -5,13 +5,14 @@
 use super::crossing::{self, CrossingReport, Topology};
 use super::degenerate::{self, DegenerateReport};
 use super::grazing::{self, GrazingReport};
+use super::instanced::{InstancedCase, PlacementAgreement};
 use super::leaks::{LeakCase, Leaks, count_leaks, placements};
 use super::meshes::ClosedMesh;
 use super::shadow::{self, ShadowReport};
 use super::slab::{self, SlabReport};
 use crate::accel::bvh::{BuildParams, build};
 use crate::accel::structure;
-use crate::accel::{StructureError, StructureParams};
+use crate::accel::{AccelKind, StructureError, StructureParams};
 use crate::bench::compare::{self, Agreement};
 use crate::geometry::{IntersectorKind, Ray};
 use crate::scene::Scene;
@@ -81,6 +82,19 @@ pub struct LeakCaseResult {
     pub leaks: PerIntersector<Leaks>,
 }
 
+/// A closed mesh placed as rotated, scaled and mirrored instances, through the two levels.
+#[derive(Clone, Debug)]
+pub struct InstancedResult {
+    pub label: String,
+    /// The placements, in the order the rays visit them.
+    pub placements: Vec<String>,
+    /// Triangles of the flattened instances.
+    pub triangles: usize,
+    pub leaks: PerIntersector<Leaks>,
+    /// Closest hits against the f64 reference over the flattened triangles (brute force).
+    pub agreement: PerIntersector<PlacementAgreement>,
+}
+
 #[derive(Clone, Debug)]
 pub struct SceneResult {
     pub name: String,
@@ -96,6 +110,8 @@ pub struct SceneResult {
 pub struct StressReport {
     pub config: StressConfig,
     pub leak_cases: Vec<LeakCaseResult>,
+    /// Under the two levels: the closed meshes placed as instances.
+    pub instanced: Vec<InstancedResult>,
     pub slab: SlabReport,
     pub degenerate: PerIntersector<DegenerateReport>,
     pub grazing: PerIntersector<GrazingReport>,
@@ -142,6 +158,14 @@ pub fn run(
         }
         log(&format!("watertightness: {} ({rays} rays)", mesh.name));
     }
+    let mut instanced = Vec::new();
+    if cfg.structure.kind == AccelKind::TwoLevel {
+        for mesh in ClosedMesh::all() {
+            let result = run_instanced(&mesh, cfg)?;
+            log(&format!("instances: {}", result.label));
+            instanced.push(result);
+        }
+    }
     let slab = slab::run(cfg.slab_cases, cfg.seed);
     log(&format!("slab test: {} cases", slab.cases));
     let degenerate = per_intersector(
@@ -159,11 +183,50 @@ pub fn run(
     Ok(StressReport {
         config: cfg.clone(),
         leak_cases,
+        instanced,
         slab,
         degenerate,
         grazing,
         scenes: scene_results,
         elapsed: start.elapsed(),
+    })
+}
+
+/// `mesh` placed as instances (rotated, scaled unevenly, mirrored) through the two levels:
+/// as many rays per instance as a flat case has, the first `brute_rays` of them by brute
+/// force and against the f64 reference too.
+pub fn run_instanced(
+    mesh: &ClosedMesh,
+    cfg: &StressConfig,
+) -> Result<InstancedResult, StructureError> {
+    let placements = super::instanced::instance_placements().len();
+    let case = InstancedCase::new(
+        mesh,
+        cfg.leak_rays.div_ceil(placements),
+        cfg.seed ^ 0x1257,
+        &cfg.structure,
+    )?;
+    let leaks = per_intersector(|kind| {
+        let brute = if kind == IntersectorKind::MollerTrumbore {
+            0
+        } else {
+            cfg.brute_rays
+        };
+        with_intersector!(kind, I => case.leaks::<I>(brute))
+    });
+    let agreement = per_intersector(
+        |kind| with_intersector!(kind, I => case.placement_agreement::<I>(cfg.brute_rays)),
+    );
+    Ok(InstancedResult {
+        label: case.label(),
+        placements: case
+            .placements
+            .iter()
+            .map(|p| p.label.to_string())
+            .collect(),
+        triangles: case.flattened.len(),
+        leaks,
+        agreement,
     })
 }
 
@@ -224,8 +287,9 @@ impl StressReport {
     /// Must-hit rays aimed at edges and vertices: closed meshes and scene crossings.
     pub fn edge_and_vertex_rays(&self) -> u64 {
         let meshes: u64 = self.leak_cases.iter().map(|c| c.leaks[0].rays).sum();
+        let instanced: u64 = self.instanced.iter().map(|c| c.leaks[0].rays).sum();
         let scenes: u64 = self.scenes.iter().map(|s| s.crossings[0].rays).sum();
-        meshes + scenes
+        meshes + instanced + scenes
     }
 
     pub fn leak_totals(&self) -> PerIntersector<Leaks> {
@@ -263,6 +327,14 @@ impl StressReport {
             }
             for c in &self.leak_cases {
                 check(format!("{name}: leaks on {}", c.label), c.leaks[k].total());
+            }
+            for c in &self.instanced {
+                check(format!("{name}: leaks on {}", c.label), c.leaks[k].total());
+                let a = &c.agreement[k];
+                check(
+                    format!("{name}: mismatches on {}", c.label),
+                    a.mismatches + a.missing,
+                );
             }
             check(
                 format!("{name}: degenerate triangles hit"),
@@ -305,6 +377,11 @@ impl StressReport {
                 "brute_rays": l.brute_rays, "brute_closest": l.brute_closest,
             })
         };
+        let agreement = |a: &Agreement| {
+            json!({"rays": a.rays, "reference_hits": a.reference_hits, "agree": a.agree,
+                   "ties": a.ties, "rounding": a.rounding, "mismatches": a.mismatches,
+                   "max_rel_t_error": a.max_rel_t_error})
+        };
         let totals = self.leak_totals();
         let s = &self.slab;
         json!({
@@ -322,6 +399,18 @@ impl StressReport {
                     "leaks": by_kind(&|k| leaks(&c.leaks[k])),
                 })).collect::<Vec<_>>(),
             },
+            "instanced": self.instanced.iter().map(|c| json!({
+                "case": c.label,
+                "placements": c.placements,
+                "triangles": c.triangles,
+                "leaks": by_kind(&|k| leaks(&c.leaks[k])),
+                "agreement": by_kind(&|k| {
+                    let a = &c.agreement[k];
+                    json!({"rays": a.rays, "same_triangle": a.same_triangle,
+                           "shared_point": a.shared_point, "missing": a.missing,
+                           "mismatches": a.mismatches, "max_error": a.max_error})
+                }),
+            })).collect::<Vec<_>>(),
             "slab": {
                 "cases": s.cases, "touching": s.touching, "missed": s.missed,
                 "late_entry": s.late_entry, "axis_parallel": s.axis_parallel,
@@ -349,12 +438,7 @@ impl StressReport {
                     json!({"rays": c.rays, "missed": c.missed, "passed_through": c.passed_through,
                            "any_missed": c.any_missed})
                 }),
-                "agreement": by_kind(&|k| {
-                    let a = &sc.agreement[k];
-                    json!({"rays": a.rays, "reference_hits": a.reference_hits, "agree": a.agree,
-                           "ties": a.ties, "rounding": a.rounding, "mismatches": a.mismatches,
-                           "max_rel_t_error": a.max_rel_t_error})
-                }),
+                "agreement": by_kind(&|k| agreement(&sc.agreement[k])),
                 "shadow": by_kind(&|k| {
                     let r = &sc.shadow[k];
                     json!({"shadow_rays": r.shadow_rays, "occluded": r.occluded,
