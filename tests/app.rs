@@ -403,3 +403,137 @@ fn dragging_an_object_under_the_two_levels_moves_its_instance() {
     );
     assert!(worst < 1e-4, "t differs by {worst} relative");
 }
+
+/// The path of top-level outline nodes from the root down to `node`.
+fn path_to(outline: &bvhlab::accel::Outline, node: usize) -> Vec<usize> {
+    let mut path = vec![node];
+    while let Some(&p) = path.last().map(|&n| &outline.nodes[n].parent)
+        && p != u32::MAX
+    {
+        path.push(p as usize);
+    }
+    path.reverse();
+    path
+}
+
+#[test]
+fn under_the_two_levels_a_selected_instances_blas_continues_the_levels_and_the_walk() {
+    use bvhlab::app::levels::WalkNode;
+    let mut h = app("cornell");
+    choose_structure(&mut h, bvhlab::accel::AccelKind::TwoLevel.title());
+    let top = h.state().outline.max_depth();
+    assert_eq!(h.state().levels().max_depth(), top);
+    assert!(h.state().instance_outline.is_none());
+    h.get_by_label_contains("select an instance to see its BLAS levels");
+    // Choose instance 0 in the panel.
+    h.get_by_label("select").click();
+    settle(&mut h);
+    let o = h
+        .state()
+        .instance_outline
+        .clone()
+        .expect("instance 0 selected");
+    assert_eq!(o.instance, 0);
+    let blas_levels = o.blas.max_depth() + 1;
+    assert!(blas_levels >= 2, "a BLAS of more than its root");
+    assert_eq!(h.state().levels().max_depth(), top + blas_levels);
+    h.get_by_label_contains("instance 0 of mesh 0");
+    h.get_by_label_contains("translation (0.000, 0.000, 0.000)");
+    h.get_by_label_contains("rotation 0.0°");
+    h.get_by_label_contains("[   1.000    0.000    0.000 |     0.000]");
+    // The level slider reaches the BLAS's levels: its boxes are drawn.
+    h.state_mut().settings.show_levels = true;
+    h.state_mut().settings.level = top;
+    settle(&mut h);
+    let tlas_level = h.state().shown.clone().unwrap().rgba.clone();
+    h.state_mut().settings.level = top + 1;
+    settle(&mut h);
+    assert_eq!(h.state().settings.level, top + 1, "not clamped to the TLAS");
+    assert_ne!(h.state().shown.clone().unwrap().rgba, tlas_level);
+    h.get_by_label_contains("BLAS of instance 0, its level 0");
+
+    // The walk from the TLAS root down to the instance's leaf, into its BLAS and back.
+    // The walk's buttons lie below the fold: their keys (W, arrows) do the same.
+    h.key_press(egui::Key::W);
+    settle(&mut h);
+    assert_eq!(h.state().walk, Some(0));
+    let leaf = o.tlas_leaf.expect("the instance is in a leaf") as usize;
+    let outline = h.state().outline.clone();
+    for pair in path_to(&outline, leaf).windows(2) {
+        let levels = h.state().levels();
+        let children = levels.children(WalkNode::Top(pair[0]));
+        assert!(children.contains(&WalkNode::Top(pair[1])));
+        h.state_mut().walk = Some(pair[1] as u32);
+    }
+    settle(&mut h);
+    let info = h.state().shown.clone().unwrap().walk.clone().unwrap();
+    assert_eq!((info.instance, info.in_blas), (Some(0), false));
+    h.get_by_label_contains("TLAS leaf: instance 0");
+    h.key_press(egui::Key::ArrowLeft);
+    settle(&mut h);
+    let root = h.state().levels().id(WalkNode::Bottom(0));
+    assert_eq!(h.state().walk, Some(root));
+    let info = h.state().shown.clone().unwrap().walk.clone().unwrap();
+    assert_eq!(
+        (info.node, info.in_blas, info.instance),
+        (root, true, Some(0))
+    );
+    assert_eq!(info.depth, top + 1);
+    assert_eq!(info.triangles, o.triangle_count);
+    let expected: Vec<usize> = o.blas.nodes[0]
+        .children()
+        .map(|c| h.state().levels().id(WalkNode::Bottom(c)) as usize)
+        .collect();
+    assert_eq!(info.children, expected);
+    h.get_by_label(&format!("{root} (BLAS of instance 0)"));
+    h.key_press(egui::Key::ArrowUp);
+    settle(&mut h);
+    assert_eq!(h.state().walk, Some(leaf as u32));
+
+    // Stepping into another instance's leaf selects it and enters its BLAS.
+    let other = h
+        .state()
+        .leaf_instances
+        .iter()
+        .position(|&i| i != u32::MAX && i != 0)
+        .expect("another leaf");
+    let other_instance = h.state().leaf_instances[other] as usize;
+    h.state_mut().walk = Some(other as u32);
+    h.key_press(egui::Key::ArrowRight);
+    settle(&mut h);
+    let o2 = h.state().instance_outline.clone().unwrap();
+    assert_eq!(o2.instance, other_instance);
+    assert_eq!(o2.tlas_leaf, Some(other as u32));
+    assert_eq!(
+        h.state().walk,
+        Some(h.state().levels().id(WalkNode::Bottom(0)))
+    );
+
+    // Clicking an object with the move tool selects its instance; after a drag the panel
+    // shows the moved transform.
+    h.state_mut().walk = None;
+    drag_an_object(&mut h);
+    let object = h.state().selected_object.expect("an object was grabbed");
+    let o3 = h.state().instance_outline.clone().unwrap();
+    assert_eq!(o3.instance, object, "cornell's objects are its instances");
+    let moved = h.state().moved_transforms[&object];
+    assert_eq!(o3.transform, moved);
+    assert!(moved.translation.length() > 0.0);
+    let t = moved.translation;
+    h.get_by_label_contains(&format!("translation ({:.3}, {:.3}, {:.3})", t.x, t.y, t.z));
+    // The placed BLAS root box moved with it: it holds the moved triangles.
+    h.state_mut().request_snapshot();
+    settle(&mut h);
+    let scene = h.state().snapshot.clone().unwrap();
+    for t in &scene.triangles[scene.objects[object].range()] {
+        for v in t.v {
+            assert!(o3.placed_box_contains(0, v, 1e-4));
+        }
+    }
+    // "none" clears the selection: the levels end with the TLAS again.
+    h.get_by_label("none").click();
+    settle(&mut h);
+    assert!(h.state().instance_outline.is_none());
+    assert_eq!(h.state().levels().max_depth(), top);
+    assert!(h.state().settings.level <= top);
+}

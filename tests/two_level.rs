@@ -674,3 +674,147 @@ fn every_slab_kernel_gives_the_same_hits_and_counts() {
         assert!(trace(&built) == portable, "{}", level.label());
     }
 }
+
+/// The explorer's view of the two levels: the selected instance's BLAS hangs below the
+/// top-level leaf that holds it, its boxes drawn where the instance's transform places them
+/// contain the instance's world-space triangles (every triangle inside the placed root box,
+/// each leaf's triangles inside the leaf's placed box), and the walk's children and parents
+/// are the structure's.
+#[test]
+fn the_selected_instances_blas_is_drawn_around_its_world_triangles_and_walked_below_its_leaf() {
+    use bvhlab::app::levels::{Levels, WalkNode};
+    let scene = instanced_scene(40, 91);
+    let built = structure::build_scene(
+        &scene,
+        &two_level_params(TraversalOrder::default()),
+        &Default::default(),
+    )
+    .unwrap();
+    let Structure::TwoLevel(tl) = &built.structure else {
+        panic!("two levels")
+    };
+    let top = tl.outline();
+    let leaf_instances = tl.leaf_instances();
+    assert_eq!(leaf_instances.len(), top.nodes.len());
+    let mut mirrored = 0;
+    for (i, placed) in scene.instances.iter().enumerate() {
+        let o = tl.instance_outline(i).unwrap();
+        assert_eq!((o.instance, o.mesh), (i, placed.mesh));
+        assert_eq!(o.transform, placed.transform);
+        let mesh = &scene.meshes[placed.mesh].triangles;
+        assert_eq!(o.triangle_count, mesh.len());
+        mirrored += usize::from(placed.transform.matrix3.determinant() < 0.0);
+        // The BLAS outline is the mesh's own BVH8, in the mesh's space.
+        let blas = &tl.blases[placed.mesh];
+        assert_eq!(o.blas.nodes[0].bounds, blas.nodes[0].bounds());
+        // (The outline has a node per lane: its leaves are one below the deepest wide node.)
+        if !mesh.is_empty() {
+            assert_eq!(o.blas.max_depth(), blas.depth);
+        }
+        o.blas.validate().unwrap();
+        let Some(leaf) = o.tlas_leaf else {
+            // Only an empty mesh's instance is in no leaf.
+            assert!(mesh.is_empty(), "instance {i} is in no leaf");
+            continue;
+        };
+        assert_eq!(leaf_instances[leaf as usize], i as u32);
+        assert!(top.nodes[leaf as usize].is_leaf());
+        // Every world triangle of the instance lies in the placed root box, and in the
+        // world box around it; each leaf's triangles in that leaf's placed box.
+        let world: Vec<Triangle> = mesh.iter().map(|t| placed.place(t)).collect();
+        let root_box = o.world_bounds(0);
+        for t in &world {
+            for v in t.v {
+                assert!(o.placed_box_contains(0, v, 1e-4), "instance {i}: {v}");
+                let pad = 1e-4 * (root_box.max - root_box.min).max_element();
+                assert!(
+                    (v.cmpge(root_box.min - pad) & v.cmple(root_box.max + pad)).all(),
+                    "instance {i}: {v} outside {root_box:?}"
+                );
+            }
+        }
+        // The TLAS leaf's world box holds the placed BLAS root box's triangles too.
+        let leaf_box = top.nodes[leaf as usize].bounds;
+        assert!(
+            world
+                .iter()
+                .all(|t| t.v.iter().all(|&v| leaf_box.contains_point(v)))
+        );
+        let mut covered = vec![false; mesh.len()];
+        for k in 0..o.blas.nodes.len() {
+            if !o.blas.nodes[k].is_leaf() {
+                continue;
+            }
+            for t in o.triangles_under(k) {
+                let local = (t - o.first_triangle) as usize;
+                covered[local] = true;
+                for v in world[local].v {
+                    assert!(o.placed_box_contains(k, v, 1e-4), "instance {i} node {k}");
+                }
+            }
+        }
+        assert!(covered.iter().all(|&c| c), "every triangle in a leaf");
+        assert_eq!(o.first_triangle, tl.first_triangle[i]);
+
+        // The walk: the levels run on below the top level by the BLAS's levels, the leaf's
+        // only child is the BLAS's root, whose parent is the leaf; below, the BLAS's own.
+        let levels = Levels::new(&top, Some(&o));
+        assert_eq!(Levels::new(&top, None).max_depth(), top.max_depth());
+        assert_eq!(levels.max_depth(), top.max_depth() + 1 + o.blas.max_depth());
+        let root = WalkNode::Bottom(0);
+        assert_eq!(levels.children(WalkNode::Top(leaf as usize)), vec![root]);
+        assert_eq!(levels.parent(root), Some(WalkNode::Top(leaf as usize)));
+        assert_eq!(levels.node(levels.id(root)), Some(root));
+        assert_eq!(levels.depth(root), top.max_depth() + 1);
+        assert_eq!(levels.level(top.max_depth() + 1), vec![root]);
+        for k in 0..o.blas.nodes.len() {
+            let n = WalkNode::Bottom(k);
+            let children: Vec<WalkNode> =
+                o.blas.nodes[k].children().map(WalkNode::Bottom).collect();
+            assert_eq!(levels.children(n), children);
+            for c in children {
+                assert_eq!(levels.parent(c), Some(n));
+                assert_eq!(levels.depth(c), levels.depth(n) + 1);
+            }
+        }
+        // The rest of the top level is unchanged.
+        for k in 0..top.nodes.len() {
+            if k != leaf as usize {
+                let children: Vec<WalkNode> = top.nodes[k].children().map(WalkNode::Top).collect();
+                assert_eq!(levels.children(WalkNode::Top(k)), children);
+            }
+        }
+    }
+    assert!(mirrored > 0, "the scene mirrors some instances");
+    assert!(tl.instance_outline(scene.instances.len()).is_none());
+}
+
+/// On the island, placing billions of triangles, a selected instance's outline is its
+/// mesh's BLAS alone: nothing is flattened.
+#[test]
+fn an_island_instances_outline_is_its_meshs_blas_alone() {
+    use bvhlab::scene::island::{self, Detail};
+    let scene = island::island(300, &Detail::SMALL);
+    assert!(!scene.is_flattened());
+    let built = structure::build_scene(
+        &scene,
+        &two_level_params(TraversalOrder::default()),
+        &Default::default(),
+    )
+    .unwrap();
+    let Structure::TwoLevel(tl) = &built.structure else {
+        panic!("two levels")
+    };
+    for i in [0, 1, scene.instances.len() / 2, scene.instances.len() - 1] {
+        let o = tl.instance_outline(i).unwrap();
+        let mesh = &scene.meshes[o.mesh].triangles;
+        assert_eq!(o.blas.refs.len(), tl.blases[o.mesh].prim_indices.len());
+        assert!(o.blas.nodes.len() <= 2 * mesh.len() + 1);
+        let placed = &scene.instances[i];
+        for t in mesh.iter().step_by(7) {
+            for v in placed.place(t).v {
+                assert!(o.placed_box_contains(0, v, 1e-4), "instance {i}");
+            }
+        }
+    }
+}

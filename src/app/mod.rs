@@ -4,6 +4,7 @@
 
 mod bucket_plot;
 pub mod export;
+pub mod levels;
 mod orbit;
 mod panels;
 pub mod replay;
@@ -13,6 +14,7 @@ mod viewport;
 pub mod worker;
 
 use crate::accel::bvh::BuildReport;
+use crate::accel::two_level::InstanceOutline;
 use crate::accel::{Outline, StructureParams, StructureReport};
 use crate::scene::Scene;
 use eframe::egui;
@@ -74,6 +76,13 @@ pub struct BvhLabApp {
     building: bool,
     /// The structure's nodes or cells, for the levels view and the tree walk.
     pub outline: Arc<Outline>,
+    /// Under the two levels: the selected instance's BLAS, which the levels and the walk
+    /// continue into, and the instance each top-level leaf holds (by outline node).
+    pub instance_outline: Option<Arc<InstanceOutline>>,
+    pub leaf_instances: Arc<Vec<u32>>,
+    /// The walk stepped into a top-level leaf whose instance is being outlined: enter its
+    /// BLAS when it arrives.
+    enter_blas: bool,
     pub shown: Option<Arc<Shown>>,
     /// The summary of the newest full frame: quick previews may not count.
     pub full_summary: Option<crate::render::FrameSummary>,
@@ -157,6 +166,9 @@ impl BvhLabApp {
             build_error: None,
             building: true,
             outline: Arc::new(Outline::default()),
+            instance_outline: None,
+            leaf_instances: Arc::default(),
+            enter_blas: false,
             shown: None,
             full_summary: None,
             texture: None,
@@ -214,6 +226,8 @@ impl BvhLabApp {
                     self.selected_object = None;
                     self.moved_transforms.clear();
                     self.walk = None;
+                    self.instance_outline = None;
+                    self.leaf_instances = Arc::default();
                     self.replay = None;
                     self.building = true;
                 }
@@ -222,10 +236,15 @@ impl BvhLabApp {
                     report,
                     bvh_report,
                     outline,
+                    leaf_instances,
                     sah,
                 } => {
                     self.sah_prediction = sah;
                     self.sah_history = bvh_report.iter().map(|r| r.tree.sah_cost).collect();
+                    // The selected instance's BLAS comes again (`InstanceSelected`) if the
+                    // new structure has it.
+                    self.instance_outline = None;
+                    self.leaf_instances = leaf_instances;
                     self.settings.level = self.settings.level.min(outline.max_depth());
                     self.walk = self.walk.filter(|&w| (w as usize) < outline.nodes.len());
                     // A screenshot of the tree walk opens it at the node it names.
@@ -289,6 +308,7 @@ impl BvhLabApp {
                     self.shown = Some(shown);
                 }
                 Reply::Snapshot(scene) => self.snapshot = Some(scene),
+                Reply::InstanceSelected(outlined) => self.instance_selected(outlined),
                 Reply::Replayed(Ok(replay)) => {
                     let mut view = replay::ReplayView::new(replay);
                     if let Some(r) = self.screenshot.as_ref().and_then(|p| p.replay) {
@@ -365,6 +385,7 @@ impl BvhLabApp {
                 selected: self.selected_set.as_ref().map(|(.., set)| set.clone()),
                 level: s.show_levels.then_some(s.level),
                 walk: self.walk,
+                instance: self.instance_outline.as_ref().map(|i| i.instance),
                 probe: self
                     .probe
                     .filter(|_| s.accel.walks_cells() && s.show_levels),
@@ -418,6 +439,52 @@ impl BvhLabApp {
     pub fn move_object(&mut self, object: usize, delta: glam::Vec3) {
         self.move_sent = Some(Instant::now());
         self.worker.send(Command::MoveObject { object, delta });
+    }
+
+    /// The levels view and the walk over the outline and the selected instance's BLAS.
+    pub fn levels(&self) -> levels::Levels<'_> {
+        levels::Levels::new(&self.outline, self.instance_outline.as_deref())
+    }
+
+    /// Under the two levels: outline instance `i`'s BLAS below the top level (`None`: no
+    /// instance); it arrives in `instance_outline`.
+    pub fn select_instance(&mut self, i: Option<usize>) {
+        self.worker.send(Command::SelectInstance(i));
+    }
+
+    /// Under the two levels: select the instance that places scene object `object`.
+    pub fn select_object_instance(&mut self, object: usize) {
+        self.worker.send(Command::SelectObject(object));
+    }
+
+    /// A BLAS arrived (or the selection was cleared): the level and the walk stay within
+    /// the tree, and a walk waiting at the instance's leaf steps into its root.
+    fn instance_selected(&mut self, outlined: Option<Arc<InstanceOutline>>) {
+        let old_top = self.outline.nodes.len();
+        let was_in_blas = self.walk.is_some_and(|w| w as usize >= old_top);
+        let same = match (&self.instance_outline, &outlined) {
+            (Some(a), Some(b)) => a.instance == b.instance && a.tlas_leaf == b.tlas_leaf,
+            _ => false,
+        };
+        self.instance_outline = outlined;
+        let levels = self.levels();
+        let max = levels.max_depth();
+        let leaf = levels.instance.and_then(|i| i.tlas_leaf);
+        let root = levels
+            .instance
+            .map(|_| levels.id(levels::WalkNode::Bottom(0)));
+        if self.enter_blas {
+            self.enter_blas = false;
+            if let (Some(w), Some(leaf), Some(root)) = (self.walk, leaf, root)
+                && w == leaf
+            {
+                self.walk = Some(root);
+            }
+        } else if was_in_blas && !same {
+            // The walk was in another BLAS: back to the leaf of the new one, or the root.
+            self.walk = Some(leaf.unwrap_or(0));
+        }
+        self.settings.level = self.settings.level.min(max);
     }
 
     /// Asks the worker for the scene as it is now; it arrives in `snapshot`.

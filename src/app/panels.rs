@@ -376,7 +376,11 @@ fn levels_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 ui.label("building…");
                 return;
             }
-            let max = app.outline.max_depth();
+            let levels = app.levels();
+            let max = levels.max_depth();
+            let top = levels.top_depth();
+            let in_blas = levels.instance.map(|i| i.instance);
+            let level_count = levels.level(app.settings.level).len();
             let s = &mut app.settings;
             ui.checkbox(&mut s.show_levels, "show the boxes or cells of one level");
             ui.add_enabled_ui(s.show_levels, |ui| {
@@ -395,10 +399,125 @@ fn levels_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                     ui.radio_value(&mut s.color_by_node, false, "depth");
                     ui.radio_value(&mut s.color_by_node, true, "node");
                 });
-                let count = app.outline.level(s.level).count();
-                ui.label(format!("{count} nodes or cells at depth {}", s.level));
+                ui.label(format!("{level_count} nodes or cells at depth {}", s.level));
+                if s.accel == AccelKind::TwoLevel {
+                    ui.label(match in_blas {
+                        Some(i) if s.level > top => format!(
+                            "BLAS of instance {i}, its level {} (placed by the instance's \
+                             transform: oriented boxes)",
+                            s.level - top - 1
+                        ),
+                        Some(i) => format!(
+                            "TLAS levels 0–{top} (world boxes), then instance {i}'s BLAS \
+                             levels {}–{max}",
+                            top + 1
+                        ),
+                        None => format!(
+                            "TLAS levels 0–{top} (world boxes); select an instance to see \
+                             its BLAS levels below"
+                        ),
+                    });
+                }
             });
+            if app.settings.accel == AccelKind::TwoLevel {
+                selected_instance(app, ui);
+            }
         });
+}
+
+/// Under the two levels: which instance's BLAS the levels and the walk continue into, and
+/// what it is: its mesh, its triangles and its transform (object to world).
+fn selected_instance(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    ui.separator();
+    let count = app.report.as_ref().and_then(|r| {
+        r.details
+            .iter()
+            .find(|(k, _)| k == "instances")
+            .and_then(|(_, v)| v.parse::<usize>().ok())
+    });
+    let current = app.instance_outline.as_ref().map(|i| i.instance);
+    let mut chosen = current.unwrap_or(0);
+    let mut send = None;
+    ui.horizontal(|ui| {
+        ui.label("selected instance");
+        let max = count.unwrap_or(1).saturating_sub(1);
+        if ui
+            .add(egui::DragValue::new(&mut chosen).range(0..=max))
+            .on_hover_text("or click an object with the move tool")
+            .changed()
+        {
+            send = Some(Some(chosen));
+        }
+        if current.is_none() && ui.button("select").clicked() {
+            send = Some(Some(chosen));
+        }
+        if current.is_some() && ui.button("none").clicked() {
+            send = Some(None);
+        }
+    });
+    if let Some(i) = send {
+        app.select_instance(i);
+    }
+    let Some(inst) = app.instance_outline.clone() else {
+        return;
+    };
+    let mesh = app
+        .scene
+        .as_ref()
+        .map_or(String::new(), |s| mesh_name(s, inst.mesh));
+    ui.label(format!(
+        "instance {} of mesh {} '{mesh}': {} triangles, BLAS depth {}",
+        inst.instance,
+        inst.mesh,
+        inst.triangle_count,
+        inst.blas.max_depth()
+    ));
+    transform_text(ui, &inst.transform);
+}
+
+/// The name of mesh `mesh` of the structure: the scene's own mesh, or the object that is
+/// its own mesh under the two levels.
+fn mesh_name(scene: &crate::scene::Scene, mesh: usize) -> String {
+    if !scene.meshes.is_empty() {
+        return scene
+            .meshes
+            .get(mesh)
+            .map_or("?".into(), |m| m.name.clone());
+    }
+    scene
+        .objects
+        .get(mesh)
+        .map_or("?".into(), |o| o.name.clone())
+}
+
+/// A transform as translation, rotation (axis and angle), scale and its 3×4 matrix.
+fn transform_text(ui: &mut egui::Ui, transform: &glam::Affine3A) {
+    let (scale, rotation, translation) = transform.to_scale_rotation_translation();
+    let (axis, angle) = rotation.to_axis_angle();
+    let v = |v: glam::Vec3| format!("({:.3}, {:.3}, {:.3})", v.x, v.y, v.z);
+    ui.label(format!("translation {}", v(translation)));
+    ui.label(format!(
+        "rotation {:.1}° about {}",
+        angle.to_degrees(),
+        v(axis)
+    ));
+    ui.label(format!(
+        "scale {}{}",
+        v(scale),
+        if transform.matrix3.determinant() < 0.0 {
+            " (mirrored)"
+        } else {
+            ""
+        }
+    ));
+    let m = transform.matrix3;
+    let t = transform.translation;
+    for row in 0..3 {
+        ui.monospace(format!(
+            "[{:>8.3} {:>8.3} {:>8.3} | {:>9.3}]",
+            m.x_axis[row], m.y_axis[row], m.z_axis[row], t[row]
+        ));
+    }
 }
 
 fn walk_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
@@ -423,16 +542,23 @@ fn walk_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                     app.walk_to(Step::Right);
                 }
             });
-            let children = app
-                .walk
-                .and_then(|w| app.outline.nodes.get(w as usize))
-                .map_or(0..0, |n| n.children());
+            let levels = app.levels();
+            let children: Vec<u32> =
+                app.walk
+                    .and_then(|w| levels.node(w))
+                    .map_or(Vec::new(), |n| {
+                        levels
+                            .children(n)
+                            .into_iter()
+                            .map(|c| levels.id(c))
+                            .collect()
+                    });
             if children.len() > 2 {
                 ui.horizontal_wrapped(|ui| {
                     ui.label("child");
-                    for (k, c) in children.enumerate() {
+                    for (k, &c) in children.iter().enumerate() {
                         if ui.small_button((k + 1).to_string()).clicked() {
-                            app.walk = Some(c as u32);
+                            app.walk = Some(c);
                         }
                     }
                 });
@@ -440,7 +566,11 @@ fn walk_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             if let Some(info) = app.shown.as_ref().and_then(|s| s.walk.as_ref()) {
                 egui::Grid::new("walk").num_columns(2).show(ui, |ui| {
                     ui.label("node");
-                    ui.label(info.node.to_string());
+                    ui.label(match (info.in_blas, info.instance) {
+                        (true, Some(i)) => format!("{} (BLAS of instance {i})", info.node),
+                        (false, Some(i)) => format!("{} (TLAS leaf: instance {i})", info.node),
+                        _ => info.node.to_string(),
+                    });
                     ui.end_row();
                     ui.label("depth");
                     ui.label(info.depth.to_string());
@@ -448,7 +578,11 @@ fn walk_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                     ui.label("triangles");
                     ui.label(info.triangles.to_string());
                     ui.end_row();
-                    ui.label("surface area");
+                    ui.label(if info.in_blas {
+                        "surface area (mesh space)"
+                    } else {
+                        "surface area"
+                    });
                     ui.label(format!("{:.4}", info.surface_area));
                     ui.end_row();
                     ui.label(if !info.children.is_empty() {
@@ -478,19 +612,34 @@ pub enum Step {
 }
 
 impl BvhLabApp {
+    /// Steps the walk. Under the two levels a step down from a top-level leaf enters its
+    /// instance's BLAS (selecting the instance first if it is not the selected one), and a
+    /// step up from the BLAS's root comes back to that leaf.
     pub fn walk_to(&mut self, step: Step) {
-        let Some(node) = self.walk else { return };
-        let i = node as usize;
-        let Some(n) = self.outline.nodes.get(i) else {
+        let Some(id) = self.walk else { return };
+        let levels = self.levels();
+        let Some(node) = levels.node(id) else {
             return;
         };
+        let children = levels.children(node);
         let next = match step {
-            Step::Parent => Some(n.parent).filter(|&p| p != u32::MAX),
-            Step::Left => n.children().next().map(|c| c as u32),
-            Step::Right => n.children().last().map(|c| c as u32),
+            Step::Parent => levels.parent(node),
+            Step::Left => children.first().copied(),
+            Step::Right => children.last().copied(),
         };
         if let Some(n) = next {
-            self.walk = Some(n);
+            self.walk = Some(levels.id(n));
+            return;
+        }
+        let leaf_instance = match node {
+            super::levels::WalkNode::Top(k) => self.leaf_instances.get(k).copied(),
+            super::levels::WalkNode::Bottom(_) => None,
+        };
+        if step != Step::Parent
+            && let Some(i) = leaf_instance.filter(|&i| i != u32::MAX)
+        {
+            self.enter_blas = true;
+            self.select_instance(Some(i as usize));
         }
     }
 
@@ -539,7 +688,7 @@ fn refit_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 app.settings.auto_rebuild_percent = auto.then_some(p);
             });
             if app.settings.accel == AccelKind::TwoLevel {
-                instance_transform(app, ui);
+                grabbed_instance(app, ui);
                 if let Some((refit, flat)) = app.last_instance_move {
                     ui.label(format!(
                         "last move: the instance moved, the top level refitted in {:.3} ms",
@@ -579,7 +728,7 @@ fn refit_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
 }
 
 /// The grabbed object's instance: which it is and its transform (object to world).
-fn instance_transform(app: &BvhLabApp, ui: &mut egui::Ui) {
+fn grabbed_instance(app: &BvhLabApp, ui: &mut egui::Ui) {
     let (Some(object), Some(scene)) = (app.selected_object, &app.scene) else {
         return;
     };

@@ -180,6 +180,15 @@ fn start_drag(app: &mut BvhLabApp, rect: egui::Rect, pos: egui::Pos2) {
     if !s.is_hit() {
         return;
     }
+    // Under the two levels a click selects the object's instance: the levels and the walk
+    // continue into its BLAS.
+    if app.settings.accel == AccelKind::TwoLevel
+        && let Some(object) = usize::try_from(s.triangle)
+            .ok()
+            .and_then(|t| app.scene.as_ref()?.object_of(t))
+    {
+        app.select_object_instance(object);
+    }
     // Under the two levels a whole object moves as its instance: the top level is refitted.
     // This works for any triangle number, also past 32 bits (the island).
     if app.settings.accel == AccelKind::TwoLevel && app.settings.move_whole_object {
@@ -216,6 +225,7 @@ impl BvhLabApp {
         }
         let pressed = |k: Key| ctx.input(|i| i.key_pressed(k));
         let ctrl = ctx.input(|i| i.modifiers.command);
+        let max_level = self.levels().max_depth();
         let s = &mut self.settings;
         for (k, m) in [
             Key::Num1,
@@ -246,7 +256,7 @@ impl BvhLabApp {
             s.level = s.level.saturating_sub(1);
         }
         if pressed(Key::CloseBracket) {
-            s.level = (s.level + 1).min(self.outline.max_depth());
+            s.level = (s.level + 1).min(max_level);
         }
         if pressed(Key::O) && !ctrl {
             self.tool = Tool::Orbit;

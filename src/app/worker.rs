@@ -8,14 +8,18 @@
 //! the size, the scene or the tree changed; a new colour mode or overlay recolours the
 //! traced frame.
 
+use super::levels::{Levels, WalkNode};
 use crate::accel::bvh::refit::RefitIndex;
 use crate::accel::bvh::{self, BuildReport, Bvh, split_costs};
 use crate::accel::split_costs::SplitCosts;
 use crate::accel::structure::{self, AccelKind, Structure, StructureParams};
+use crate::accel::two_level::InstanceOutline;
 use crate::accel::{Outline, StructureReport};
 use crate::bench::sah_check::{mean_work_of, random_lines};
 use crate::geometry::Aabb;
-use crate::render::overlay::{OutlinedBox, outline_boxes, palette, tint_triangles};
+use crate::render::overlay::{
+    OutlinedBox, outline_boxes, outline_corners, palette, tint_triangles,
+};
 use crate::render::replay::{Replay, replay_pixel};
 use crate::render::{Frame, Mode, RayKind, RenderSettings, colorize, trace};
 use crate::scene::{Camera, Scene};
@@ -42,6 +46,9 @@ pub struct Overlay {
     pub see_through: bool,
     /// Colour level boxes by node instead of by depth.
     pub color_by_node: bool,
+    /// Under the two levels: the selected instance, whose BLAS the levels and the walk
+    /// continue into.
+    pub instance: Option<usize>,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -84,6 +91,11 @@ pub enum Command {
     Undo,
     /// Trace one pixel's ray again, recording its traversal (the ray replay).
     Replay(ReplayRequest),
+    /// Under the two levels: outline this instance's BLAS below the top level (`None`:
+    /// no instance).
+    SelectInstance(Option<usize>),
+    /// Under the two levels: select the instance that places scene object `object`.
+    SelectObject(usize),
 }
 
 /// A pixel of a frame whose ray to replay: its primary ray, or its shadow ray.
@@ -101,6 +113,10 @@ pub struct ReplayRequest {
 pub struct WalkInfo {
     pub node: u32,
     pub depth: u32,
+    /// Under the two levels: the instance whose BLAS holds the node, or which the
+    /// top-level leaf holds (`in_blas` tells which).
+    pub instance: Option<usize>,
+    pub in_blas: bool,
     pub triangles: usize,
     pub surface_area: f32,
     /// For an interior node, C = C_trav + Σ S_child/S_N·N_child·C_isect; for a leaf,
@@ -164,9 +180,14 @@ pub enum Reply {
         /// The BVH's own report (SAH cost, leaf sizes), for a BVH.
         bvh_report: Option<Box<BuildReport>>,
         outline: Arc<Outline>,
+        /// Under the two levels: the instance each top-level leaf holds (`u32::MAX` for an
+        /// interior node), by outline node.
+        leaf_instances: Arc<Vec<u32>>,
         /// For trees the SAH describes: its prediction against random lines.
         sah: Option<SahPrediction>,
     },
+    /// The selected instance's BLAS, outlined (again after a move or a build), or none.
+    InstanceSelected(Option<Arc<InstanceOutline>>),
     BuildFailed(String),
     Refitted {
         sah_before: f64,
@@ -223,6 +244,8 @@ impl Worker {
             structure: None,
             params: StructureParams::default(),
             outline: Arc::new(Outline::default()),
+            instance: None,
+            leaf_instances: Arc::default(),
             reference_bvh: None,
             version: 0,
             traced: None,
@@ -323,6 +346,10 @@ struct State {
     structure: Option<Structure>,
     params: StructureParams,
     outline: Arc<Outline>,
+    /// Under the two levels: the selected instance's BLAS, and the instance each top-level
+    /// leaf holds.
+    instance: Option<Arc<InstanceOutline>>,
+    leaf_instances: Arc<Vec<u32>>,
     /// Under a structure that cannot refit: a BVH over the same triangles, refitted on every
     /// move only to show what a refit would have cost. Made at the first move.
     reference_bvh: Option<(Bvh, RefitIndex)>,
@@ -412,6 +439,7 @@ impl State {
                     });
                     self.scene = Some(scene);
                     self.structure = None;
+                    self.instance = None;
                     self.reference_bvh = None;
                     self.gesture.clear();
                     self.undo.clear();
@@ -468,6 +496,11 @@ impl State {
                 let replayed = self.replay(&request);
                 self.reply(Reply::Replayed(replayed));
             }
+            Command::SelectInstance(i) => self.select_instance(i),
+            Command::SelectObject(object) => {
+                let i = self.instance_of_object(object);
+                self.select_instance(i);
+            }
             Command::Undo => {
                 let step = if self.gesture.is_empty() {
                     self.undo.pop().unwrap_or_default()
@@ -507,14 +540,24 @@ impl State {
                 self.refit_index = None;
                 self.outline = Arc::new(built.structure.outline());
                 let sah = SahPrediction::of(&built.structure, &self.params, &scene.bounds());
+                let leaf_instances = match &built.structure {
+                    Structure::TwoLevel(tl) => tl.leaf_instances(),
+                    _ => Vec::new(),
+                };
                 self.structure = Some(built.structure);
+                self.leaf_instances = Arc::new(leaf_instances);
                 self.version += 1;
                 self.reply(Reply::Built {
                     report: Box::new(built.report),
                     bvh_report: built.bvh_report.map(Box::new),
                     outline: self.outline.clone(),
+                    leaf_instances: self.leaf_instances.clone(),
                     sah,
                 });
+                // The selected instance hangs below another leaf of the new top level (or
+                // the structure has no instances any more).
+                let selected = self.instance.as_ref().map(|i| i.instance);
+                self.select_instance(selected);
                 true
             }
             Err(e) => {
@@ -672,7 +715,43 @@ impl State {
             object,
             transform,
         });
+        // The selected instance's boxes move with it.
+        if let Some(i) = self.instance.as_ref().map(|i| i.instance) {
+            self.select_instance(Some(i));
+        }
         true
+    }
+
+    /// The structure's instance that places scene object `object` (under the two levels):
+    /// the scene's own instance, or the object itself as an instance of its own triangles
+    /// where the structure's instances are the objects.
+    fn instance_of_object(&self, object: usize) -> Option<usize> {
+        let (Some(scene), Some(Structure::TwoLevel(tl))) = (&self.scene, &self.structure) else {
+            return None;
+        };
+        if !scene.instances.is_empty() {
+            return scene.instance_of_object(object);
+        }
+        let range = scene.objects.get(object)?.range();
+        let is_object = tl.instances.len() == scene.objects.len()
+            && tl.first_triangle.get(object) == Some(&(range.start as u64));
+        // A scene whose objects do not cover its triangles in order is one instance.
+        Some(if is_object { object } else { 0 }).filter(|&i| i < tl.instances.len())
+    }
+
+    /// Outlines instance `i`'s BLAS for the levels view and the walk (none under any other
+    /// structure, or for no such instance) and tells the UI.
+    fn select_instance(&mut self, i: Option<usize>) {
+        let outlined = match (&self.structure, i) {
+            (Some(Structure::TwoLevel(tl)), Some(i)) => tl.instance_outline(i).map(Arc::new),
+            _ => None,
+        };
+        if outlined.is_none() && self.instance.is_none() {
+            return;
+        }
+        // Only the overlay changes: the UI asks for a frame with the new selection.
+        self.instance = outlined.clone();
+        self.reply(Reply::InstanceSelected(outlined));
     }
 
     fn render(&mut self, job: RenderJob) {
@@ -734,25 +813,49 @@ impl State {
                 (selected.get(t as usize) == Some(&true)).then_some([255, 230, 80, 110])
             });
         }
+        let instance = self.instance.as_deref();
+        let levels = Levels::new(outline, instance);
         if let Some(level) = o.level {
-            let mut boxes: Vec<OutlinedBox> = outline
-                .level(level)
-                .map(|i| OutlinedBox {
-                    bounds: outline.nodes[i].bounds,
-                    color: if o.color_by_node {
-                        palette(i)
-                    } else {
-                        palette(level as usize)
-                    },
-                })
-                .collect();
-            // A k-d tree's split planes at this depth, in white over their cells.
-            boxes.extend(outline.level(level).filter_map(|i| {
-                outline.nodes[i].plane.map(|bounds| OutlinedBox {
-                    bounds,
-                    color: [255, 255, 255, 230],
-                })
-            }));
+            let color = |i: usize| {
+                if o.color_by_node {
+                    palette(i)
+                } else {
+                    palette(level as usize)
+                }
+            };
+            let nodes = levels.level(level);
+            let mut boxes = Vec::new();
+            for node in nodes {
+                match (node, instance) {
+                    (WalkNode::Top(i), _) => {
+                        let n = &outline.nodes[i];
+                        boxes.push(OutlinedBox {
+                            bounds: n.bounds,
+                            color: color(i),
+                        });
+                        // A k-d tree's split planes at this depth, in white over their cells.
+                        if let Some(bounds) = n.plane {
+                            boxes.push(OutlinedBox {
+                                bounds,
+                                color: [255, 255, 255, 230],
+                            });
+                        }
+                    }
+                    // The BLAS's boxes where the instance places them.
+                    (WalkNode::Bottom(i), Some(inst)) => {
+                        let corners = inst.world_corners(i);
+                        outline_corners(
+                            frame,
+                            rgba,
+                            &job.camera,
+                            &corners,
+                            color(i),
+                            o.see_through,
+                        );
+                    }
+                    (WalkNode::Bottom(_), None) => {}
+                }
+            }
             outline_boxes(frame, rgba, &job.camera, &boxes, o.see_through);
         }
         if let (Some([u, v]), Some(s)) = (o.probe, &self.structure) {
@@ -773,33 +876,44 @@ impl State {
                 outline_boxes(frame, rgba, &job.camera, &boxes, true);
             }
         }
-        let node = o.walk? as usize;
-        let n = outline.nodes.get(node)?;
+        let id = o.walk?;
+        let node = levels.node(id)?;
+        if let (WalkNode::Bottom(k), Some(inst)) = (node, instance) {
+            return Some(self.draw_blas_walk(frame, rgba, job, &levels, inst, k));
+        }
+        let WalkNode::Top(node) = node else {
+            return None;
+        };
+        let n = &outline.nodes[node];
         let mut info = WalkInfo {
-            node: node as u32,
+            node: id,
             depth: n.depth,
+            instance: self.leaf_instance(node),
+            in_blas: false,
             surface_area: n.bounds.surface_area(),
             triangles: 0,
             sah_cost: 0.0,
-            children: n.children().collect(),
+            children: levels
+                .children(WalkNode::Top(node))
+                .into_iter()
+                .map(|c| levels.id(c) as usize)
+                .collect(),
             split_costs: None,
-        };
-        const FIRST: [u8; 4] = [255, 140, 40, 150];
-        const SECOND: [u8; 4] = [60, 170, 255, 150];
-        let child_color = |k: usize, count: usize| match (k, count) {
-            (0, _) => FIRST,
-            (1, 2) => SECOND,
-            _ => {
-                let [r, g, b, _] = palette(k);
-                [r, g, b, 150]
-            }
         };
         let mut boxes = vec![OutlinedBox {
             bounds: n.bounds,
             color: [255, 255, 255, 255],
         }];
         let p = &self.params.bvh;
-        if n.is_leaf() {
+        if let Some(inst) = instance.filter(|i| i.tlas_leaf == Some(node as u32)) {
+            // The leaf of the selected instance: its BLAS's root below, placed.
+            info.triangles = inst.triangle_count;
+            info.sah_cost = p.c_isect * info.triangles as f32;
+            let root = inst.world_corners(0);
+            outline_corners(frame, rgba, &job.camera, &root, FIRST_CHILD, true);
+            let range = inst.first_triangle..inst.first_triangle + inst.triangle_count as u64;
+            tint_triangles(frame, rgba, |t| range.contains(&t).then_some(FIRST_CHILD));
+        } else if n.is_leaf() {
             let under = outline.triangles_under(node);
             info.triangles = under.len();
             info.sah_cost = p.c_isect * under.len() as f32;
@@ -810,7 +924,7 @@ impl State {
                 }
             }
             tint_triangles(frame, rgba, |t| {
-                (mark.get(t as usize) == Some(&true)).then_some(FIRST)
+                (mark.get(t as usize) == Some(&true)).then_some(FIRST_CHILD)
             });
         } else {
             let area = info.surface_area.max(f32::MIN_POSITIVE);
@@ -819,7 +933,7 @@ impl State {
             let mut side = vec![u8::MAX; triangle_count];
             let mut all = std::collections::HashSet::new();
             info.sah_cost = p.c_trav;
-            for (k, &c) in info.children.iter().enumerate() {
+            for (k, c) in n.children().enumerate() {
                 let under = outline.triangles_under(c);
                 let child = &outline.nodes[c];
                 info.sah_cost +=
@@ -853,6 +967,93 @@ impl State {
         }
         outline_boxes(frame, rgba, &job.camera, &boxes, true);
         Some(info)
+    }
+
+    /// Under the two levels: the instance top-level outline node `node` holds, if a leaf.
+    fn leaf_instance(&self, node: usize) -> Option<usize> {
+        self.leaf_instances
+            .get(node)
+            .filter(|&&i| i != u32::MAX)
+            .map(|&i| i as usize)
+    }
+
+    /// The walk at node `k` of the selected instance's BLAS: its placed box, its children's
+    /// placed boxes and their triangles tinted. Areas and the SAH cost are the BLAS's own,
+    /// in the mesh's space, where it was built.
+    fn draw_blas_walk(
+        &self,
+        frame: &Frame,
+        rgba: &mut [u8],
+        job: &RenderJob,
+        levels: &Levels,
+        inst: &InstanceOutline,
+        k: usize,
+    ) -> WalkInfo {
+        let blas = &inst.blas;
+        let n = &blas.nodes[k];
+        let p = &self.params.bvh;
+        let mut info = WalkInfo {
+            node: levels.id(WalkNode::Bottom(k)),
+            depth: levels.depth(WalkNode::Bottom(k)),
+            instance: Some(inst.instance),
+            in_blas: true,
+            surface_area: n.bounds.surface_area(),
+            triangles: 0,
+            sah_cost: 0.0,
+            children: n
+                .children()
+                .map(|c| levels.id(WalkNode::Bottom(c)) as usize)
+                .collect(),
+            split_costs: None,
+        };
+        // Which child each of the mesh's triangles lies under (the mesh, not the scene:
+        // bounded whatever the instancing places).
+        let mut side = vec![u8::MAX; inst.triangle_count];
+        let count = n.child_count as usize;
+        if n.is_leaf() {
+            let under = blas.triangles_under(k);
+            info.triangles = under.len();
+            info.sah_cost = p.c_isect * under.len() as f32;
+            for &t in &under {
+                if let Some(s) = side.get_mut(t as usize) {
+                    *s = 0;
+                }
+            }
+        } else {
+            let area = info.surface_area.max(f32::MIN_POSITIVE);
+            info.sah_cost = p.c_trav;
+            for (j, c) in n.children().enumerate() {
+                let under = blas.triangles_under(c);
+                info.sah_cost +=
+                    blas.nodes[c].bounds.surface_area() / area * under.len() as f32 * p.c_isect;
+                info.triangles += under.len();
+                for &t in &under {
+                    if let Some(s) = side.get_mut(t as usize) {
+                        *s = j as u8;
+                    }
+                }
+                let [r, g, b, _] = child_color(j, count);
+                outline_corners(
+                    frame,
+                    rgba,
+                    &job.camera,
+                    &inst.world_corners(c),
+                    [r, g, b, 255],
+                    true,
+                );
+            }
+        }
+        let first = inst.first_triangle;
+        tint_triangles(frame, rgba, |t| {
+            let local = usize::try_from(t.checked_sub(first)?).ok()?;
+            match side.get(local) {
+                Some(&j) if j != u8::MAX => Some(child_color(j as usize, count.max(1))),
+                _ => None,
+            }
+        });
+        let own = inst.world_corners(k);
+        outline_corners(frame, rgba, &job.camera, &own, [255, 255, 255, 255], true);
+        info
     }
 
     /// The bucket-cost plot's data for node `node` of the outline (`under`: the scene
@@ -899,6 +1100,21 @@ impl State {
         let costs = Arc::new(costs);
         *cache = Some((key, costs.clone()));
         Some(costs)
+    }
+}
+
+/// The tree walk's colours: the first child, the second of two, the palette beyond.
+const FIRST_CHILD: [u8; 4] = [255, 140, 40, 150];
+const SECOND_CHILD: [u8; 4] = [60, 170, 255, 150];
+
+fn child_color(k: usize, count: usize) -> [u8; 4] {
+    match (k, count) {
+        (0, _) => FIRST_CHILD,
+        (1, 2) => SECOND_CHILD,
+        _ => {
+            let [r, g, b, _] = palette(k);
+            [r, g, b, 150]
+        }
     }
 }
 

@@ -51,61 +51,77 @@ pub fn outline_boxes(
     boxes: &[OutlinedBox],
     see_through: bool,
 ) {
+    for b in boxes.iter().filter(|b| !b.bounds.is_empty()) {
+        outline_corners(
+            frame,
+            rgba,
+            camera,
+            &box_corners(&b.bounds),
+            b.color,
+            see_through,
+        );
+    }
+}
+
+/// Draws the twelve edges between `corners` (numbered as `box_corners` numbers them): a
+/// box placed by a transform, which may rotate, scale or mirror it (an oriented box).
+pub fn outline_corners(
+    frame: &Frame,
+    rgba: &mut [u8],
+    camera: &Camera,
+    corners: &[Vec3; 8],
+    color: [u8; 4],
+    see_through: bool,
+) {
     let (w, h) = (frame.width, frame.height);
     let basis = camera.basis();
     let forward = -basis.2;
-    for b in boxes {
-        if b.bounds.is_empty() {
+    for &(i, j) in &BOX_EDGES {
+        let (mut a, mut c) = (corners[i], corners[j]);
+        // Clip the edge to the part in front of the eye.
+        let near = 1e-4 * (a - camera.eye).length().max((c - camera.eye).length());
+        let (za, zc) = ((a - camera.eye).dot(forward), (c - camera.eye).dot(forward));
+        if za < near && zc < near {
             continue;
         }
-        let corners = box_corners(&b.bounds);
-        for &(i, j) in &BOX_EDGES {
-            let (mut a, mut c) = (corners[i], corners[j]);
-            // Clip the edge to the part in front of the eye.
-            let near = 1e-4 * (a - camera.eye).length().max((c - camera.eye).length());
-            let (za, zc) = ((a - camera.eye).dot(forward), (c - camera.eye).dot(forward));
-            if za < near && zc < near {
-                continue;
-            }
-            if za < near {
-                a = a + (c - a) * ((near - za) / (zc - za));
-            } else if zc < near {
-                c = c + (a - c) * ((near - zc) / (za - zc));
-            }
-            let (Some(pa), Some(pc)) = (camera.project(a, w, h), camera.project(c, w, h)) else {
+        if za < near {
+            a = a + (c - a) * ((near - za) / (zc - za));
+        } else if zc < near {
+            c = c + (a - c) * ((near - zc) / (za - zc));
+        }
+        let (Some(pa), Some(pc)) = (camera.project(a, w, h), camera.project(c, w, h)) else {
+            continue;
+        };
+        let pixels = (pa.0 - pc.0).abs().max((pa.1 - pc.1).abs());
+        if !pixels.is_finite() {
+            continue;
+        }
+        // Sample along the 3D edge densely enough that no pixel is skipped.
+        let steps = (2.0 * pixels).ceil().clamp(1.0, 16384.0) as u32;
+        for s in 0..=steps {
+            let p = a + (c - a) * (s as f32 / steps as f32);
+            let Some((x, y, depth)) = camera.project(p, w, h) else {
                 continue;
             };
-            let pixels = (pa.0 - pc.0).abs().max((pa.1 - pc.1).abs());
-            if !pixels.is_finite() {
+            if !(x >= 0.0 && y >= 0.0 && x < w as f32 && y < h as f32) {
                 continue;
             }
-            // Sample along the 3D edge densely enough that no pixel is skipped.
-            let steps = (2.0 * pixels).ceil().clamp(1.0, 16384.0) as u32;
-            for s in 0..=steps {
-                let p = a + (c - a) * (s as f32 / steps as f32);
-                let Some((x, y, depth)) = camera.project(p, w, h) else {
-                    continue;
-                };
-                if !(x >= 0.0 && y >= 0.0 && x < w as f32 && y < h as f32) {
-                    continue;
-                }
-                let (px, py) = (x as u32, y as u32);
-                let idx = (py * w + px) as usize;
-                let surface = frame.samples[idx].t;
-                if !see_through && depth > surface * 1.001 {
-                    continue;
-                }
-                blend(&mut rgba[4 * idx..4 * idx + 4], b.color);
+            let (px, py) = (x as u32, y as u32);
+            let idx = (py * w + px) as usize;
+            let surface = frame.samples[idx].t;
+            if !see_through && depth > surface * 1.001 {
+                continue;
             }
+            blend(&mut rgba[4 * idx..4 * idx + 4], color);
         }
     }
 }
 
 /// Tints every pixel whose primary hit is a triangle `tint_of` gives a colour for.
-pub fn tint_triangles(frame: &Frame, rgba: &mut [u8], tint_of: impl Fn(u32) -> Option<[u8; 4]>) {
+pub fn tint_triangles(frame: &Frame, rgba: &mut [u8], tint_of: impl Fn(u64) -> Option<[u8; 4]>) {
     for (s, px) in frame.samples.iter().zip(rgba.chunks_exact_mut(4)) {
         if s.is_hit()
-            && let Some(c) = u32::try_from(s.triangle).ok().and_then(&tint_of)
+            && let Some(c) = tint_of(s.triangle)
         {
             blend(px, c);
         }

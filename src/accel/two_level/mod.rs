@@ -4,9 +4,11 @@
 //! Both levels are BVH8s (the BVH2 collapsed, traced with SIMD slab tests): the fastest
 //! layout, as a two-level ray takes as many steps as a flat one and more.
 
+pub mod outline;
 pub mod refit;
 mod traverse;
 
+pub use outline::InstanceOutline;
 pub use refit::TopLevelIndex;
 
 use super::bvh::wide::{CollapseParams, PADDING, UnsupportedSimd};
