@@ -251,6 +251,10 @@ impl BvhLabApp {
                     if let Some(node) = self.screenshot.as_ref().and_then(|p| p.walk) {
                         self.walk = Some(node.min(outline.nodes.len().saturating_sub(1) as u32));
                     }
+                    // A screenshot of an instance's BLAS selects it once the levels exist.
+                    if let Some(i) = self.screenshot.as_ref().and_then(|p| p.instance) {
+                        self.worker.send(Command::SelectInstance(Some(i)));
+                    }
                     self.outline = outline;
                     // The replayed steps name nodes of the old structure.
                     self.replay = None;
@@ -466,6 +470,7 @@ impl BvhLabApp {
             (Some(a), Some(b)) => a.instance == b.instance && a.tlas_leaf == b.tlas_leaf,
             _ => false,
         };
+        let old_leaf = self.instance_outline.as_ref().and_then(|i| i.tlas_leaf);
         self.instance_outline = outlined;
         let levels = self.levels();
         let max = levels.max_depth();
@@ -481,10 +486,13 @@ impl BvhLabApp {
                 self.walk = Some(root);
             }
         } else if was_in_blas && !same {
-            // The walk was in another BLAS: back to the leaf of the new one, or the root.
-            self.walk = Some(leaf.unwrap_or(0));
+            // The walk was in the BLAS of another instance, or of none now: back to the
+            // leaf it hung below.
+            self.walk = Some(old_leaf.unwrap_or(0));
         }
-        self.settings.level = self.settings.level.min(max);
+        // A screenshot's level may lie in the BLAS, past the top level's depth.
+        let wanted = self.screenshot.as_ref().and_then(|p| p.level);
+        self.settings.level = wanted.unwrap_or(self.settings.level).min(max);
     }
 
     /// Asks the worker for the scene as it is now; it arrives in `snapshot`.

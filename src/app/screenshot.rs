@@ -61,6 +61,8 @@ pub struct ScreenshotPlan {
     pub level: Option<u32>,
     /// The node the tree walk opens at (the bucket-cost plot shows its splits).
     pub walk: Option<u32>,
+    /// Under the two levels: the instance selected, whose BLAS levels follow the TLAS's.
+    pub instance: Option<usize>,
     /// Replay the ray through this point of the view (0..1 across and down) and show it.
     pub replay: Option<ReplayShot>,
     pub result: Outcome,
@@ -80,6 +82,7 @@ impl ScreenshotPlan {
             height,
             level: None,
             walk: None,
+            instance: None,
             replay: None,
             result: Arc::new(Mutex::new(None)),
             stage: Stage::Settling,

@@ -715,9 +715,18 @@ impl State {
             object,
             transform,
         });
-        // The selected instance's boxes move with it.
-        if let Some(i) = self.instance.as_ref().map(|i| i.instance) {
-            self.select_instance(Some(i));
+        // The selected instance's boxes move with it: the same BLAS under the same leaf (a
+        // refit keeps the top level's shape), placed by the new transform.
+        if let (Some(selected), Some(Structure::TwoLevel(tl))) = (&self.instance, &self.structure)
+            && let Some(now) = tl.instances.get(selected.instance)
+            && now.transform != selected.transform
+        {
+            let moved = Arc::new(InstanceOutline {
+                transform: now.transform,
+                ..InstanceOutline::clone(selected)
+            });
+            self.instance = Some(moved.clone());
+            self.reply(Reply::InstanceSelected(Some(moved)));
         }
         true
     }

@@ -72,6 +72,10 @@ pub struct ScreenshotArgs {
     /// Open the tree walk at this node (0 = the root), with its bucket-cost plot.
     #[arg(long)]
     pub walk: Option<u32>,
+    /// With --accel two-level: select this instance; the levels view then goes on below
+    /// the TLAS's levels with its BLAS's (give --level past the TLAS's depth to see them).
+    #[arg(long)]
+    pub instance: Option<usize>,
     /// Replay the ray through this point of the view, given as fractions u,v of its width
     /// and height (0,0 top left), and show it in the shot; the camera then turns 45° so the
     /// ray is seen from the side.
@@ -108,9 +112,13 @@ pub fn screenshot(args: ScreenshotArgs) -> Result<()> {
     // Fail before opening a window when the scene cannot load.
     bvhlab::scene::Scene::load(&args.scene)?;
     let accel = args.accel.kind()?;
+    if args.instance.is_some() && accel != bvhlab::accel::AccelKind::TwoLevel {
+        anyhow::bail!("--instance selects an instance of the two levels: use --accel two-level");
+    }
     let mut plan = ScreenshotPlan::new(args.out, shot, args.width, args.height);
     plan.level = args.level;
     plan.walk = args.walk;
+    plan.instance = args.instance;
     plan.replay = args.replay.map(|at| bvhlab::app::screenshot::ReplayShot {
         at,
         visit: args.replay_visit.unwrap_or(usize::MAX),
