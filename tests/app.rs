@@ -404,6 +404,10 @@ fn dragging_an_object_under_the_two_levels_moves_its_instance() {
     assert!(worst < 1e-4, "t differs by {worst} relative");
 }
 
+fn outline_children(outline: &bvhlab::accel::Outline, node: usize) -> usize {
+    outline.nodes[node].children().len()
+}
+
 /// The path of top-level outline nodes from the root down to `node`.
 fn path_to(outline: &bvhlab::accel::Outline, node: usize) -> Vec<usize> {
     let mut path = vec![node];
@@ -457,6 +461,10 @@ fn under_the_two_levels_a_selected_instances_blas_continues_the_levels_and_the_w
     h.key_press(egui::Key::W);
     settle(&mut h);
     assert_eq!(h.state().walk, Some(0));
+    // The TLAS root holds every instance: the scene's triangles, counted by instance.
+    let info = h.state().shown.clone().unwrap().walk.clone().unwrap();
+    assert_eq!(info.triangles, 36);
+    assert_eq!(info.children.len(), outline_children(&h.state().outline, 0));
     let leaf = o.tlas_leaf.expect("the instance is in a leaf") as usize;
     let outline = h.state().outline.clone();
     for pair in path_to(&outline, leaf).windows(2) {
@@ -468,6 +476,7 @@ fn under_the_two_levels_a_selected_instances_blas_continues_the_levels_and_the_w
     settle(&mut h);
     let info = h.state().shown.clone().unwrap().walk.clone().unwrap();
     assert_eq!((info.instance, info.in_blas), (Some(0), false));
+    assert_eq!(info.triangles, o.triangle_count);
     h.get_by_label_contains("TLAS leaf: instance 0");
     h.key_press(egui::Key::ArrowLeft);
     settle(&mut h);

@@ -755,6 +755,10 @@ fn the_selected_instances_blas_is_drawn_around_its_world_triangles_and_walked_be
         }
         assert!(covered.iter().all(|&c| c), "every triangle in a leaf");
         assert_eq!(o.first_triangle, tl.first_triangle[i]);
+        // Hits name flattened triangles: each is found in its instance again.
+        let last = o.first_triangle + mesh.len() as u64 - 1;
+        assert_eq!(tl.instance_of_triangle(o.first_triangle), Some(i));
+        assert_eq!(tl.instance_of_triangle(last), Some(i));
 
         // The walk: the levels run on below the top level by the BLAS's levels, the leaf's
         // only child is the BLAS's root, whose parent is the leaf; below, the BLAS's own.
@@ -787,6 +791,7 @@ fn the_selected_instances_blas_is_drawn_around_its_world_triangles_and_walked_be
     }
     assert!(mirrored > 0, "the scene mirrors some instances");
     assert!(tl.instance_outline(scene.instances.len()).is_none());
+    assert_eq!(tl.instance_of_triangle(scene.triangles.len() as u64), None);
 }
 
 /// On the island, placing billions of triangles, a selected instance's outline is its

@@ -922,6 +922,45 @@ impl State {
             outline_corners(frame, rgba, &job.camera, &root, FIRST_CHILD, true);
             let range = inst.first_triangle..inst.first_triangle + inst.triangle_count as u64;
             tint_triangles(frame, rgba, |t| range.contains(&t).then_some(FIRST_CHILD));
+        } else if let Some(Structure::TwoLevel(tl)) = &self.structure {
+            // The top level's nodes hold instances: their triangles are counted and tinted
+            // by instance, never listed (the island places 10^10).
+            let children: Vec<usize> = if n.is_leaf() {
+                vec![node]
+            } else {
+                n.children().collect()
+            };
+            let count = children.len();
+            let area = info.surface_area.max(f32::MIN_POSITIVE);
+            info.sah_cost = if n.is_leaf() { 0.0 } else { p.c_trav };
+            let mut side = std::collections::HashMap::new();
+            for (k, &c) in children.iter().enumerate() {
+                let mut under = 0u64;
+                for i in self.instances_under(c) {
+                    let range = tl.triangle_range(i as usize);
+                    under += range.end - range.start;
+                    side.insert(i, k as u8);
+                }
+                info.triangles += under as usize;
+                let weight = if n.is_leaf() {
+                    1.0
+                } else {
+                    outline.nodes[c].bounds.surface_area() / area
+                };
+                info.sah_cost += weight * under as f32 * p.c_isect;
+                if !n.is_leaf() {
+                    let [r, g, b, _] = child_color(k, count);
+                    boxes.push(OutlinedBox {
+                        bounds: outline.nodes[c].bounds,
+                        color: [r, g, b, 255],
+                    });
+                }
+            }
+            tint_triangles(frame, rgba, |t| {
+                let i = tl.instance_of_triangle(t)?;
+                side.get(&(i as u32))
+                    .map(|&k| child_color(k as usize, count))
+            });
         } else if n.is_leaf() {
             let under = outline.triangles_under(node);
             info.triangles = under.len();
@@ -976,6 +1015,23 @@ impl State {
         }
         outline_boxes(frame, rgba, &job.camera, &boxes, true);
         Some(info)
+    }
+
+    /// Under the two levels: the instances in the top-level leaves under outline node `node`.
+    fn instances_under(&self, node: usize) -> Vec<u32> {
+        let mut out = Vec::new();
+        let mut stack = vec![node];
+        while let Some(k) = stack.pop() {
+            let Some(n) = self.outline.nodes.get(k) else {
+                continue;
+            };
+            if n.is_leaf() {
+                out.extend(self.leaf_instance(k).map(|i| i as u32));
+            } else {
+                stack.extend(n.children());
+            }
+        }
+        out
     }
 
     /// Under the two levels: the instance top-level outline node `node` holds, if a leaf.

@@ -286,7 +286,7 @@ impl TwoLevel {
     }
 
     /// The flattened triangles instance `i` places.
-    fn triangle_range(&self, i: usize) -> std::ops::Range<u64> {
+    pub fn triangle_range(&self, i: usize) -> std::ops::Range<u64> {
         let first = self.first_triangle[i];
         let count = self
             .blases

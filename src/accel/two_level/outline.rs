@@ -94,6 +94,17 @@ impl TwoLevel {
         })
     }
 
+    /// The instance that places flattened triangle `t`.
+    pub fn instance_of_triangle(&self, t: u64) -> Option<usize> {
+        // Instances of empty meshes share their first triangle with the next: the last
+        // instance starting at or before `t` is the one that places it, if any does.
+        let i = self
+            .first_triangle
+            .partition_point(|&f| f <= t)
+            .checked_sub(1)?;
+        self.triangle_range(i).contains(&t).then_some(i)
+    }
+
     /// For each node of `outline()`, the instance its leaf holds (`u32::MAX` for an
     /// interior node): the top level's leaves hold one instance each.
     pub fn leaf_instances(&self) -> Vec<u32> {
