@@ -709,7 +709,12 @@ fn the_report_gives_the_build_phases_and_threads() {
     use bvhlab::accel::structure::{self, AccelKind, StructureParams};
     let tris = soup(80_000, 5);
     let (_, report) = build(&tris, &BuildParams::default()).unwrap();
-    let phases: Vec<&str> = report.phases.times.iter().map(|(p, _)| p.as_str()).collect();
+    let phases: Vec<&str> = report
+        .phases
+        .times
+        .iter()
+        .map(|(p, _)| p.as_str())
+        .collect();
     assert_eq!(
         phases,
         [
