@@ -176,6 +176,7 @@ pub fn controls(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     }
     build_section(app, ui);
     view_section(app, ui);
+    super::compare::section(app, ui);
     levels_section(app, ui);
     walk_section(app, ui);
     refit_section(app, ui);
@@ -722,6 +723,7 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 }
             });
     }
+    super::compare::summary(app, ui);
     sah_check_section(app, ui);
     super::export::section(app, ui);
     if app.bvh_report.is_none() {
@@ -875,6 +877,8 @@ pub fn help_window(app: &mut BvhLabApp, ctx: &egui::Context) {
                             "shaded, normals, depth, nodes, box tests, triangle tests, repeated tests",
                         ),
                         ("S", "heatmaps of shadow rays on/off"),
+                        ("A", "pin the current configuration as A / unpin"),
+                        ("C", "comparison view: B only, A | B, B − A"),
                         ("L", "level boxes on/off"),
                         ("[ / ]", "previous / next level"),
                         ("W", "tree walk on/off"),
