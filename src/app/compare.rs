@@ -72,10 +72,10 @@ pub fn summary(app: &BvhLabApp, ui: &mut egui::Ui) {
     if app.pinned.is_none() {
         return;
     }
-    ui.separator();
     ui.heading("A against B");
     let Some(compared) = &app.compared else {
         ui.label("tracing A…");
+        ui.separator();
         return;
     };
     if let Some(e) = &compared.error {
@@ -113,6 +113,7 @@ pub fn summary(app: &BvhLabApp, ui: &mut egui::Ui) {
             "pixels cheaper under B {cheaper:.1} %, equal {equal:.1} %, dearer {dearer:.1} %"
         ));
     }
+    ui.separator();
 }
 
 /// The legend of the difference view: the diverging map from −max (B cheaper) through 0 to

@@ -625,6 +625,8 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         super::bucket_plot::show(ui, costs, own.then_some(info.sah_cost));
         ui.separator();
     }
+    // With a pinned A, the comparison is what the user is looking at: first.
+    super::compare::summary(app, ui);
     if app.replay.is_some() || app.replay_error.is_some() || app.tool == Tool::Replay {
         super::replay::section(app, ui);
         ui.separator();
@@ -723,7 +725,6 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 }
             });
     }
-    super::compare::summary(app, ui);
     sah_check_section(app, ui);
     super::export::section(app, ui);
     if app.bvh_report.is_none() {

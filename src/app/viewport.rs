@@ -51,8 +51,10 @@ pub fn show(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             legend(ui, rect, shown.job.mode, max);
         }
     }
+    // A screenshot shows the window, not where the pointer happens to rest.
     if let Some(pos) = response.hover_pos()
         && app.drag.is_none()
+        && app.screenshot.is_none()
         && let Some(text) = pixel_report(app, rect, pos)
     {
         response.on_hover_ui_at_pointer(|ui| {

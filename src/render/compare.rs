@@ -280,8 +280,8 @@ pub fn split(a: &[u8], b: &[u8], width: u32, height: u32) -> Vec<u8> {
             out[p..p + 4].copy_from_slice(&DIVIDER);
         }
     }
-    // Letters about a seventeenth of the image high, from 7 pixels up.
-    let scale = (height / 120).max(1) as usize;
+    // Letters about a twentieth of the image high, from 7 pixels up.
+    let scale = (height / 180).max(1) as usize;
     let margin = 2 * scale;
     if w >= 2 * (GLYPH_W + 4) * scale && h >= (GLYPH_H + 4) * scale {
         draw_label(&mut out, w, h, margin, margin, &GLYPH_A, scale);
