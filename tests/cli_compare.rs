@@ -155,3 +155,27 @@ fn bad_comparisons_are_clear_errors() {
     assert!(e.contains("needs a heatmap --mode"), "{e}");
     assert!(!png.exists(), "nothing written");
 }
+
+#[test]
+fn screenshot_compare_errors_come_before_the_window_opens() {
+    let png = scratch("shot").join("shot.png");
+    let shot = |extra: &[&str]| {
+        let mut args = vec!["screenshot", "--out", png.to_str().unwrap()];
+        args.extend(extra);
+        let out = bvhlab(&args);
+        assert!(!out.status.success(), "{extra:?} should fail");
+        String::from_utf8_lossy(&out.stderr).to_string()
+    };
+    let e = shot(&["--compare", "--builder fastest"]);
+    assert!(e.contains("bad --compare flags '--builder fastest'"), "{e}");
+    let e = shot(&["--compare", "--max-leaf 0"]);
+    assert!(e.contains("bad --compare flags '--max-leaf 0'"), "{e}");
+    let e = shot(&[
+        "--compare",
+        "--builder sbvh",
+        "--compare-view",
+        "difference",
+    ]);
+    assert!(e.contains("needs a heatmap --mode"), "{e}");
+    assert!(!png.exists());
+}

@@ -404,3 +404,36 @@ impl Pinned {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_pinned_configuration_is_the_settings_configuration() {
+        let mut s = Settings {
+            accel: AccelKind::KdTree,
+            mailbox: false,
+            strategy: StrategyChoice::Sbvh,
+            max_leaf_size: 3,
+            kd_bins: 32,
+            naive_order: true,
+            ..Default::default()
+        };
+        let pinned = Pinned::of(&s);
+        assert_eq!(pinned.structure_params(), s.structure_params());
+        // It survives serialisation (presets store it).
+        let json = serde_json::to_string(&pinned).unwrap();
+        assert_eq!(serde_json::from_str::<Pinned>(&json).unwrap(), pinned);
+        // Applied to other settings it changes the configuration only.
+        s.scene = "walls".into();
+        s.mode = ViewMode::Nodes;
+        let mut other = Settings::default();
+        pinned.apply_to(&mut other);
+        assert_eq!(other.structure_params(), s.structure_params());
+        assert_eq!(
+            (other.scene.as_str(), other.mode),
+            ("cornell", ViewMode::Shaded)
+        );
+    }
+}
