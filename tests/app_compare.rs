@@ -196,3 +196,23 @@ fn the_difference_of_a_shaded_view_says_it_needs_a_heatmap() {
     let compared = h.state().compared.clone().unwrap();
     assert_eq!(compared.summaries.len(), 2);
 }
+
+#[test]
+fn the_frame_carries_a_s_work_per_pixel() {
+    let mut h = app("soup:3000");
+    nodes_difference(&mut h);
+    h.get_by_label("object median").click();
+    settle(&mut h);
+    let s = summary(&h);
+    let shown = h.state().shown.clone().unwrap();
+    // A's own frame of the view (the pixel tooltip reads it): its counts are the summary's A.
+    let a = shown.pinned_frame.as_ref().expect("A's frame");
+    let total = |f: &bvhlab::render::Frame| {
+        f.samples
+            .iter()
+            .map(|p| u64::from(p.primary.nodes_visited))
+            .sum::<u64>()
+    };
+    assert_eq!(total(a), s.total_a);
+    assert_eq!(total(&shown.frame), s.total_b);
+}

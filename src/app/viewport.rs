@@ -102,6 +102,15 @@ fn pixel_report(app: &BvhLabApp, rect: egui::Rect, pos: egui::Pos2) -> Option<St
     } else {
         text += "\nno hit";
     }
+    // With a pinned A: the same pixel's work under A.
+    if let Some(a) = app.shown.as_ref()?.pinned_frame.as_ref()
+        && let Some(a) = a.sample(x, y)
+    {
+        text += &format!("\nunder A, primary: {}", work(&a.primary));
+        if a.is_hit() {
+            text += &format!("\nunder A, shadow: {}", work(&a.shadow));
+        }
+    }
     Some(text)
 }
 

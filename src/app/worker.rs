@@ -171,8 +171,9 @@ pub struct Shown {
     pub walk: Option<WalkInfo>,
     /// Whether this frame was traced (rather than only recoloured).
     pub traced: bool,
-    /// With a pinned A: the comparison.
+    /// With a pinned A: the comparison, and A's frame of the same view.
     pub compared: Option<Compared>,
+    pub pinned_frame: Option<Arc<Frame>>,
 }
 
 pub enum Reply {
@@ -746,12 +747,12 @@ impl State {
                 (f, true)
             }
         };
-        let ((mut rgba, heat_max), compared) = match job.compare {
+        let ((mut rgba, heat_max), compared, pinned_frame) = match job.compare {
             Some(c) => {
-                let (image, compared) = self.compare(&frame, &c, &job);
-                (image, Some(compared))
+                let (image, compared, a) = self.compare(&frame, &c, &job);
+                (image, Some(compared), a)
             }
-            None => (colorize(&frame, job.mode, job.heat_max), None),
+            None => (colorize(&frame, job.mode, job.heat_max), None, None),
         };
         let walk = self.draw_overlay(&frame, &mut rgba, &job);
         self.reply(Reply::Frame(Arc::new(Shown {
@@ -762,6 +763,7 @@ impl State {
             walk,
             traced,
             compared,
+            pinned_frame,
         })));
     }
 
@@ -781,14 +783,14 @@ impl State {
         }
     }
 
-    /// B's frame `b` beside A's: the image in the job's view and the summary. Without A
-    /// (it cannot be built) or for a view the mode cannot show, B alone and why.
+    /// B's frame `b` beside A's: the image in the job's view, the summary and A's frame.
+    /// Without A (it cannot be built) or for a view the mode cannot show, B alone and why.
     fn compare(
         &mut self,
         b: &Frame,
         c: &CompareJob,
         job: &RenderJob,
-    ) -> ((Vec<u8>, Option<u32>), Compared) {
+    ) -> ((Vec<u8>, Option<u32>), Compared, Option<Arc<Frame>>) {
         let b_alone = |error: String| {
             (
                 colorize(b, job.mode, job.heat_max),
@@ -800,7 +802,10 @@ impl State {
         };
         let a = match self.pinned_frame(&c.a, job) {
             Ok(a) => a,
-            Err(e) => return b_alone(format!("A cannot be built: {e}")),
+            Err(e) => {
+                let (image, compared) = b_alone(format!("A cannot be built: {e}"));
+                return (image, compared, None);
+            }
         };
         let summaries = if b.summary.counted() {
             compared_counters(job.mode)
@@ -817,11 +822,12 @@ impl State {
                     summaries,
                     error: None,
                 },
+                Some(a),
             ),
             Err(e) => {
                 let (image, mut compared) = b_alone(e.to_string());
                 compared.summaries = summaries;
-                (image, compared)
+                (image, compared, Some(a))
             }
         }
     }
