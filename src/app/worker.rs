@@ -376,6 +376,9 @@ struct State {
     split_costs: RefCell<Option<(SplitCostsKey, Arc<SplitCosts>)>>,
 }
 
+/// An image's pixels and its heatmap scale, as `colorize` gives them.
+type Image = (Vec<u8>, Option<u32>);
+
 /// The pinned configuration's structure over the scene as it was at `scene_version`, or
 /// why it could not be built.
 struct PinnedStructure {
@@ -790,7 +793,7 @@ impl State {
         b: &Frame,
         c: &CompareJob,
         job: &RenderJob,
-    ) -> ((Vec<u8>, Option<u32>), Compared, Option<Arc<Frame>>) {
+    ) -> (Image, Compared, Option<Arc<Frame>>) {
         let b_alone = |error: String| {
             (
                 colorize(b, job.mode, job.heat_max),
