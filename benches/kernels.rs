@@ -255,10 +255,11 @@ where
 }
 
 /// A refit of a wide tree over 10^6 triangles after all of them moved (on the machine's
-/// threads: rayon's pool).
-#[divan::bench(consts = [4, 8], sample_count = 10)]
-fn refit_wide_1m<const W: usize>(b: Bencher) {
-    let scene = Scene::load("soup:1000000").expect("built-in scene");
+/// threads: rayon's pool): a random soup, whose scene order is unrelated to the tree's (the
+/// triangles are gathered from all over memory), and a sphere mesh, whose order is coherent.
+#[divan::bench(consts = [4, 8], args = ["soup:1000000", "sphere:1000000"], sample_count = 10)]
+fn refit_wide_1m<const W: usize>(b: Bencher, scene: &str) {
+    let scene = Scene::load(scene).expect("built-in scene");
     let b2 = bvh::build(&scene.triangles, &BuildParams::default())
         .unwrap()
         .0;

@@ -701,3 +701,50 @@ fn a_frame_traced_without_counting_has_the_hits_of_a_counted_frame() {
         assert!(b.samples.iter().all(|s| s.primary.nodes_visited == 0));
     }
 }
+
+/// The build report names its phases: binned SAH's splits near the root (binning and
+/// partition) on a tree large enough to have them, and the wide trees' collapse phases.
+#[test]
+fn the_report_gives_the_build_phases_and_threads() {
+    use bvhlab::accel::structure::{self, AccelKind, StructureParams};
+    let tris = soup(80_000, 5);
+    let (_, report) = build(&tris, &BuildParams::default()).unwrap();
+    let phases: Vec<&str> = report
+        .phases
+        .times
+        .iter()
+        .map(|(p, _)| p.as_str())
+        .collect();
+    assert_eq!(
+        phases,
+        [
+            "references",
+            "binning near the root",
+            "partition near the root",
+            "splits (whole recursion)",
+            "leaf order"
+        ]
+    );
+    // The root alone has 80,000 primitives: its binning took some time.
+    assert!(report.phases.times[1].1 > std::time::Duration::ZERO);
+    let rows = report.rows();
+    let threads = rows.iter().find(|(k, _)| k == "threads").unwrap();
+    assert_eq!(threads.1, rayon::current_num_threads().to_string());
+    let params = StructureParams {
+        kind: AccelKind::Bvh8,
+        ..StructureParams::default()
+    };
+    let built = structure::build(&tris, &params, &Default::default()).unwrap();
+    for key in [
+        "threads",
+        "time: binning near the root",
+        "time: collapse table",
+        "time: collapse layout",
+    ] {
+        assert!(
+            built.report.details.iter().any(|(k, _)| k == key),
+            "{key} in {:?}",
+            built.report.details
+        );
+    }
+}

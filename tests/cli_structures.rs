@@ -439,3 +439,51 @@ fn stress_through_the_two_levels_places_closed_meshes_as_instances() {
     }
     assert_eq!(json["passed"], true);
 }
+
+/// `--sah-scatter` gathers scenes in one CSV (a scene run again replaces its rows), prints
+/// the SAH check table, and refuses a CSV it did not write without touching it.
+#[test]
+fn sah_scatter_gathers_scenes_in_one_csv() {
+    let dir = std::env::temp_dir().join(format!("bvhlab-sah-scatter-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (csv, png) = (dir.join("s.csv"), dir.join("s.png"));
+    let run = |scene: &str| {
+        let mut args = vec![
+            "bench",
+            "--scene",
+            scene,
+            "--sah-scatter",
+            "--csv",
+            csv.to_str().unwrap(),
+            "--plot",
+            png.to_str().unwrap(),
+        ];
+        args.extend(SMALL_BENCH);
+        bvhlab(&args)
+    };
+    for scene in ["soup:500", "cornell", "soup:500"] {
+        let out = run(scene);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let text = String::from_utf8(out.stdout).unwrap();
+        assert!(text.contains("SAH predicted against measured"), "{text}");
+    }
+    let rows = std::fs::read_to_string(&csv).unwrap();
+    // Ten builders on each of two scenes; the soup's second run replaced its first.
+    assert_eq!(rows.lines().count(), 1 + 2 * 10, "{rows}");
+    assert!(
+        rows.lines().nth(1).unwrap().starts_with("\"cornell\""),
+        "{rows}"
+    );
+    assert!(png.exists() && png.with_extension("svg").exists());
+    std::fs::write(&csv, "not a scatter\n").unwrap();
+    let out = run("cornell");
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("is not a SAH scatter CSV"), "{stderr}");
+    assert_eq!(std::fs::read_to_string(&csv).unwrap(), "not a scatter\n");
+    std::fs::remove_dir_all(&dir).ok();
+}

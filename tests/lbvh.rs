@@ -449,6 +449,7 @@ fn the_report_gives_each_phase_and_each_round() {
     assert_eq!(
         phases,
         [
+            "references",
             "Morton codes",
             "radix sort",
             "radix tree",

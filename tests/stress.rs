@@ -399,7 +399,6 @@ fn spawned_origins_lie_strictly_on_the_side_they_leave_to() {
 #[test]
 fn every_structure_passes_the_stress_suite_on_scenes_and_closed_meshes() {
     use bvhlab::accel::{AccelKind, StructureParams};
-    use bvhlab::bench::stress::suite::{self, StressConfig};
     let load =
         |specs: &[&str]| -> Vec<Scene> { specs.iter().map(|s| Scene::load(s).unwrap()).collect() };
     // The grid and the octree collapse in the stadium and on rotated walls (thousands of
@@ -413,59 +412,92 @@ fn every_structure_passes_the_stress_suite_on_scenes_and_closed_meshes() {
     ]);
     let cells = load(&["cornell", "sphere:5000", "grass:2000", "walls:300"]);
     for kind in AccelKind::ALL.into_iter().filter(|k| !k.is_brute_force()) {
-        let cfg = StressConfig {
-            scene_rays: 20_000,
-            structure: StructureParams::of_kind(kind),
-            ..StressConfig::tests()
-        };
         let scenes = if matches!(kind, AccelKind::Grid | AccelKind::Octree) {
             &cells
         } else {
             &trees
         };
-        for scene in scenes.iter() {
-            let r = suite::run_scene(scene, &cfg).unwrap();
-            // Watertight and f64 (index 1 is Möller–Trumbore, only measured).
-            for k in [0, 2] {
-                assert_eq!(
-                    r.crossings[k].leaks(),
-                    0,
-                    "{} on {}: {:?}",
-                    kind.label(),
-                    r.name,
-                    r.crossings[k]
-                );
-                assert_eq!(
-                    r.agreement[k].mismatches,
-                    0,
-                    "{} on {}",
-                    kind.label(),
-                    r.name
-                );
-                assert_eq!(r.shadow[k].self_hits(), 0, "{} on {}", kind.label(), r.name);
-            }
+        assert_stress_zeros(
+            &StructureParams::of_kind(kind),
+            kind.label(),
+            scenes,
+            20_000,
+            5_000,
+        );
+    }
+}
+
+/// Every BVH builder (and pre-splitting) keeps the stress suite's zeros: duplicated
+/// references and other tree shapes let no ray through.
+#[test]
+fn every_builder_passes_the_stress_suite() {
+    use bvhlab::accel::StructureParams;
+    use bvhlab::accel::bvh::{BuildParams, Strategy};
+    let scenes: Vec<Scene> = ["sphere:3000", "teapot-in-stadium", "walls-rotated:300"]
+        .iter()
+        .map(|s| Scene::load(s).unwrap())
+        .collect();
+    let mut builds: Vec<BuildParams> = Strategy::ALL
+        .into_iter()
+        .map(BuildParams::with_strategy)
+        .collect();
+    builds.push(BuildParams {
+        presplit: 0.3,
+        ..BuildParams::with_strategy(Strategy::LbvhTreelet)
+    });
+    for bvh in builds {
+        let params = StructureParams {
+            bvh,
+            ..StructureParams::default()
+        };
+        let label = format!("{:?} (presplit {})", bvh.strategy, bvh.presplit);
+        assert_stress_zeros(&params, &label, &scenes, 10_000, 2_000);
+    }
+}
+
+/// The suite's watertight and f64 zeros on `scenes` and on the closed meshes at every
+/// placement, for the structure `structure`.
+fn assert_stress_zeros(
+    structure: &bvhlab::accel::StructureParams,
+    label: &str,
+    scenes: &[Scene],
+    scene_rays: usize,
+    leak_rays: usize,
+) {
+    use bvhlab::bench::stress::suite::{self, StressConfig};
+    let cfg = StressConfig {
+        scene_rays,
+        structure: *structure,
+        ..StressConfig::tests()
+    };
+    for scene in scenes {
+        let r = suite::run_scene(scene, &cfg).unwrap();
+        // Watertight and f64 (index 1 is Möller–Trumbore, only measured).
+        for k in [0, 2] {
+            assert_eq!(
+                r.crossings[k].leaks(),
+                0,
+                "{label} on {}: {:?}",
+                r.name,
+                r.crossings[k]
+            );
+            assert_eq!(r.agreement[k].mismatches, 0, "{label} on {}", r.name);
+            assert_eq!(r.shadow[k].self_hits(), 0, "{label} on {}", r.name);
         }
-        for mesh in ClosedMesh::all() {
-            for (k, p) in placements(false).into_iter().enumerate() {
-                let case = LeakCase::new(&mesh, p, 5_000, 31 + k as u64, &cfg.structure)
-                    .unwrap_or_else(|| panic!("{} at {}", mesh.name, p.label()));
-                let w = count_leaks::<Watertight>(&case.bvh, &case.brute, &case.rays, 0);
-                assert_eq!(
-                    w.total(),
-                    0,
-                    "{} watertight leaks on {}: {w:?}",
-                    kind.label(),
-                    case.label()
-                );
-                let f = count_leaks::<ReferenceF64>(&case.bvh, &case.brute, &case.rays, 0);
-                assert_eq!(
-                    f.total(),
-                    0,
-                    "{} f64 leaks on {}: {f:?}",
-                    kind.label(),
-                    case.label()
-                );
-            }
+    }
+    for mesh in ClosedMesh::all() {
+        for (k, p) in placements(false).into_iter().enumerate() {
+            let case = LeakCase::new(&mesh, p, leak_rays, 31 + k as u64, &cfg.structure)
+                .unwrap_or_else(|| panic!("{} at {}", mesh.name, p.label()));
+            let w = count_leaks::<Watertight>(&case.bvh, &case.brute, &case.rays, 0);
+            assert_eq!(
+                w.total(),
+                0,
+                "{label} watertight leaks on {}: {w:?}",
+                case.label()
+            );
+            let f = count_leaks::<ReferenceF64>(&case.bvh, &case.brute, &case.rays, 0);
+            assert_eq!(f.total(), 0, "{label} f64 leaks on {}: {f:?}", case.label());
         }
     }
 }

@@ -460,6 +460,54 @@ fn refit_then_trace_equals_rebuild_then_trace() {
     check::<8>(2);
 }
 
+/// The full refit of a tree large enough to run as parallel tasks: every triangle moved,
+/// the boxes are exactly their subtrees' (validate), the blocks hold the moved triangles,
+/// the SAH costs it reports are the tree's before and after, and it equals the partial refit.
+#[test]
+fn parallel_refit_is_exact() {
+    use bvhlab::accel::bvh::refit::RefitIndex;
+    fn check<const W: usize>(seed: u64) {
+        let mut tris = soup(50_000, seed);
+        let b2 = bvh2(&tris, Strategy::SahBinned);
+        let mut full = WideBvh::<W>::collapse(&b2, &CollapseParams::default());
+        let mut partial = full.clone();
+        let mut index = RefitIndex::for_wide(&partial);
+        let before = full.sah_cost(1.0, 2.0);
+        let everything: Vec<u32> = (0..tris.len() as u32).collect();
+        for t in &mut tris {
+            for v in &mut t.v {
+                *v = *v * 1.5 + Vec3::new(0.25, -0.5, 1.0);
+            }
+        }
+        let report = full.refit(&tris, 1.0, 2.0).unwrap();
+        full.validate().unwrap();
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs();
+        assert!(
+            close(report.sah_before, before),
+            "{} {before}",
+            report.sah_before
+        );
+        let after = full.sah_cost(1.0, 2.0);
+        assert!(
+            close(report.sah_after, after),
+            "{} {after}",
+            report.sah_after
+        );
+        partial
+            .refit_moved(&mut index, &tris, &everything, 1.0, 2.0)
+            .unwrap();
+        assert_eq!(full.nodes, partial.nodes);
+        for (slot, &t) in full.prim_indices.iter().enumerate() {
+            if t != u32::MAX {
+                let lane = full.blocks[slot / BLOCK].triangle(slot % BLOCK);
+                assert_eq!(lane.v, tris[t as usize].v, "slot {slot}");
+            }
+        }
+    }
+    check::<4>(7);
+    check::<8>(8);
+}
+
 /// Packets of coherent rays (a view's tiles, in the renderer's order) and of incoherent
 /// ones give every ray its single-ray hit, with every kernel.
 #[test]

@@ -552,7 +552,7 @@ fn build_wide<const W: usize>(
         c_isect: params.bvh.c_isect,
         max_leaf_size: params.bvh.max_leaf_size,
     };
-    let mut wide = WideBvh::<W>::collapse(&bvh2, &collapse);
+    let (mut wide, collapse_phases) = WideBvh::<W>::collapse_timed(&bvh2, &collapse);
     let collapse_time = start.elapsed();
     wide.order = params.order;
     let leaves = wide.leaf_count();
@@ -593,6 +593,19 @@ fn build_wide<const W: usize>(
                 "collapse".into(),
                 format!("{:.2} ms", collapse_time.as_secs_f64() * 1e3),
             ),
+            ("threads".into(), rayon::current_num_threads().to_string()),
+        ]
+        .into_iter()
+        .chain(bvh_report.phases.time_rows())
+        .chain([
+            (
+                "time: collapse table".into(),
+                format!("{:.2} ms", collapse_phases.table.as_secs_f64() * 1e3),
+            ),
+            (
+                "time: collapse layout".into(),
+                format!("{:.2} ms", collapse_phases.layout.as_secs_f64() * 1e3),
+            ),
             (
                 "SAH cost".into(),
                 format!(
@@ -604,7 +617,8 @@ fn build_wide<const W: usize>(
                 "bytes per triangle".into(),
                 format!("{:.1}", bytes as f64 / triangles.len().max(1) as f64),
             ),
-        ],
+        ])
+        .collect(),
         caps_hit: Vec::new(),
     };
     Ok(Built {

@@ -3,6 +3,7 @@
 //! (see `worker`). Panels are plain functions of the app state.
 
 mod bucket_plot;
+mod compare;
 pub mod export;
 pub mod levels;
 mod orbit;
@@ -21,10 +22,10 @@ use eframe::egui;
 use orbit::Orbit;
 use screenshot::ScreenshotPlan;
 
-use settings::Settings;
+use settings::{Pinned, Settings};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
-use worker::{Command, Overlay, RenderJob, Reply, Shown, Worker};
+use worker::{Command, CompareJob, Compared, Overlay, RenderJob, Reply, Shown, Worker};
 
 /// How the app starts: normally with the remembered settings; tests and screenshots start
 /// from defaults and remember nothing.
@@ -130,6 +131,11 @@ pub struct BvhLabApp {
     pub export_status: Option<Result<String, String>>,
     /// A path chosen in a save dialog, and what to save there.
     save_slot: export::SaveSlot,
+    /// Configuration A of a comparison; the settings are configuration B. A stays pinned
+    /// when another scene loads and is built again over it.
+    pub pinned: Option<Pinned>,
+    /// A against B in the newest full frame (quick previews may not count).
+    pub compared: Option<Compared>,
 }
 
 impl BvhLabApp {
@@ -202,6 +208,27 @@ impl BvhLabApp {
             replay_error: None,
             export_status: None,
             save_slot: Arc::new(Mutex::new(None)),
+            pinned: None,
+            compared: None,
+        }
+    }
+
+    /// Pins the current configuration as A: from now on each frame is traced with A too.
+    pub fn pin(&mut self) {
+        self.pinned = Some(Pinned::of(&self.settings));
+        self.compared = None;
+    }
+
+    pub fn unpin(&mut self) {
+        self.pinned = None;
+        self.compared = None;
+    }
+
+    pub fn toggle_pin(&mut self) {
+        if self.pinned.is_some() {
+            self.unpin()
+        } else {
+            self.pin()
         }
     }
 
@@ -308,6 +335,7 @@ impl BvhLabApp {
                     }
                     if !shown.job.preview {
                         self.full_summary = Some(shown.frame.summary.clone());
+                        self.compared = shown.compared.clone();
                     }
                     self.shown = Some(shown);
                 }
@@ -397,6 +425,10 @@ impl BvhLabApp {
                 color_by_node: s.color_by_node,
             },
             preview,
+            compare: self.pinned.as_ref().map(|p| CompareJob {
+                a: p.structure_params(),
+                view: s.compare_view,
+            }),
         })
     }
 
@@ -591,6 +623,11 @@ impl eframe::App for BvhLabApp {
         match action {
             screenshot::Action::Refit => self.scripted_refit(),
             screenshot::Action::Replay(r) => self.scripted_replay(r),
+            screenshot::Action::Compare(c) => {
+                self.pin();
+                c.b.apply_to(&mut self.settings);
+                self.settings.compare_view = c.view;
+            }
             screenshot::Action::None => {}
         }
     }

@@ -176,6 +176,7 @@ pub fn controls(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     }
     build_section(app, ui);
     view_section(app, ui);
+    super::compare::section(app, ui);
     levels_section(app, ui);
     walk_section(app, ui);
     refit_section(app, ui);
@@ -773,6 +774,8 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         super::bucket_plot::show(ui, costs, own.then_some(info.sah_cost));
         ui.separator();
     }
+    // With a pinned A, the comparison is what the user is looking at: first.
+    super::compare::summary(app, ui);
     if app.replay.is_some() || app.replay_error.is_some() || app.tool == Tool::Replay {
         super::replay::section(app, ui);
         ui.separator();
@@ -1024,6 +1027,8 @@ pub fn help_window(app: &mut BvhLabApp, ctx: &egui::Context) {
                             "shaded, normals, depth, nodes, box tests, triangle tests, repeated tests",
                         ),
                         ("S", "heatmaps of shadow rays on/off"),
+                        ("A", "pin the current configuration as A / unpin"),
+                        ("C", "comparison view: B only, A | B, B − A"),
                         ("L", "level boxes on/off"),
                         ("[ / ]", "previous / next level"),
                         ("W", "tree walk on/off"),

@@ -2,7 +2,8 @@
 //! screenshot request once its frame is complete, then closed. This is how the README's
 //! pictures are made.
 
-use super::settings::{Settings, ViewMode};
+use super::settings::{Pinned, Settings, ViewMode};
+use crate::render::compare::CompareView;
 use eframe::egui;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
@@ -26,6 +27,7 @@ enum Stage {
     Settling,
     Refitting,
     Replaying,
+    Comparing,
     Requested,
     Closing,
 }
@@ -38,14 +40,24 @@ pub struct ReplayShot {
     pub visit: usize,
 }
 
+/// A comparison to show in the shot: the plan's configuration is pinned as A, then `b`
+/// becomes the current configuration, shown in `view`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CompareShot {
+    pub b: Pinned,
+    pub view: CompareView,
+}
+
 /// What the app is to do for the plan.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub enum Action {
     None,
     /// Drag an object away (the refit shot).
     Refit,
     /// Replay the ray through this point of the view.
     Replay(ReplayShot),
+    /// Pin the configuration as A and switch to B.
+    Compare(CompareShot),
 }
 
 /// What the screenshot run saved: the path, or why it could not.
@@ -65,6 +77,8 @@ pub struct ScreenshotPlan {
     pub instance: Option<usize>,
     /// Replay the ray through this point of the view (0..1 across and down) and show it.
     pub replay: Option<ReplayShot>,
+    /// Pin the configuration as A, change to B and compare.
+    pub compare: Option<CompareShot>,
     pub result: Outcome,
     stage: Stage,
     started: Instant,
@@ -84,6 +98,7 @@ impl ScreenshotPlan {
             walk: None,
             instance: None,
             replay: None,
+            compare: None,
             result: Arc::new(Mutex::new(None)),
             stage: Stage::Settling,
             started: Instant::now(),
@@ -135,11 +150,14 @@ impl ScreenshotPlan {
                 } else if let Some(r) = self.replay {
                     self.stage = Stage::Replaying;
                     action = Action::Replay(r);
+                } else if let Some(c) = &self.compare {
+                    self.stage = Stage::Comparing;
+                    action = Action::Compare(c.clone());
                 } else {
                     self.request(ctx);
                 }
             }
-            Stage::Refitting | Stage::Replaying if settled => self.request(ctx),
+            Stage::Refitting | Stage::Replaying | Stage::Comparing if settled => self.request(ctx),
             Stage::Requested if self.result.lock().is_ok_and(|r| r.is_some()) => {
                 self.stage = Stage::Closing;
             }

@@ -7,6 +7,7 @@ use crate::accel::kdtree::{KdParams, KdSplit};
 use crate::accel::octree::OctreeParams;
 use crate::accel::{AccelKind, Counter, StructureParams};
 use crate::geometry::simd::SimdLevel;
+use crate::render::compare::CompareView;
 use crate::render::{Mode, RayKind};
 use serde::{Deserialize, Serialize};
 
@@ -174,6 +175,8 @@ pub struct Settings {
     pub see_through: bool,
     pub color_by_node: bool,
     pub move_whole_object: bool,
+    /// With a pinned configuration A: B alone, A | B, or B − A.
+    pub compare_view: CompareView,
     /// Rebuild automatically when the SAH cost has grown by more than this many percent.
     pub auto_rebuild_percent: Option<f32>,
     pub ui_scale: f32,
@@ -219,6 +222,7 @@ impl Default for Settings {
             see_through: false,
             color_by_node: false,
             move_whole_object: false,
+            compare_view: CompareView::Split,
             auto_rebuild_percent: None,
             ui_scale: 1.0,
             recent: Vec::new(),
@@ -287,5 +291,149 @@ impl Settings {
         self.recent.retain(|p| p != path);
         self.recent.insert(0, path.to_string());
         self.recent.truncate(MAX_RECENT);
+    }
+}
+
+/// A configuration pinned as A for a comparison: every setting that changes what the
+/// counters count (the structure, its build parameters, the traversal order, mailboxing,
+/// the SIMD kernel), copied from the settings at the moment of pinning. The settings
+/// themselves stay configuration B.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Pinned {
+    pub accel: AccelKind,
+    pub mailbox: bool,
+    pub simd: SimdLevel,
+    pub kd_c_trav: f32,
+    pub kd_c_isect: f32,
+    pub kd_empty_bonus: f32,
+    pub kd_max_depth: u32,
+    pub kd_max_leaf_size: u32,
+    pub kd_bins: u32,
+    pub grid_lambda: f32,
+    pub octree_max_leaf_size: u32,
+    pub octree_max_depth: u32,
+    pub strategy: StrategyChoice,
+    pub buckets: u32,
+    pub treelet_size: u32,
+    pub treelet_rounds: u32,
+    pub split_alpha: f32,
+    pub split_budget: f32,
+    pub presplit: f32,
+    pub max_leaf_size: u32,
+    pub c_trav: f32,
+    pub c_isect: f32,
+    pub naive_order: bool,
+}
+
+/// Copies the configuration fields between `Settings` and `Pinned`, in either direction.
+macro_rules! configuration_fields {
+    ($from:expr, $to:expr) => {{
+        configuration_fields!(@copy $from, $to; accel, mailbox, simd, kd_c_trav, kd_c_isect,
+            kd_empty_bonus, kd_max_depth, kd_max_leaf_size, kd_bins, grid_lambda,
+            octree_max_leaf_size, octree_max_depth, strategy, buckets, treelet_size,
+            treelet_rounds, split_alpha, split_budget, presplit, max_leaf_size, c_trav,
+            c_isect, naive_order)
+    }};
+    (@copy $from:expr, $to:expr; $($field:ident),*) => {{
+        $( $to.$field = $from.$field; )*
+    }};
+}
+
+impl Pinned {
+    /// Pins the configuration `settings` describe now.
+    pub fn of(settings: &Settings) -> Pinned {
+        let d = Settings::default();
+        let mut p = Pinned {
+            accel: d.accel,
+            mailbox: d.mailbox,
+            simd: d.simd,
+            kd_c_trav: d.kd_c_trav,
+            kd_c_isect: d.kd_c_isect,
+            kd_empty_bonus: d.kd_empty_bonus,
+            kd_max_depth: d.kd_max_depth,
+            kd_max_leaf_size: d.kd_max_leaf_size,
+            kd_bins: d.kd_bins,
+            grid_lambda: d.grid_lambda,
+            octree_max_leaf_size: d.octree_max_leaf_size,
+            octree_max_depth: d.octree_max_depth,
+            strategy: d.strategy,
+            buckets: d.buckets,
+            treelet_size: d.treelet_size,
+            treelet_rounds: d.treelet_rounds,
+            split_alpha: d.split_alpha,
+            split_budget: d.split_budget,
+            presplit: d.presplit,
+            max_leaf_size: d.max_leaf_size,
+            c_trav: d.c_trav,
+            c_isect: d.c_isect,
+            naive_order: d.naive_order,
+        };
+        configuration_fields!(settings, p);
+        p
+    }
+
+    /// Makes this configuration the current one in `settings` (everything else stays).
+    pub fn apply_to(&self, settings: &mut Settings) {
+        configuration_fields!(self, settings);
+    }
+
+    /// The structure and traversal parameters of this configuration.
+    pub fn structure_params(&self) -> StructureParams {
+        let mut s = Settings::default();
+        self.apply_to(&mut s);
+        s.structure_params()
+    }
+
+    /// A short name: the structure and, for a BVH, its builder and leaf size.
+    pub fn label(&self) -> String {
+        let p = self.structure_params();
+        match p.kind {
+            AccelKind::Bvh | AccelKind::Bvh4 | AccelKind::Bvh8 | AccelKind::TwoLevel => format!(
+                "{}, {}, leaves ≤ {}, {}",
+                p.kind.title(),
+                p.bvh.strategy.label(),
+                p.bvh.max_leaf_size,
+                p.order.label()
+            ),
+            kind if kind.is_spatial() => format!(
+                "{}, mailboxing {}",
+                kind.title(),
+                if p.mailbox { "on" } else { "off" }
+            ),
+            kind => kind.title().to_string(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_pinned_configuration_is_the_settings_configuration() {
+        let mut s = Settings {
+            accel: AccelKind::KdTree,
+            mailbox: false,
+            strategy: StrategyChoice::Sbvh,
+            max_leaf_size: 3,
+            kd_bins: 32,
+            naive_order: true,
+            ..Default::default()
+        };
+        let pinned = Pinned::of(&s);
+        assert_eq!(pinned.structure_params(), s.structure_params());
+        // It survives serialisation (presets store it).
+        let json = serde_json::to_string(&pinned).unwrap();
+        assert_eq!(serde_json::from_str::<Pinned>(&json).unwrap(), pinned);
+        // Applied to other settings it changes the configuration only.
+        s.scene = "walls".into();
+        s.mode = ViewMode::Nodes;
+        let mut other = Settings::default();
+        pinned.apply_to(&mut other);
+        assert_eq!(other.structure_params(), s.structure_params());
+        assert_eq!(
+            (other.scene.as_str(), other.mode),
+            ("cornell", ViewMode::Shaded)
+        );
     }
 }

@@ -7,6 +7,7 @@ use super::replay::Go;
 use super::settings::ViewMode;
 use super::{BvhLabApp, Drag, Tool};
 use crate::accel::AccelKind;
+use crate::render::compare::CompareView;
 use crate::scene::Camera;
 use eframe::egui::{self, Key, PointerButton, Sense};
 use std::sync::Arc;
@@ -39,10 +40,21 @@ pub fn show(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     if let Some(shown) = &app.shown
         && let Some(max) = shown.heat_max
     {
-        legend(ui, rect, shown.job.mode, max);
+        let difference = shown
+            .job
+            .compare
+            .is_some_and(|c| c.view == CompareView::Difference)
+            && shown.compared.as_ref().is_some_and(|c| c.error.is_none());
+        if difference {
+            super::compare::difference_legend(ui, rect, &shown.job.mode.label(), max);
+        } else {
+            legend(ui, rect, shown.job.mode, max);
+        }
     }
+    // A screenshot shows the window, not where the pointer happens to rest.
     if let Some(pos) = response.hover_pos()
         && app.drag.is_none()
+        && app.screenshot.is_none()
         && let Some(text) = pixel_report(app, rect, pos)
     {
         response.on_hover_ui_at_pointer(|ui| {
@@ -89,6 +101,15 @@ fn pixel_report(app: &BvhLabApp, rect: egui::Rect, pos: egui::Pos2) -> Option<St
         );
     } else {
         text += "\nno hit";
+    }
+    // With a pinned A: the same pixel's work under A.
+    if let Some(a) = app.shown.as_ref()?.pinned_frame.as_ref()
+        && let Some(a) = a.sample(x, y)
+    {
+        text += &format!("\nunder A, primary: {}", work(&a.primary));
+        if a.is_hit() {
+            text += &format!("\nunder A, shadow: {}", work(&a.shadow));
+        }
     }
     Some(text)
 }
@@ -249,6 +270,9 @@ impl BvhLabApp {
         if pressed(Key::S) {
             s.shadow_rays = !s.shadow_rays;
         }
+        if pressed(Key::C) {
+            s.compare_view = s.compare_view.next();
+        }
         if pressed(Key::L) {
             s.show_levels = !s.show_levels;
         }
@@ -310,6 +334,9 @@ impl BvhLabApp {
         }
         if pressed(Key::B) {
             self.rebuild();
+        }
+        if pressed(Key::A) {
+            self.toggle_pin();
         }
         if pressed(Key::Z) && ctrl {
             self.undo();

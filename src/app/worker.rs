@@ -17,6 +17,9 @@ use crate::accel::two_level::InstanceOutline;
 use crate::accel::{Outline, StructureReport};
 use crate::bench::sah_check::{mean_work_of, random_lines};
 use crate::geometry::Aabb;
+use crate::render::compare::{
+    CompareSummary, CompareView, compare_image, compared_counters, summarize,
+};
 use crate::render::overlay::{
     OutlinedBox, outline_boxes, outline_corners, palette, tint_triangles,
 };
@@ -61,6 +64,26 @@ pub struct RenderJob {
     pub overlay: Overlay,
     /// A reduced-resolution frame while the user interacts.
     pub preview: bool,
+    /// With a pinned configuration A: A's parameters and how to show A beside B.
+    pub compare: Option<CompareJob>,
+}
+
+/// A comparison the frame is to show: the pinned configuration A (the worker's own
+/// structure is B) and the view of the two.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CompareJob {
+    pub a: StructureParams,
+    pub view: CompareView,
+}
+
+/// What a frame with a pinned A found: the counters of A against B, or why there is no
+/// comparison.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Compared {
+    /// Empty for a frame traced without counting (a quick preview).
+    pub summaries: Vec<CompareSummary>,
+    /// A could not be built, or the view does not fit the mode (B alone is shown).
+    pub error: Option<String>,
 }
 
 pub enum Command {
@@ -164,6 +187,9 @@ pub struct Shown {
     pub walk: Option<WalkInfo>,
     /// Whether this frame was traced (rather than only recoloured).
     pub traced: bool,
+    /// With a pinned A: the comparison, and A's frame of the same view.
+    pub compared: Option<Compared>,
+    pub pinned_frame: Option<Arc<Frame>>,
 }
 
 pub enum Reply {
@@ -248,7 +274,11 @@ impl Worker {
             leaf_instances: Arc::default(),
             reference_bvh: None,
             version: 0,
+            scene_version: 0,
+            pinned: None,
+            pinned_builds: 0,
             traced: None,
+            pinned_traced: None,
             last_job: None,
             refit_index: None,
             gesture: Vec::new(),
@@ -355,7 +385,14 @@ struct State {
     reference_bvh: Option<(Bvh, RefitIndex)>,
     /// Changes whenever the scene's triangles or the tree change.
     version: u64,
+    /// Changes whenever the scene's triangles change (load, move, undo): A is built again.
+    scene_version: u64,
+    /// Configuration A of a comparison, built over the same scene as B.
+    pinned: Option<PinnedStructure>,
+    /// Builds of A so far: A's frames are traced again after each.
+    pinned_builds: u64,
     traced: Option<(TraceKey, Arc<Frame>)>,
+    pinned_traced: Option<(TraceKey, Arc<Frame>)>,
     last_job: Option<RenderJob>,
     /// For partial refits of the current tree; made at the first move after a build.
     refit_index: Option<RefitIndex>,
@@ -364,6 +401,19 @@ struct State {
     undo: Vec<Vec<Motion>>,
     /// The walk node's split costs, kept while the tree, the node and the parameters stay.
     split_costs: RefCell<Option<(SplitCostsKey, Arc<SplitCosts>)>>,
+}
+
+/// An image's pixels and its heatmap scale, as `colorize` gives them.
+type Image = (Vec<u8>, Option<u32>);
+
+/// The pinned configuration's structure over the scene as it was at `scene_version`, or
+/// why it could not be built.
+struct PinnedStructure {
+    params: StructureParams,
+    scene_version: u64,
+    structure: Result<Structure, String>,
+    /// `pinned_builds` when it was built (or its traversal settings last changed).
+    version: u64,
 }
 
 #[derive(Clone, Copy, PartialEq)]
@@ -444,6 +494,7 @@ impl State {
                     self.gesture.clear();
                     self.undo.clear();
                     self.version += 1;
+                    self.scene_version += 1;
                     self.rebuild();
                 }
                 Err(e) => self.reply(Reply::LoadFailed {
@@ -462,6 +513,8 @@ impl State {
                     if let Some(s) = &mut self.structure {
                         s.set_order(params.order);
                         s.set_mailbox(params.mailbox);
+                        // A kernel this CPU lacks keeps the one the structure has.
+                        let _ = s.set_simd(params.simd);
                     }
                     self.version += 1;
                 }
@@ -572,6 +625,7 @@ impl State {
             return;
         };
         scene.move_triangles(triangles, delta);
+        self.scene_version += 1;
         let start = Instant::now();
         let p = &self.params.bvh;
         // Only the moved triangles' leaves and their ancestors change.
@@ -694,6 +748,7 @@ impl State {
         }
         let refit_time = start.elapsed();
         self.version += 1;
+        self.scene_version += 1;
         // Beside it: a BVH over the flattened scene, refitted for the same triangles.
         let p = self.params.bvh;
         if self.reference_bvh.is_none()
@@ -777,24 +832,19 @@ impl State {
         let (frame, traced) = match &self.traced {
             Some((k, f)) if *k == key => (f.clone(), false),
             _ => {
-                let settings = RenderSettings {
-                    width: job.width,
-                    height: job.height,
-                    camera: job.camera,
-                    light: scene.light(),
-                    mode: job.mode,
-                    heat_max: job.heat_max,
-                    // A preview skips the shadow rays unless they are what it shows.
-                    shadows: !job.preview || job.mode.counts_shadow_rays(),
-                    // A shaded preview shows no counts: it skips counting too.
-                    counters: !job.preview || matches!(job.mode, Mode::Heatmap(..)),
-                };
+                let settings = Self::trace_settings(scene, &job);
                 let f = Arc::new(trace(structure, scene, &settings));
                 self.traced = Some((key, f.clone()));
                 (f, true)
             }
         };
-        let (mut rgba, heat_max) = colorize(&frame, job.mode, job.heat_max);
+        let ((mut rgba, heat_max), compared, pinned_frame) = match job.compare {
+            Some(c) => {
+                let (image, compared, a) = self.compare(&frame, &c, &job);
+                (image, Some(compared), a)
+            }
+            None => (colorize(&frame, job.mode, job.heat_max), None, None),
+        };
         let walk = self.draw_overlay(&frame, &mut rgba, &job);
         self.reply(Reply::Frame(Arc::new(Shown {
             job,
@@ -803,7 +853,135 @@ impl State {
             frame,
             walk,
             traced,
+            compared,
+            pinned_frame,
         })));
+    }
+
+    /// The settings a job's frames are traced with.
+    fn trace_settings(scene: &Scene, job: &RenderJob) -> RenderSettings {
+        RenderSettings {
+            width: job.width,
+            height: job.height,
+            camera: job.camera,
+            light: scene.light(),
+            mode: job.mode,
+            heat_max: job.heat_max,
+            // A preview skips the shadow rays unless they are what it shows.
+            shadows: !job.preview || job.mode.counts_shadow_rays(),
+            // A shaded preview shows no counts: it skips counting too.
+            counters: !job.preview || matches!(job.mode, Mode::Heatmap(..)),
+        }
+    }
+
+    /// B's frame `b` beside A's: the image in the job's view, the summary and A's frame.
+    /// Without A (it cannot be built) or for a view the mode cannot show, B alone and why.
+    fn compare(
+        &mut self,
+        b: &Frame,
+        c: &CompareJob,
+        job: &RenderJob,
+    ) -> (Image, Compared, Option<Arc<Frame>>) {
+        let b_alone = |error: String| {
+            (
+                colorize(b, job.mode, job.heat_max),
+                Compared {
+                    summaries: Vec::new(),
+                    error: Some(error),
+                },
+            )
+        };
+        let a = match self.pinned_frame(&c.a, job) {
+            Ok(a) => a,
+            Err(e) => {
+                let (image, compared) = b_alone(format!("A cannot be built: {e}"));
+                return (image, compared, None);
+            }
+        };
+        let summaries = if b.summary.counted() {
+            compared_counters(job.mode)
+                .into_iter()
+                .filter_map(|(counter, rays)| summarize(&a, b, counter, rays).ok())
+                .collect()
+        } else {
+            Vec::new()
+        };
+        match compare_image(&a, b, job.mode, job.heat_max, c.view) {
+            Ok(image) => (
+                image,
+                Compared {
+                    summaries,
+                    error: None,
+                },
+                Some(a),
+            ),
+            Err(e) => {
+                let (image, mut compared) = b_alone(e.to_string());
+                compared.summaries = summaries;
+                (image, compared, Some(a))
+            }
+        }
+    }
+
+    /// A's frame of the job's view: A is built (again) when it is new, its build
+    /// parameters changed or the scene's triangles moved since, and traced again only when
+    /// the view or A changed.
+    fn pinned_frame(
+        &mut self,
+        params: &StructureParams,
+        job: &RenderJob,
+    ) -> Result<Arc<Frame>, String> {
+        let Some(scene) = &self.scene else {
+            return Err("there is no scene".into());
+        };
+        let current = self.pinned.as_mut().filter(|p| {
+            p.scene_version == self.scene_version && !p.params.needs_rebuild_for(params)
+        });
+        match current {
+            Some(p) if p.params != *params => {
+                // Only traversal settings changed: no build.
+                if let Ok(s) = &mut p.structure {
+                    s.set_order(params.order);
+                    s.set_mailbox(params.mailbox);
+                    let _ = s.set_simd(params.simd);
+                }
+                p.params = *params;
+                self.pinned_builds += 1;
+                p.version = self.pinned_builds;
+            }
+            Some(_) => {}
+            None => {
+                self.pinned_builds += 1;
+                let structure = structure::build_scene(scene, params, &AtomicUsize::new(0))
+                    .map(|built| built.structure)
+                    .map_err(|e| e.to_string());
+                self.pinned = Some(PinnedStructure {
+                    params: *params,
+                    scene_version: self.scene_version,
+                    structure,
+                    version: self.pinned_builds,
+                });
+            }
+        }
+        let Some(pinned) = &self.pinned else {
+            return Err("nothing is pinned".into());
+        };
+        let structure = pinned.structure.as_ref().map_err(Clone::clone)?;
+        let key = TraceKey {
+            camera: job.camera,
+            width: job.width,
+            height: job.height,
+            version: pinned.version,
+        };
+        if let Some((k, f)) = &self.pinned_traced
+            && *k == key
+        {
+            return Ok(f.clone());
+        }
+        let settings = Self::trace_settings(scene, job);
+        let frame = Arc::new(trace(structure, scene, &settings));
+        self.pinned_traced = Some((key, frame.clone()));
+        Ok(frame)
     }
 
     fn draw_overlay(&self, frame: &Frame, rgba: &mut [u8], job: &RenderJob) -> Option<WalkInfo> {

@@ -117,6 +117,7 @@ pub fn run(
         heat_max: None,
         overlay: Overlay::default(),
         preview,
+        compare: None,
     };
     let mut frames = Vec::new();
     for &size in sizes {

@@ -9,6 +9,7 @@ pub mod plot;
 pub mod rays;
 pub mod rotation;
 pub mod sah_check;
+pub mod sah_scatter;
 pub mod scaling;
 pub mod stress;
 pub mod tradeoff;

@@ -1,6 +1,7 @@
 //! `bvhlab` (no command) and `bvhlab app`: the explorer window; `bvhlab screenshot`: the same
 //! window in a given state, saved to a PNG.
 
+use super::compare::{CompareViewArg, settings_over};
 use super::{AccelArg, check_size};
 use anyhow::Result;
 use bvhlab::app::screenshot::{ScreenshotPlan, Shot};
@@ -84,6 +85,14 @@ pub struct ScreenshotArgs {
     /// With --replay: the visit shown, counted from 1 (default: the last).
     #[arg(long, requires = "replay")]
     pub replay_visit: Option<usize>,
+    /// Pin the configuration (--accel and the defaults) as A, then change to B: build flags
+    /// in one quoted argument, as `render --compare` takes them, e.g. '--builder
+    /// object-median'. The shot shows the comparison and its summary.
+    #[arg(long, value_name = "B FLAGS", allow_hyphen_values = true)]
+    pub compare: Option<String>,
+    /// With --compare: A | B side by side, or the difference B − A (heatmap modes).
+    #[arg(long, value_enum, requires = "compare", default_value_t = CompareViewArg::Split)]
+    pub compare_view: CompareViewArg,
 }
 
 fn parse_fraction_pair(s: &str) -> Result<[f32; 2], String> {
@@ -123,6 +132,24 @@ pub fn screenshot(args: ScreenshotArgs) -> Result<()> {
         at,
         visit: args.replay_visit.unwrap_or(usize::MAX),
     });
+    if let Some(flags) = &args.compare {
+        let mut a = bvhlab::app::settings::Settings {
+            accel,
+            ..Default::default()
+        };
+        plan.apply(&mut a);
+        let view = args.compare_view.view();
+        if view == bvhlab::render::compare::CompareView::Difference && !a.mode.is_heatmap() {
+            anyhow::bail!(
+                "--compare-view difference needs a heatmap --mode (nodes, boxes, triangles), not {}",
+                a.mode.label()
+            );
+        }
+        plan.compare = Some(bvhlab::app::screenshot::CompareShot {
+            b: settings_over(&a, flags)?,
+            view,
+        });
+    }
     run_app(Launch {
         scene: Some(args.scene),
         accel: Some(accel),

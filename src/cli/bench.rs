@@ -8,13 +8,13 @@ use bvhlab::accel::AccelKind;
 use bvhlab::accel::bvh::Strategy;
 use bvhlab::bench::accuracy::{self, AccuracyConfig};
 use bvhlab::bench::scaling::{self, ScalingConfig};
-use bvhlab::bench::{self, BenchConfig, plot, rotation, tradeoff};
+use bvhlab::bench::{self, BenchConfig, plot, rotation, sah_scatter, tradeoff};
 use bvhlab::scene::Scene;
 use clap::{ArgGroup, Args};
 use std::path::PathBuf;
 
 #[derive(Args)]
-#[command(group(ArgGroup::new("study").args(["accuracy", "scaling", "tradeoff", "rotation_sweep"])))]
+#[command(group(ArgGroup::new("study").args(["accuracy", "scaling", "tradeoff", "rotation_sweep", "sah_scatter"])))]
 pub struct BenchArgs {
     /// Built-in scene name (optionally NAME:N) or path to an .obj, .gltf or .glb file.
     #[arg(long)]
@@ -62,6 +62,12 @@ pub struct BenchArgs {
     /// and for which range of N each builder is best.
     #[arg(long, conflicts_with = "embree")]
     pub tradeoff: bool,
+    /// The --builders table, then each tree's SAH cost against its measured cost per ray
+    /// (random lines and the view's rays) as a scatter plot: the scene's rows go into the
+    /// CSV (default sah-scatter.csv) beside the rows of other scenes already there, and the
+    /// plot shows them all.
+    #[arg(long, conflicts_with = "embree")]
+    pub sah_scatter: bool,
     /// Turn the walls (--scene walls or walls:N) from 0° to 45° in steps of 5° and trace
     /// each angle's own view with binned SAH, SBVH and pre-split LBVH + treelets: mean nodes
     /// visited, triangle tests and Mrays/s against the angle, as a table, a CSV and a plot.
@@ -76,12 +82,12 @@ pub struct BenchArgs {
     /// 1000,3000,10000,30000,100000,300000,1000000).
     #[arg(long, requires = "scaling", value_delimiter = ',')]
     pub sizes: Option<Vec<usize>>,
-    /// With --accuracy, --scaling, --tradeoff or --rotation-sweep: the CSV file (default:
-    /// <study>-<scene>.csv).
+    /// With --accuracy, --scaling, --tradeoff, --rotation-sweep or --sah-scatter: the CSV
+    /// file (default: <study>-<scene>.csv).
     #[arg(long, requires = "study")]
     pub csv: Option<PathBuf>,
-    /// With --accuracy, --scaling, --tradeoff or --rotation-sweep: the plot PNG, with an SVG
-    /// beside it (default: <study>-<scene>.png).
+    /// With --accuracy, --scaling, --tradeoff, --rotation-sweep or --sah-scatter: the plot
+    /// PNG, with an SVG beside it (default: <study>-<scene>.png).
     #[arg(long, requires = "study")]
     pub plot: Option<PathBuf>,
     /// With --accuracy: random rays compared with the f64 reference besides the ray sets.
@@ -115,7 +121,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let load_time = load_start.elapsed();
     // The builders and the accuracy study compare BVH2 builds; the ray sets are traced with
     // the fastest layout unless --accel names one.
-    let compares_builds = args.builders || args.accuracy;
+    let compares_builds = args.builders || args.accuracy || args.sah_scatter;
     let traced = if compares_builds {
         args.build.accel_for(&scene)
     } else {
@@ -148,14 +154,14 @@ pub fn run(args: BenchArgs) -> Result<()> {
             scene.name
         );
     }
-    if (args.builders || args.tradeoff)
+    if (args.builders || args.tradeoff || args.sah_scatter)
         && args.build.accel.is_some_and(|a| a != super::AccelArg::Bvh)
     {
         anyhow::bail!("--builders and --tradeoff compare the BVH's builders: leave out --accel");
     }
     cfg.params.validate()?;
     let pool = thread_pool(args.threads)?;
-    if args.builders || args.tradeoff {
+    if args.builders || args.tradeoff || args.sah_scatter {
         return run_builders(&args, &scene, &cfg, &pool);
     }
     if args.accuracy {
@@ -384,6 +390,13 @@ fn run_builders(
     pool: &rayon::ThreadPool,
 ) -> Result<()> {
     let quiet = args.json;
+    // The scatter's CSV is read first: a file it cannot extend stops the run before the
+    // benchmark, not after.
+    let scatter_rows = if args.sah_scatter {
+        Some(read_sah_scatter(args)?)
+    } else {
+        None
+    };
     let variants = bench::builder_variants(&cfg.params.bvh);
     let results = pool.install(|| {
         bench::run_builders(scene, cfg, &variants, &mut |r| {
@@ -409,6 +422,10 @@ fn run_builders(
         let svg_path = plot::save(&tradeoff::figure(&scene.name, threads, &lines), &plot_path)?;
         written = Some((csv_path, plot_path, svg_path));
     }
+    let scatter = match scatter_rows {
+        Some(earlier) => Some(write_sah_scatter(args, earlier, &scene.name, &results)?),
+        None => None,
+    };
     if args.json {
         let builders: Vec<serde_json::Value> = results.iter().map(|r| r.to_json()).collect();
         let best: Vec<serde_json::Value> = tradeoff::best_ranges(&lines)
@@ -517,6 +534,15 @@ fn run_builders(
                 differing.join(", ")
             );
         }
+    }
+    sah_check_table(&results)?;
+    if let Some((csv_path, plot_path, svg_path)) = scatter {
+        out!(
+            "  wrote {}, {} and {} (every scene in the CSV)",
+            csv_path.display(),
+            plot_path.display(),
+            svg_path.display()
+        );
     }
     if let Some((csv_path, plot_path, svg_path)) = written {
         out!(
@@ -809,6 +835,84 @@ fn run_scaling(args: &BenchArgs, width: u32, height: u32) -> Result<()> {
 }
 
 /// The CSV and plot paths of a study: `--csv` and `--plot`, or `<study>-<scene>.csv|png`.
+/// The SAH check of every builder: its prediction, and each ray set's measured cost per
+/// ray with its share of the prediction.
+fn sah_check_table(results: &[bench::BenchResult]) -> Result<()> {
+    out!("  SAH predicted against measured (cost per ray, and % of the SAH cost):");
+    out!(
+        "  {:<28} {:>9} {:>15} {:>15} {:>15} {:>15}",
+        "builder",
+        "SAH cost",
+        "random lines",
+        "primary",
+        "diffuse",
+        "shadow"
+    );
+    for r in results {
+        let Some(c) = &r.sah_check else { continue };
+        let cell = |m: f64| format!("{m:>7.1} ({:>3.0} %)", 100.0 * m / c.predicted);
+        out!(
+            "  {:<28} {:>9.2} {:>15} {:>15} {:>15} {:>15}",
+            bench::builder_label(&r.params.bvh),
+            c.predicted,
+            cell(c.random),
+            cell(c.primary),
+            cell(c.diffuse),
+            cell(c.shadow)
+        );
+    }
+    Ok(())
+}
+
+/// The `--sah-scatter` files: the CSV and the plot.
+fn sah_scatter_paths(args: &BenchArgs) -> (PathBuf, PathBuf) {
+    let csv = args
+        .csv
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("sah-scatter.csv"));
+    let plot = args
+        .plot
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("sah-scatter.png"));
+    (csv, plot)
+}
+
+/// The rows already in the `--sah-scatter` CSV (none if it does not exist yet).
+fn read_sah_scatter(args: &BenchArgs) -> Result<Vec<sah_scatter::Row>> {
+    let (csv_path, _) = sah_scatter_paths(args);
+    match std::fs::read_to_string(&csv_path) {
+        Ok(text) => sah_scatter::parse_csv(&text)
+            .map_err(|e| anyhow::anyhow!("{} is not a SAH scatter CSV: {e}", csv_path.display())),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(Vec::new()),
+        Err(e) => Err(e).with_context(|| format!("cannot read {}", csv_path.display())),
+    }
+}
+
+/// `--sah-scatter`: this scene's rows merged into the CSV's, and the plot of them all.
+fn write_sah_scatter(
+    args: &BenchArgs,
+    earlier: Vec<sah_scatter::Row>,
+    scene: &str,
+    results: &[bench::BenchResult],
+) -> Result<(PathBuf, PathBuf, PathBuf)> {
+    let (csv_path, plot_path) = sah_scatter_paths(args);
+    let new = results
+        .iter()
+        .filter_map(|r| {
+            Some(sah_scatter::Row {
+                scene: scene.to_string(),
+                builder: bench::builder_label(&r.params.bvh),
+                check: r.sah_check?,
+            })
+        })
+        .collect();
+    let rows = sah_scatter::merge(earlier, new);
+    std::fs::write(&csv_path, sah_scatter::csv(&rows))
+        .with_context(|| format!("cannot write {}", csv_path.display()))?;
+    let svg_path = plot::save(&sah_scatter::figure(&rows), &plot_path)?;
+    Ok((csv_path, plot_path, svg_path))
+}
+
 fn output_paths(args: &BenchArgs, study: &str, scene: &str) -> (PathBuf, PathBuf) {
     let stem = super::render::sanitize(scene);
     let csv = args

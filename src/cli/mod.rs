@@ -2,6 +2,7 @@
 
 pub mod app;
 pub mod bench;
+pub mod compare;
 pub mod frames;
 pub mod render;
 pub mod replay;

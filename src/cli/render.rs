@@ -1,5 +1,6 @@
 //! `bvhlab render`: a scene through the CPU ray tracer into a PNG.
 
+use super::compare::CompareViewArg;
 use super::{BuildArgs, IntersectorArg, ModeArg, ViewArgs, check_size, load_scene};
 use anyhow::{Context, Result, bail};
 use bvhlab::accel::Counter;
@@ -38,6 +39,14 @@ pub struct RenderArgs {
     pub intersector: IntersectorArg,
     #[command(flatten)]
     pub build: BuildArgs,
+    /// Compare with a second configuration B: build flags in one quoted argument, read over
+    /// this command's own (configuration A), e.g. --compare '--builder sbvh'. The PNG shows
+    /// both (--compare-view) and the summary compares their counters.
+    #[arg(long, value_name = "B FLAGS", allow_hyphen_values = true)]
+    pub compare: Option<String>,
+    /// With --compare: A | B side by side, or the difference B − A of the heatmap's counter.
+    #[arg(long, value_enum, requires = "compare", default_value_t = CompareViewArg::Split)]
+    pub compare_view: CompareViewArg,
 }
 
 pub fn run(args: RenderArgs) -> Result<()> {
@@ -78,12 +87,26 @@ pub fn run(args: RenderArgs) -> Result<()> {
         counters: true,
     };
     let kind = args.intersector.kind();
+    let out_or_default = |suffix: &str| {
+        args.out.clone().unwrap_or_else(|| {
+            PathBuf::from(format!("bvhlab-{}{suffix}.png", sanitize(&scene.name)))
+        })
+    };
+    if let Some(flags) = &args.compare {
+        let out = out_or_default("-compare");
+        return super::compare::run(
+            &scene,
+            &settings,
+            kind,
+            &args.build,
+            flags,
+            args.compare_view,
+            &out,
+        );
+    }
     let built = args.build.build_to_trace(&scene)?;
     let frame = with_intersector!(kind, I => render::render_with::<_, I>(&built.structure, &scene, &settings));
-    let out = args.out.unwrap_or_else(|| {
-        let name = format!("bvhlab-{}.png", sanitize(&scene.name));
-        PathBuf::from(name)
-    });
+    let out = out_or_default("");
     frame
         .save_png(&out)
         .with_context(|| format!("cannot write {}", out.display()))?;

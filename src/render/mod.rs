@@ -3,6 +3,7 @@
 //! the work each pixel's rays took.
 
 pub mod colormap;
+pub mod compare;
 pub mod export;
 pub mod frame;
 pub mod overlay;

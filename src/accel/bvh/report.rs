@@ -67,6 +67,16 @@ impl BuildPhases {
         self.times.push((phase.to_string(), time));
     }
 
+    /// One ("time: phase", "x ms") row per phase.
+    pub fn time_rows(&self) -> impl Iterator<Item = (String, String)> + '_ {
+        self.times.iter().map(|(phase, time)| {
+            (
+                format!("time: {phase}"),
+                format!("{:.2} ms", time.as_secs_f64() * 1e3),
+            )
+        })
+    }
+
     pub fn add_round(&mut self, time: Duration, sah_cost: f64) {
         self.sah_after_round.push(sah_cost);
         let round = self.sah_after_round.len();
@@ -163,12 +173,8 @@ impl BuildReport {
             .map(|(size, c)| format!("{size}:{c}"))
             .collect();
         rows.push(("leaf sizes (size:count)".into(), hist.join(" ")));
-        for (phase, time) in &self.phases.times {
-            rows.push((
-                format!("time: {phase}"),
-                format!("{:.2} ms", time.as_secs_f64() * 1e3),
-            ));
-        }
+        rows.push(("threads".into(), rayon::current_num_threads().to_string()));
+        rows.extend(self.phases.time_rows());
         if let Some(before) = self.phases.sah_before_rounds {
             rows.push(("SAH cost before treelets".into(), format!("{before:.3}")));
         }

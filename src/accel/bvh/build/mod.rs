@@ -38,8 +38,8 @@ use super::{Bvh, TraversalOrder};
 use crate::geometry::{Aabb, Triangle};
 use prim::{NodeInfo, PrimRef, Split};
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::time::Instant;
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::time::{Duration, Instant};
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub enum Strategy {
@@ -243,6 +243,31 @@ const PARALLEL_SUBTREE: usize = 4096;
 /// Passes over at least this many primitives are split across threads.
 pub(crate) const PARALLEL_PASS: usize = 32 * 1024;
 
+/// The time the splits near the root spent binning and partitioning: nodes of at least
+/// `PARALLEL_PASS` primitives, whose passes run on all threads. Summed over those nodes
+/// (two of them may run at once, one per thread).
+#[derive(Default)]
+pub struct TopSplitClock {
+    binning_ns: AtomicU64,
+    partition_ns: AtomicU64,
+}
+
+impl TopSplitClock {
+    pub fn add_binning(&self, t: Duration) {
+        self.binning_ns
+            .fetch_add(t.as_nanos() as u64, Ordering::Relaxed);
+    }
+
+    pub fn add_partition(&self, t: Duration) {
+        self.partition_ns
+            .fetch_add(t.as_nanos() as u64, Ordering::Relaxed);
+    }
+
+    fn read(a: &AtomicU64) -> Duration {
+        Duration::from_nanos(a.load(Ordering::Relaxed))
+    }
+}
+
 /// Builds a BVH over `triangles`. Triangle indices in hits are indices into `triangles`.
 pub fn build(
     triangles: &[Triangle],
@@ -273,7 +298,9 @@ pub fn build_with_progress(
         phases.add("pre-splitting", start.elapsed());
         refs
     } else {
-        whole_references(triangles)
+        let refs = whole_references(triangles);
+        phases.add("references", start.elapsed());
+        refs
     };
     let bvh = match params.strategy {
         Strategy::Lbvh | Strategy::LbvhTreelet if !triangles.is_empty() => {
@@ -290,7 +317,7 @@ pub fn build_with_progress(
             phases.spatial_splits = Some((tree.spatial_splits, tree.unsplit));
             in_leaf_order(triangles, Nodes::from_flat(&tree.nodes), tree.prims)
         }
-        _ => build_tree(triangles, refs, params, progress),
+        _ => build_tree(triangles, refs, params, progress, &mut phases),
     };
     // Two pieces of a pre-split triangle may share a leaf: one test of it is enough.
     let bvh = if presplit {
@@ -357,13 +384,19 @@ fn without_repeats_in_leaves(mut bvh: Bvh) -> Bvh {
     bvh
 }
 
+/// The top-down build: a recursion of splits, both children of a large node built as
+/// parallel tasks. Its phases: the splits near the root (binning and partition, whose
+/// passes use every thread), the whole recursion, and the copy into leaf order.
 fn build_tree(
     triangles: &[Triangle],
     mut refs: Vec<PrimRef>,
     params: &BuildParams,
     progress: &AtomicUsize,
+    phases: &mut BuildPhases,
 ) -> Bvh {
     let n = refs.len();
+    let clock = TopSplitClock::default();
+    let start = Instant::now();
     let nodes = if n == 0 {
         Nodes::from_flat(&[Node::leaf(Aabb::EMPTY, 0, 0)])
     } else {
@@ -371,7 +404,11 @@ fn build_tree(
         // fixed slice of that size lets both halves be built in parallel into disjoint
         // slices of one array; `compact` then squeezes out the slots leaves did not use.
         let mut slots = vec![Node::default(); 2 * n - 1];
-        let builder = Builder { params, progress };
+        let builder = Builder {
+            params,
+            progress,
+            clock: &clock,
+        };
         let info = NodeInfo::of(&refs);
         let root = builder.subtree(&mut refs, 0, 0, info, &mut slots[1..], 1);
         slots[0] = root;
@@ -380,12 +417,28 @@ fn build_tree(
         }
         Nodes::from_flat(&compact(&slots))
     };
+    let recursion = start.elapsed();
+    if params.strategy == Strategy::SahBinned {
+        phases.add(
+            "binning near the root",
+            TopSplitClock::read(&clock.binning_ns),
+        );
+        phases.add(
+            "partition near the root",
+            TopSplitClock::read(&clock.partition_ns),
+        );
+    }
+    phases.add("splits (whole recursion)", recursion);
+    let start = Instant::now();
     let prim_indices: Vec<u32> = refs.iter().map(|r| r.index).collect();
-    in_leaf_order(triangles, nodes, prim_indices)
+    let bvh = in_leaf_order(triangles, nodes, prim_indices);
+    phases.add("leaf order", start.elapsed());
+    bvh
 }
 
 struct Builder<'a> {
     params: &'a BuildParams,
+    clock: &'a TopSplitClock,
     /// Counted per sequential subtree, not per leaf, to keep the atomic out of the way.
     progress: &'a AtomicUsize,
 }
@@ -473,7 +526,7 @@ impl Builder<'_> {
             Strategy::ObjectMedian => must_split.then(|| median::object_median(refs, info)),
             Strategy::SpatialMedian => must_split.then(|| median::spatial_median(refs, info)),
             Strategy::SahSweep => sah_sweep::split(refs, info, p),
-            Strategy::SahBinned => sah_binned::split(refs, info, p),
+            Strategy::SahBinned => sah_binned::split(refs, info, p, self.clock),
             // An empty input reaches no split; non-empty ones are built by `lbvh` or `sbvh`.
             Strategy::Lbvh | Strategy::LbvhTreelet | Strategy::Sbvh => None,
         }

@@ -3,10 +3,11 @@
 //! at the price of split planes restricted to a grid; B trades build time for tree quality.
 
 use super::prim::{Box3A, NodeInfo, PrimRef, Split, partition};
-use super::{BuildParams, PARALLEL_PASS, sah_split_cost, sah_worth_splitting};
+use super::{BuildParams, PARALLEL_PASS, TopSplitClock, sah_split_cost, sah_worth_splitting};
 use glam::Vec3A;
 use rayon::prelude::*;
 use std::cell::RefCell;
+use std::time::Instant;
 
 #[derive(Clone, Copy)]
 struct Bin {
@@ -230,16 +231,34 @@ pub fn best(refs: &[PrimRef], info: &NodeInfo, p: &BuildParams) -> Option<Object
     })
 }
 
-pub fn split(refs: &mut [PrimRef], info: &NodeInfo, p: &BuildParams) -> Option<Split> {
+/// Splits a node at its cheapest bucket boundary; a node large enough for its passes to
+/// run on all threads adds their times to `clock`.
+pub fn split(
+    refs: &mut [PrimRef],
+    info: &NodeInfo,
+    p: &BuildParams,
+    clock: &TopSplitClock,
+) -> Option<Split> {
     let n = refs.len();
-    let Some(best) = best(refs, info, p) else {
+    let timed = n >= PARALLEL_PASS;
+    let start = Instant::now();
+    let best = best(refs, info, p);
+    if timed {
+        clock.add_binning(start.elapsed());
+    }
+    let Some(best) = best else {
         // Every centroid fell into one bucket (extents near the float resolution).
         return (n > p.max_leaf_size as usize).then(|| super::median::object_median(refs, info));
     };
     if !sah_worth_splitting(n, best.cost, info.bounds.surface_area(), p) {
         return None;
     }
-    Some(partition(refs, |r| best.is_left(r)))
+    let start = Instant::now();
+    let split = partition(refs, |r| best.is_left(r));
+    if timed {
+        clock.add_partition(start.elapsed());
+    }
+    Some(split)
 }
 
 /// Every bucket boundary of the node over `refs`, with the plane's position along its

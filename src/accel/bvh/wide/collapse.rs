@@ -21,6 +21,7 @@ use super::leaf::BlockPacker;
 use super::node::{INTERIOR, WideNode};
 use crate::accel::bvh::Bvh;
 use crate::geometry::simd::{BLOCK, SimdLevel};
+use std::time::{Duration, Instant};
 
 /// The costs the collapse minimises, and the largest leaf it may form.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -103,7 +104,16 @@ fn distribute<const W: usize>(left: &[f32; W], right: &[f32; W], slots: usize) -
 impl<const W: usize> WideBvh<W> {
     /// The wide tree of minimal SAH cost over the same leaves' triangles as `bvh`.
     pub fn collapse(bvh: &Bvh, params: &CollapseParams) -> Self {
+        Self::collapse_timed(bvh, params).0
+    }
+
+    /// The collapse, with the time of its two phases: the dynamic program's cost table, and
+    /// the layout of the wide nodes and leaf blocks.
+    pub fn collapse_timed(bvh: &Bvh, params: &CollapseParams) -> (Self, CollapsePhases) {
+        let start = Instant::now();
         let costs = Costs::<W>::new(bvh, params);
+        let table = start.elapsed();
+        let start = Instant::now();
         let split = bvh.duplicated_references() > 0;
         let mut out = WideBvh {
             nodes: vec![WideNode::default()],
@@ -123,6 +133,8 @@ impl<const W: usize> WideBvh<W> {
             s
         };
         let mut packer = BlockPacker::default();
+        // Buffers reused by every leaf: one allocation each instead of one per leaf.
+        let (mut under, mut stack, mut tris) = (Vec::new(), Vec::new(), Vec::new());
         // (wide node index, its BVH2 slots, depth), filled depth first.
         let mut work = vec![(0usize, root_slots, 1u32)];
         while let Some((index, slots, depth)) = work.pop() {
@@ -131,8 +143,9 @@ impl<const W: usize> WideBvh<W> {
             for (lane, &s) in slots.iter().enumerate() {
                 node.set_child_bounds(lane, bvh.nodes[s].bounds());
                 if costs.leaf[s] {
-                    let mut tris: Vec<_> = Vec::new();
-                    for t in bvh.triangles_under_leaf_order(s) {
+                    tris.clear();
+                    bvh.leaf_order_under(s, &mut stack, &mut under);
+                    for &t in &under {
                         // Two parts of a split triangle folded into one leaf: one test does.
                         let id = bvh.prim_indices[t];
                         if split && tris.iter().any(|&(_, i)| i == id) {
@@ -165,8 +178,18 @@ impl<const W: usize> WideBvh<W> {
             }
             out.nodes[index] = node;
         }
-        out
+        let layout = start.elapsed();
+        (out, CollapsePhases { table, layout })
     }
+}
+
+/// Where the collapse spent its time.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CollapsePhases {
+    /// The table of C(n, i) over the BVH2's nodes.
+    pub table: Duration,
+    /// The wide nodes and the triangles packed into blocks.
+    pub layout: Duration,
 }
 
 /// The BVH2 nodes that become the wide children when `n` is opened with `slots` slots.
@@ -199,8 +222,16 @@ fn take<const W: usize>(
 impl Bvh {
     /// Leaf-order triangle indices under node `index`, left subtree first.
     pub fn triangles_under_leaf_order(&self, index: usize) -> Vec<usize> {
-        let mut out = Vec::new();
-        let mut stack = vec![index];
+        let (mut stack, mut out) = (Vec::new(), Vec::new());
+        self.leaf_order_under(index, &mut stack, &mut out);
+        out
+    }
+
+    /// `triangles_under_leaf_order` into `out`, with `stack` as the walk's stack.
+    fn leaf_order_under(&self, index: usize, stack: &mut Vec<usize>, out: &mut Vec<usize>) {
+        out.clear();
+        stack.clear();
+        stack.push(index);
         while let Some(i) = stack.pop() {
             let n = &self.nodes[i];
             if n.is_leaf() {
@@ -210,6 +241,5 @@ impl Bvh {
                 stack.push(n.left_first as usize);
             }
         }
-        out
     }
 }

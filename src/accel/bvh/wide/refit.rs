@@ -27,15 +27,6 @@ impl<const W: usize> WideBvh<W> {
         }
     }
 
-    /// Copies the scene's triangles into a block's lanes (`index` its slots' indices).
-    fn refill(block: &mut TriangleBlock, index: &[u32], scene: &[Triangle]) {
-        for (lane, &t) in index.iter().enumerate() {
-            if t != PADDING {
-                block.set(lane, &scene[t as usize]);
-            }
-        }
-    }
-
     /// The interior lanes' boxes of node `i`, from its children (which come after it).
     fn refit_interior(&mut self, i: usize) {
         let (head, tail) = self.nodes.split_at_mut(i + 1);
@@ -49,8 +40,11 @@ impl<const W: usize> WideBvh<W> {
     }
 
     /// Takes the moved triangles (`scene` in scene order, the count the tree was built over)
-    /// and updates every box: triangles and leaf boxes in parallel, then one backward pass
-    /// over the nodes for the interior boxes.
+    /// and updates every box in one pass, children before parents: a leaf lane copies its
+    /// triangles into their block lanes and bounds them while they are in registers, an
+    /// interior lane takes its child's box. The SAH cost before and after is summed in the
+    /// same pass (each lane's old box is read before it is overwritten), so a refit reads
+    /// the nodes once and the triangles once. Subtrees near the root run as parallel tasks.
     pub fn refit(
         &mut self,
         scene: &[Triangle],
@@ -63,36 +57,33 @@ impl<const W: usize> WideBvh<W> {
                 given: scene.len(),
             });
         }
-        let sah_before = self.sah_cost(c_trav, c_isect);
-        let parallel = scene.len() >= PARALLEL_REFIT;
-        let blocks = &mut self.blocks;
-        if parallel {
-            blocks
-                .par_iter_mut()
-                .zip(self.prim_indices.par_chunks(BLOCK))
-                .with_min_len(1024)
-                .for_each(|(b, index)| Self::refill(b, index, scene));
-            let blocks = &self.blocks;
-            self.nodes
-                .par_iter_mut()
-                .with_min_len(256)
-                .for_each(|n| Self::refit_leaves(n, blocks));
-        } else {
-            blocks
-                .iter_mut()
-                .zip(self.prim_indices.chunks(BLOCK))
-                .for_each(|(b, index)| Self::refill(b, index, scene));
-            let blocks = &self.blocks;
-            self.nodes
-                .iter_mut()
-                .for_each(|n| Self::refit_leaves(n, blocks));
-        }
-        for i in (0..self.nodes.len()).rev() {
-            self.refit_interior(i);
-        }
+        let root_before = self.nodes[0].bounds().surface_area() as f64;
+        let costs = Costs {
+            trav: c_trav as f64,
+            isect: c_isect as f64,
+        };
+        let tree = SharedTree {
+            nodes: self.nodes.as_mut_ptr(),
+            blocks: self.blocks.as_mut_ptr(),
+            indices: &self.prim_indices,
+            scene,
+        };
+        let parallel_depth = if scene.len() >= PARALLEL_REFIT { 4 } else { 0 };
+        // SAFETY: every node but the root has exactly one parent lane and every slot exactly
+        // one leaf lane (what `validate` checks), so the tasks of `refit_subtree` write
+        // disjoint nodes and disjoint block lanes; `self` stays borrowed for the whole pass.
+        let sums = unsafe { tree.refit_subtree(0, parallel_depth, costs) };
+        let root_after = self.nodes[0].bounds().surface_area() as f64;
+        let sah = |root: f64, lanes: f64| {
+            if root <= 0.0 {
+                costs.isect * self.triangle_count as f64
+            } else {
+                (costs.trav * root + lanes) / root
+            }
+        };
         Ok(RefitReport {
-            sah_before,
-            sah_after: self.sah_cost(c_trav, c_isect),
+            sah_before: sah(root_before, sums.before),
+            sah_after: sah(root_after, sums.after),
         })
     }
 
@@ -125,6 +116,147 @@ impl<const W: usize> WideBvh<W> {
             sah_before,
             sah_after: self.sah_cost(c_trav, c_isect),
         })
+    }
+}
+
+/// The SAH's cost weights, in the precision the sums are kept in.
+#[derive(Clone, Copy)]
+struct Costs {
+    trav: f64,
+    isect: f64,
+}
+
+impl Costs {
+    /// The cost weight of a lane holding `count` (a leaf's triangles, or `INTERIOR`).
+    fn of(self, interior: bool, count: u32) -> f64 {
+        if interior {
+            self.trav
+        } else {
+            self.isect * count as f64
+        }
+    }
+}
+
+/// The area-weighted lane costs of a subtree, with the boxes before and after the refit.
+#[derive(Clone, Copy, Default)]
+struct LaneSums {
+    before: f64,
+    after: f64,
+}
+
+impl std::ops::Add for LaneSums {
+    type Output = LaneSums;
+    fn add(self, o: LaneSums) -> LaneSums {
+        LaneSums {
+            before: self.before + o.before,
+            after: self.after + o.after,
+        }
+    }
+}
+
+/// The tree as the refit's tasks share it: raw pointers, because parallel tasks write
+/// different nodes and different lanes of the same block array.
+struct SharedTree<'a, const W: usize> {
+    nodes: *mut WideNode<W>,
+    blocks: *mut TriangleBlock,
+    indices: &'a [u32],
+    scene: &'a [Triangle],
+}
+
+// SAFETY: the pointers are only written at nodes and block lanes owned by one task (see
+// `refit_subtree`).
+unsafe impl<const W: usize> Sync for SharedTree<'_, W> {}
+
+impl<const W: usize> SharedTree<'_, W> {
+    /// Refits node `i`'s subtree and returns its lane sums; subtrees start as parallel tasks
+    /// while `parallel_depth` > 0.
+    ///
+    /// # Safety
+    /// No other task may touch `i`'s subtree, its nodes or its leaves' slots.
+    unsafe fn refit_subtree(&self, i: usize, parallel_depth: u32, costs: Costs) -> LaneSums {
+        // SAFETY: node `i` is this task's alone (the caller's contract).
+        let node = unsafe { &mut *self.nodes.add(i) };
+        let lanes = node.child_count();
+        // Children's sums first: every interior child is refitted before its box is read.
+        let mut child_sums = [LaneSums::default(); W];
+        if parallel_depth > 0 {
+            let interior: Vec<(usize, usize)> = (0..lanes)
+                .filter(|&l| node.is_interior(l))
+                .map(|l| (l, node.child[l] as usize))
+                .collect();
+            let sums: Vec<LaneSums> = interior
+                .par_iter()
+                // SAFETY: distinct children own disjoint subtrees.
+                .map(|&(_, c)| unsafe { self.refit_subtree(c, parallel_depth - 1, costs) })
+                .collect();
+            for (&(l, _), s) in interior.iter().zip(sums) {
+                child_sums[l] = s;
+            }
+        } else {
+            for (l, sum) in child_sums.iter_mut().enumerate().take(lanes) {
+                if node.is_interior(l) {
+                    // SAFETY: as above.
+                    *sum = unsafe { self.refit_subtree(node.child[l] as usize, 0, costs) };
+                }
+            }
+        }
+        let mut sums = LaneSums::default();
+        for (l, child) in child_sums.iter().enumerate().take(lanes) {
+            let old = node.child_bounds(l).surface_area() as f64;
+            let new = if node.is_interior(l) {
+                // SAFETY: the child's task has finished; nothing else writes it.
+                unsafe { &*self.nodes.add(node.child[l] as usize) }.bounds()
+            } else {
+                let first = node.child[l] as usize;
+                // SAFETY: this leaf lane's slots belong to no other lane.
+                unsafe { self.refill_leaf(first..first + node.count[l] as usize) }
+            };
+            node.set_child_bounds(l, new);
+            let weight = costs.of(node.is_interior(l), node.count[l]);
+            sums = sums
+                + *child
+                + LaneSums {
+                    before: weight * old,
+                    after: weight * new.surface_area() as f64,
+                };
+        }
+        sums
+    }
+
+    /// Copies a leaf's triangles from the scene into their block lanes and returns their box.
+    ///
+    /// # Safety
+    /// The slots must be this leaf's alone.
+    unsafe fn refill_leaf(&self, slots: std::ops::Range<usize>) -> Aabb {
+        let mut b = Aabb::EMPTY;
+        for slot in slots {
+            let t = self.indices[slot];
+            if t == PADDING {
+                continue;
+            }
+            let tri = &self.scene[t as usize];
+            // SAFETY: lane `slot % BLOCK` of this block is written by this leaf only; other
+            // lanes of the block are not touched (`set_lane` writes one lane's floats).
+            unsafe { set_lane(self.blocks.add(slot / BLOCK), slot % BLOCK, tri) };
+            b = b.union(tri.bounds());
+        }
+        b
+    }
+}
+
+/// Writes one lane of a block through a raw pointer, touching no other lane's floats.
+///
+/// # Safety
+/// `block` must point into the live block array, and no one else may access this lane.
+unsafe fn set_lane(block: *mut TriangleBlock, lane: usize, tri: &Triangle) {
+    // SAFETY: the caller's contract; `addr_of_mut!` makes no reference to the whole block,
+    // and its `v` is 3 · 3 · BLOCK contiguous floats (vertex, axis, lane).
+    let floats = unsafe { std::ptr::addr_of_mut!((*block).v) } as *mut f32;
+    for (k, p) in tri.v.iter().enumerate() {
+        for (axis, value) in [p.x, p.y, p.z].into_iter().enumerate() {
+            // SAFETY: k < 3, axis < 3, lane < BLOCK: inside the block, in this lane.
+            unsafe { floats.add((k * 3 + axis) * BLOCK + lane).write(value) };
+        }
     }
 }
 

@@ -1,0 +1,163 @@
+//! Two configurations side by side in the app: pin the current configuration as A, change
+//! anything, and see A | B or the difference B − A of the heatmap's counter, with A's and
+//! B's totals and means and the share of pixels B made cheaper.
+
+use super::BvhLabApp;
+use crate::render::compare::{CompareView, diverging};
+use eframe::egui::{self, RichText};
+
+/// The controls: pin or unpin, and the view.
+pub fn section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    egui::CollapsingHeader::new("Compare A | B")
+        .default_open(true)
+        .show(ui, |ui| match &app.pinned {
+            None => {
+                ui.label(
+                    RichText::new(
+                        "Pin the current configuration as A, then change anything: \
+                             the settings above become B.",
+                    )
+                    .weak(),
+                );
+                if ui
+                    .button("Pin as A")
+                    .on_hover_text("key A: the current structure and its parameters")
+                    .clicked()
+                {
+                    app.pin();
+                }
+            }
+            Some(pinned) => {
+                ui.label(format!("A: {}", pinned.label()));
+                ui.label(format!(
+                    "B: {}",
+                    super::settings::Pinned::of(&app.settings).label()
+                ));
+                ui.horizontal(|ui| {
+                    if ui.button("Pin B as A").clicked() {
+                        app.pin();
+                    }
+                    if ui.button("Unpin").on_hover_text("key A").clicked() {
+                        app.unpin();
+                    }
+                });
+                let heatmap = app.settings.mode.is_heatmap();
+                ui.horizontal(|ui| {
+                    for view in CompareView::ALL {
+                        let enabled = heatmap || view != CompareView::Difference;
+                        ui.add_enabled_ui(enabled, |ui| {
+                            ui.selectable_value(&mut app.settings.compare_view, view, view.label())
+                                .on_hover_text("key C cycles the views")
+                                .on_disabled_hover_text("B − A needs a heatmap mode");
+                        });
+                    }
+                });
+                if app.settings.compare_view == CompareView::Difference && !heatmap {
+                    ui.label(RichText::new("B − A needs a heatmap mode: showing B.").weak());
+                }
+                ui.label(
+                    RichText::new(
+                        "A is built afresh over each scene loaded and after each move: \
+                         where B refits, B − A shows what the refit costs.",
+                    )
+                    .weak(),
+                );
+            }
+        });
+}
+
+/// The summary in the stats panel: for each counter compared, A's and B's totals and
+/// means, B − A, and the shares of pixels B made cheaper, left equal, made dearer.
+pub fn summary(app: &BvhLabApp, ui: &mut egui::Ui) {
+    if app.pinned.is_none() {
+        return;
+    }
+    ui.heading("A against B");
+    let Some(compared) = &app.compared else {
+        ui.label("tracing A…");
+        ui.separator();
+        return;
+    };
+    if let Some(e) = &compared.error {
+        ui.colored_label(ui.visuals().warn_fg_color, e);
+    }
+    for s in &compared.summaries {
+        ui.strong(format!("{} ({})", s.counter.label(), s.rays.label()));
+        egui::Grid::new(("compare", s.counter.label(), s.rays.label()))
+            .num_columns(3)
+            .striped(true)
+            .show(ui, |ui| {
+                ui.label("");
+                ui.strong("total");
+                ui.strong("mean");
+                ui.end_row();
+                ui.label("A");
+                ui.label(s.total_a.to_string());
+                ui.label(format!("{:.2}", s.mean_a()));
+                ui.end_row();
+                ui.label("B");
+                ui.label(s.total_b.to_string());
+                ui.label(format!("{:.2}", s.mean_b()));
+                ui.end_row();
+                ui.label("B − A");
+                let change = s
+                    .percent_change()
+                    .map(|p| format!(" ({p:+.1} %)"))
+                    .unwrap_or_default();
+                ui.label(format!("{:+}{change}", s.total_difference()));
+                ui.label(format!("{:+.2}", s.mean_difference()));
+                ui.end_row();
+            });
+        let [cheaper, equal, dearer] = s.shares().map(|x| 100.0 * x);
+        ui.label(format!(
+            "pixels cheaper under B {cheaper:.1} %, equal {equal:.1} %, dearer {dearer:.1} %"
+        ));
+    }
+    ui.separator();
+}
+
+/// The legend of the difference view: the diverging map from −max (B cheaper) through 0 to
+/// +max (B dearer).
+pub fn difference_legend(ui: &mut egui::Ui, rect: egui::Rect, label: &str, max: u32) {
+    let painter = ui.painter_at(rect);
+    let (w, h) = (200.0, 14.0);
+    let origin = rect.left_bottom() + egui::vec2(12.0, -40.0);
+    let bg = egui::Rect::from_min_size(
+        origin - egui::vec2(6.0, 20.0),
+        egui::vec2(w + 12.0, h + 40.0),
+    );
+    painter.rect_filled(bg, 4.0, egui::Color32::from_black_alpha(170));
+    let steps = 64;
+    for k in 0..steps {
+        let c = diverging(2.0 * k as f32 / (steps - 1) as f32 - 1.0);
+        let x0 = origin.x + w * k as f32 / steps as f32;
+        let r = egui::Rect::from_min_size(
+            egui::pos2(x0, origin.y),
+            egui::vec2(w / steps as f32 + 0.5, h),
+        );
+        let [r8, g8, b8] = [c.x, c.y, c.z].map(|v| (v * 255.0) as u8);
+        painter.rect_filled(r, 0.0, egui::Color32::from_rgb(r8, g8, b8));
+    }
+    let font = egui::FontId::proportional(12.0);
+    let white = egui::Color32::WHITE;
+    painter.text(
+        origin - egui::vec2(0.0, 4.0),
+        egui::Align2::LEFT_BOTTOM,
+        format!("B − A: {label}"),
+        font.clone(),
+        white,
+    );
+    for (x, align, text) in [
+        (0.0, egui::Align2::LEFT_TOP, format!("−{max} (B cheaper)")),
+        (w / 2.0, egui::Align2::CENTER_TOP, "0".to_string()),
+        (w, egui::Align2::RIGHT_TOP, format!("+{max}")),
+    ] {
+        painter.text(
+            origin + egui::vec2(x, h + 2.0),
+            align,
+            text,
+            font.clone(),
+            white,
+        );
+    }
+}
