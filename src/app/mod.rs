@@ -4,8 +4,10 @@
 
 mod bucket_plot;
 pub mod export;
+mod lecture;
 mod orbit;
 mod panels;
+pub mod preset;
 pub mod replay;
 pub mod screenshot;
 pub mod settings;
@@ -35,11 +37,15 @@ pub struct Launch {
     /// Start from default settings and do not save them.
     pub fresh: bool,
     pub screenshot: Option<ScreenshotPlan>,
+    /// Open at this preset of this sequence (`--preset`).
+    pub preset: Option<(preset::Sequence, usize)>,
 }
 
 /// Which tool the left mouse button is.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Tool {
+    #[default]
     Orbit,
     /// Click picks a triangle, drag moves it (or its object) and refits.
     Move,
@@ -121,6 +127,8 @@ pub struct BvhLabApp {
     pub export_status: Option<Result<String, String>>,
     /// A path chosen in a save dialog, and what to save there.
     save_slot: export::SaveSlot,
+    /// The lecture's presets and the one shown.
+    pub lecture: lecture::Lecture,
 }
 
 impl BvhLabApp {
@@ -140,6 +148,17 @@ impl BvhLabApp {
         if let Some(plan) = &launch.screenshot {
             plan.apply(&mut settings);
         }
+        let mut tool = Tool::Orbit;
+        let lecture = match launch.preset {
+            Some((sequence, index)) => {
+                if let Some(p) = sequence.presets.get(index) {
+                    settings = p.settings_over(&settings);
+                    tool = p.tool;
+                }
+                lecture::Lecture::at(sequence, index)
+            }
+            None => lecture::Lecture::default(),
+        };
         let ctx = cc.egui_ctx.clone();
         let mut worker = Worker::spawn(move || ctx.request_repaint());
         worker.send(Command::Build(settings.structure_params()));
@@ -164,7 +183,7 @@ impl BvhLabApp {
                 glam::Vec3::splat(-1.0),
                 glam::Vec3::ONE,
             ))),
-            tool: Tool::Orbit,
+            tool,
             last_interaction: None,
             selection: None,
             selected_set: None,
@@ -190,6 +209,7 @@ impl BvhLabApp {
             replay_error: None,
             export_status: None,
             save_slot: Arc::new(Mutex::new(None)),
+            lecture,
         }
     }
 
@@ -216,6 +236,7 @@ impl BvhLabApp {
                     self.walk = None;
                     self.replay = None;
                     self.building = true;
+                    self.apply_pending_view();
                 }
                 Reply::LoadFailed { error, .. } => self.load_error = Some(error),
                 Reply::Built {
@@ -482,9 +503,11 @@ impl eframe::App for BvhLabApp {
         self.take_picked_file();
         self.take_save_path();
         self.take_dropped_files(&ctx);
+        self.take_chosen_preset_file();
         self.shortcuts(&ctx);
 
         panels::top_bar(self, ui);
+        lecture::caption_bar(self, ui);
         panels::status_bar(self, ui);
         egui::Panel::left("controls")
             .resizable(true)

@@ -62,6 +62,9 @@ pub enum Command {
     /// Build the structure these parameters name (traversal settings alone rebuild
     /// nothing).
     Build(StructureParams),
+    /// The parameters the next load builds with, without building now: a preset sets the
+    /// structure and the scene together, and only the new scene is built.
+    SetParams(StructureParams),
     Render(RenderJob),
     /// Move these scene triangles by `delta`, and refit (BVH) or rebuild the structure.
     Move {
@@ -438,6 +441,7 @@ impl State {
                     self.version += 1;
                 }
             }
+            Command::SetParams(params) => self.params = params,
             Command::Render(_) => {}
             Command::Rebuild => {
                 self.rebuild();
