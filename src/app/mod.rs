@@ -11,6 +11,7 @@ pub mod preset;
 pub mod replay;
 pub mod screenshot;
 pub mod settings;
+pub mod start_view;
 mod viewport;
 pub mod worker;
 

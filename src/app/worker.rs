@@ -408,7 +408,13 @@ impl State {
     fn apply(&mut self, command: Command) {
         match command {
             Command::Load(spec) => match Scene::load(&spec) {
-                Ok(scene) => {
+                Ok(mut scene) => {
+                    // An interior from a file starts from inside it (see `start_view`).
+                    if super::scene::is_file_spec(&spec) {
+                        scene.view = scene
+                            .view
+                            .or_else(|| super::start_view::interior_view(&scene));
+                    }
                     self.reply(Reply::Loaded {
                         spec,
                         scene: Arc::new(scene.clone()),
