@@ -43,9 +43,11 @@ pub struct Lecture {
     /// The last file saved.
     pub saved: Option<String>,
     /// The camera and tree-walk node of the preset being opened, set once its scene has
-    /// loaded (loading a scene sets the scene's own view), and its level (a build clamps
-    /// the level to its structure's depth).
+    /// loaded (loading a scene sets the scene's own view).
     pending: Option<Pending>,
+    /// Its tree-walk node and level, set once its structure is built: until then the
+    /// panels know only the old structure's depth, and would clamp them to it.
+    pending_structure: Option<(Option<u32>, u32)>,
     chosen: Arc<Mutex<Option<Chosen>>>,
 }
 
@@ -57,6 +59,7 @@ impl Default for Lecture {
             error: None,
             saved: None,
             pending: None,
+            pending_structure: None,
             chosen: Arc::new(Mutex::new(None)),
         }
     }
@@ -124,8 +127,15 @@ impl BvhLabApp {
             if let Some(c) = p.camera {
                 self.orbit = Orbit::from_camera(&c);
             }
-            self.walk = p.walk;
-            self.settings.level = p.level;
+            self.lecture.pending_structure = Some((p.walk, p.level));
+        }
+    }
+
+    /// Once the preset's structure is built: its tree-walk node and level.
+    pub(super) fn apply_pending_structure(&mut self) {
+        if let Some((walk, level)) = self.lecture.pending_structure.take() {
+            self.walk = walk.filter(|&w| (w as usize) < self.outline.nodes.len());
+            self.settings.level = level.min(self.outline.max_depth());
         }
     }
 

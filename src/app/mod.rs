@@ -255,6 +255,7 @@ impl BvhLabApp {
                         self.walk = Some(node.min(outline.nodes.len().saturating_sub(1) as u32));
                     }
                     self.outline = outline;
+                    self.apply_pending_structure();
                     // The replayed steps name nodes of the old structure.
                     self.replay = None;
                     self.report = Some(*report);
