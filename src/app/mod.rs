@@ -5,12 +5,15 @@
 mod bucket_plot;
 mod compare;
 pub mod export;
+mod lecture;
 pub mod levels;
 mod orbit;
 mod panels;
+pub mod preset;
 pub mod replay;
 pub mod screenshot;
 pub mod settings;
+pub mod start_view;
 mod viewport;
 pub mod worker;
 
@@ -38,11 +41,15 @@ pub struct Launch {
     /// Start from default settings and do not save them.
     pub fresh: bool,
     pub screenshot: Option<ScreenshotPlan>,
+    /// Open at this preset of this sequence (`--preset`).
+    pub preset: Option<(preset::Sequence, usize)>,
 }
 
 /// Which tool the left mouse button is.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Tool {
+    #[default]
     Orbit,
     /// Click picks a triangle, drag moves it (or its object) and refits.
     Move,
@@ -136,6 +143,8 @@ pub struct BvhLabApp {
     pub pinned: Option<Pinned>,
     /// A against B in the newest full frame (quick previews may not count).
     pub compared: Option<Compared>,
+    /// The lecture's presets and the one shown.
+    pub lecture: lecture::Lecture,
 }
 
 impl BvhLabApp {
@@ -155,6 +164,17 @@ impl BvhLabApp {
         if let Some(plan) = &launch.screenshot {
             plan.apply(&mut settings);
         }
+        let mut tool = Tool::Orbit;
+        let lecture = match launch.preset {
+            Some((sequence, index)) => {
+                if let Some(p) = sequence.presets.get(index) {
+                    settings = p.settings_over(&settings);
+                    tool = p.tool;
+                }
+                lecture::Lecture::at(sequence, index)
+            }
+            None => lecture::Lecture::default(),
+        };
         let ctx = cc.egui_ctx.clone();
         let mut worker = Worker::spawn(move || ctx.request_repaint());
         worker.send(Command::Build(settings.structure_params()));
@@ -182,7 +202,7 @@ impl BvhLabApp {
                 glam::Vec3::splat(-1.0),
                 glam::Vec3::ONE,
             ))),
-            tool: Tool::Orbit,
+            tool,
             last_interaction: None,
             selection: None,
             selected_set: None,
@@ -210,6 +230,7 @@ impl BvhLabApp {
             save_slot: Arc::new(Mutex::new(None)),
             pinned: None,
             compared: None,
+            lecture,
         }
     }
 
@@ -257,6 +278,7 @@ impl BvhLabApp {
                     self.leaf_instances = Arc::default();
                     self.replay = None;
                     self.building = true;
+                    self.apply_pending_view();
                 }
                 Reply::LoadFailed { error, .. } => self.load_error = Some(error),
                 Reply::Built {
@@ -283,6 +305,7 @@ impl BvhLabApp {
                         self.worker.send(Command::SelectInstance(Some(i)));
                     }
                     self.outline = outline;
+                    self.apply_pending_structure();
                     // The replayed steps name nodes of the old structure.
                     self.replay = None;
                     self.report = Some(*report);
@@ -589,9 +612,11 @@ impl eframe::App for BvhLabApp {
         self.take_picked_file();
         self.take_save_path();
         self.take_dropped_files(&ctx);
+        self.take_chosen_preset_file();
         self.shortcuts(&ctx);
 
         panels::top_bar(self, ui);
+        lecture::caption_bar(self, ui);
         panels::status_bar(self, ui);
         egui::Panel::left("controls")
             .resizable(true)

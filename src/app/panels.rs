@@ -69,6 +69,7 @@ pub fn top_bar(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             if scale.drag_stopped() || scale.lost_focus() || (scale.changed() && !scale.dragged()) {
                 ui.ctx().set_zoom_factor(app.settings.ui_scale);
             }
+            super::lecture::menu(app, ui);
             if ui.button("Help (F1)").clicked() {
                 app.show_help = true;
             }
@@ -166,6 +167,7 @@ pub fn status_bar(app: &mut BvhLabApp, ui: &mut egui::Ui) {
 
 pub fn controls(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     ui.add_space(4.0);
+    super::lecture::error(app, ui);
     if let Some(e) = &app.load_error {
         ui.colored_label(ui.visuals().error_fg_color, format!("Load failed: {e}"));
         ui.label(RichText::new("The previous scene is still loaded.").weak());
@@ -344,7 +346,7 @@ fn view_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                         continue;
                     }
                     ui.selectable_value(&mut s.mode, m, m.label())
-                        .on_hover_text(format!("key {}", (k + 1) % 10));
+                        .on_hover_text(format!("Shift+{}", (k + 1) % 10));
                 }
             });
             if s.mode.is_heatmap() {
@@ -596,8 +598,8 @@ fn walk_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 });
                 if info.children.len() == 2 {
                     ui.horizontal(|ui| {
-                        ui.colored_label(egui::Color32::from_rgb(255, 140, 40), "■ first child");
-                        ui.colored_label(egui::Color32::from_rgb(60, 170, 255), "■ second child");
+                        ui.colored_label(egui::Color32::from_rgb(255, 140, 40), "first child");
+                        ui.colored_label(egui::Color32::from_rgb(60, 170, 255), "second child");
                     });
                 }
             }
@@ -1022,10 +1024,17 @@ pub fn help_window(app: &mut BvhLabApp, ctx: &egui::Context) {
                             "replay: previous / next visit, first / last visit",
                         ),
                         ("Esc", "close the replay"),
+                        ("1 … 9", "lecture presets 1 to 9"),
+                        ("Page Down / Page Up", "next / previous preset"),
                         (
-                            "1 … 7",
+                            "Shift+1 … 7",
                             "shaded, normals, depth, nodes, box tests, triangle tests, repeated tests",
                         ),
+                        (
+                            "Shift+8, 9, 0",
+                            "two levels: top-level nodes, bottom-level nodes, instances entered",
+                        ),
+                        ("Ctrl+1 … 9", "the scene's camera bookmarks"),
                         ("S", "heatmaps of shadow rays on/off"),
                         ("A", "pin the current configuration as A / unpin"),
                         ("C", "comparison view: B only, A | B, B − A"),

@@ -1,6 +1,7 @@
 //! What the app remembers between runs (eframe persistence): the build and view settings,
 //! the UI scale and the recently opened files.
 
+use super::preset::View;
 use crate::accel::bvh::{BuildParams, Strategy, TraversalOrder};
 use crate::accel::grid::GridParams;
 use crate::accel::kdtree::{KdParams, KdSplit};
@@ -10,6 +11,7 @@ use crate::geometry::simd::SimdLevel;
 use crate::render::compare::CompareView;
 use crate::render::{Mode, RayKind};
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 
 pub const STORAGE_KEY: &str = "bvhlab-settings";
 const MAX_RECENT: usize = 8;
@@ -181,6 +183,15 @@ pub struct Settings {
     pub auto_rebuild_percent: Option<f32>,
     pub ui_scale: f32,
     pub recent: Vec<String>,
+    /// Camera bookmarks per scene (keyed by its spec), kept between runs.
+    pub bookmarks: BTreeMap<String, Vec<Bookmark>>,
+}
+
+/// A camera kept under a name for one scene.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Bookmark {
+    pub name: String,
+    pub view: View,
 }
 
 impl Default for Settings {
@@ -226,6 +237,7 @@ impl Default for Settings {
             auto_rebuild_percent: None,
             ui_scale: 1.0,
             recent: Vec::new(),
+            bookmarks: BTreeMap::new(),
         }
     }
 }
@@ -262,16 +274,18 @@ impl Settings {
                     0 => KdSplit::Sweep,
                     b => KdSplit::Binned(b),
                 },
+                // Built as it will be traced, so the build report says so.
+                mailbox: self.mailbox,
                 ..KdParams::default()
             },
             grid: GridParams {
                 lambda: self.grid_lambda,
-                ..GridParams::default()
+                mailbox: self.mailbox,
             },
             octree: OctreeParams {
                 max_leaf_size: self.octree_max_leaf_size,
                 max_depth: self.octree_max_depth,
-                ..OctreeParams::default()
+                mailbox: self.mailbox,
             },
             mailbox: self.mailbox,
             simd: self.simd,
@@ -299,6 +313,7 @@ impl Settings {
 /// the SIMD kernel), copied from the settings at the moment of pinning. The settings
 /// themselves stay configuration B.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct Pinned {
     pub accel: AccelKind,
     pub mailbox: bool,
@@ -337,6 +352,13 @@ macro_rules! configuration_fields {
     (@copy $from:expr, $to:expr; $($field:ident),*) => {{
         $( $to.$field = $from.$field; )*
     }};
+}
+
+/// The default configuration: what a preset's `[pinned]` table leaves out.
+impl Default for Pinned {
+    fn default() -> Self {
+        Pinned::of(&Settings::default())
+    }
 }
 
 impl Pinned {

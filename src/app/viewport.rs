@@ -4,7 +4,6 @@
 
 use super::panels::{Step, legend};
 use super::replay::Go;
-use super::settings::ViewMode;
 use super::{BvhLabApp, Drag, Tool};
 use crate::accel::AccelKind;
 use crate::render::compare::CompareView;
@@ -247,26 +246,9 @@ impl BvhLabApp {
         let pressed = |k: Key| ctx.input(|i| i.key_pressed(k));
         let ctrl = ctx.input(|i| i.modifiers.command);
         let max_level = self.levels().max_depth();
+        // Digits: presets, view modes (Shift) and bookmarks (Ctrl).
+        self.lecture_keys(ctx);
         let s = &mut self.settings;
-        for (k, m) in [
-            Key::Num1,
-            Key::Num2,
-            Key::Num3,
-            Key::Num4,
-            Key::Num5,
-            Key::Num6,
-            Key::Num7,
-            Key::Num8,
-            Key::Num9,
-            Key::Num0,
-        ]
-        .into_iter()
-        .zip(ViewMode::ALL)
-        {
-            if pressed(k) {
-                s.mode = m;
-            }
-        }
         if pressed(Key::S) {
             s.shadow_rays = !s.shadow_rays;
         }

@@ -92,6 +92,9 @@ pub enum Command {
     /// Build the structure these parameters name (traversal settings alone rebuild
     /// nothing).
     Build(StructureParams),
+    /// The parameters the next load builds with, without building now: a preset sets the
+    /// structure and the scene together, and only the new scene is built.
+    SetParams(StructureParams),
     Render(RenderJob),
     /// Move these scene triangles by `delta`, and refit (BVH) or rebuild the structure.
     Move {
@@ -482,7 +485,13 @@ impl State {
     fn apply(&mut self, command: Command) {
         match command {
             Command::Load(spec) => match Scene::load(&spec) {
-                Ok(scene) => {
+                Ok(mut scene) => {
+                    // An interior from a file starts from inside it (see `start_view`).
+                    if super::scene::is_file_spec(&spec) {
+                        scene.view = scene
+                            .view
+                            .or_else(|| super::start_view::interior_view(&scene));
+                    }
                     self.reply(Reply::Loaded {
                         spec,
                         scene: Arc::new(scene.clone()),
@@ -519,6 +528,7 @@ impl State {
                     self.version += 1;
                 }
             }
+            Command::SetParams(params) => self.params = params,
             Command::Render(_) => {}
             Command::Rebuild => {
                 self.rebuild();

@@ -4,6 +4,7 @@
 use super::compare::{CompareViewArg, settings_over};
 use super::{AccelArg, check_size};
 use anyhow::Result;
+use bvhlab::app::preset::Sequence;
 use bvhlab::app::screenshot::{ScreenshotPlan, Shot};
 use bvhlab::app::{Launch, run as run_app};
 use clap::{Args, ValueEnum};
@@ -22,14 +23,21 @@ pub struct AppArgs {
     /// this machine traces).
     #[arg(long, value_enum)]
     pub accel: Option<AccelArg>,
+    /// Open at a preset: `lecture` (the built-in lecture), `lecture:N` (its step N), a
+    /// preset file, or `FILE:N`. It sets the scene, structure, view and camera.
+    #[arg(long, value_name = "lecture[:N]|FILE[:N]", conflicts_with_all = ["scene", "accel"])]
+    pub preset: Option<String>,
 }
 
 pub fn run(args: AppArgs) -> Result<()> {
+    // A bad preset is an error here, before any window opens.
+    let preset = args.preset.as_deref().map(Sequence::open).transpose()?;
     run_app(Launch {
         scene: args.scene,
         accel: args.accel.map(AccelArg::kind).transpose()?,
         fresh: args.fresh,
         screenshot: None,
+        preset,
     })
 }
 
@@ -93,6 +101,11 @@ pub struct ScreenshotArgs {
     /// With --compare: A | B side by side, or the difference B − A (heatmap modes).
     #[arg(long, value_enum, requires = "compare", default_value_t = CompareViewArg::Split)]
     pub compare_view: CompareViewArg,
+    /// Open at a preset (`lecture`, `lecture:N`, a preset file, `FILE:N`): its scene,
+    /// structure, view, overlays and camera replace --scene, --accel and --mode, and its
+    /// caption is shown above the view.
+    #[arg(long, value_name = "lecture[:N]|FILE[:N]")]
+    pub preset: Option<String>,
 }
 
 fn parse_fraction_pair(s: &str) -> Result<[f32; 2], String> {
@@ -118,8 +131,12 @@ pub fn screenshot(args: ScreenshotArgs) -> Result<()> {
         ShotArg::Levels => Shot::Levels,
         ShotArg::Refit => Shot::Refit,
     };
+    let preset = args.preset.as_deref().map(Sequence::open).transpose()?;
     // Fail before opening a window when the scene cannot load.
-    bvhlab::scene::Scene::load(&args.scene)?;
+    match &preset {
+        Some((sequence, i)) => bvhlab::scene::Scene::load(&sequence.presets[*i].scene)?,
+        None => bvhlab::scene::Scene::load(&args.scene)?,
+    };
     let accel = args.accel.kind()?;
     if args.instance.is_some() && accel != bvhlab::accel::AccelKind::TwoLevel {
         anyhow::bail!("--instance selects an instance of the two levels: use --accel two-level");
@@ -155,5 +172,6 @@ pub fn screenshot(args: ScreenshotArgs) -> Result<()> {
         accel: Some(accel),
         fresh: true,
         screenshot: Some(plan),
+        preset,
     })
 }

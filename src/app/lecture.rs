@@ -1,0 +1,483 @@
+//! The lecture in the app: the sequence of presets (the built-in lecture or a loaded file),
+//! the preset shown with its question in a caption bar, saving and loading preset files,
+//! and the camera bookmarks of each scene.
+
+use super::BvhLabApp;
+use super::orbit::Orbit;
+use super::preset::{Preset, PresetError, Sequence, View};
+use super::settings::{Bookmark, ViewMode};
+use crate::scene::Camera;
+use eframe::egui::{self, Key, RichText};
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+
+/// A file chosen in a dialog, and what to do with it.
+enum Chosen {
+    Load(PathBuf),
+    Save(PathBuf),
+}
+
+struct Pending {
+    camera: Option<Camera>,
+    walk: Option<u32>,
+    level: u32,
+}
+
+impl Pending {
+    fn of(preset: &Preset) -> Self {
+        Pending {
+            camera: preset.camera.map(|v| v.camera()),
+            walk: preset.walk,
+            level: preset.settings.level,
+        }
+    }
+}
+
+/// What the app knows of the lecture.
+pub struct Lecture {
+    pub sequence: Sequence,
+    /// The preset shown (its caption is on screen); none once closed.
+    pub current: Option<usize>,
+    /// Why the last preset file could not be loaded or saved (the state stayed).
+    pub error: Option<String>,
+    /// The last file saved.
+    pub saved: Option<String>,
+    /// The camera and tree-walk node of the preset being opened, set once its scene has
+    /// loaded (loading a scene sets the scene's own view).
+    pending: Option<Pending>,
+    /// Its tree-walk node and level, set once its structure is built: until then the
+    /// panels know only the old structure's depth, and would clamp them to it.
+    pending_structure: Option<(Option<u32>, u32)>,
+    chosen: Arc<Mutex<Option<Chosen>>>,
+}
+
+impl Default for Lecture {
+    fn default() -> Self {
+        Lecture {
+            sequence: Sequence::lecture(),
+            current: None,
+            error: None,
+            saved: None,
+            pending: None,
+            pending_structure: None,
+            chosen: Arc::new(Mutex::new(None)),
+        }
+    }
+}
+
+impl Lecture {
+    /// A lecture starting at `index` of `sequence` (as `--preset` asks).
+    pub fn at(sequence: Sequence, index: usize) -> Self {
+        let mut lecture = Lecture {
+            sequence,
+            ..Default::default()
+        };
+        lecture.current = Some(index);
+        if let Some(p) = lecture.sequence.presets.get(index) {
+            lecture.pending = Some(Pending::of(p));
+        }
+        lecture
+    }
+}
+
+impl BvhLabApp {
+    /// Shows preset `index` of the sequence: its scene loaded afresh (undoing moves), its
+    /// structure built, its view, overlays, tool and camera set. False if there is none.
+    pub fn go_to_preset(&mut self, index: usize) -> bool {
+        let Some(preset) = self.lecture.sequence.presets.get(index).cloned() else {
+            return false;
+        };
+        self.lecture.current = Some(index);
+        self.apply_preset(&preset);
+        true
+    }
+
+    /// The next (or previous) preset of the sequence; the first if none is shown.
+    pub fn step_preset(&mut self, forward: bool) {
+        let last = self.lecture.sequence.presets.len().saturating_sub(1);
+        let index = match (self.lecture.current, forward) {
+            (None, _) => 0,
+            (Some(i), true) => (i + 1).min(last),
+            (Some(i), false) => i.saturating_sub(1),
+        };
+        if Some(index) != self.lecture.current {
+            self.go_to_preset(index);
+        }
+    }
+
+    fn apply_preset(&mut self, preset: &Preset) {
+        self.settings = preset.settings_over(&self.settings);
+        self.tool = preset.tool;
+        self.pinned = preset.pinned.clone();
+        self.compared = None;
+        self.replay = None;
+        self.replay_error = None;
+        self.selection = None;
+        self.drag = None;
+        self.lecture.pending = Some(Pending::of(preset));
+        self.lecture.error = None;
+        // The scene loads straight into the preset's structure: one build.
+        let params = self.settings.structure_params();
+        self.sent_build = Some(params);
+        self.worker.send(super::worker::Command::SetParams(params));
+        self.load(preset.scene.clone());
+    }
+
+    /// Once the preset's scene has loaded: its camera and tree-walk node.
+    pub(super) fn apply_pending_view(&mut self) {
+        if let Some(p) = self.lecture.pending.take() {
+            if let Some(c) = p.camera {
+                self.orbit = Orbit::from_camera(&c);
+            }
+            self.lecture.pending_structure = Some((p.walk, p.level));
+        }
+    }
+
+    /// Once the preset's structure is built: its tree-walk node and level.
+    pub(super) fn apply_pending_structure(&mut self) {
+        if let Some((walk, level)) = self.lecture.pending_structure.take() {
+            self.walk = walk.filter(|&w| (w as usize) < self.outline.nodes.len());
+            self.settings.level = level.min(self.outline.max_depth());
+        }
+    }
+
+    /// The app's state as a preset: the settings, the camera, the tool and the tree walk.
+    pub fn preset_here(&self, title: &str) -> Preset {
+        let caption = self
+            .lecture
+            .current
+            .and_then(|i| self.lecture.sequence.presets.get(i))
+            .map(|p| p.caption.clone())
+            .unwrap_or_default();
+        Preset {
+            title: title.to_string(),
+            caption,
+            scene: self.settings.scene.clone(),
+            camera: Some(View::from_camera(&self.orbit.camera())),
+            tool: self.tool,
+            walk: self.walk,
+            settings: self.settings.clone(),
+            pinned: self.pinned.clone(),
+        }
+    }
+
+    /// Saves the current state as a preset file.
+    pub fn save_preset(&mut self, path: &Path) -> Result<(), String> {
+        let title = path
+            .file_stem()
+            .map_or("preset".into(), |s| s.to_string_lossy().into_owned());
+        let text = self.preset_here(&title).to_toml();
+        let result =
+            std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()));
+        match &result {
+            Ok(()) => {
+                self.lecture.saved = Some(path.display().to_string());
+                self.lecture.error = None;
+            }
+            Err(e) => self.lecture.error = Some(e.clone()),
+        }
+        result
+    }
+
+    /// Loads a preset file as the sequence and shows its first preset; a bad file leaves
+    /// the sequence and the state as they were and says why.
+    pub fn load_presets(&mut self, path: &Path) -> Result<(), PresetError> {
+        match Sequence::load(path) {
+            Ok(sequence) => {
+                self.lecture.sequence = sequence;
+                self.go_to_preset(0);
+                Ok(())
+            }
+            Err(e) => {
+                self.lecture.error = Some(e.to_string());
+                Err(e)
+            }
+        }
+    }
+
+    /// Back to the built-in lecture, at its first preset.
+    pub fn open_lecture(&mut self) {
+        self.lecture.sequence = Sequence::lecture();
+        self.go_to_preset(0);
+    }
+
+    fn preset_dialog(&self, ctx: &egui::Context, save: bool) {
+        let slot = self.lecture.chosen.clone();
+        let ctx = ctx.clone();
+        std::thread::spawn(move || {
+            let dialog = rfd::FileDialog::new().add_filter("Presets (TOML)", &["toml"]);
+            let chosen = if save {
+                dialog
+                    .set_file_name("preset.toml")
+                    .save_file()
+                    .map(Chosen::Save)
+            } else {
+                dialog.pick_file().map(Chosen::Load)
+            };
+            if let (Some(c), Ok(mut s)) = (chosen, slot.lock()) {
+                *s = Some(c);
+                ctx.request_repaint();
+            }
+        });
+    }
+
+    pub(super) fn take_chosen_preset_file(&mut self) {
+        let chosen = self.lecture.chosen.lock().ok().and_then(|mut s| s.take());
+        // Either outcome is shown in the Lecture section.
+        match chosen {
+            Some(Chosen::Load(path)) => {
+                let _ = self.load_presets(&path);
+            }
+            Some(Chosen::Save(path)) => {
+                let _ = self.save_preset(&path);
+            }
+            None => {}
+        }
+    }
+
+    /// Keeps the current camera as a bookmark of the scene.
+    pub fn bookmark_view(&mut self) {
+        let list = self
+            .settings
+            .bookmarks
+            .entry(self.settings.scene.clone())
+            .or_default();
+        list.push(Bookmark {
+            name: format!("view {}", list.len() + 1),
+            view: View::from_camera(&self.orbit.camera()),
+        });
+    }
+
+    /// The scene's bookmarks.
+    pub fn bookmarks(&self) -> &[Bookmark] {
+        self.settings
+            .bookmarks
+            .get(&self.settings.scene)
+            .map_or(&[], |b| b.as_slice())
+    }
+
+    /// Moves the camera to bookmark `index` of the scene; false if there is none.
+    pub fn recall_bookmark(&mut self, index: usize) -> bool {
+        let Some(view) = self.bookmarks().get(index).map(|b| b.view) else {
+            return false;
+        };
+        self.orbit = Orbit::from_camera(&view.camera());
+        true
+    }
+
+    pub fn delete_bookmark(&mut self, index: usize) {
+        let scene = self.settings.scene.clone();
+        if let Some(list) = self.settings.bookmarks.get_mut(&scene) {
+            if index < list.len() {
+                list.remove(index);
+            }
+            if list.is_empty() {
+                self.settings.bookmarks.remove(&scene);
+            }
+        }
+    }
+
+    /// The digit keys: 1–9 open presets 1–9, Shift+1…0 the view modes, Ctrl+1–9 the
+    /// scene's bookmarks; Page Down / Page Up the next and previous preset.
+    pub(super) fn lecture_keys(&mut self, ctx: &egui::Context) {
+        for (digit, m) in digits_pressed(ctx) {
+            if m.shift && !m.command {
+                // Key 1 is the first mode, key 0 the tenth.
+                self.settings.mode = ViewMode::ALL[(digit + 9) % 10];
+            } else if m.command && digit > 0 {
+                self.recall_bookmark(digit - 1);
+            } else if !m.command && !m.alt && digit > 0 {
+                self.go_to_preset(digit - 1);
+            }
+        }
+        let pressed = |k: Key| ctx.input(|i| i.key_pressed(k));
+        if pressed(Key::PageDown) {
+            self.step_preset(true);
+        }
+        if pressed(Key::PageUp) {
+            self.step_preset(false);
+        }
+    }
+}
+
+/// Digit keys pressed this frame, with their modifiers. A digit is found by its place on
+/// the keyboard when the layout reports one, so Shift+1 is digit 1 even where it types "!".
+fn digits_pressed(ctx: &egui::Context) -> Vec<(usize, egui::Modifiers)> {
+    const DIGITS: [Key; 10] = [
+        Key::Num0,
+        Key::Num1,
+        Key::Num2,
+        Key::Num3,
+        Key::Num4,
+        Key::Num5,
+        Key::Num6,
+        Key::Num7,
+        Key::Num8,
+        Key::Num9,
+    ];
+    ctx.input(|i| {
+        i.events
+            .iter()
+            .filter_map(|e| match e {
+                egui::Event::Key {
+                    key,
+                    physical_key,
+                    pressed: true,
+                    repeat: false,
+                    modifiers,
+                } => {
+                    let k = physical_key.unwrap_or(*key);
+                    DIGITS.iter().position(|d| *d == k).map(|d| (d, *modifiers))
+                }
+                _ => None,
+            })
+            .collect()
+    })
+}
+
+/// Above the viewport while a preset is shown: its number, title and question, and the
+/// way to the neighbours.
+pub fn caption_bar(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    let Some(index) = app.lecture.current else {
+        return;
+    };
+    let Some(preset) = app.lecture.sequence.presets.get(index).cloned() else {
+        return;
+    };
+    let count = app.lecture.sequence.presets.len();
+    egui::Panel::top("caption").show(ui, |ui| {
+        ui.horizontal(|ui| {
+            if ui
+                .add_enabled(index > 0, egui::Button::new("< previous preset"))
+                .on_hover_text("previous preset (Page Up)")
+                .clicked()
+            {
+                app.step_preset(false);
+            }
+            if ui
+                .add_enabled(index + 1 < count, egui::Button::new("next preset >"))
+                .on_hover_text("next preset (Page Down)")
+                .clicked()
+            {
+                app.step_preset(true);
+            }
+            ui.menu_button(format!("{}/{count}", index + 1), |ui| {
+                sequence_list(app, ui);
+            });
+            ui.heading(&preset.title);
+            ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
+                if ui
+                    .small_button("×")
+                    .on_hover_text("hide the caption")
+                    .clicked()
+                {
+                    app.lecture.current = None;
+                }
+            });
+        });
+        if !preset.caption.is_empty() {
+            ui.label(RichText::new(&preset.caption).size(15.0));
+        }
+        ui.add_space(2.0);
+    });
+}
+
+/// The presets of the sequence, numbered, the shown one selected: click to open.
+fn sequence_list(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    let titles: Vec<String> = app
+        .lecture
+        .sequence
+        .presets
+        .iter()
+        .map(|p| p.title.clone())
+        .collect();
+    for (i, title) in titles.iter().enumerate() {
+        let key = if i < 9 {
+            format!("{}  ", i + 1)
+        } else {
+            "    ".into()
+        };
+        if ui
+            .selectable_label(app.lecture.current == Some(i), format!("{key}{title}"))
+            .clicked()
+        {
+            app.go_to_preset(i);
+        }
+    }
+}
+
+/// The Lecture menu of the top bar: the sequence, saving and loading presets, and the
+/// scene's bookmarks.
+pub fn menu(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    ui.menu_button("Lecture", |ui| {
+        let source = app.lecture.sequence.source.clone();
+        ui.label(
+            RichText::new(if source == super::preset::LECTURE {
+                "the built-in lecture (keys 1–9, Page Down / Page Up)".to_string()
+            } else {
+                format!("presets of {source}")
+            })
+            .weak(),
+        );
+        sequence_list(app, ui);
+        ui.separator();
+        if ui.button("Save preset…").clicked() {
+            app.preset_dialog(ui.ctx(), true);
+        }
+        if ui.button("Load presets…").clicked() {
+            app.preset_dialog(ui.ctx(), false);
+        }
+        if source != super::preset::LECTURE && ui.button("Back to the built-in lecture").clicked() {
+            app.open_lecture();
+        }
+        if let Some(path) = &app.lecture.saved {
+            ui.label(RichText::new(format!("saved {path}")).weak());
+        }
+        ui.separator();
+        bookmarks(app, ui);
+    });
+}
+
+/// The scene's camera bookmarks: click to go there, × to forget.
+fn bookmarks(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    ui.label(RichText::new("bookmarks of this scene (Ctrl+1–9)").weak());
+    let names: Vec<String> = app.bookmarks().iter().map(|b| b.name.clone()).collect();
+    let mut delete = None;
+    for (i, name) in names.iter().enumerate() {
+        ui.horizontal(|ui| {
+            let key = if i < 9 {
+                format!("  (Ctrl+{})", i + 1)
+            } else {
+                String::new()
+            };
+            if ui.button(format!("{name}{key}")).clicked() {
+                app.recall_bookmark(i);
+            }
+            if ui.small_button("×").on_hover_text("delete").clicked() {
+                delete = Some(i);
+            }
+        });
+    }
+    if let Some(i) = delete {
+        app.delete_bookmark(i);
+    }
+    if ui
+        .button("Bookmark view")
+        .on_hover_text("keep this camera for this scene, between runs")
+        .clicked()
+    {
+        app.bookmark_view();
+    }
+}
+
+/// Why the last preset file failed, at the top of the controls (like a scene that failed).
+pub fn error(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    if let Some(e) = &app.lecture.error {
+        ui.colored_label(ui.visuals().error_fg_color, e);
+        ui.label(RichText::new("Nothing was changed.").weak());
+        if ui.button("Dismiss").clicked() {
+            app.lecture.error = None;
+        }
+        ui.separator();
+    }
+}

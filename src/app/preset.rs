@@ -1,0 +1,335 @@
+//! Lecture presets: one view of the lecture — scene, camera, structure and its parameters,
+//! view mode, overlays, tool — as a small TOML file a lecturer can write by hand, save from
+//! the app and load by key. A file holds one preset (its keys at the top) or a sequence
+//! (`[[preset]]` tables, in lecture order). The built-in lecture is such a file,
+//! `assets/lecture.toml`, compiled into the program.
+//!
+//! Everything is checked before anything is applied: a bad file is an error that names the
+//! file, the preset and the field (and the line, for what TOML itself rejects), and the
+//! app's state stays as it was.
+
+use super::Tool;
+use super::settings::{Pinned, Settings};
+use crate::geometry::simd::SimdLevel;
+use crate::scene::{Camera, builtin};
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// The lecture, in order, as shipped.
+pub const LECTURE_TOML: &str = include_str!("../../assets/lecture.toml");
+
+/// What `--preset lecture` and the app's Lecture panel call the built-in sequence.
+pub const LECTURE: &str = "lecture";
+
+/// A camera of a preset: where the eye is, the point it looks at and the vertical field
+/// of view in degrees.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct View {
+    pub eye: [f32; 3],
+    pub look: [f32; 3],
+    #[serde(default = "default_fov")]
+    pub fov: f32,
+}
+
+fn default_fov() -> f32 {
+    60.0
+}
+
+impl View {
+    pub fn from_camera(c: &Camera) -> Self {
+        View {
+            eye: c.eye.to_array(),
+            look: c.look_at.to_array(),
+            fov: c.fov_y_deg,
+        }
+    }
+
+    pub fn camera(&self) -> Camera {
+        Camera {
+            fov_y_deg: self.fov,
+            ..Camera::new(Vec3::from(self.eye), Vec3::from(self.look))
+        }
+    }
+
+    fn check(&self) -> Result<(), String> {
+        let finite = self.eye.iter().chain(&self.look).all(|x| x.is_finite());
+        if !finite {
+            return Err("camera: eye and look must be finite numbers".into());
+        }
+        if Vec3::from(self.eye).distance(Vec3::from(self.look)) < 1e-6 {
+            return Err("camera: eye and look are the same point".into());
+        }
+        if !(1.0..=170.0).contains(&self.fov) {
+            return Err(format!(
+                "camera: fov {} is not an angle from 1 to 170 degrees",
+                self.fov
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// One view of the lecture.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Preset {
+    pub title: String,
+    /// The question the view answers, shown under the title while the preset is active.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub caption: String,
+    /// A built-in scene (`cornell`, `walls-rotated@30`, …) or a file; a relative path is
+    /// first looked for beside the preset file.
+    pub scene: String,
+    /// None: the scene's own start view.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera: Option<View>,
+    #[serde(default)]
+    pub tool: Tool,
+    /// The tree walk opened at this node (0 = the root).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub walk: Option<u32>,
+    /// The structure, its parameters, the view mode and the overlays: the app's settings,
+    /// every one optional (missing = its default).
+    #[serde(default)]
+    pub settings: Settings,
+    /// Configuration A of a comparison, pinned when the preset opens (the settings are B);
+    /// none: nothing pinned. Its fields are the structure's settings, missing = default.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pinned: Option<Pinned>,
+}
+
+/// Settings that belong to the person at the computer, not to a view of the lecture: a
+/// preset neither saves nor sets them.
+const PERSONAL: [&str; 4] = ["scene", "ui_scale", "recent", "bookmarks"];
+
+/// A list of presets and where it came from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Sequence {
+    /// `lecture` or the file's path.
+    pub source: String,
+    pub presets: Vec<Preset>,
+}
+
+/// A preset file that cannot be used: the file, and what is wrong with it.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{origin}: {message}")]
+pub struct PresetError {
+    pub origin: String,
+    pub message: String,
+}
+
+impl Sequence {
+    /// The built-in lecture.
+    pub fn lecture() -> Sequence {
+        parse(LECTURE_TOML, LECTURE, None).expect("the built-in lecture is a valid preset file")
+    }
+
+    /// Reads a preset file (one preset or a sequence).
+    pub fn load(path: &Path) -> Result<Sequence, PresetError> {
+        let origin = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| PresetError {
+            origin: origin.clone(),
+            message: format!("cannot read it: {e}"),
+        })?;
+        parse(&text, &origin, path.parent())
+    }
+
+    /// `lecture`, `lecture:N`, `FILE` or `FILE:N` (N counted from 1): the sequence and the
+    /// index of the preset named.
+    pub fn open(spec: &str) -> Result<(Sequence, usize), PresetError> {
+        let (name, step) = match spec.rsplit_once(':') {
+            Some((name, n)) if n.parse::<usize>().is_ok() && !Path::new(spec).exists() => {
+                (name, n.parse::<usize>().ok())
+            }
+            _ => (spec, None),
+        };
+        let sequence = if name == LECTURE {
+            Sequence::lecture()
+        } else {
+            Sequence::load(Path::new(name))?
+        };
+        let count = sequence.presets.len();
+        let index = match step {
+            None => 0,
+            Some(n) if (1..=count).contains(&n) => n - 1,
+            Some(n) => {
+                return Err(PresetError {
+                    origin: sequence.source,
+                    message: format!("there is no preset {n}: it holds presets 1 to {count}"),
+                });
+            }
+        };
+        Ok((sequence, index))
+    }
+}
+
+/// Parses and checks a preset file's text; `dir` is where relative scene paths are also
+/// looked for.
+pub fn parse(text: &str, origin: &str, dir: Option<&Path>) -> Result<Sequence, PresetError> {
+    let fail = |message: String| PresetError {
+        origin: origin.to_string(),
+        message,
+    };
+    // First the syntax and the keys, then the values (serde's errors carry the line).
+    let table: toml::Table = toml::from_str(text).map_err(|e| fail(e.to_string()))?;
+    let (tables, mut presets) = match table.get("preset") {
+        Some(list) => {
+            #[derive(Deserialize)]
+            #[serde(deny_unknown_fields)]
+            struct File {
+                preset: Vec<Preset>,
+            }
+            let tables: Vec<toml::Table> = match list {
+                toml::Value::Array(a) => a.iter().filter_map(|v| v.as_table().cloned()).collect(),
+                _ => Vec::new(),
+            };
+            let file: File = toml::from_str(text).map_err(|e| fail(e.to_string()))?;
+            (tables, file.preset)
+        }
+        None => {
+            let one: Preset = toml::from_str(text).map_err(|e| fail(e.to_string()))?;
+            (vec![table.clone()], vec![one])
+        }
+    };
+    if presets.is_empty() {
+        return Err(fail("it holds no preset".into()));
+    }
+    let known = setting_names();
+    for (i, (preset, table)) in presets.iter_mut().zip(&tables).enumerate() {
+        let name = format!("preset {} ('{}')", i + 1, preset.title);
+        if let Some(toml::Value::Table(settings)) = table.get("settings") {
+            for key in settings.keys() {
+                if PERSONAL.contains(&key.as_str()) {
+                    return Err(fail(format!(
+                        "{name}: '{key}' is not set by a preset{}",
+                        if key == "scene" {
+                            " (the preset's own `scene` is)"
+                        } else {
+                            ""
+                        }
+                    )));
+                }
+                if !known.contains(key) {
+                    return Err(fail(format!(
+                        "{name}: unknown setting '{key}' (the settings are: {})",
+                        known
+                            .iter()
+                            .filter(|k| !PERSONAL.contains(&k.as_str()))
+                            .cloned()
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    )));
+                }
+            }
+        }
+        preset.scene =
+            resolve_scene(&preset.scene, dir).map_err(|e| fail(format!("{name}: {e}")))?;
+        preset.settings.scene = preset.scene.clone();
+        preset.check().map_err(|e| fail(format!("{name}: {e}")))?;
+    }
+    Ok(Sequence {
+        source: origin.to_string(),
+        presets,
+    })
+}
+
+/// The names of the settings, as the file spells them.
+fn setting_names() -> Vec<String> {
+    match serde_json::to_value(Settings::default()) {
+        Ok(serde_json::Value::Object(map)) => map.keys().cloned().collect(),
+        _ => Vec::new(),
+    }
+}
+
+/// A built-in scene as it is; a file that exists as it is or beside the preset file.
+fn resolve_scene(spec: &str, dir: Option<&Path>) -> Result<String, String> {
+    let base = spec.split([':', '@']).next().unwrap_or(spec);
+    if builtin::NAMES.contains(&base) {
+        return Ok(spec.to_string());
+    }
+    if Path::new(spec).is_file() {
+        return Ok(spec.to_string());
+    }
+    if let Some(beside) = dir.map(|d| d.join(spec)).filter(|p| p.is_file()) {
+        return Ok(beside.display().to_string());
+    }
+    Err(format!(
+        "unknown scene '{spec}': not a built-in scene ({}) nor a file that exists",
+        builtin::NAMES.join(", ")
+    ))
+}
+
+impl Preset {
+    /// The values serde cannot check: the camera and the structure's parameters.
+    fn check(&self) -> Result<(), String> {
+        if let Some(view) = &self.camera {
+            view.check()?;
+        }
+        self.settings
+            .structure_params()
+            .validate()
+            .map_err(|e| e.to_string())?;
+        match &self.pinned {
+            Some(a) => a
+                .structure_params()
+                .validate()
+                .map_err(|e| format!("pinned: {e}")),
+            None => Ok(()),
+        }
+    }
+
+    /// The settings the preset sets, with the personal ones kept from `current`.
+    pub fn settings_over(&self, current: &Settings) -> Settings {
+        Settings {
+            scene: self.scene.clone(),
+            ui_scale: current.ui_scale,
+            recent: current.recent.clone(),
+            bookmarks: current.bookmarks.clone(),
+            ..self.settings.clone()
+        }
+    }
+
+    /// The preset as a file of its own (one preset, its keys at the top).
+    pub fn to_toml(&self) -> String {
+        let Ok(toml::Value::Table(mut table)) = toml::Value::try_from(self) else {
+            return String::new();
+        };
+        if let Some(toml::Value::Table(settings)) = table.get_mut("settings") {
+            for key in PERSONAL {
+                settings.remove(key);
+            }
+            // The machine's own SIMD kernel is the default; only another choice is saved,
+            // so the file loads on machines with other vector units.
+            if self.settings.simd == SimdLevel::detect() {
+                settings.remove("simd");
+            }
+        }
+        if let Some(toml::Value::Table(pinned)) = table.get_mut("pinned")
+            && self.pinned.as_ref().map(|a| a.simd) == Some(SimdLevel::detect())
+        {
+            pinned.remove("simd");
+        }
+        shortest_floats(&mut table);
+        toml::to_string(&table).unwrap_or_default()
+    }
+}
+
+/// Every number of a preset is an `f32`: written as the shortest decimal that reads back
+/// as the same `f32` (0.1, not 0.10000000149011612), for the eye of whoever edits the file.
+fn shortest_floats(table: &mut toml::Table) {
+    fn visit(v: &mut toml::Value) {
+        match v {
+            toml::Value::Float(f) => {
+                if let Ok(short) = (*f as f32).to_string().parse::<f64>() {
+                    *f = short;
+                }
+            }
+            toml::Value::Array(a) => a.iter_mut().for_each(visit),
+            toml::Value::Table(t) => t.iter_mut().for_each(|(_, v)| visit(v)),
+            _ => {}
+        }
+    }
+    table.iter_mut().for_each(|(_, v)| visit(v));
+}

@@ -1,0 +1,241 @@
+//! UI tests of the lecture presets: the digit and page keys, every step of the built-in
+//! lecture in the real app, saving and loading a preset file, a bad file leaving the state
+//! alone, and the camera bookmarks.
+
+mod common;
+
+use bvhlab::accel::AccelKind;
+use bvhlab::app::settings::ViewMode;
+use bvhlab::app::{BvhLabApp, Tool};
+use common::app::{launch, settle};
+use eframe::egui::{self, Key, Modifiers};
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+
+fn app(scene: &str) -> Harness<'static, BvhLabApp> {
+    launch(
+        Harness::builder().with_size(egui::vec2(1400.0, 900.0)),
+        scene,
+        |_| {},
+    )
+}
+
+fn temp_file(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("bvhlab-app-presets-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+#[test]
+fn digit_keys_open_presets_and_page_keys_step_through_them() {
+    let mut h = app("cornell");
+    assert_eq!(h.state().lecture.current, None);
+    h.key_press(Key::Num2);
+    settle(&mut h);
+    assert_eq!(h.state().lecture.current, Some(1));
+    assert_eq!(h.state().settings.accel, AccelKind::BruteForceBbox);
+    assert_eq!(h.state().settings.mode, ViewMode::Triangles);
+    // The caption bar shows the title and the question.
+    assert!(h.query_by_label("Early out").is_some());
+    assert!(
+        h.query_by_label_contains("What does testing a box first save?")
+            .is_some()
+    );
+    h.key_press(Key::PageDown);
+    settle(&mut h);
+    assert_eq!(h.state().lecture.current, Some(2));
+    assert_eq!(h.state().settings.scene, "teapot-in-stadium");
+    assert_eq!(
+        h.state().bvh_report.as_ref().unwrap().params.strategy,
+        bvhlab::accel::bvh::Strategy::ObjectMedian
+    );
+    h.key_press(Key::PageUp);
+    settle(&mut h);
+    assert_eq!(h.state().lecture.current, Some(1));
+    assert_eq!(h.state().settings.scene, "cornell");
+    h.key_press(Key::Num9);
+    settle(&mut h);
+    let refit = h.state().lecture.sequence.presets[8].clone();
+    assert_eq!(h.state().lecture.current, Some(8));
+    assert_eq!(h.state().tool, refit.tool);
+    assert_eq!(h.state().tool, Tool::Move);
+    // The caption's buttons step too.
+    h.get_by_label("next preset >").click();
+    settle(&mut h);
+    assert_eq!(h.state().lecture.current, Some(9));
+    assert_eq!(h.state().settings.accel, AccelKind::KdTree);
+    assert!(!h.state().settings.mailbox);
+}
+
+#[test]
+fn shift_digits_pick_the_view_modes() {
+    let mut h = app("cornell");
+    h.key_press_modifiers(Modifiers::SHIFT, Key::Num4);
+    h.run_steps(2);
+    assert_eq!(h.state().settings.mode, ViewMode::Nodes);
+    h.key_press_modifiers(Modifiers::SHIFT, Key::Num6);
+    h.run_steps(2);
+    assert_eq!(h.state().settings.mode, ViewMode::Triangles);
+    h.key_press_modifiers(Modifiers::SHIFT, Key::Num0);
+    h.run_steps(2);
+    assert_eq!(h.state().settings.mode, ViewMode::Instances);
+    // No preset was opened on the way.
+    assert_eq!(h.state().lecture.current, None);
+    assert_eq!(h.state().settings.scene, "cornell");
+}
+
+#[test]
+fn every_step_of_the_lecture_shows_its_view() {
+    let mut h = app("cornell");
+    let steps = h.state().lecture.sequence.presets.clone();
+    for (i, p) in steps.iter().enumerate() {
+        assert!(h.state_mut().go_to_preset(i));
+        settle(&mut h);
+        let s = h.state();
+        let step = format!("step {} ({})", i + 1, p.title);
+        assert_eq!(s.load_error, None, "{step}");
+        assert_eq!(s.build_error, None, "{step}");
+        assert_eq!(s.settings.scene, p.scene, "{step}");
+        assert_eq!(s.settings.accel, p.settings.accel, "{step}");
+        assert_eq!(
+            s.report.as_ref().unwrap().structure,
+            p.settings.accel.label(),
+            "{step}"
+        );
+        assert_eq!(s.settings.mode, p.settings.mode, "{step}");
+        assert_eq!(s.walk, p.walk, "{step}");
+        let shown = s.shown.as_ref().expect("a frame");
+        assert!(shown.frame.summary.counted(), "{step}");
+        // A heatmap step shows something to count.
+        if p.settings.mode.is_heatmap() {
+            assert!(shown.heat_max.unwrap_or(0) > 0, "{step}");
+        }
+    }
+}
+
+#[test]
+fn a_saved_preset_loads_back_to_the_same_state() {
+    let mut h = app("cornell");
+    let file = temp_file("camera.toml");
+    std::fs::write(
+        &file,
+        "title = \"Close\"\nscene = \"walls\"\ntool = \"replay\"\nwalk = 2\ncamera = { eye = [3.0, 4.0, 9.0], look = [0.5, 0.5, 0.0], fov = 40 }\n[settings]\naccel = \"Octree\"\nmode = \"Boxes\"\nshow_levels = true\nlevel = 2\n",
+    )
+    .unwrap();
+    h.state_mut().load_presets(&file).unwrap();
+    settle(&mut h);
+    let loaded = h.state().preset_here("Close");
+    let cam = loaded.camera.unwrap();
+    for (a, b) in cam.eye.iter().zip([3.0, 4.0, 9.0]) {
+        assert!((a - b).abs() < 1e-4, "{cam:?}");
+    }
+    assert_eq!(loaded.settings.accel, AccelKind::Octree);
+    assert_eq!(loaded.tool, Tool::Replay);
+    assert_eq!(loaded.walk, Some(2));
+    assert!(loaded.pinned.is_none());
+    // Pin A, then change B: the pinned configuration is part of the saved preset.
+    h.state_mut().pin();
+    h.state_mut().settings.accel = AccelKind::Grid;
+    settle(&mut h);
+    let loaded = h.state().preset_here("Close");
+    assert_eq!(loaded.pinned.as_ref().unwrap().accel, AccelKind::Octree);
+    // Save it, go elsewhere, load the saved file: the same state again.
+    let saved = temp_file("saved.toml");
+    h.state_mut().save_preset(&saved).unwrap();
+    h.state_mut().open_lecture();
+    settle(&mut h);
+    assert_eq!(h.state().lecture.current, Some(0));
+    h.key_press(Key::Num1);
+    settle(&mut h);
+    assert_eq!(h.state().settings.accel, AccelKind::BruteForce);
+    // The lecture's first step pins nothing.
+    assert!(h.state().pinned.is_none());
+    h.state_mut().load_presets(&saved).unwrap();
+    settle(&mut h);
+    let again = h.state().preset_here("Close");
+    assert_eq!(again.settings, loaded.settings);
+    assert_eq!(again.pinned, loaded.pinned);
+    // A is traced beside B: the comparison's summary is there.
+    assert!(h.state().compared.is_some());
+    assert_eq!((again.tool, again.walk), (loaded.tool, loaded.walk));
+    let (a, b) = (again.camera.unwrap(), loaded.camera.unwrap());
+    for (x, y) in a.eye.iter().chain(&a.look).zip(b.eye.iter().chain(&b.look)) {
+        assert!((x - y).abs() < 1e-4, "{a:?} {b:?}");
+    }
+    assert_eq!(a.fov, b.fov);
+}
+
+#[test]
+fn a_bad_preset_file_is_an_error_and_the_state_stays() {
+    let mut h = app("cornell");
+    h.key_press(Key::Num3);
+    settle(&mut h);
+    let before = h.state().settings.clone();
+    let sequence = h.state().lecture.sequence.clone();
+    let bad = temp_file("bad.toml");
+    std::fs::write(
+        &bad,
+        "[[preset]]\ntitle = \"A\"\nscene = \"cornell\"\n[[preset]]\ntitle = \"B\"\nscene = \"no-such-scene\"\n",
+    )
+    .unwrap();
+    let err = h.state_mut().load_presets(&bad).unwrap_err().to_string();
+    assert!(
+        err.contains("bad.toml") && err.contains("preset 2 ('B')"),
+        "{err}"
+    );
+    settle(&mut h);
+    assert_eq!(h.state().settings, before);
+    assert_eq!(h.state().lecture.sequence, sequence);
+    assert_eq!(h.state().lecture.current, Some(2));
+    // The controls show the error.
+    h.run_steps(2);
+    assert!(
+        h.query_by_label_contains("unknown scene 'no-such-scene'")
+            .is_some()
+    );
+    assert!(h.query_by_label("Nothing was changed.").is_some());
+}
+
+#[test]
+fn bookmarks_keep_views_of_each_scene() {
+    let mut h = app("cornell");
+    h.get_by_label("Lecture").click();
+    h.run_steps(2);
+    h.get_by_label("Bookmark view").click();
+    h.run_steps(2);
+    let kept = h.state().bookmarks()[0].view;
+    // Turn away (F frames the scene from another distance), then Ctrl+1 comes back.
+    h.state_mut().frame_all();
+    h.run_steps(1);
+    let away = h.state().preset_here("x").camera.unwrap();
+    assert!(
+        (away.eye[2] - kept.eye[2]).abs() > 1e-3,
+        "{away:?} {kept:?}"
+    );
+    h.key_press_modifiers(Modifiers::COMMAND, Key::Num1);
+    settle(&mut h);
+    let here = h.state().preset_here("x").camera.unwrap();
+    for (a, b) in here.eye.iter().zip(kept.eye) {
+        assert!((a - b).abs() < 1e-4, "{here:?} {kept:?}");
+    }
+    // Ctrl+1 recalled a bookmark and opened no preset.
+    assert_eq!(h.state().lecture.current, None);
+    h.get_by_label("Lecture").click();
+    h.run_steps(2);
+    assert!(h.query_by_label("view 1  (Ctrl+1)").is_some());
+    h.key_press(Key::Escape);
+    h.run_steps(2);
+    // Another scene has its own (none yet); back on the Cornell box it is there.
+    h.state_mut().load("walls".into());
+    settle(&mut h);
+    assert!(h.state().bookmarks().is_empty());
+    h.state_mut().load("cornell".into());
+    settle(&mut h);
+    assert_eq!(h.state().bookmarks().len(), 1);
+    h.get_by_label("Lecture").click();
+    h.run_steps(2);
+    h.get_by_label("×").click();
+    h.run_steps(2);
+    assert!(h.state().bookmarks().is_empty());
+    assert!(h.state().settings.bookmarks.is_empty());
+}
