@@ -55,14 +55,17 @@ fn digit_keys_open_presets_and_page_keys_step_through_them() {
     assert_eq!(h.state().settings.scene, "cornell");
     h.key_press(Key::Num9);
     settle(&mut h);
-    let refit = h.state().lecture.sequence.presets[8].clone();
     assert_eq!(h.state().lecture.current, Some(8));
-    assert_eq!(h.state().tool, refit.tool);
-    assert_eq!(h.state().tool, Tool::Move);
-    // The caption's buttons step too.
+    // The caption's buttons step too: the refit step takes the move tool.
     h.get_by_label("next preset >").click();
     settle(&mut h);
+    let refit = h.state().lecture.sequence.presets[9].clone();
     assert_eq!(h.state().lecture.current, Some(9));
+    assert_eq!(h.state().tool, refit.tool);
+    assert_eq!(h.state().tool, Tool::Move);
+    h.get_by_label("next preset >").click();
+    settle(&mut h);
+    assert_eq!(h.state().lecture.current, Some(10));
     assert_eq!(h.state().settings.accel, AccelKind::KdTree);
     assert!(!h.state().settings.mailbox);
 }
