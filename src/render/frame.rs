@@ -4,6 +4,7 @@
 
 use crate::accel::{Counter, Counters};
 use glam::Vec3;
+use rayon::prelude::*;
 use std::time::Duration;
 
 /// What the rays of one pixel found, and the work they took.
@@ -98,11 +99,25 @@ impl FrameSummary {
         &self.counters[rays as usize][k]
     }
 
+    /// The frame's totals, maxima and means, summed over chunks of pixels on every thread
+    /// (integer sums and maxima: the same summary whatever the thread count).
     pub(crate) fn from_samples(samples: &[Sample], trace_time: Duration, shadows: bool) -> Self {
-        let mut s = FrameSummary {
-            trace_time,
-            ..Default::default()
-        };
+        let mut s = samples
+            .par_chunks(1 << 14)
+            .map(|chunk| Self::sum_of(chunk, shadows))
+            .reduce(FrameSummary::default, Self::merged);
+        s.trace_time = trace_time;
+        for (r, n) in [(0, s.primary_rays), (1, s.shadow_rays)] {
+            for cs in &mut s.counters[r] {
+                cs.mean = cs.total as f64 / n.max(1) as f64;
+            }
+        }
+        s
+    }
+
+    /// The ray counts, totals and maxima of `samples` (means not yet taken).
+    fn sum_of(samples: &[Sample], shadows: bool) -> Self {
+        let mut s = FrameSummary::default();
         for sample in samples {
             s.primary_rays += 1;
             if sample.is_hit() {
@@ -119,12 +134,22 @@ impl FrameSummary {
                 }
             }
         }
-        for (r, n) in [(0, s.primary_rays), (1, s.shadow_rays)] {
-            for cs in &mut s.counters[r] {
-                cs.mean = cs.total as f64 / n.max(1) as f64;
+        s
+    }
+
+    /// Two chunks' sums as one.
+    fn merged(mut a: Self, b: Self) -> Self {
+        a.primary_rays += b.primary_rays;
+        a.primary_hits += b.primary_hits;
+        a.shadow_rays += b.shadow_rays;
+        a.shadow_occluded += b.shadow_occluded;
+        for (ra, rb) in a.counters.iter_mut().zip(&b.counters) {
+            for (x, y) in ra.iter_mut().zip(rb) {
+                x.total += y.total;
+                x.max = x.max.max(y.max);
             }
         }
-        s
+        a
     }
 }
 
@@ -153,5 +178,51 @@ impl Frame {
             self.height,
             image::ExtendedColorType::Rgba8,
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Summed over chunks on every thread, the summary is the one-pass summary.
+    #[test]
+    fn the_summary_of_many_chunks_is_the_summary_of_one() {
+        let samples: Vec<Sample> = (0..100_003u32)
+            .map(|i| {
+                let mut s = Sample::default();
+                if i % 3 != 0 {
+                    s.t = 1.0;
+                    s.triangle = u64::from(i);
+                    s.lit = i % 5 != 0;
+                }
+                s.primary.nodes_visited = i % 97;
+                s.primary.triangle_tests = (i * 7) % 131;
+                s.shadow.box_tests = (i * 13) % 1009;
+                s
+            })
+            .collect();
+        let one = FrameSummary::sum_of(&samples, true);
+        let chunked = FrameSummary::from_samples(&samples, Duration::ZERO, true);
+        assert_eq!(chunked.primary_rays, 100_003);
+        assert_eq!(
+            (
+                chunked.primary_hits,
+                chunked.shadow_rays,
+                chunked.shadow_occluded
+            ),
+            (one.primary_hits, one.shadow_rays, one.shadow_occluded)
+        );
+        for (a, b) in chunked
+            .counters
+            .iter()
+            .flatten()
+            .zip(one.counters.iter().flatten())
+        {
+            assert_eq!((a.total, a.max), (b.total, b.max));
+        }
+        let nodes = chunked.counter(RayKind::Primary, Counter::NodesVisited);
+        assert_eq!(nodes.max, 96);
+        assert!((nodes.mean - nodes.total as f64 / 100_003.0).abs() < 1e-12);
     }
 }
