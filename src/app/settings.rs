@@ -131,6 +131,20 @@ impl From<StrategyChoice> for Strategy {
     }
 }
 
+impl From<Strategy> for StrategyChoice {
+    fn from(s: Strategy) -> StrategyChoice {
+        match s {
+            Strategy::ObjectMedian => StrategyChoice::ObjectMedian,
+            Strategy::SpatialMedian => StrategyChoice::SpatialMedian,
+            Strategy::SahSweep => StrategyChoice::SahSweep,
+            Strategy::SahBinned => StrategyChoice::SahBinned,
+            Strategy::Lbvh => StrategyChoice::Lbvh,
+            Strategy::LbvhTreelet => StrategyChoice::LbvhTreelet,
+            Strategy::Sbvh => StrategyChoice::Sbvh,
+        }
+    }
+}
+
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct Settings {

@@ -3,7 +3,7 @@
 //! trace the same view; the PNG shows A | B or the difference B − A, and the summary
 //! compares their counters.
 
-use super::{BuildArgs, BuilderArg, OrderArg};
+use super::{BuildArgs, OrderArg};
 use anyhow::{Context, Result, anyhow, bail};
 use bvhlab::app::settings::{Pinned, Settings, StrategyChoice};
 use bvhlab::render::compare::{CompareView, compare_image, compared_counters, summarize};
@@ -108,15 +108,7 @@ pub fn settings_over(a: &Settings, flags: &str) -> Result<Pinned> {
     }
     set!(
         mailbox => mailbox = b.mailbox,
-        builder => strategy = match b.builder {
-            BuilderArg::ObjectMedian => StrategyChoice::ObjectMedian,
-            BuilderArg::SpatialMedian => StrategyChoice::SpatialMedian,
-            BuilderArg::SahSweep => StrategyChoice::SahSweep,
-            BuilderArg::SahBinned => StrategyChoice::SahBinned,
-            BuilderArg::Lbvh => StrategyChoice::Lbvh,
-            BuilderArg::LbvhTreelet => StrategyChoice::LbvhTreelet,
-            BuilderArg::Sbvh => StrategyChoice::Sbvh,
-        },
+        builder => strategy = StrategyChoice::from(b.builder.strategy()),
         buckets => buckets = b.buckets,
         treelet_size => treelet_size = b.treelet_size,
         rounds => treelet_rounds = b.rounds,

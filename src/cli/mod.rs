@@ -230,18 +230,24 @@ pub enum ModeArg {
     Instances,
 }
 
+impl BuilderArg {
+    pub fn strategy(self) -> Strategy {
+        match self {
+            BuilderArg::ObjectMedian => Strategy::ObjectMedian,
+            BuilderArg::SpatialMedian => Strategy::SpatialMedian,
+            BuilderArg::SahSweep => Strategy::SahSweep,
+            BuilderArg::SahBinned => Strategy::SahBinned,
+            BuilderArg::Lbvh => Strategy::Lbvh,
+            BuilderArg::LbvhTreelet => Strategy::LbvhTreelet,
+            BuilderArg::Sbvh => Strategy::Sbvh,
+        }
+    }
+}
+
 impl BuildArgs {
     pub fn params(&self) -> BuildParams {
         BuildParams {
-            strategy: match self.builder {
-                BuilderArg::ObjectMedian => Strategy::ObjectMedian,
-                BuilderArg::SpatialMedian => Strategy::SpatialMedian,
-                BuilderArg::SahSweep => Strategy::SahSweep,
-                BuilderArg::SahBinned => Strategy::SahBinned,
-                BuilderArg::Lbvh => Strategy::Lbvh,
-                BuilderArg::LbvhTreelet => Strategy::LbvhTreelet,
-                BuilderArg::Sbvh => Strategy::Sbvh,
-            },
+            strategy: self.builder.strategy(),
             buckets: self.buckets,
             max_leaf_size: self.max_leaf,
             c_trav: self.c_trav,
