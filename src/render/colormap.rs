@@ -36,13 +36,20 @@ pub fn linear_to_srgb(c: f32) -> f32 {
 }
 
 /// `to_rgba8`'s rounding of `linear_to_srgb(c)` without the power per channel: the 255
-/// linear values at which the 8-bit sRGB code steps up, searched by bisection.
+/// linear values at which the 8-bit sRGB code steps up (found once by bisection), and a
+/// table of 4096 cells over [0, 1] that gives each cell's first code, so a colour is one
+/// look-up and a step or two up the table (a frame colours three channels per pixel).
 pub fn srgb8(c: f32) -> u8 {
-    static STEPS: std::sync::OnceLock<[f32; 255]> = std::sync::OnceLock::new();
-    let steps = STEPS.get_or_init(|| {
+    struct Tables {
+        steps: [f32; 255],
+        cells: [u8; CELLS + 1],
+    }
+    const CELLS: usize = 4096;
+    static TABLES: std::sync::OnceLock<Box<Tables>> = std::sync::OnceLock::new();
+    let t = TABLES.get_or_init(|| {
         // Code k + 1 starts where the exact transfer reaches (k + 0.5) / 255; the bisection
         // on f32 finds the first linear value whose rounded code is k + 1.
-        std::array::from_fn(|k| {
+        let steps: [f32; 255] = std::array::from_fn(|k| {
             let code = |x: f32| (linear_to_srgb(x) * 255.0 + 0.5) as u32;
             let (mut lo, mut hi) = (0.0f32, 1.0f32);
             for _ in 0..40 {
@@ -54,9 +61,21 @@ pub fn srgb8(c: f32) -> u8 {
                 }
             }
             hi
-        })
+        });
+        // A cell's code is that of its lower end: every c in the cell has that code or more.
+        let cells = std::array::from_fn(|i| {
+            let low = i as f32 / CELLS as f32;
+            steps.partition_point(|&step| step <= low) as u8
+        });
+        Box::new(Tables { steps, cells })
     });
-    steps.partition_point(|&step| step <= c) as u8
+    // NaN and c ≤ 0 fall in cell 0; the cast saturates, so c ≥ 1 falls in the last.
+    let cell = ((c * CELLS as f32) as usize).min(CELLS);
+    let mut code = t.cells[cell] as usize;
+    while code < 255 && t.steps[code] <= c {
+        code += 1;
+    }
+    code as u8
 }
 
 pub fn to_rgba8(srgb: Vec3) -> [u8; 4] {

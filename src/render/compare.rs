@@ -384,7 +384,8 @@ mod tests {
             height: nodes.len() as u32 / width,
             summary: crate::render::FrameSummary::from_samples(&samples, Default::default(), true),
             samples,
-            ..Default::default()
+            rgba: Vec::new(),
+            heat_max: None,
         }
     }
 

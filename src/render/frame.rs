@@ -165,6 +165,13 @@ pub struct Frame {
     pub heat_max: Option<u32>,
 }
 
+/// A frame's samples go back to the pool for the next frame.
+impl Drop for Frame {
+    fn drop(&mut self) {
+        super::sample_pool::give_back(std::mem::take(&mut self.samples));
+    }
+}
+
 impl Frame {
     pub fn sample(&self, x: u32, y: u32) -> Option<&Sample> {
         (x < self.width && y < self.height).then(|| &self.samples[(y * self.width + x) as usize])

@@ -8,6 +8,7 @@ pub mod export;
 pub mod frame;
 pub mod overlay;
 pub mod replay;
+mod sample_pool;
 
 pub use frame::{CounterSummary, Frame, FrameSummary, RayKind, Sample};
 
@@ -120,7 +121,7 @@ pub fn trace_with<A: Accel, I: Intersector>(
     let (w, h) = (settings.width.max(1), settings.height.max(1));
     let rays = settings.camera.rays(w, h);
     let start = Instant::now();
-    let mut samples = vec![Sample::default(); (w * h) as usize];
+    let mut samples = sample_pool::take((w * h) as usize);
     let tiles = samples.par_chunks_mut((w * TILE_ROWS) as usize).enumerate();
     tiles.for_each(|(tile, out)| {
         let y0 = tile as u32 * TILE_ROWS;
@@ -199,7 +200,7 @@ fn shade<A: Accel, I: Intersector, S: Stats + Into<Counters>>(
         .map_or(Vec3::splat(0.7), |o| scene.objects[o].color);
     let mut shadow = S::default();
     let (lit, cos_light) = if settings.shadows {
-        let shadow_ray = shadow_ray(tri, ray, &hit, light);
+        let shadow_ray = shadow_ray(tri, normal, &hit, light);
         let occluded = accel.any_hit::<I, _>(&shadow_ray, &mut shadow);
         (!occluded, normal.dot(shadow_ray.direction).max(0.0))
     } else {
@@ -218,10 +219,9 @@ fn shade<A: Accel, I: Intersector, S: Stats + Into<Counters>>(
     }
 }
 
-/// The shadow ray from `hit` (of `ray`, on triangle `tri`) towards the light: spawned off
-/// the surface on the side the ray came from.
-pub fn shadow_ray(tri: &crate::geometry::Triangle, ray: &Ray, hit: &Hit, light: Vec3) -> Ray {
-    let normal = tri.facing_normal(ray.direction);
+/// The shadow ray from `hit` on triangle `tri` towards the light: spawned off the surface
+/// on the side of `normal`, the triangle's normal facing the ray that hit it.
+pub fn shadow_ray(tri: &crate::geometry::Triangle, normal: Vec3, hit: &Hit, light: Vec3) -> Ray {
     SurfacePoint::on_triangle(tri, hit.u, hit.v).ray_towards(normal, light)
 }
 

@@ -76,7 +76,12 @@ pub fn replay_pixel<I: Intersector>(
             let Some((hit, tri)) = tri else {
                 return Err(ReplayError::NoShadowRay { x, y });
             };
-            shadow_ray(&tri, &primary, &hit, settings.light)
+            shadow_ray(
+                &tri,
+                tri.facing_normal(primary.direction),
+                &hit,
+                settings.light,
+            )
         }
     };
     Ok(replay_ray::<I>(structure, &ray, rays, (x, y)))
