@@ -3,11 +3,11 @@
 
 use super::PARALLEL_PASS;
 use crate::geometry::Aabb;
-use glam::{Vec3, Vec3A};
+use glam::{Vec3, Vec3A, Vec4};
 use rayon::prelude::*;
 
 #[derive(Clone, Copy, Debug)]
-#[repr(C)]
+#[repr(C, align(16))]
 pub struct PrimRef {
     pub min: Vec3,
     pub index: u32,
@@ -31,14 +31,23 @@ impl PrimRef {
         self.min + self.max
     }
 
+    /// `min` in a SIMD register, loaded as one vector with `index` as its ignored fourth
+    /// lane (the builders' inner loops read every reference at every level).
     #[inline(always)]
     pub fn lo(&self) -> Vec3A {
-        Vec3A::from(self.min)
+        // SAFETY: `PrimRef` is `repr(C)`: `min` and `index` are its first 16 bytes, all
+        // initialised, read as four floats (every bit pattern is one).
+        let v = unsafe { std::ptr::read((self as *const Self).cast::<[f32; 4]>()) };
+        Vec3A::from_vec4(Vec4::from_array(v))
     }
 
+    /// `max` in a SIMD register (its fourth lane the padding, ignored).
     #[inline(always)]
     pub fn hi(&self) -> Vec3A {
-        Vec3A::from(self.max)
+        // SAFETY: `max` and `_pad` are the last 16 of the 32 initialised bytes of a
+        // `repr(C)` `PrimRef`, read as four floats.
+        let v = unsafe { std::ptr::read((self as *const Self).cast::<[f32; 4]>().add(1)) };
+        Vec3A::from_vec4(Vec4::from_array(v))
     }
 }
 

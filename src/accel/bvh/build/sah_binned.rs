@@ -49,24 +49,38 @@ impl Binning {
         0.5 * (self.origin[axis] + k as f32 / self.scale[axis])
     }
 
-    /// The bucket of `r` on `axis`. The same expression decides binning and partitioning,
-    /// so the partition reproduces the counts the cost was computed from.
+    /// The bucket of `r` on `axis`. The same arithmetic, lane for lane, as `fill`'s, so the
+    /// partition reproduces the counts the cost was computed from.
     #[inline(always)]
     fn bucket(&self, r: &PrimRef, axis: usize) -> usize {
-        let k = ((r.lo() + r.hi() - self.origin) * self.scale)[axis];
-        (k as usize).min(self.buckets - 1)
+        let c = (r.min[axis] + r.max[axis] - self.origin[axis]) * self.scale[axis];
+        // NaN (a degenerate extent) and negatives go to the first bucket, as in `fill`.
+        let c = if c >= 0.0 { c } else { 0.0 };
+        (c as usize).min(self.buckets - 1)
     }
 
     /// Adds `refs` to `bins`: `bins[3k + axis]` is bucket k on that axis, the three axes
     /// side by side so the sweeps below advance them together.
     fn fill(&self, refs: &[PrimRef], bins: &mut [Bin]) {
-        let last = self.buckets - 1;
+        let bins = &mut bins[..3 * self.buckets];
+        let last = Vec3A::splat((self.buckets - 1) as f32);
         for r in refs {
             let (lo, hi) = (r.lo(), r.hi());
             let c = (lo + hi - self.origin) * self.scale;
-            let k = [c.x as usize, c.y as usize, c.z as usize];
-            for (axis, &k) in k.iter().enumerate() {
-                let bin = &mut bins[3 * k.min(last) + axis];
+            // NaN (a degenerate extent) and negatives go to the first bucket; past the
+            // last (rounding at the top of the range) to the last.
+            let k = Vec3A::select(c.cmpge(Vec3A::ZERO), c, Vec3A::ZERO).min(last);
+            // SAFETY: every lane of k is finite and in 0..=buckets − 1 (clamped above), so
+            // its truncation is representable.
+            let k: [usize; 3] = unsafe {
+                [
+                    k.x.to_int_unchecked::<u32>() as usize,
+                    k.y.to_int_unchecked::<u32>() as usize,
+                    k.z.to_int_unchecked::<u32>() as usize,
+                ]
+            };
+            for (axis, k) in k.into_iter().enumerate() {
+                let bin = &mut bins[3 * k + axis];
                 bin.count += 1;
                 bin.bounds.grow(lo, hi);
             }
@@ -141,12 +155,16 @@ pub(super) struct Candidate {
 }
 
 /// Bins `refs` and offers every boundary with primitives on both sides to `visit`, in the
-/// builder's order (boundary by boundary, the three axes at each).
+/// builder's order (boundary by boundary, the three axes at each). Boundaries after an
+/// empty bucket repeat the one before; they are offered only `with_repeats` (the bucket
+/// plot draws them; choosing a split needs only the others, and near the leaves, where
+/// most buckets are empty, skipping them halves the sweep).
 fn candidates(
     refs: &[PrimRef],
     binning: &Binning,
     parent_area: f32,
     p: &BuildParams,
+    with_repeats: bool,
     mut visit: impl FnMut(Candidate),
 ) {
     let b = binning.buckets;
@@ -178,6 +196,8 @@ fn candidates(
                 if bin.count > 0 {
                     acc[axis] = acc[axis].union(bin.bounds);
                     count[axis] += bin.count;
+                } else if !with_repeats {
+                    continue;
                 }
                 if count[axis] == 0 || right == 0 {
                     continue;
@@ -209,7 +229,7 @@ pub fn best(refs: &[PrimRef], info: &NodeInfo, p: &BuildParams) -> Option<Object
     let b = p.buckets as usize;
     let binning = Binning::new(&info.centroids, b);
     let mut best: Option<(f32, usize, usize)> = None;
-    candidates(refs, &binning, info.bounds.surface_area(), p, |c| {
+    candidates(refs, &binning, info.bounds.surface_area(), p, false, |c| {
         if !c.repeats_previous && best.is_none_or(|(cost, _, _)| c.cost < cost) {
             best = Some((c.cost, c.axis, c.k));
         }
@@ -270,8 +290,50 @@ pub(super) fn all_candidates(
 ) -> Vec<(Candidate, f32)> {
     let binning = Binning::new(&info.centroids, p.buckets as usize);
     let mut out = Vec::new();
-    candidates(refs, &binning, info.bounds.surface_area(), p, |c| {
+    candidates(refs, &binning, info.bounds.surface_area(), p, true, |c| {
         out.push((c, binning.plane(c.axis, c.k)));
     });
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Aabb;
+    use glam::Vec3;
+
+    /// Binning and partitioning put every reference in the same bucket, at the ends of the
+    /// range, inside it, and where a degenerate extent makes the position NaN or infinite.
+    #[test]
+    fn fill_and_partition_agree_on_every_bucket() {
+        let mut refs: Vec<PrimRef> = (0..500u32)
+            .map(|i| {
+                let f = |k: u32| ((i * k) % 97) as f32 / 7.0;
+                let lo = Vec3::new(f(3), f(5), f(11));
+                PrimRef::new(Aabb::new(lo, lo + Vec3::new(f(2), 0.0, f(13) * 0.1)), i)
+            })
+            .collect();
+        // Tiny extents: 16 / 1e-45 is infinite, so a centroid at the origin gives 0 · ∞.
+        refs.push(PrimRef::new(Aabb::new(Vec3::ZERO, Vec3::ZERO), 500));
+        refs.push(PrimRef::new(Aabb::new(Vec3::ZERO, Vec3::splat(1e-45)), 501));
+        let info = NodeInfo::of(&refs);
+        let tiny = NodeInfo::of(&refs[500..]);
+        for (binning, refs) in [
+            (Binning::new(&info.centroids, 16), &refs[..]),
+            (Binning::new(&info.centroids, 3), &refs[..]),
+            (Binning::new(&tiny.centroids, 16), &refs[500..]),
+        ] {
+            let b = binning.buckets;
+            let mut bins = vec![EMPTY_BIN; 3 * b];
+            binning.fill(refs, &mut bins);
+            for axis in 0..3 {
+                let mut counts = vec![0u32; b];
+                for r in refs {
+                    counts[binning.bucket(r, axis)] += 1;
+                }
+                let filled: Vec<u32> = (0..b).map(|k| bins[3 * k + axis].count).collect();
+                assert_eq!(filled, counts, "axis {axis}, {b} buckets");
+            }
+        }
+    }
 }
