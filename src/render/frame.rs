@@ -4,7 +4,6 @@
 
 use crate::accel::{Counter, Counters};
 use glam::Vec3;
-use rayon::prelude::*;
 use std::time::Duration;
 
 /// What the rays of one pixel found, and the work they took.
@@ -101,22 +100,29 @@ impl FrameSummary {
 
     /// The frame's totals, maxima and means, summed over chunks of pixels on every thread
     /// (integer sums and maxima: the same summary whatever the thread count).
+    #[cfg(test)]
     pub(crate) fn from_samples(samples: &[Sample], trace_time: Duration, shadows: bool) -> Self {
-        let mut s = samples
+        use rayon::prelude::*;
+        samples
             .par_chunks(1 << 14)
             .map(|chunk| Self::sum_of(chunk, shadows))
-            .reduce(FrameSummary::default, Self::merged);
-        s.trace_time = trace_time;
-        for (r, n) in [(0, s.primary_rays), (1, s.shadow_rays)] {
-            for cs in &mut s.counters[r] {
+            .reduce(FrameSummary::default, Self::merged)
+            .with_means(trace_time)
+    }
+
+    /// Sums (of `sum_of` and `merged`) made a summary: the means taken, the time set.
+    pub(crate) fn with_means(mut self, trace_time: Duration) -> Self {
+        self.trace_time = trace_time;
+        for (r, n) in [(0, self.primary_rays), (1, self.shadow_rays)] {
+            for cs in &mut self.counters[r] {
                 cs.mean = cs.total as f64 / n.max(1) as f64;
             }
         }
-        s
+        self
     }
 
     /// The ray counts, totals and maxima of `samples` (means not yet taken).
-    fn sum_of(samples: &[Sample], shadows: bool) -> Self {
+    pub(crate) fn sum_of(samples: &[Sample], shadows: bool) -> Self {
         let mut s = FrameSummary::default();
         for sample in samples {
             s.primary_rays += 1;
@@ -138,7 +144,7 @@ impl FrameSummary {
     }
 
     /// Two chunks' sums as one.
-    fn merged(mut a: Self, b: Self) -> Self {
+    pub(crate) fn merged(mut a: Self, b: Self) -> Self {
         a.primary_rays += b.primary_rays;
         a.primary_hits += b.primary_hits;
         a.shadow_rays += b.shadow_rays;
