@@ -49,9 +49,9 @@ impl Binning {
         0.5 * (self.origin[axis] + k as f32 / self.scale[axis])
     }
 
-    /// The bucket of `r` on `axis`. The same arithmetic, lane for lane, as `fill`'s, so the
-    /// partition reproduces the counts the cost was computed from.
-    #[inline(always)]
+    /// The bucket of `r` on `axis`, one reference at a time: what `fill` computes for three
+    /// axes at once and `ObjectSplit::is_left` decides with one compare (tested equal).
+    #[cfg(test)]
     fn bucket(&self, r: &PrimRef, axis: usize) -> usize {
         let c = (r.min[axis] + r.max[axis] - self.origin[axis]) * self.scale[axis];
         // NaN (a degenerate extent) and negatives go to the first bucket, as in `fill`.
@@ -126,18 +126,36 @@ thread_local! {
 pub struct ObjectSplit {
     pub cost: f32,
     axis: usize,
-    /// First bucket of the right side.
-    bucket: usize,
     binning: Binning,
+    /// The first bucket of the right side, in the split axis's lane; +∞ in the others
+    /// (`is_left`).
+    boundary: Vec3A,
     pub left: Box3A,
     pub right: Box3A,
 }
 
 impl ObjectSplit {
-    /// Whether `r` goes to the left child.
+    /// Whether `r` goes to the left child: its bucket on the split axis is before
+    /// `bucket`. For a bucket boundary k ≥ 1, "the bucket (truncated, NaN and negatives to
+    /// 0, clamped to the last) is below k" is "the position is not ≥ k", so one vector
+    /// compare in the split axis's lane decides it, with `fill`'s arithmetic.
     #[inline(always)]
     pub fn is_left(&self, r: &PrimRef) -> bool {
-        self.binning.bucket(r, self.axis) < self.bucket
+        let c = (r.lo() + r.hi() - self.binning.origin) * self.binning.scale;
+        c.cmpge(self.boundary).bitmask() & (1 << self.axis) == 0
+    }
+
+    fn new(binning: Binning, axis: usize, bucket: usize) -> Self {
+        let mut boundary = Vec3A::INFINITY;
+        boundary[axis] = bucket as f32;
+        ObjectSplit {
+            cost: 0.0,
+            axis,
+            binning,
+            boundary,
+            left: Box3A::EMPTY,
+            right: Box3A::EMPTY,
+        }
     }
 }
 
@@ -242,11 +260,9 @@ pub fn best(refs: &[PrimRef], info: &NodeInfo, p: &BuildParams) -> Option<Object
         };
         Some(ObjectSplit {
             cost,
-            axis,
-            bucket,
-            binning,
             left: side(0..bucket),
             right: side(bucket..b),
+            ..ObjectSplit::new(binning, axis, bucket)
         })
     })
 }
@@ -303,7 +319,8 @@ mod tests {
     use crate::geometry::Aabb;
     use glam::Vec3;
 
-    /// Binning and partitioning put every reference in the same bucket, at the ends of the
+    /// Binning and partitioning put every reference in the same bucket, and on the same side
+    /// of every boundary, at the ends of the
     /// range, inside it, and where a degenerate extent makes the position NaN or infinite.
     #[test]
     fn fill_and_partition_agree_on_every_bucket() {
@@ -334,6 +351,12 @@ mod tests {
                 }
                 let filled: Vec<u32> = (0..b).map(|k| bins[3 * k + axis].count).collect();
                 assert_eq!(filled, counts, "axis {axis}, {b} buckets");
+                for k in 1..b {
+                    let split = ObjectSplit::new(binning, axis, k);
+                    for r in refs {
+                        assert_eq!(split.is_left(r), binning.bucket(r, axis) < k);
+                    }
+                }
             }
         }
     }
