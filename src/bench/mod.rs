@@ -202,6 +202,14 @@ pub fn builder_variants(base: &BuildParams) -> Vec<BuildParams> {
 pub fn builder_label(p: &BuildParams) -> String {
     if p.presplit > 0.0 && p.strategy.takes_presplit() {
         format!("{} (pre-split)", p.strategy.label())
+    } else if p.strategy == Strategy::Sbvh && p.overlap_penalty > 0.0 {
+        // (No comma: the label is a CSV field.)
+        format!(
+            "{} (κ = {}; budget {} N)",
+            p.strategy.label(),
+            p.overlap_penalty,
+            p.split_budget
+        )
     } else {
         p.strategy.label().to_string()
     }
