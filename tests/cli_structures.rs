@@ -371,9 +371,10 @@ fn tradeoff_and_rotation_sweep_write_their_csv_and_plot() {
         String::from_utf8_lossy(&out.stderr)
     );
     let rows = std::fs::read_to_string(&csv).unwrap();
-    // Three builders at ten angles.
-    assert_eq!(rows.lines().count(), 1 + 3 * 10);
+    // Four builders at ten angles: SBVH as the paper and with the overlap penalty.
+    assert_eq!(rows.lines().count(), 1 + 4 * 10);
     assert!(rows.contains("\n45,SBVH,"), "{rows}");
+    assert!(rows.contains("\n45,SBVH (κ = 1; budget 16 N),"), "{rows}");
     assert!(png.exists());
 
     let err = bvhlab(&["bench", "--scene", "cornell", "--rotation-sweep"]);

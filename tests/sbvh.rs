@@ -53,6 +53,13 @@ fn split_params() -> Vec<BuildParams> {
         c_trav: 0.0,
         ..sbvh()
     });
+    for overlap_penalty in [1.0, 16.0] {
+        out.push(BuildParams {
+            overlap_penalty,
+            split_budget: 4.0,
+            ..sbvh()
+        });
+    }
     for strategy in [Strategy::Lbvh, Strategy::LbvhTreelet, Strategy::SahBinned] {
         for budget in [0.3, 2.0] {
             out.push(presplit(strategy, budget));
@@ -193,6 +200,62 @@ fn spatial_splits_duplicate_references_where_boxes_overlap() {
     assert!(pre.sah_cost(1.0, 1.0) < plain.sah_cost(1.0, 1.0));
 }
 
+/// The overlap penalty κ weighs an object split against a spatial one by the overlap of its
+/// children: on the rotated walls, where the plain SAH keeps overlapping object splits near
+/// the root, it takes spatial splits instead, and the whole tree's SAH cost drops with the
+/// overlap (the greedy choice was not the cheapest tree). With no spatial split possible
+/// (budget 0) it changes nothing.
+#[test]
+fn the_overlap_penalty_takes_spatial_splits_where_object_splits_overlap() {
+    let tris = Scene::load("walls-rotated").unwrap().triangles;
+    let with = |overlap_penalty: f32, split_budget: f32| {
+        let p = BuildParams {
+            overlap_penalty,
+            split_budget,
+            ..sbvh()
+        };
+        let (bvh, report) = build(&tris, &p).unwrap();
+        bvh.validate(p.max_leaf_size).unwrap();
+        let (splits, _) = report.phases.spatial_splits.expect("an SBVH report");
+        (bvh, splits)
+    };
+    let (plain, plain_splits) = with(0.0, 16.0);
+    let (penalised, penalised_splits) = with(1.0, 16.0);
+    assert!(
+        penalised_splits > 2 * plain_splits,
+        "{penalised_splits} spatial splits against {plain_splits}"
+    );
+    let (sah_plain, sah_penalised) = (plain.sah_cost(1.0, 1.0), penalised.sah_cost(1.0, 1.0));
+    assert!(
+        sah_penalised < 0.9 * sah_plain,
+        "SAH cost {sah_penalised} against {sah_plain}"
+    );
+    // The view's primary rays visit far fewer nodes and test far fewer triangles.
+    let camera = Scene::load("walls-rotated").unwrap().camera();
+    let cost = |bvh: &Bvh| {
+        let mut c = Counters::default();
+        let rays = camera.rays(64, 48);
+        for y in 0..48 {
+            for x in 0..64 {
+                bvh.closest_hit::<Watertight, _>(&rays.pixel_center(x, y), &mut c);
+            }
+        }
+        c.nodes_visited + c.triangle_tests
+    };
+    assert!(
+        3 * cost(&penalised) < 2 * cost(&plain),
+        "{} against {} steps",
+        cost(&penalised),
+        cost(&plain)
+    );
+    // Without a budget there is no spatial split to prefer: binned SAH's tree either way.
+    assert_eq!(with(4.0, 0.0).0.nodes, with(0.0, 0.0).0.nodes);
+    let brute = BruteForce::new(&tris, true);
+    let mut penalised = penalised;
+    let rays = rays(&bounds(&tris), 300, 5);
+    assert_matches_brute_force(&mut penalised, &brute, &rays, "walls-rotated, κ = 1");
+}
+
 #[test]
 fn a_zero_budget_is_binned_sah_exactly() {
     for tris in [
@@ -324,6 +387,7 @@ fn the_report_counts_duplicated_references() {
     assert!(row("duplicated references").starts_with(&report.duplicated_references().to_string()));
     assert!(row("spatial splits").parse::<usize>().unwrap() > 0);
     row("overlap threshold α");
+    assert_eq!(row("overlap penalty κ"), "0");
     row("split budget");
     let (_, pre) = build(&tris, &presplit(Strategy::Lbvh, 0.5)).unwrap();
     assert!(pre.duplicated_references() > 0);
@@ -344,6 +408,18 @@ fn bad_split_parameters_are_errors() {
         },
         BuildParams {
             split_alpha: 2.0,
+            ..sbvh()
+        },
+        BuildParams {
+            overlap_penalty: -1.0,
+            ..sbvh()
+        },
+        BuildParams {
+            overlap_penalty: 17.0,
+            ..sbvh()
+        },
+        BuildParams {
+            overlap_penalty: f32::NAN,
             ..sbvh()
         },
         presplit(Strategy::Lbvh, 17.0),

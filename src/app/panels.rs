@@ -5,8 +5,8 @@ use super::settings::{StrategyChoice, ViewMode};
 use super::{BvhLabApp, Tool};
 use crate::accel::AccelKind;
 use crate::accel::bvh::build::{
-    MAX_BUCKETS, MAX_LEAF_SIZE, MAX_SPLIT_BUDGET, MAX_TREELET_ROUNDS, MAX_TREELET_SIZE,
-    MIN_BUCKETS, MIN_TREELET_SIZE,
+    MAX_BUCKETS, MAX_LEAF_SIZE, MAX_OVERLAP_PENALTY, MAX_SPLIT_BUDGET, MAX_TREELET_ROUNDS,
+    MAX_TREELET_SIZE, MIN_BUCKETS, MIN_TREELET_SIZE,
 };
 use crate::accel::kdtree::{MAX_DEPTH as KD_MAX_DEPTH, MIN_BINS as KD_MIN_BINS};
 use crate::accel::octree::MAX_DEPTH as OCTREE_MAX_DEPTH;
@@ -312,6 +312,11 @@ fn bvh_parameters(ui: &mut egui::Ui, s: &mut super::settings::Settings) {
             .text("overlap threshold α"),
     )
     .on_hover_text("spatial splits only where the object split's children overlap by more than α × the root's area");
+    ui.add_enabled(
+        sbvh,
+        egui::Slider::new(&mut s.overlap_penalty, 0.0..=MAX_OVERLAP_PENALTY).text("overlap penalty κ"),
+    )
+    .on_hover_text("weighed against a spatial split, an object split costs × (1 + κ × its children's overlap / the node's area): 0 = the plain SAH");
     ui.add_enabled(
         sbvh,
         egui::Slider::new(&mut s.split_budget, 0.0..=MAX_SPLIT_BUDGET).text("split budget × N"),

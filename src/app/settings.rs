@@ -172,8 +172,10 @@ pub struct Settings {
     /// Leaves per treelet and rounds of LBVH + treelets.
     pub treelet_size: u32,
     pub treelet_rounds: u32,
-    /// SBVH: overlap threshold α and duplicated-reference budget (fraction of N).
+    /// SBVH: overlap threshold α, overlap penalty κ and duplicated-reference budget
+    /// (fraction of N).
     pub split_alpha: f32,
+    pub overlap_penalty: f32,
     pub split_budget: f32,
     /// Pre-split budget (fraction of N) for LBVH, LBVH + treelets and binned SAH.
     pub presplit: f32,
@@ -233,6 +235,7 @@ impl Default for Settings {
             treelet_size: p.treelet_size,
             treelet_rounds: p.treelet_rounds,
             split_alpha: p.split_alpha,
+            overlap_penalty: p.overlap_penalty,
             split_budget: p.split_budget,
             presplit: p.presplit,
             max_leaf_size: p.max_leaf_size,
@@ -267,6 +270,7 @@ impl Settings {
             treelet_size: self.treelet_size,
             treelet_rounds: self.treelet_rounds,
             split_alpha: self.split_alpha,
+            overlap_penalty: self.overlap_penalty,
             split_budget: self.split_budget,
             presplit: self.presplit,
         }
@@ -346,6 +350,7 @@ pub struct Pinned {
     pub treelet_size: u32,
     pub treelet_rounds: u32,
     pub split_alpha: f32,
+    pub overlap_penalty: f32,
     pub split_budget: f32,
     pub presplit: f32,
     pub max_leaf_size: u32,
@@ -360,8 +365,8 @@ macro_rules! configuration_fields {
         configuration_fields!(@copy $from, $to; accel, mailbox, simd, kd_c_trav, kd_c_isect,
             kd_empty_bonus, kd_max_depth, kd_max_leaf_size, kd_bins, grid_lambda,
             octree_max_leaf_size, octree_max_depth, strategy, buckets, treelet_size,
-            treelet_rounds, split_alpha, split_budget, presplit, max_leaf_size, c_trav,
-            c_isect, naive_order)
+            treelet_rounds, split_alpha, overlap_penalty, split_budget, presplit,
+            max_leaf_size, c_trav, c_isect, naive_order)
     }};
     (@copy $from:expr, $to:expr; $($field:ident),*) => {{
         $( $to.$field = $from.$field; )*
@@ -397,6 +402,7 @@ impl Pinned {
             treelet_size: d.treelet_size,
             treelet_rounds: d.treelet_rounds,
             split_alpha: d.split_alpha,
+            overlap_penalty: d.overlap_penalty,
             split_budget: d.split_budget,
             presplit: d.presplit,
             max_leaf_size: d.max_leaf_size,

@@ -202,6 +202,14 @@ pub fn builder_variants(base: &BuildParams) -> Vec<BuildParams> {
 pub fn builder_label(p: &BuildParams) -> String {
     if p.presplit > 0.0 && p.strategy.takes_presplit() {
         format!("{} (pre-split)", p.strategy.label())
+    } else if p.strategy == Strategy::Sbvh && p.overlap_penalty > 0.0 {
+        // (No comma: the label is a CSV field.)
+        format!(
+            "{} (κ = {}; budget {} N)",
+            p.strategy.label(),
+            p.overlap_penalty,
+            p.split_budget
+        )
     } else {
         p.strategy.label().to_string()
     }
@@ -570,6 +578,8 @@ impl BenchResult {
                 "differing_primary_hits": p.differing_primary_hits,
             })),
         });
+        // (Set here: one more key in the macro above exceeds its recursion limit.)
+        json["overlap_penalty"] = b.overlap_penalty.into();
         // The two levels' build times, each level on its own (their sum is `build_ms`).
         for (detail, key) in [
             ("BLAS builds", "blas_build_ms"),

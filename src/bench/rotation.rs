@@ -13,30 +13,45 @@ use std::fmt::Write as _;
 /// 0°, 5°, …, 45°.
 pub const DEFAULT_ANGLES: [f32; 10] = [0.0, 5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0, 40.0, 45.0];
 
-/// The builders of the sweep: binned SAH, SBVH and pre-split LBVH + treelets, with the other
-/// parameters (and the pre-split budget, if set) from `base`.
+/// The overlap penalty and split budget of the sweep's second SBVH: what the rotated walls
+/// need (README, "The rotated walls, measured").
+pub const WALLS_OVERLAP_PENALTY: f32 = 1.0;
+pub const WALLS_SPLIT_BUDGET: f32 = 16.0;
+
+/// The builders of the sweep: binned SAH, SBVH, SBVH with the overlap penalty (κ = 1 and a
+/// budget of 16 N unless `base` sets a penalty already) and pre-split LBVH + treelets, with
+/// the other parameters (and the pre-split budget, if set) from `base`.
 pub fn builders(base: &BuildParams) -> Vec<BuildParams> {
     let presplit = if base.presplit > 0.0 {
         base.presplit
     } else {
         super::accuracy::PRESPLIT_BUDGET
     };
-    vec![
+    let sbvh = BuildParams {
+        strategy: Strategy::Sbvh,
+        ..*base
+    };
+    let mut out = vec![
         BuildParams {
             strategy: Strategy::SahBinned,
             presplit: 0.0,
             ..*base
         },
-        BuildParams {
-            strategy: Strategy::Sbvh,
-            ..*base
-        },
-        BuildParams {
-            strategy: Strategy::LbvhTreelet,
-            presplit,
-            ..*base
-        },
-    ]
+        sbvh,
+    ];
+    if base.overlap_penalty == 0.0 {
+        out.push(BuildParams {
+            overlap_penalty: WALLS_OVERLAP_PENALTY,
+            split_budget: WALLS_SPLIT_BUDGET.max(base.split_budget),
+            ..sbvh
+        });
+    }
+    out.push(BuildParams {
+        strategy: Strategy::LbvhTreelet,
+        presplit,
+        ..*base
+    });
+    out
 }
 
 /// One builder at one angle.
@@ -127,7 +142,7 @@ pub fn csv(rows: &[RotationRow]) -> String {
     s
 }
 
-const PALETTE: [Color; 3] = [[0, 114, 178], [213, 94, 0], [0, 158, 115]];
+const PALETTE: [Color; 4] = [[0, 114, 178], [213, 94, 0], [204, 121, 167], [0, 158, 115]];
 
 /// Three panels against the angle: nodes visited, triangle tests, primary Mrays/s.
 pub fn figure(rows: &[RotationRow], threads: usize) -> Figure {

@@ -69,8 +69,10 @@ pub struct BenchArgs {
     #[arg(long, conflicts_with = "embree")]
     pub sah_scatter: bool,
     /// Turn the walls (--scene walls or walls:N) from 0° to 45° in steps of 5° and trace
-    /// each angle's own view with binned SAH, SBVH and pre-split LBVH + treelets: mean nodes
-    /// visited, triangle tests and Mrays/s against the angle, as a table, a CSV and a plot.
+    /// each angle's own view with binned SAH, SBVH, SBVH with the overlap penalty (κ = 1,
+    /// --split-budget 16, unless --overlap-penalty is given) and pre-split LBVH + treelets:
+    /// mean nodes visited, triangle tests and Mrays/s against the angle, as a table, a CSV
+    /// and a plot.
     #[arg(long, conflicts_with = "embree")]
     pub rotation_sweep: bool,
     /// How the cost per primary ray grows with the scene: every structure on the scene's own

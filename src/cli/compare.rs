@@ -54,8 +54,8 @@ fn overlay(
     is_set: impl Fn(&str) -> bool,
 ) -> &'static [&'static str] {
     given_over!(b, given, is_set;
-        accel, mailbox, builder, buckets, treelet_size, rounds, split_alpha, split_budget,
-        presplit, max_leaf, c_trav, c_isect, order, kd_c_trav, kd_c_isect, empty_bonus,
+        accel, mailbox, builder, buckets, treelet_size, rounds, split_alpha, overlap_penalty,
+        split_budget, presplit, max_leaf, c_trav, c_isect, order, kd_c_trav, kd_c_isect, empty_bonus,
         kd_max_depth, kd_max_leaf, kd_bins, lambda, octree_max_leaf, octree_max_depth, simd,
     )
 }
@@ -113,6 +113,7 @@ pub fn settings_over(a: &Settings, flags: &str) -> Result<Pinned> {
         treelet_size => treelet_size = b.treelet_size,
         rounds => treelet_rounds = b.rounds,
         split_alpha => split_alpha = b.split_alpha,
+        overlap_penalty => overlap_penalty = b.overlap_penalty,
         split_budget => split_budget = b.split_budget,
         presplit => presplit = b.presplit,
         max_leaf => max_leaf_size = b.max_leaf,

@@ -51,6 +51,11 @@ pub struct BuildArgs {
     /// fraction of the root's surface area (0..=1).
     #[arg(long, default_value_t = BuildParams::default().split_alpha)]
     pub split_alpha: f32,
+    /// sbvh: weighed against a spatial split, an object split costs its SAH cost × (1 + κ ·
+    /// its children's overlap area / the node's area), for the rays that front-to-back order
+    /// cannot stop early in that overlap (0..=16; 0 = the plain SAH).
+    #[arg(long, default_value_t = BuildParams::default().overlap_penalty)]
+    pub overlap_penalty: f32,
     /// sbvh: at most this many duplicated references, as a fraction of the triangle count
     /// (0..=16).
     #[arg(long, default_value_t = BuildParams::default().split_budget)]
@@ -255,6 +260,7 @@ impl BuildArgs {
             treelet_size: self.treelet_size,
             treelet_rounds: self.rounds,
             split_alpha: self.split_alpha,
+            overlap_penalty: self.overlap_penalty,
             split_budget: self.split_budget,
             presplit: self.presplit,
         }

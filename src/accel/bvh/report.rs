@@ -131,6 +131,7 @@ impl BuildReport {
         }
         if p.strategy == super::Strategy::Sbvh {
             rows.push(("overlap threshold α".into(), format!("{:e}", p.split_alpha)));
+            rows.push(("overlap penalty κ".into(), p.overlap_penalty.to_string()));
             rows.push(("split budget".into(), format!("{} × N", p.split_budget)));
         }
         if p.strategy.takes_presplit() && p.presplit > 0.0 {

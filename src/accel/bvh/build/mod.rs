@@ -111,6 +111,11 @@ pub struct BuildParams {
     /// SBVH: the overlap threshold α. Spatial splits are tried only in nodes where the best
     /// object split's children overlap by more than α times the root's surface area.
     pub split_alpha: f32,
+    /// SBVH: the overlap penalty κ. Weighed against a spatial split, an object split costs
+    /// its SAH cost × (1 + κ · the area of its children's overlap / the node's area): rays
+    /// stop at their first hit, and where children overlap front-to-back order cannot skip
+    /// the far one. 0 is the plain SAH.
+    pub overlap_penalty: f32,
     /// SBVH: at most this many references beyond one per triangle, as a fraction of the
     /// triangle count.
     pub split_budget: f32,
@@ -131,6 +136,7 @@ impl Default for BuildParams {
             treelet_size: 7,
             treelet_rounds: 3,
             split_alpha: 1e-5,
+            overlap_penalty: 0.0,
             split_budget: 1.0,
             presplit: 0.0,
         }
@@ -148,6 +154,8 @@ pub const MAX_TREELET_ROUNDS: u32 = 16;
 /// Budgets for duplicated references (SBVH) and pre-splits, as fractions of the triangle
 /// count: at most this many times more references than triangles, beyond the first.
 pub const MAX_SPLIT_BUDGET: f32 = 16.0;
+/// The largest overlap penalty κ the SBVH accepts.
+pub const MAX_OVERLAP_PENALTY: f32 = 16.0;
 
 impl BuildParams {
     pub fn with_strategy(strategy: Strategy) -> Self {
@@ -188,6 +196,11 @@ impl BuildParams {
             ("split budget", self.split_budget, MAX_SPLIT_BUDGET),
             ("presplit budget", self.presplit, MAX_SPLIT_BUDGET),
             ("overlap threshold α", self.split_alpha, 1.0),
+            (
+                "overlap penalty κ",
+                self.overlap_penalty,
+                MAX_OVERLAP_PENALTY,
+            ),
         ] {
             if !(0.0..=max).contains(&value) {
                 return Err(BuildError::Fraction { name, value, max });

@@ -39,7 +39,8 @@ impl Round<'_> {
     /// root): first both children's subtrees, then the treelet rooted here.
     fn subtree(&self, nodes: &mut [LinkedNode], base: u32, depth: u32) {
         let n = nodes[0];
-        if n.is_leaf() {
+        // A subtree smaller than γ holds no node that roots a treelet: nothing in it changes.
+        if n.is_leaf() || n.count < self.gamma.max(3) {
             return;
         }
         debug_assert_eq!(n.left, base + 1, "the tree is in preorder");
