@@ -712,13 +712,11 @@ fn the_selected_instances_blas_is_drawn_around_its_world_triangles_and_walked_be
             assert_eq!(o.blas.max_depth(), blas.depth);
         }
         o.blas.validate().unwrap();
-        let Some(leaf) = o.tlas_leaf else {
+        if o.entries.is_empty() {
             // Only an empty mesh's instance is in no leaf.
             assert!(mesh.is_empty(), "instance {i} is in no leaf");
             continue;
-        };
-        assert_eq!(leaf_instances[leaf as usize], i as u32);
-        assert!(top.nodes[leaf as usize].is_leaf());
+        }
         // Every world triangle of the instance lies in the placed root box, and in the
         // world box around it; each leaf's triangles in that leaf's placed box.
         let world: Vec<Triangle> = mesh.iter().map(|t| placed.place(t)).collect();
@@ -733,13 +731,21 @@ fn the_selected_instances_blas_is_drawn_around_its_world_triangles_and_walked_be
                 );
             }
         }
-        // The TLAS leaf's world box holds the placed BLAS root box's triangles too.
-        let leaf_box = top.nodes[leaf as usize].bounds;
-        assert!(
-            world
-                .iter()
-                .all(|t| t.v.iter().all(|&v| leaf_box.contains_point(v)))
-        );
+        // Each of the instance's top-level leaves holds one of its references, whose BLAS
+        // node's triangles its world box holds; the entries' triangles are the mesh's, each
+        // once (the references cut the BLAS).
+        let mut reached = vec![0u32; mesh.len()];
+        for e in &o.entries {
+            assert_eq!(leaf_instances[e.tlas_leaf as usize], i as u32);
+            assert!(top.nodes[e.tlas_leaf as usize].is_leaf());
+            let leaf_box = top.nodes[e.tlas_leaf as usize].bounds;
+            for t in o.triangles_under(e.blas_node as usize) {
+                let local = (t - o.first_triangle) as usize;
+                reached[local] += 1;
+                assert!(world[local].v.iter().all(|&v| leaf_box.contains_point(v)));
+            }
+        }
+        assert!(reached.iter().all(|&n| n == 1), "instance {i}: {reached:?}");
         let mut covered = vec![false; mesh.len()];
         for k in 0..o.blas.nodes.len() {
             if !o.blas.nodes[k].is_leaf() {
@@ -760,30 +766,45 @@ fn the_selected_instances_blas_is_drawn_around_its_world_triangles_and_walked_be
         assert_eq!(tl.instance_of_triangle(o.first_triangle), Some(i));
         assert_eq!(tl.instance_of_triangle(last), Some(i));
 
-        // The walk: the levels run on below the top level by the BLAS's levels, the leaf's
-        // only child is the BLAS's root, whose parent is the leaf; below, the BLAS's own.
+        // The walk: the levels run on below the top level by the BLAS's levels; a leaf of
+        // the instance has its reference's BLAS node as its only child, whose parent is the
+        // leaf; below, the BLAS's own.
         let levels = Levels::new(&top, Some(&o));
         assert_eq!(Levels::new(&top, None).max_depth(), top.max_depth());
         assert_eq!(levels.max_depth(), top.max_depth() + 1 + o.blas.max_depth());
         let root = WalkNode::Bottom(0);
-        assert_eq!(levels.children(WalkNode::Top(leaf as usize)), vec![root]);
-        assert_eq!(levels.parent(root), Some(WalkNode::Top(leaf as usize)));
         assert_eq!(levels.node(levels.id(root)), Some(root));
         assert_eq!(levels.depth(root), top.max_depth() + 1);
         assert_eq!(levels.level(top.max_depth() + 1), vec![root]);
+        for e in &o.entries {
+            let (leaf, node) = (
+                WalkNode::Top(e.tlas_leaf as usize),
+                WalkNode::Bottom(e.blas_node as usize),
+            );
+            assert_eq!(levels.children(leaf), vec![node]);
+            assert_eq!(levels.parent(node), Some(leaf));
+            assert_eq!(levels.top_above(node), Some(e.tlas_leaf as usize));
+        }
         for k in 0..o.blas.nodes.len() {
             let n = WalkNode::Bottom(k);
             let children: Vec<WalkNode> =
                 o.blas.nodes[k].children().map(WalkNode::Bottom).collect();
             assert_eq!(levels.children(n), children);
             for c in children {
-                assert_eq!(levels.parent(c), Some(n));
+                let WalkNode::Bottom(b) = c else {
+                    unreachable!()
+                };
+                let above = match o.leaf_above(b as u32) {
+                    Some(l) => WalkNode::Top(l as usize),
+                    None => n,
+                };
+                assert_eq!(levels.parent(c), Some(above));
                 assert_eq!(levels.depth(c), levels.depth(n) + 1);
             }
         }
         // The rest of the top level is unchanged.
         for k in 0..top.nodes.len() {
-            if k != leaf as usize {
+            if o.entry_below(k as u32).is_none() {
                 let children: Vec<WalkNode> = top.nodes[k].children().map(WalkNode::Top).collect();
                 assert_eq!(levels.children(WalkNode::Top(k)), children);
             }

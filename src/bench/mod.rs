@@ -570,6 +570,16 @@ impl BenchResult {
                 "differing_primary_hits": p.differing_primary_hits,
             })),
         });
+        // The two levels' top-level references and their budget.
+        if self.params.kind == AccelKind::TwoLevel {
+            json["rebraid"] = b.rebraid.into();
+            let references = r
+                .details
+                .iter()
+                .find(|(k, _)| k == "TLAS references")
+                .and_then(|(_, v)| v.parse::<u64>().ok());
+            json["references"] = references.into();
+        }
         // The two levels' build times, each level on its own (their sum is `build_ms`).
         for (detail, key) in [
             ("BLAS builds", "blas_build_ms"),

@@ -118,6 +118,11 @@ pub struct BuildParams {
     /// fraction of the triangle count, given to the triangles that gain most from being
     /// cut along the Morton grid. 0 turns it off.
     pub presplit: f32,
+    /// Two levels: partial re-braiding. The top level may open instances into references to
+    /// their BLAS's subtrees, up to this many extra references per instance (counting at
+    /// least 4096 instances; `two_level::rebraid`). 0 turns it off: one reference per
+    /// instance.
+    pub rebraid: f32,
 }
 
 impl Default for BuildParams {
@@ -133,6 +138,7 @@ impl Default for BuildParams {
             split_alpha: 1e-5,
             split_budget: 1.0,
             presplit: 0.0,
+            rebraid: DEFAULT_REBRAID,
         }
     }
 }
@@ -148,6 +154,10 @@ pub const MAX_TREELET_ROUNDS: u32 = 16;
 /// Budgets for duplicated references (SBVH) and pre-splits, as fractions of the triangle
 /// count: at most this many times more references than triangles, beyond the first.
 pub const MAX_SPLIT_BUDGET: f32 = 16.0;
+/// The two levels' re-braiding budget by default, and at most (extra references per
+/// instance).
+pub const DEFAULT_REBRAID: f32 = 1.0;
+pub const MAX_REBRAID: f32 = 16.0;
 
 impl BuildParams {
     pub fn with_strategy(strategy: Strategy) -> Self {
@@ -187,6 +197,7 @@ impl BuildParams {
         for (name, value, max) in [
             ("split budget", self.split_budget, MAX_SPLIT_BUDGET),
             ("presplit budget", self.presplit, MAX_SPLIT_BUDGET),
+            ("re-braiding budget", self.rebraid, MAX_REBRAID),
             ("overlap threshold α", self.split_alpha, 1.0),
         ] {
             if !(0.0..=max).contains(&value) {
