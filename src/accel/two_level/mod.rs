@@ -341,6 +341,28 @@ impl TwoLevel {
         Outline { nodes, refs }
     }
 
+    /// The re-braiding budget and how much of it was used, for the report.
+    fn rebraid_summary(&self) -> String {
+        let f = self.params.rebraid;
+        if f == 0.0 {
+            return "off (one reference per instance)".into();
+        }
+        let whole = self
+            .references
+            .iter()
+            .filter(|r| r.subtree == Subtree::ROOT)
+            .count();
+        let placed = (0..self.instances.len())
+            .filter(|&i| !self.references_of(i).is_empty())
+            .count();
+        format!(
+            "{} of {} instances opened; budget {f} × max({placed}, {}) extra references",
+            placed - whole,
+            placed,
+            rebraid::SMALL_SCENE
+        )
+    }
+
     fn report(&self, instanced: usize, times: LevelTimes) -> StructureReport {
         let depth = |b: &Bvh8| b.depth;
         let blas_nodes: usize = self.blases.iter().map(|b| b.nodes.len()).sum();
@@ -374,13 +396,7 @@ impl TwoLevel {
             details: vec![
                 ("instances".into(), self.instances.len().to_string()),
                 ("TLAS references".into(), self.references.len().to_string()),
-                (
-                    "re-braiding".into(),
-                    match self.params.rebraid {
-                        0.0 => "off".into(),
-                        f => format!("≤ {} extra references per instance", f),
-                    },
-                ),
+                ("re-braiding".into(), self.rebraid_summary()),
                 ("unique meshes".into(), self.blases.len().to_string()),
                 ("unique triangles".into(), unique.to_string()),
                 ("TLAS nodes".into(), self.tlas.nodes.len().to_string()),

@@ -57,16 +57,21 @@ impl Reference {
 }
 
 /// The world box of `subtree` of `blas` placed by `instance`: the union of the placed boxes
-/// of the subtree's nodes down to `WORLD_BOX_DEPTH` (a leaf's box, or the identity's own
-/// box, placed as it is). A rotated box's corners swing far beyond what it holds; its
-/// children's boxes, placed one by one, hug it closer, and the top-level boxes overlap less.
+/// of the subtree's nodes down to `WORLD_BOX_DEPTH` (a leaf's box placed as it is). A
+/// rotated box's corners swing far beyond what it holds; its children's boxes, placed one
+/// by one, hug it closer, and the top-level boxes overlap less. The identity's boxes are
+/// the BLAS's own, exactly: its rays are not transformed, so there is no rounding to pad
+/// for (a padded box would take in rays that start just off a surface, as bounced rays do).
 pub fn placed_box(instance: &Instance, blas: &Bvh8, subtree: Subtree) -> Aabb {
-    if subtree.is_leaf() {
-        return instance.world_bounds(&leaf_box(blas, subtree));
+    let object = match subtree.is_leaf() {
+        true => leaf_box(blas, subtree),
+        false => blas.nodes[subtree.child as usize].bounds(),
+    };
+    if instance.is_identity() {
+        return object;
     }
-    let node = &blas.nodes[subtree.child as usize];
-    if instance.is_identity() || WORLD_BOX_DEPTH == 0 {
-        return instance.world_bounds(&node.bounds());
+    if subtree.is_leaf() || WORLD_BOX_DEPTH == 0 {
+        return instance.world_bounds(&object);
     }
     let mut world = Aabb::EMPTY;
     let mut stack = vec![(subtree.child as usize, 1u32)];
