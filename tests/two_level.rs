@@ -6,6 +6,7 @@
 
 mod common;
 
+use bvhlab::accel::bvh::build::{DEFAULT_REBRAID, MAX_REBRAID};
 use bvhlab::accel::structure::{self, AccelKind, Structure, StructureParams};
 use bvhlab::accel::{Accel, BruteForce, Counters, NoStats, TraversalOrder};
 use bvhlab::geometry::{Ray, Triangle, Watertight};
@@ -22,6 +23,15 @@ fn two_level_params(order: TraversalOrder) -> StructureParams {
         order,
         ..StructureParams::of_kind(AccelKind::TwoLevel)
     }
+}
+
+/// Re-braiding off, at its default budget and at its largest.
+const BUDGETS: [f32; 3] = [0.0, DEFAULT_REBRAID, MAX_REBRAID];
+
+fn rebraided(order: TraversalOrder, rebraid: f32) -> StructureParams {
+    let mut p = two_level_params(order);
+    p.bvh.rebraid = rebraid;
+    p
 }
 
 /// A closed mesh: the built-in sphere, centred at the origin with radius 1.
@@ -119,16 +129,19 @@ fn instanced_scenes_hit_what_their_flattened_scenes_hit() {
         let mut rays = common::rays(&scene.bounds(), 2000, seed);
         rays.extend(rays_at_triangles(&scene, 2000, seed));
         let (mut hits, mut grazing) = (0, 0);
-        for order in TraversalOrder::ALL {
+        let configurations = TraversalOrder::ALL
+            .into_iter()
+            .flat_map(|order| BUDGETS.map(|rebraid| (order, rebraid)));
+        for (order, rebraid) in configurations {
             let built =
-                structure::build_scene(&scene, &two_level_params(order), &Default::default())
+                structure::build_scene(&scene, &rebraided(order, rebraid), &Default::default())
                     .unwrap();
             let tl = &built.structure;
             assert_eq!(tl.kind(), AccelKind::TwoLevel);
             for ray in &rays {
                 let want = flat.closest_hit::<Watertight, _>(ray, &mut NoStats);
                 let got = tl.closest_hit::<Watertight, _>(ray, &mut NoStats);
-                let label = format!("{count} instances, {}", order.label());
+                let label = format!("{count} instances, {}, rebraid {rebraid}", order.label());
                 if compare(&label, &scene.triangles, EXTENT, ray, got, want) {
                     grazing += 1;
                     continue;
@@ -154,12 +167,10 @@ fn instanced_scenes_hit_what_their_flattened_scenes_hit() {
                 );
             }
         }
-        assert!(hits > rays.len() / 2, "the rays find the instances: {hits}");
+        let traced = 2 * BUDGETS.len() * rays.len();
+        assert!(hits > traced / 2, "the rays find the instances: {hits}");
         // Rays within rounding of an edge are rare: at most 1 in 500.
-        assert!(
-            grazing * 500 <= 2 * rays.len(),
-            "{grazing} rays grazing an edge"
-        );
+        assert!(grazing * 500 <= traced, "{grazing} rays grazing an edge");
     }
 }
 
@@ -396,6 +407,13 @@ fn bad_parameters_and_non_finite_meshes_are_errors() {
     assert!(params.validate().is_err());
     let one = [Triangle::new(Vec3::ZERO, Vec3::X, Vec3::Y)];
     assert!(structure::build(&one, &params, &Default::default()).is_err());
+    for budget in [-1.0, MAX_REBRAID + 1.0, f32::NAN, f32::INFINITY] {
+        let params = rebraided(TraversalOrder::FrontToBack, budget);
+        let error = structure::build(&one, &params, &Default::default())
+            .err()
+            .expect("a budget out of range is an error");
+        assert!(error.to_string().contains("re-braiding budget"), "{error}");
+    }
     let params = two_level_params(TraversalOrder::FrontToBack);
     let bad = [one[0], Triangle::new(Vec3::NAN, Vec3::X, Vec3::Y)];
     let instancing = Instancing {
@@ -513,6 +531,23 @@ fn moving_instances_rebuilds_the_top_level_only_and_equals_a_full_rebuild() {
     }
     let blases_after: Vec<_> = moved.blases.iter().map(|b| b.nodes.clone()).collect();
     assert_eq!(blases_before, blases_after, "the BLASes stay as they were");
+    // Every reference of a moved instance moved with it: its leaf box holds its triangles
+    // where they are now.
+    for k in [0, 7, 13, 39] {
+        let placed = Instance::new(scene.instances[k].mesh, transforms[k]).unwrap();
+        let mesh = &scene.meshes[placed.mesh].triangles;
+        for r in moved.references_of(k) {
+            let (node, lane) = moved.top_index.slot_of(r).unwrap();
+            let leaf = moved.tlas.nodes[node as usize].child_bounds(lane as usize);
+            for t in moved.reference_triangles(r) {
+                let world = placed.place(&mesh[(t - moved.first_triangle[k]) as usize]);
+                assert!(
+                    world.v.iter().all(|&v| leaf.contains_point(v)),
+                    "instance {k}"
+                );
+            }
+        }
+    }
 
     // The same scene built from scratch with the instances where they were moved to.
     let mut again = Scene::new("moved");
@@ -712,13 +747,11 @@ fn the_selected_instances_blas_is_drawn_around_its_world_triangles_and_walked_be
             assert_eq!(o.blas.max_depth(), blas.depth);
         }
         o.blas.validate().unwrap();
-        let Some(leaf) = o.tlas_leaf else {
+        if o.entries.is_empty() {
             // Only an empty mesh's instance is in no leaf.
             assert!(mesh.is_empty(), "instance {i} is in no leaf");
             continue;
-        };
-        assert_eq!(leaf_instances[leaf as usize], i as u32);
-        assert!(top.nodes[leaf as usize].is_leaf());
+        }
         // Every world triangle of the instance lies in the placed root box, and in the
         // world box around it; each leaf's triangles in that leaf's placed box.
         let world: Vec<Triangle> = mesh.iter().map(|t| placed.place(t)).collect();
@@ -733,13 +766,21 @@ fn the_selected_instances_blas_is_drawn_around_its_world_triangles_and_walked_be
                 );
             }
         }
-        // The TLAS leaf's world box holds the placed BLAS root box's triangles too.
-        let leaf_box = top.nodes[leaf as usize].bounds;
-        assert!(
-            world
-                .iter()
-                .all(|t| t.v.iter().all(|&v| leaf_box.contains_point(v)))
-        );
+        // Each of the instance's top-level leaves holds one of its references, whose BLAS
+        // node's triangles its world box holds; the entries' triangles are the mesh's, each
+        // once (the references cut the BLAS).
+        let mut reached = vec![0u32; mesh.len()];
+        for e in &o.entries {
+            assert_eq!(leaf_instances[e.tlas_leaf as usize], i as u32);
+            assert!(top.nodes[e.tlas_leaf as usize].is_leaf());
+            let leaf_box = top.nodes[e.tlas_leaf as usize].bounds;
+            for t in o.triangles_under(e.blas_node as usize) {
+                let local = (t - o.first_triangle) as usize;
+                reached[local] += 1;
+                assert!(world[local].v.iter().all(|&v| leaf_box.contains_point(v)));
+            }
+        }
+        assert!(reached.iter().all(|&n| n == 1), "instance {i}: {reached:?}");
         let mut covered = vec![false; mesh.len()];
         for k in 0..o.blas.nodes.len() {
             if !o.blas.nodes[k].is_leaf() {
@@ -760,30 +801,45 @@ fn the_selected_instances_blas_is_drawn_around_its_world_triangles_and_walked_be
         assert_eq!(tl.instance_of_triangle(o.first_triangle), Some(i));
         assert_eq!(tl.instance_of_triangle(last), Some(i));
 
-        // The walk: the levels run on below the top level by the BLAS's levels, the leaf's
-        // only child is the BLAS's root, whose parent is the leaf; below, the BLAS's own.
+        // The walk: the levels run on below the top level by the BLAS's levels; a leaf of
+        // the instance has its reference's BLAS node as its only child, whose parent is the
+        // leaf; below, the BLAS's own.
         let levels = Levels::new(&top, Some(&o));
         assert_eq!(Levels::new(&top, None).max_depth(), top.max_depth());
         assert_eq!(levels.max_depth(), top.max_depth() + 1 + o.blas.max_depth());
         let root = WalkNode::Bottom(0);
-        assert_eq!(levels.children(WalkNode::Top(leaf as usize)), vec![root]);
-        assert_eq!(levels.parent(root), Some(WalkNode::Top(leaf as usize)));
         assert_eq!(levels.node(levels.id(root)), Some(root));
         assert_eq!(levels.depth(root), top.max_depth() + 1);
         assert_eq!(levels.level(top.max_depth() + 1), vec![root]);
+        for e in &o.entries {
+            let (leaf, node) = (
+                WalkNode::Top(e.tlas_leaf as usize),
+                WalkNode::Bottom(e.blas_node as usize),
+            );
+            assert_eq!(levels.children(leaf), vec![node]);
+            assert_eq!(levels.parent(node), Some(leaf));
+            assert_eq!(levels.top_above(node), Some(e.tlas_leaf as usize));
+        }
         for k in 0..o.blas.nodes.len() {
             let n = WalkNode::Bottom(k);
             let children: Vec<WalkNode> =
                 o.blas.nodes[k].children().map(WalkNode::Bottom).collect();
             assert_eq!(levels.children(n), children);
             for c in children {
-                assert_eq!(levels.parent(c), Some(n));
+                let WalkNode::Bottom(b) = c else {
+                    unreachable!()
+                };
+                let above = match o.leaf_above(b as u32) {
+                    Some(l) => WalkNode::Top(l as usize),
+                    None => n,
+                };
+                assert_eq!(levels.parent(c), Some(above));
                 assert_eq!(levels.depth(c), levels.depth(n) + 1);
             }
         }
         // The rest of the top level is unchanged.
         for k in 0..top.nodes.len() {
-            if k != leaf as usize {
+            if o.entry_below(k as u32).is_none() {
                 let children: Vec<WalkNode> = top.nodes[k].children().map(WalkNode::Top).collect();
                 assert_eq!(levels.children(WalkNode::Top(k)), children);
             }
@@ -821,5 +877,242 @@ fn an_island_instances_outline_is_its_meshs_blas_alone() {
                 assert!(o.placed_box_contains(0, v, 1e-4), "instance {i}");
             }
         }
+    }
+}
+
+/// Re-braiding opens instances into references, each a subtree of the instance's BLAS: the
+/// references of an instance cut its BLAS, so they reach each of its triangles exactly once;
+/// the top-level leaf of each holds its placed triangles; the locator finds for every
+/// triangle the reference that reaches it; the budget bounds their number.
+#[test]
+fn rebraiding_cuts_each_instances_blas_into_references() {
+    use bvhlab::accel::bvh::Subtree;
+    use bvhlab::accel::two_level::rebraid::SMALL_SCENE;
+    let scene = instanced_scene(40, 41);
+    for rebraid in [0.01, DEFAULT_REBRAID, MAX_REBRAID] {
+        let built = structure::build_scene(
+            &scene,
+            &rebraided(TraversalOrder::FrontToBack, rebraid),
+            &Default::default(),
+        )
+        .unwrap();
+        let Structure::TwoLevel(tl) = &built.structure else {
+            panic!("two levels")
+        };
+        let placed = (0..scene.instances.len())
+            .filter(|&i| !scene.meshes[scene.instances[i].mesh].triangles.is_empty())
+            .count();
+        let budget = (rebraid * placed.max(SMALL_SCENE) as f32) as usize;
+        assert!(
+            tl.references.len() > placed,
+            "rebraid {rebraid}: something opened"
+        );
+        assert!(tl.references.len() <= placed + budget);
+        let report = &built.report.details;
+        let row = |k: &str| report.iter().find(|(key, _)| key == k).unwrap().1.clone();
+        assert_eq!(row("TLAS references"), tl.references.len().to_string());
+        assert!(
+            row("re-braiding").contains("instances opened"),
+            "{report:?}"
+        );
+        // Sorted by instance, then subtree; `first_reference` bounds each instance's.
+        assert!(
+            tl.references
+                .windows(2)
+                .all(|w| (w[0].instance, w[0].subtree) < (w[1].instance, w[1].subtree))
+        );
+        let top = tl.outline();
+        let leaf_references = tl.leaf_references();
+        let leaf_of: std::collections::HashMap<u32, usize> = leaf_references
+            .iter()
+            .enumerate()
+            .filter(|(_, r)| **r != u32::MAX)
+            .map(|(k, &r)| (r, k))
+            .collect();
+        assert_eq!(leaf_of.len(), tl.references.len(), "one leaf per reference");
+        let locator = tl.reference_locator();
+        for (i, instance) in scene.instances.iter().enumerate() {
+            let mesh = &scene.meshes[instance.mesh].triangles;
+            let refs = tl.references_of(i);
+            assert_eq!(refs.is_empty(), mesh.is_empty());
+            let mut reached = vec![0u32; mesh.len()];
+            for r in refs.clone() {
+                let reference = tl.references[r];
+                assert_eq!(reference.instance as usize, i);
+                let triangles = tl.reference_triangles(r);
+                assert_eq!(triangles.len(), reference.triangles as usize);
+                // The leaf's box holds the reference's triangles, placed.
+                let leaf_box = top.nodes[leaf_of[&(r as u32)]].bounds;
+                for &t in &triangles {
+                    let local = (t - tl.first_triangle[i]) as usize;
+                    reached[local] += 1;
+                    let world = instance.place(&mesh[local]);
+                    assert!(world.v.iter().all(|&v| leaf_box.contains_point(v)));
+                    assert_eq!(tl.reference_of_triangle(&locator, t), Some(r as u32));
+                }
+                if reference.subtree != Subtree::ROOT {
+                    assert!(refs.len() > 1 || reference.subtree.is_leaf());
+                }
+            }
+            assert!(reached.iter().all(|&n| n == 1), "instance {i}: {reached:?}");
+        }
+    }
+}
+
+/// With re-braiding off the top level is the one over whole instances: one reference per
+/// instance of a non-empty mesh, its BLAS's root, and the tree the BVH builder makes over
+/// the instances' world boxes.
+#[test]
+fn without_rebraiding_the_top_level_is_built_over_whole_instances() {
+    use bvhlab::accel::bvh::wide::CollapseParams;
+    use bvhlab::accel::bvh::{self, Bvh8, Subtree};
+    use bvhlab::accel::two_level::instance_world_box;
+    let scene = instanced_scene(50, 43);
+    let params = rebraided(TraversalOrder::FrontToBack, 0.0);
+    let built = structure::build_scene(&scene, &params, &Default::default()).unwrap();
+    let Structure::TwoLevel(tl) = &built.structure else {
+        panic!("two levels")
+    };
+    let mut boxes = Vec::new();
+    let mut whole = Vec::new();
+    for (i, instance) in scene.instances.iter().enumerate() {
+        let w = instance_world_box(instance, &tl.blases[instance.mesh]);
+        if !w.is_empty() {
+            boxes.push(Triangle::new(w.min, w.max, w.max));
+            whole.push(i as u32);
+        }
+    }
+    let instances: Vec<u32> = tl.references.iter().map(|r| r.instance).collect();
+    assert_eq!(instances, whole);
+    assert!(tl.references.iter().all(|r| r.subtree == Subtree::ROOT));
+    let tlas_params = bvhlab::accel::BuildParams {
+        max_leaf_size: 1,
+        ..params.bvh.whole_references()
+    };
+    let (tlas2, _) = bvh::build(&boxes, &tlas_params).unwrap();
+    let collapse = CollapseParams {
+        c_trav: params.bvh.c_trav,
+        c_isect: params.bvh.c_isect,
+        max_leaf_size: 1,
+    };
+    let old = Bvh8::collapse(&tlas2, &collapse);
+    assert_eq!(tl.tlas.nodes, old.nodes);
+    assert_eq!(tl.tlas.prim_indices, old.prim_indices);
+    let report = &built.report.details;
+    assert!(report.contains(&(
+        "re-braiding".into(),
+        "off (one reference per instance)".into()
+    )));
+}
+
+/// Counting with references: an instance is entered once per reference walked (the replay
+/// records one `instance` step for each), and the top level's nodes are those the replay
+/// visits at the top level.
+#[test]
+fn an_instance_is_entered_once_per_reference_walked() {
+    use bvhlab::accel::Recorder;
+    use bvhlab::accel::replay::{Level, Step};
+    let scene = instanced_scene(30, 47);
+    let built = structure::build_scene(
+        &scene,
+        &two_level_params(TraversalOrder::FrontToBack),
+        &Default::default(),
+    )
+    .unwrap();
+    let (mut entered, mut twice) = (0, 0);
+    for ray in common::rays(&scene.bounds(), 1000, 48) {
+        for any in [false, true] {
+            let mut rec = Recorder::default();
+            let mut counted = Counters::default();
+            if any {
+                built.structure.any_hit::<Watertight, _>(&ray, &mut rec);
+                built.structure.any_hit::<Watertight, _>(&ray, &mut counted);
+            } else {
+                built.structure.closest_hit::<Watertight, _>(&ray, &mut rec);
+                built
+                    .structure
+                    .closest_hit::<Watertight, _>(&ray, &mut counted);
+            }
+            assert_eq!(rec.counters, counted);
+            let steps =
+                |f: &dyn Fn(&Step) -> bool| rec.steps.iter().filter(|s| f(s)).count() as u32;
+            let instances: Vec<u32> = rec
+                .steps
+                .iter()
+                .filter_map(|s| match s {
+                    Step::Instance { instance } => Some(*instance),
+                    _ => None,
+                })
+                .collect();
+            assert_eq!(counted.instances_entered, instances.len() as u32);
+            let top = steps(&|s| {
+                matches!(
+                    s,
+                    Step::Visit {
+                        level: Level::Top,
+                        ..
+                    }
+                )
+            });
+            assert_eq!(counted.top_nodes_visited, top);
+            entered += instances.len();
+            let mut distinct = instances.clone();
+            distinct.sort_unstable();
+            distinct.dedup();
+            twice += usize::from(distinct.len() < instances.len());
+        }
+    }
+    assert!(entered > 0);
+    assert!(
+        twice > 0,
+        "some ray enters one instance through two references"
+    );
+}
+
+/// Sponza loaded as instances (each OBJ object one instance) and re-braided hits what the
+/// flattened BVH8 hits, bit for bit: its instances leave their meshes in place.
+#[test]
+fn sponza_as_instances_hits_what_the_flattened_bvh8_hits() {
+    let Some(dir) = common::shared_scenes() else {
+        eprintln!("BVHLAB_SCENES not set: skipping the shared scenes");
+        return;
+    };
+    let scene = Scene::load(&dir.join("sponza.obj").display().to_string()).unwrap();
+    let flat = structure::build_scene(
+        &scene,
+        &StructureParams::of_kind(AccelKind::Bvh8),
+        &Default::default(),
+    )
+    .unwrap();
+    for rebraid in BUDGETS {
+        let built = structure::build_scene(
+            &scene,
+            &rebraided(TraversalOrder::FrontToBack, rebraid),
+            &Default::default(),
+        )
+        .unwrap();
+        let Structure::TwoLevel(tl) = &built.structure else {
+            panic!("two levels")
+        };
+        assert_eq!(tl.instances.len(), scene.objects.len());
+        let mut rays = common::rays(&scene.bounds(), 3000, 51);
+        rays.extend(rays_at_triangles(&scene, 3000, 52));
+        let mut hits = 0;
+        for ray in &rays {
+            let want = flat
+                .structure
+                .closest_hit::<Watertight, _>(ray, &mut NoStats);
+            let got = built
+                .structure
+                .closest_hit::<Watertight, _>(ray, &mut NoStats);
+            assert_eq!(got, want, "rebraid {rebraid}: {ray:?}");
+            hits += usize::from(got.is_some());
+            assert_eq!(
+                built.structure.any_hit::<Watertight, _>(ray, &mut NoStats),
+                flat.structure.any_hit::<Watertight, _>(ray, &mut NoStats),
+                "rebraid {rebraid}: {ray:?}"
+            );
+        }
+        assert!(hits > rays.len() / 2, "{hits} hits");
     }
 }

@@ -1,9 +1,11 @@
 //! The levels view and the tree walk over what the worker outlined: one structure's nodes,
 //! or under the two levels the top level's nodes with the selected instance's BLAS below
 //! them. The levels run 0..=the top level's depth, then the BLAS's levels follow one by
-//! one; in the walk the BLAS's root is the only child of the top-level leaf that holds the
-//! instance. Walk nodes are numbered as the outline numbers its nodes, the BLAS's after
-//! them.
+//! one; in the walk a top-level leaf that holds one of the instance's references has that
+//! reference's subtree as its only child (the BLAS's root for an instance left whole; an
+//! opened instance's nodes above its references are in the levels but not on the walk, as
+//! no ray visits them). Walk nodes are numbered as the outline numbers its nodes, the
+//! BLAS's after them.
 
 use crate::accel::Outline;
 use crate::accel::two_level::InstanceOutline;
@@ -28,8 +30,14 @@ impl<'a> Levels<'a> {
     pub fn new(outline: &'a Outline, instance: Option<&'a InstanceOutline>) -> Self {
         // A BLAS hangs below a top-level leaf only: without one it is not part of the tree.
         let instance = instance.filter(|i| {
-            i.tlas_leaf
-                .is_some_and(|l| outline.nodes.get(l as usize).is_some_and(|n| n.is_leaf()))
+            !i.entries.is_empty()
+                && i.entries.iter().all(|e| {
+                    outline
+                        .nodes
+                        .get(e.tlas_leaf as usize)
+                        .is_some_and(|n| n.is_leaf())
+                        && (e.blas_node as usize) < i.blas.nodes.len()
+                })
         });
         Levels { outline, instance }
     }
@@ -101,8 +109,11 @@ impl<'a> Levels<'a> {
             }
             WalkNode::Bottom(k) => {
                 let i = self.instance?;
+                if let Some(leaf) = i.leaf_above(k as u32) {
+                    return Some(WalkNode::Top(leaf as usize));
+                }
                 match i.blas.nodes[k].parent {
-                    u32::MAX => i.tlas_leaf.map(|l| WalkNode::Top(l as usize)),
+                    u32::MAX => None,
                     p => Some(WalkNode::Bottom(p as usize)),
                 }
             }
@@ -113,16 +124,29 @@ impl<'a> Levels<'a> {
         match node {
             WalkNode::Top(k) => {
                 let n = &self.outline.nodes[k];
-                let holds_selected = self.instance.is_some_and(|i| i.tlas_leaf == Some(k as u32));
-                if n.is_leaf() && holds_selected {
-                    vec![WalkNode::Bottom(0)]
-                } else {
-                    n.children().map(WalkNode::Top).collect()
+                let entry = self.instance.and_then(|i| i.entry_below(k as u32));
+                match entry {
+                    Some(b) if n.is_leaf() => vec![WalkNode::Bottom(b as usize)],
+                    _ => n.children().map(WalkNode::Top).collect(),
                 }
             }
             WalkNode::Bottom(k) => self.instance.map_or(Vec::new(), |i| {
                 i.blas.nodes[k].children().map(WalkNode::Bottom).collect()
             }),
+        }
+    }
+}
+
+impl Levels<'_> {
+    /// The top-level leaf a walk node of the BLAS hangs below (the node itself if it is of
+    /// the top level).
+    pub fn top_above(&self, node: WalkNode) -> Option<usize> {
+        let mut at = node;
+        loop {
+            match at {
+                WalkNode::Top(k) => return Some(k),
+                WalkNode::Bottom(_) => at = self.parent(at)?,
+            }
         }
     }
 }

@@ -522,23 +522,31 @@ impl BvhLabApp {
         let old_top = self.outline.nodes.len();
         let was_in_blas = self.walk.is_some_and(|w| w as usize >= old_top);
         let same = match (&self.instance_outline, &outlined) {
-            (Some(a), Some(b)) => a.instance == b.instance && a.tlas_leaf == b.tlas_leaf,
+            (Some(a), Some(b)) => a.instance == b.instance && a.entries == b.entries,
             _ => false,
         };
-        let old_leaf = self.instance_outline.as_ref().and_then(|i| i.tlas_leaf);
+        // The leaf the walk hung below in the old BLAS (or the first of the old instance).
+        let old_leaf = {
+            let levels = self.levels();
+            self.walk
+                .and_then(|w| levels.node(w))
+                .and_then(|n| levels.top_above(n))
+                .map(|k| k as u32)
+                .or_else(|| self.instance_outline.as_ref().and_then(|i| i.first_leaf()))
+        };
         self.instance_outline = outlined;
         let levels = self.levels();
         let max = levels.max_depth();
-        let leaf = levels.instance.and_then(|i| i.tlas_leaf);
-        let root = levels
+        // A walk waiting at a leaf of the instance steps into the subtree below it.
+        let entered = levels
             .instance
-            .map(|_| levels.id(levels::WalkNode::Bottom(0)));
+            .zip(self.walk)
+            .and_then(|(i, w)| i.entry_below(w))
+            .map(|b| levels.id(levels::WalkNode::Bottom(b as usize)));
         if self.enter_blas {
             self.enter_blas = false;
-            if let (Some(w), Some(leaf), Some(root)) = (self.walk, leaf, root)
-                && w == leaf
-            {
-                self.walk = Some(root);
+            if let Some(b) = entered {
+                self.walk = Some(b);
             }
         } else if was_in_blas && !same {
             // The walk was in the BLAS of another instance, or of none now: back to the

@@ -5,8 +5,8 @@ use super::settings::{StrategyChoice, ViewMode};
 use super::{BvhLabApp, Tool};
 use crate::accel::AccelKind;
 use crate::accel::bvh::build::{
-    MAX_BUCKETS, MAX_LEAF_SIZE, MAX_OVERLAP_PENALTY, MAX_SPLIT_BUDGET, MAX_TREELET_ROUNDS,
-    MAX_TREELET_SIZE, MIN_BUCKETS, MIN_TREELET_SIZE,
+    MAX_BUCKETS, MAX_LEAF_SIZE, MAX_OVERLAP_PENALTY, MAX_REBRAID, MAX_SPLIT_BUDGET,
+    MAX_TREELET_ROUNDS, MAX_TREELET_SIZE, MIN_BUCKETS, MIN_TREELET_SIZE,
 };
 use crate::accel::kdtree::{MAX_DEPTH as KD_MAX_DEPTH, MIN_BINS as KD_MIN_BINS};
 use crate::accel::octree::MAX_DEPTH as OCTREE_MAX_DEPTH;
@@ -328,6 +328,17 @@ fn bvh_parameters(ui: &mut egui::Ui, s: &mut super::settings::Settings) {
         egui::Slider::new(&mut s.presplit, 0.0..=MAX_SPLIT_BUDGET).text("pre-split budget × N"),
     )
     .on_hover_text("extra references for the triangles that waste most box area (0 = off)");
+    if s.accel == AccelKind::TwoLevel {
+        ui.add(
+            egui::Slider::new(&mut s.rebraid, 0.0..=MAX_REBRAID)
+                .text("re-braiding budget per instance"),
+        )
+        .on_hover_text(
+            "the top level opens the largest instances into references to their BLAS's \
+             subtrees, up to this many extra references per instance, counting at least \
+             4096 instances (0 = whole instances)",
+        );
+    }
     ui.add(
         egui::Slider::new(&mut s.max_leaf_size, 1..=MAX_LEAF_SIZE.min(64)).text("max leaf size"),
     );

@@ -179,6 +179,9 @@ pub struct Settings {
     pub split_budget: f32,
     /// Pre-split budget (fraction of N) for LBVH, LBVH + treelets and binned SAH.
     pub presplit: f32,
+    /// Two levels: the re-braiding budget (extra top-level references per instance; 0 =
+    /// whole instances).
+    pub rebraid: f32,
     pub max_leaf_size: u32,
     pub c_trav: f32,
     pub c_isect: f32,
@@ -238,6 +241,7 @@ impl Default for Settings {
             overlap_penalty: p.overlap_penalty,
             split_budget: p.split_budget,
             presplit: p.presplit,
+            rebraid: p.rebraid,
             max_leaf_size: p.max_leaf_size,
             c_trav: p.c_trav,
             c_isect: p.c_isect,
@@ -273,6 +277,7 @@ impl Settings {
             overlap_penalty: self.overlap_penalty,
             split_budget: self.split_budget,
             presplit: self.presplit,
+            rebraid: self.rebraid,
         }
     }
 
@@ -353,6 +358,7 @@ pub struct Pinned {
     pub overlap_penalty: f32,
     pub split_budget: f32,
     pub presplit: f32,
+    pub rebraid: f32,
     pub max_leaf_size: u32,
     pub c_trav: f32,
     pub c_isect: f32,
@@ -365,7 +371,7 @@ macro_rules! configuration_fields {
         configuration_fields!(@copy $from, $to; accel, mailbox, simd, kd_c_trav, kd_c_isect,
             kd_empty_bonus, kd_max_depth, kd_max_leaf_size, kd_bins, grid_lambda,
             octree_max_leaf_size, octree_max_depth, strategy, buckets, treelet_size,
-            treelet_rounds, split_alpha, overlap_penalty, split_budget, presplit,
+            treelet_rounds, split_alpha, overlap_penalty, split_budget, presplit, rebraid,
             max_leaf_size, c_trav, c_isect, naive_order)
     }};
     (@copy $from:expr, $to:expr; $($field:ident),*) => {{
@@ -405,6 +411,7 @@ impl Pinned {
             overlap_penalty: d.overlap_penalty,
             split_budget: d.split_budget,
             presplit: d.presplit,
+            rebraid: d.rebraid,
             max_leaf_size: d.max_leaf_size,
             c_trav: d.c_trav,
             c_isect: d.c_isect,

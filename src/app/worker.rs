@@ -13,7 +13,7 @@ use crate::accel::bvh::refit::RefitIndex;
 use crate::accel::bvh::{self, BuildReport, Bvh, split_costs};
 use crate::accel::split_costs::SplitCosts;
 use crate::accel::structure::{self, AccelKind, Structure, StructureParams};
-use crate::accel::two_level::InstanceOutline;
+use crate::accel::two_level::{InstanceOutline, ReferenceLocator};
 use crate::accel::{Outline, StructureReport};
 use crate::bench::sah_check::{mean_work_of, random_lines};
 use crate::geometry::Aabb;
@@ -275,6 +275,8 @@ impl Worker {
             outline: Arc::new(Outline::default()),
             instance: None,
             leaf_instances: Arc::default(),
+            leaf_references: Vec::new(),
+            reference_locator: Default::default(),
             reference_bvh: None,
             version: 0,
             scene_version: 0,
@@ -383,6 +385,10 @@ struct State {
     /// leaf holds.
     instance: Option<Arc<InstanceOutline>>,
     leaf_instances: Arc<Vec<u32>>,
+    /// Under the two levels: the reference each top-level leaf holds, and which reference
+    /// reaches each triangle (made when a walk first needs it).
+    leaf_references: Vec<u32>,
+    reference_locator: std::sync::OnceLock<ReferenceLocator>,
     /// Under a structure that cannot refit: a BVH over the same triangles, refitted on every
     /// move only to show what a refit would have cost. Made at the first move.
     reference_bvh: Option<(Bvh, RefitIndex)>,
@@ -603,10 +609,12 @@ impl State {
                 self.refit_index = None;
                 self.outline = Arc::new(built.structure.outline());
                 let sah = SahPrediction::of(&built.structure, &self.params, &scene.bounds());
-                let leaf_instances = match &built.structure {
-                    Structure::TwoLevel(tl) => tl.leaf_instances(),
-                    _ => Vec::new(),
+                let (leaf_instances, leaf_references) = match &built.structure {
+                    Structure::TwoLevel(tl) => (tl.leaf_instances(), tl.leaf_references()),
+                    _ => (Vec::new(), Vec::new()),
                 };
+                self.leaf_references = leaf_references;
+                self.reference_locator = Default::default();
                 self.structure = Some(built.structure);
                 self.leaf_instances = Arc::new(leaf_instances);
                 self.version += 1;
@@ -1102,17 +1110,19 @@ impl State {
             color: [255, 255, 255, 255],
         }];
         let p = &self.params.bvh;
-        if let Some(inst) = instance.filter(|i| i.tlas_leaf == Some(node as u32)) {
-            // The leaf of the selected instance: its BLAS's root below, placed.
-            info.triangles = inst.triangle_count;
+        let entry = instance.and_then(|i| Some((i, i.entry_below(node as u32)?)));
+        if let (Some((inst, b)), true) = (entry, n.is_leaf()) {
+            // A leaf of the selected instance: the subtree of its BLAS below it, placed.
+            let under: std::collections::HashSet<u64> =
+                inst.triangles_under(b as usize).into_iter().collect();
+            info.triangles = under.len();
             info.sah_cost = p.c_isect * info.triangles as f32;
-            let root = inst.world_corners(0);
-            outline_corners(frame, rgba, &job.camera, &root, FIRST_CHILD, true);
-            let range = inst.first_triangle..inst.first_triangle + inst.triangle_count as u64;
-            tint_triangles(frame, rgba, |t| range.contains(&t).then_some(FIRST_CHILD));
+            let corners = inst.world_corners(b as usize);
+            outline_corners(frame, rgba, &job.camera, &corners, FIRST_CHILD, true);
+            tint_triangles(frame, rgba, |t| under.contains(&t).then_some(FIRST_CHILD));
         } else if let Some(Structure::TwoLevel(tl)) = &self.structure {
-            // The top level's nodes hold instances: their triangles are counted and tinted
-            // by instance, never listed (the island places 10^10).
+            // The top level's nodes hold references: their triangles are counted and tinted
+            // by reference, never listed (the island places 10^10).
             let children: Vec<usize> = if n.is_leaf() {
                 vec![node]
             } else {
@@ -1124,10 +1134,9 @@ impl State {
             let mut side = std::collections::HashMap::new();
             for (k, &c) in children.iter().enumerate() {
                 let mut under = 0u64;
-                for i in self.instances_under(c) {
-                    let range = tl.triangle_range(i as usize);
-                    under += range.end - range.start;
-                    side.insert(i, k as u8);
+                for r in self.references_under(c) {
+                    under += tl.references[r as usize].triangles as u64;
+                    side.insert(r, k as u8);
                 }
                 info.triangles += under as usize;
                 let weight = if n.is_leaf() {
@@ -1144,10 +1153,12 @@ impl State {
                     });
                 }
             }
+            let locator = self
+                .reference_locator
+                .get_or_init(|| tl.reference_locator());
             tint_triangles(frame, rgba, |t| {
-                let i = tl.instance_of_triangle(t)?;
-                side.get(&(i as u32))
-                    .map(|&k| child_color(k as usize, count))
+                let r = tl.reference_of_triangle(locator, t)?;
+                side.get(&r).map(|&k| child_color(k as usize, count))
             });
         } else if n.is_leaf() {
             let under = outline.triangles_under(node);
@@ -1205,8 +1216,9 @@ impl State {
         Some(info)
     }
 
-    /// Under the two levels: the instances in the top-level leaves under outline node `node`.
-    fn instances_under(&self, node: usize) -> Vec<u32> {
+    /// Under the two levels: the references in the top-level leaves under outline node
+    /// `node`.
+    fn references_under(&self, node: usize) -> Vec<u32> {
         let mut out = Vec::new();
         let mut stack = vec![node];
         while let Some(k) = stack.pop() {
@@ -1214,7 +1226,7 @@ impl State {
                 continue;
             };
             if n.is_leaf() {
-                out.extend(self.leaf_instance(k).map(|i| i as u32));
+                out.extend(self.leaf_references.get(k).filter(|&&r| r != u32::MAX));
             } else {
                 stack.extend(n.children());
             }

@@ -580,6 +580,16 @@ impl BenchResult {
         });
         // (Set here: one more key in the macro above exceeds its recursion limit.)
         json["overlap_penalty"] = b.overlap_penalty.into();
+        // The two levels' top-level references and their budget.
+        if self.params.kind == AccelKind::TwoLevel {
+            json["rebraid"] = b.rebraid.into();
+            let references = r
+                .details
+                .iter()
+                .find(|(k, _)| k == "TLAS references")
+                .and_then(|(_, v)| v.parse::<u64>().ok());
+            json["references"] = references.into();
+        }
         // The two levels' build times, each level on its own (their sum is `build_ms`).
         for (detail, key) in [
             ("BLAS builds", "blas_build_ms"),

@@ -55,7 +55,7 @@ fn overlay(
 ) -> &'static [&'static str] {
     given_over!(b, given, is_set;
         accel, mailbox, builder, buckets, treelet_size, rounds, split_alpha, overlap_penalty,
-        split_budget, presplit, max_leaf, c_trav, c_isect, order, kd_c_trav, kd_c_isect, empty_bonus,
+        split_budget, presplit, rebraid, max_leaf, c_trav, c_isect, order, kd_c_trav, kd_c_isect, empty_bonus,
         kd_max_depth, kd_max_leaf, kd_bins, lambda, octree_max_leaf, octree_max_depth, simd,
     )
 }
@@ -116,6 +116,7 @@ pub fn settings_over(a: &Settings, flags: &str) -> Result<Pinned> {
         overlap_penalty => overlap_penalty = b.overlap_penalty,
         split_budget => split_budget = b.split_budget,
         presplit => presplit = b.presplit,
+        rebraid => rebraid = b.rebraid,
         max_leaf => max_leaf_size = b.max_leaf,
         c_trav => c_trav = b.c_trav,
         c_isect => c_isect = b.c_isect,

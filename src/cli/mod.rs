@@ -65,6 +65,12 @@ pub struct BuildArgs {
     /// off).
     #[arg(long, default_value_t = BuildParams::default().presplit)]
     pub presplit: f32,
+    /// two-level: partial re-braiding; the top level may open large instances into
+    /// references to their BLAS's subtrees, largest first, up to this many extra references
+    /// per instance, counting at least 4096 instances (0..=16; 0 = one reference per
+    /// instance).
+    #[arg(long, default_value_t = BuildParams::default().rebraid)]
+    pub rebraid: f32,
     /// Maximum number of triangles in a leaf (1..=4096).
     #[arg(long, default_value_t = BuildParams::default().max_leaf_size)]
     pub max_leaf: u32,
@@ -263,6 +269,7 @@ impl BuildArgs {
             overlap_penalty: self.overlap_penalty,
             split_budget: self.split_budget,
             presplit: self.presplit,
+            rebraid: self.rebraid,
         }
     }
 

@@ -14,7 +14,7 @@ pub mod wide;
 pub use build::{BuildError, BuildParams, Strategy, build, build_with_progress, split_costs};
 pub use node::{Node, Nodes};
 pub use report::{BuildReport, TreeStats};
-pub use wide::{Bvh4, Bvh8, WideBvh};
+pub use wide::{Bvh4, Bvh8, Subtree, WideBvh};
 
 use crate::geometry::Triangle;
 use rayon::prelude::*;

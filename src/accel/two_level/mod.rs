@@ -2,17 +2,21 @@
 //! BVH (BLAS) per unique mesh, built once in the mesh's own space, and a top-level BVH
 //! (TLAS) over the instances' world boxes; moving an object only changes the top level.
 //! Both levels are BVH8s (the BVH2 collapsed, traced with SIMD slab tests): the fastest
-//! layout, as a two-level ray takes as many steps as a flat one and more.
+//! layout, as a two-level ray takes as many steps as a flat one and more. The top level's
+//! leaves hold references, each an instance and a subtree of its BLAS: whole instances,
+//! or with partial re-braiding (`rebraid`) the large ones opened into their BLAS's subtrees.
 
 pub mod outline;
+pub mod rebraid;
 pub mod refit;
 mod traverse;
 
-pub use outline::InstanceOutline;
+pub use outline::{BlasEntry, InstanceOutline, ReferenceLocator};
+pub use rebraid::Reference;
 pub use refit::TopLevelIndex;
 
-use super::bvh::wide::{CollapseParams, PADDING, UnsupportedSimd};
-use super::bvh::{self, BuildError, Bvh8};
+use super::bvh::wide::{CollapseParams, UnsupportedSimd};
+use super::bvh::{self, BuildError, Bvh8, Subtree};
 use super::{BuildParams, Outline, OutlineNode, StructureReport, TraversalOrder};
 use crate::geometry::simd::SimdLevel;
 use crate::geometry::{Aabb, Triangle};
@@ -32,15 +36,21 @@ pub struct TwoLevel {
     /// The flattened index of each instance's first triangle (64-bit: instancing places
     /// more triangles than 32 bits can number).
     pub first_triangle: Vec<u64>,
-    /// The top level: a BVH8 whose leaf lanes hold one instance each (its `prim_indices`
-    /// are instance indices; it keeps no triangles).
+    /// The top level's primitives: subtrees of the instances' BLASes (the roots alone
+    /// without re-braiding), sorted by instance.
+    pub references: Vec<Reference>,
+    /// Instance i's references are `references[first_reference[i]..first_reference[i + 1]]`
+    /// (none for an instance of an empty mesh).
+    pub first_reference: Vec<u32>,
+    /// The top level: a BVH8 whose leaf lanes hold one reference each (its `prim_indices`
+    /// index `references`; it keeps no triangles).
     pub tlas: Bvh8,
     pub order: TraversalOrder,
     /// The slab kernel both levels run.
     pub simd: SimdLevel,
     /// The build parameters, kept to rebuild the top level.
     pub params: BuildParams,
-    /// Where each instance sits in the TLAS, for refitting it when one moves.
+    /// Where each reference sits in the TLAS, for refitting an instance's when it moves.
     pub top_index: TopLevelIndex,
 }
 
@@ -115,14 +125,16 @@ pub fn build(
     let blas_time = start.elapsed();
 
     let start = Instant::now();
-    let tlas = build_tlas(&blases, &scene.instances, params)?;
+    let (tlas, references) = build_tlas(&blases, &scene.instances, params)?;
     let times = LevelTimes {
         blas: blas_time,
         tlas: start.elapsed(),
     };
     progress.store(scene.unique_triangles(), Ordering::Relaxed);
     let two_level = TwoLevel {
-        top_index: TopLevelIndex::new(&tlas, scene.instances.len()),
+        top_index: TopLevelIndex::new(&tlas, references.len()),
+        first_reference: first_reference(&references, scene.instances.len()),
+        references,
         blases,
         instances: scene.instances.to_vec(),
         first_triangle,
@@ -145,76 +157,49 @@ fn collapse_params(params: &BuildParams, max_leaf_size: u32) -> CollapseParams {
     }
 }
 
-/// How many levels of a BLAS's own boxes an instance's world box is made from: each box
-/// at that depth is transformed and their union taken. A rotated mesh's box corners swing
-/// far beyond the mesh; its children's boxes, transformed one by one, hug it closer, and
-/// the TLAS boxes overlap less.
+/// How many levels of a BLAS's own boxes a reference's world box is made from: each box
+/// at that depth is transformed and their union taken (`Reference::world_box`).
 const WORLD_BOX_DEPTH: u32 = 2;
 
-/// The world box of `instance` of `blas`: the union of the transformed boxes of the BLAS's
-/// nodes down to `WORLD_BOX_DEPTH` (the identity keeps the mesh's own box).
+/// The world box of `instance` of `blas` as a whole: its BLAS root's placed box.
 pub fn instance_world_box(instance: &Instance, blas: &Bvh8) -> Aabb {
-    let root = &blas.nodes[0];
-    if instance.is_identity() || WORLD_BOX_DEPTH == 0 {
-        return instance.world_bounds(&root.bounds());
-    }
-    let mut world = Aabb::EMPTY;
-    let mut stack = vec![(0usize, 1u32)];
-    while let Some((n, depth)) = stack.pop() {
-        let node = &blas.nodes[n];
-        for lane in 0..node.child_count() {
-            if node.is_interior(lane) && depth < WORLD_BOX_DEPTH {
-                stack.push((node.child[lane] as usize, depth + 1));
-            } else {
-                world = world.union(instance.world_bounds(&node.child_bounds(lane)));
-            }
-        }
-    }
-    world
+    rebraid::placed_box(instance, blas, Subtree::ROOT)
 }
 
-/// The top level over the instances' world boxes, one instance per leaf lane. The BVH
-/// builder sees primitives only as boxes, so each box goes in as the triangle from its min
-/// corner to its max corner, whose bounds are exactly that box. Instances of empty meshes
-/// are left out: no ray can hit them.
+/// For each instance, where its references start in `references` (sorted by instance),
+/// and their end after the last.
+fn first_reference(references: &[Reference], instances: usize) -> Vec<u32> {
+    (0..=instances as u32)
+        .map(|i| references.partition_point(|r| r.instance < i) as u32)
+        .collect()
+}
+
+/// The top level over the references' world boxes (`rebraid::references`), one reference
+/// per leaf lane. The BVH builder sees primitives only as boxes, so each box goes in as the
+/// triangle from its min corner to its max corner, whose bounds are exactly that box.
+/// Instances of empty meshes have no reference: no ray can hit them.
 fn build_tlas(
     blases: &[Bvh8],
     instances: &[Instance],
     params: &BuildParams,
-) -> Result<Bvh8, BuildError> {
-    // Each box transforms up to 64 of its BLAS's boxes: in parallel for many instances.
-    let world: Vec<Aabb> = instances
-        .par_iter()
-        .with_min_len(1024)
-        .map(|instance| {
-            blases
-                .get(instance.mesh)
-                .map_or(Aabb::EMPTY, |blas| instance_world_box(instance, blas))
-        })
+) -> Result<(Bvh8, Vec<Reference>), BuildError> {
+    let placed = rebraid::references(blases, instances, params.rebraid);
+    let boxes: Vec<Triangle> = placed
+        .iter()
+        .map(|p| Triangle::new(p.bounds.min, p.bounds.max, p.bounds.max))
         .collect();
-    let mut boxes = Vec::with_capacity(instances.len());
-    let mut placed = Vec::with_capacity(instances.len());
-    for (i, w) in world.iter().enumerate() {
-        if !w.is_empty() {
-            boxes.push(Triangle::new(w.min, w.max, w.max));
-            placed.push(i as u32);
-        }
-    }
+    let references: Vec<Reference> = placed.iter().map(|p| p.reference).collect();
     let tlas_params = BuildParams {
         max_leaf_size: 1,
         ..params.whole_references()
     };
     let (tlas2, _) = bvh::build(&boxes, &tlas_params).map_err(|e| match e {
-        BuildError::NonFinite(b) => BuildError::NonFinite(placed[b] as usize),
+        BuildError::NonFinite(b) => BuildError::NonFinite(references[b].instance as usize),
         e => e,
     })?;
     let mut tlas = Bvh8::collapse(&tlas2, &collapse_params(params, 1));
-    // Instance numbers for the box numbers the build saw (padding lanes stay padding).
-    for p in tlas.prim_indices.iter_mut().filter(|p| **p != PADDING) {
-        *p = placed[*p as usize];
-    }
     tlas.blocks = Vec::new();
-    Ok(tlas)
+    Ok((tlas, references))
 }
 
 impl TwoLevel {
@@ -224,43 +209,58 @@ impl TwoLevel {
             + self.tlas.bytes()
             + self.instances.len() * std::mem::size_of::<Instance>()
             + self.first_triangle.len() * std::mem::size_of::<u64>()
+            + self.references.len() * std::mem::size_of::<Reference>()
+            + self.first_reference.len() * std::mem::size_of::<u32>()
+    }
+
+    /// The indices in `references` of instance `i`'s references.
+    pub fn references_of(&self, i: usize) -> std::ops::Range<usize> {
+        match (self.first_reference.get(i), self.first_reference.get(i + 1)) {
+            (Some(&a), Some(&b)) => a as usize..b as usize,
+            _ => 0..0,
+        }
     }
 
     /// Places instance `i` by `transform` and updates the top level only: the meshes do
     /// not change, so neither do their BLASes (the lecture's dynamic scene: millions of
-    /// triangles, but only hundreds of objects). The TLAS is refitted: the instance's leaf
-    /// box and the boxes above it (`refit`), far cheaper than sorting all instances again.
+    /// triangles, but only hundreds of objects). The TLAS is refitted: the leaf boxes of
+    /// the instance's references and the boxes above them (`refit`), far cheaper than
+    /// sorting all references again. The references stay as they were opened.
     pub fn move_instance(&mut self, i: usize, transform: Affine3A) -> Result<(), MoveError> {
         let instance = self.instances.get_mut(i).ok_or(MoveError::NoInstance(i))?;
         let old = std::mem::replace(instance, Instance::new(instance.mesh, transform)?);
-        let moved = &self.instances[i];
-        let world = self
-            .blases
-            .get(moved.mesh)
-            .map_or(Aabb::EMPTY, |b| instance_world_box(moved, b));
-        if self.top_index.holds(i) && !(world.min.is_finite() && world.max.is_finite()) {
+        let refs = self.references_of(i);
+        let finite = self.references[refs.clone()].iter().all(|r| {
+            let w = r.world_box(&self.instances, &self.blases);
+            w.min.is_finite() && w.max.is_finite()
+        });
+        if !finite {
             // Moved out of range (a box beyond f32): the instance stays where it was.
             self.instances[i] = old;
             return Err(BuildError::NonFinite(i).into());
         }
-        // An empty mesh's instance is in no leaf: the TLAS does not depend on it.
-        refit::refit_instance(
+        // An empty mesh's instance has no reference: the TLAS does not depend on it.
+        refit::refit_references(
             &mut self.tlas,
             &self.top_index,
             &self.blases,
             &self.instances,
-            i,
+            &self.references,
+            refs,
         );
         Ok(())
     }
 
     /// Builds the top level again over the instances where they are now (after moves,
     /// whose refits loosen it): the BLASes stay.
+    /// The references are opened anew for where the instances are now.
     pub fn rebuild_top_level(&mut self) -> Result<(), BuildError> {
-        let mut tlas = build_tlas(&self.blases, &self.instances, &self.params)?;
+        let (mut tlas, references) = build_tlas(&self.blases, &self.instances, &self.params)?;
         tlas.order = self.order;
         tlas.simd = self.simd;
-        self.top_index = TopLevelIndex::new(&tlas, self.instances.len());
+        self.top_index = TopLevelIndex::new(&tlas, references.len());
+        self.first_reference = first_reference(&references, self.instances.len());
+        self.references = references;
         self.tlas = tlas;
         Ok(())
     }
@@ -295,14 +295,27 @@ impl TwoLevel {
         first..first + count
     }
 
+    /// The flattened triangles reference `r` reaches, sorted.
+    pub fn reference_triangles(&self, r: usize) -> Vec<u64> {
+        let reference = &self.references[r];
+        let i = reference.instance as usize;
+        let first = self.first_triangle[i];
+        if reference.subtree == Subtree::ROOT {
+            return self.triangle_range(i).collect();
+        }
+        self.blases[self.instances[i].mesh]
+            .subtree_triangles(reference.subtree)
+            .into_iter()
+            .map(|t| first + t as u64)
+            .collect()
+    }
+
     /// The top level for the explorer: its nodes, each leaf referencing the flattened
-    /// triangles of its instance; only the boxes for a scene placing more than
+    /// triangles its reference reaches; only the boxes for a scene placing more than
     /// `OUTLINE_MAX_REFS` triangles, whose list would not fit in memory.
     pub fn outline(&self) -> Outline {
         let tlas = self.tlas.outline();
-        let placed: u64 = (0..self.instances.len())
-            .map(|i| self.triangle_range(i).end - self.triangle_range(i).start)
-            .sum();
+        let placed: u64 = self.references.iter().map(|r| r.triangles as u64).sum();
         let listed = placed <= OUTLINE_MAX_REFS;
         let mut refs = Vec::new();
         let nodes = tlas
@@ -313,8 +326,12 @@ impl TwoLevel {
                 let mut node: OutlineNode = n.clone();
                 if n.is_leaf() {
                     let start = refs.len() as u32;
-                    for &i in tlas.leaf_refs(k).iter().filter(|_| listed) {
-                        refs.extend(self.triangle_range(i as usize).map(|t| t as u32));
+                    for &r in tlas.leaf_refs(k).iter().filter(|_| listed) {
+                        refs.extend(
+                            self.reference_triangles(r as usize)
+                                .iter()
+                                .map(|&t| t as u32),
+                        );
                     }
                     node.refs = (start, refs.len() as u32 - start);
                 }
@@ -322,6 +339,28 @@ impl TwoLevel {
             })
             .collect();
         Outline { nodes, refs }
+    }
+
+    /// The re-braiding budget and how much of it was used, for the report.
+    fn rebraid_summary(&self) -> String {
+        let f = self.params.rebraid;
+        if f == 0.0 {
+            return "off (one reference per instance)".into();
+        }
+        let whole = self
+            .references
+            .iter()
+            .filter(|r| r.subtree == Subtree::ROOT)
+            .count();
+        let placed = (0..self.instances.len())
+            .filter(|&i| !self.references_of(i).is_empty())
+            .count();
+        format!(
+            "{} of {} instances opened; budget {f} × max({placed}, {}) extra references",
+            placed - whole,
+            placed,
+            rebraid::SMALL_SCENE
+        )
     }
 
     fn report(&self, instanced: usize, times: LevelTimes) -> StructureReport {
@@ -356,6 +395,8 @@ impl TwoLevel {
             largest_leaf,
             details: vec![
                 ("instances".into(), self.instances.len().to_string()),
+                ("TLAS references".into(), self.references.len().to_string()),
+                ("re-braiding".into(), self.rebraid_summary()),
                 ("unique meshes".into(), self.blases.len().to_string()),
                 ("unique triangles".into(), unique.to_string()),
                 ("TLAS nodes".into(), self.tlas.nodes.len().to_string()),

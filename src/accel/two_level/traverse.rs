@@ -1,13 +1,16 @@
 //! Two-level traversal: the ray walks the TLAS front to back like any wide BVH; at a leaf
-//! lane it is carried into the instance's object space by the inverse transform and walks
-//! the BLAS there. The direction is not renormalised, so t along the object-space ray is
-//! the world t: the BLAS search is clipped to the best world hit so far, and hits compare
-//! directly.
+//! lane, which holds a reference (an instance and a subtree of its BLAS), it is carried
+//! into the instance's object space by the inverse transform and walks the BLAS there from
+//! the reference's subtree (the root, for an instance left whole). The direction is not
+//! renormalised, so t along the object-space ray is the world t: the BLAS search is
+//! clipped to the best world hit so far, and hits compare directly.
 //!
 //! The TLAS walk is written once, generic over the SIMD slab kernel, with an entry point
 //! compiled for each instruction set; a BLAS is walked by the BVH8's own traversal.
-//! Counting: a TLAS node or instance popped is a top-level node visited, and each child of
-//! a TLAS node a top-level box test; the BLAS walks count as the BVH8 does.
+//! Counting: a TLAS node or leaf popped is a top-level node visited, and each child of a
+//! TLAS node a top-level box test; the BLAS walks count as the BVH8 does. An instance is
+//! entered each time the ray crosses from the TLAS into a BLAS: once per reference walked,
+//! so an instance opened into several references that the ray reaches counts once for each.
 
 use super::TwoLevel;
 use crate::accel::bvh::traverse::T_SCALE;
@@ -18,7 +21,7 @@ use crate::accel::stats::{count_locally, record};
 use crate::accel::{Accel, BestHit, Hit, Stats, TraversalOrder};
 use crate::geometry::intersect::TriangleHit;
 use crate::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab};
-use crate::geometry::simd::{SimdLevel, WideRay};
+use crate::geometry::simd::{SimdLevel, TriangleKernel, WideRay};
 use crate::geometry::{Intersector, Ray};
 use crate::scene::Instance;
 use std::mem::MaybeUninit;
@@ -38,25 +41,47 @@ fn to_object(instance: &Instance, ray: &Ray) -> Ray {
 }
 
 impl TwoLevel {
-    /// Walks instance `i`'s BLAS with the world ray `ray`, offering its hits to `best`
-    /// under their flattened numbers. The BLAS ray ends just past the best hit so far
-    /// (`best.limit`), so that a tie on a lower-numbered triangle still wins as in the
-    /// flattened scene.
+    /// Walks reference `r`'s subtree of its instance's BLAS with the world ray `ray`,
+    /// offering its hits to `best` under their flattened numbers. The BLAS ray ends just
+    /// past the best hit so far (`best.limit`), so that a tie on a lower-numbered triangle
+    /// still wins as in the flattened scene. An identity instance's BLAS is walked with the
+    /// world ray's slab and intersector data (`wray`, `data`), made once per ray.
     #[inline(always)]
-    fn enter_closest<I: Intersector, S: Stats>(
+    fn enter_closest<
+        K: WideSlab<8> + TriangleKernel,
+        I: Intersector,
+        S: Stats,
+        const ORDERED: bool,
+    >(
         &self,
-        i: usize,
+        r: usize,
         ray: &Ray,
+        (wray, data): (&WideRay, &I::RayData),
         best: &mut BestHit,
         stats: &mut S,
     ) {
         stats.instance_entered();
+        let reference = &self.references[r];
+        let i = reference.instance as usize;
+        record(stats, || Step::Instance { instance: i as u32 });
         let instance = &self.instances[i];
-        let local = Ray {
-            tmax: best.limit,
-            ..to_object(instance, ray)
+        let blas = &self.blases[instance.mesh];
+        let start = reference.subtree;
+        let found = if instance.is_identity() {
+            let local = Ray {
+                tmax: best.limit,
+                ..*ray
+            };
+            blas.closest_prepared::<K, I, S, ORDERED>(start, &local, wray, data, stats)
+        } else {
+            let local = Ray {
+                tmax: best.limit,
+                ..to_object(instance, ray)
+            };
+            let (wray, data) = (WideRay::new(&local), I::prepare(&local));
+            blas.closest_prepared::<K, I, S, ORDERED>(start, &local, &wray, &data, stats)
         };
-        if let Some(h) = self.blases[instance.mesh].closest_hit::<I, S>(&local, stats) {
+        if let Some(h) = found {
             let hit = TriangleHit {
                 t: h.t,
                 u: h.u,
@@ -66,14 +91,44 @@ impl TwoLevel {
         }
     }
 
+    /// Whether reference `r`'s subtree blocks the world ray `ray` (see `enter_closest`).
     #[inline(always)]
-    fn closest_with<K: WideSlab<8>, I: Intersector, S: Stats, const ORDERED: bool>(
+    fn enter_any<K: WideSlab<8> + TriangleKernel, I: Intersector, S: Stats>(
+        &self,
+        r: usize,
+        ray: &Ray,
+        (wray, data): (&WideRay, &I::RayData),
+        stats: &mut S,
+    ) -> bool {
+        stats.instance_entered();
+        let reference = &self.references[r];
+        let i = reference.instance;
+        record(stats, || Step::Instance { instance: i });
+        let instance = &self.instances[i as usize];
+        let blas = &self.blases[instance.mesh];
+        let start = reference.subtree;
+        if instance.is_identity() {
+            return blas.occluded_prepared::<K, I, S>(start, ray, wray, data, stats);
+        }
+        let local = to_object(instance, ray);
+        let (wray, data) = (WideRay::new(&local), I::prepare(&local));
+        blas.occluded_prepared::<K, I, S>(start, &local, &wray, &data, stats)
+    }
+
+    #[inline(always)]
+    fn closest_with<
+        K: WideSlab<8> + TriangleKernel,
+        I: Intersector,
+        S: Stats,
+        const ORDERED: bool,
+    >(
         &self,
         ray: &Ray,
         stats: &mut S,
     ) -> Option<Hit> {
         let tlas = &self.tlas;
         let wray = WideRay::new(ray);
+        let data = I::prepare(ray);
         let mut best = BestHit::new(ray);
         let mut box_tmax = ray.tmax * T_SCALE;
         let mut storage = MaybeUninit::uninit();
@@ -91,9 +146,14 @@ impl TwoLevel {
             });
             if cur.count != INTERIOR {
                 for k in cur.child..cur.child + cur.count {
-                    let i = tlas.prim_indices[k as usize] as usize;
-                    record(stats, || Step::Instance { instance: i as u32 });
-                    self.enter_closest::<I, S>(i, ray, &mut best, stats);
+                    let r = tlas.prim_indices[k as usize] as usize;
+                    self.enter_closest::<K, I, S, ORDERED>(
+                        r,
+                        ray,
+                        (&wray, &data),
+                        &mut best,
+                        stats,
+                    );
                 }
                 box_tmax = best.t * T_SCALE;
             } else {
@@ -118,6 +178,15 @@ impl TwoLevel {
                 };
                 if mask != 0 && mask & (mask - 1) == 0 {
                     cur = lane(mask.trailing_zeros());
+                    continue;
+                }
+                if ORDERED && mask != 0 && (mask & (mask - 1)).count_ones() == 1 {
+                    // Two children, the commonest case: one compare, no sort.
+                    let a = lane(mask.trailing_zeros());
+                    let b = lane((mask & (mask - 1)).trailing_zeros());
+                    let (near, far) = if b.entry < a.entry { (b, a) } else { (a, b) };
+                    stack.push(far);
+                    cur = near;
                     continue;
                 }
                 let mut n = 0;
@@ -151,13 +220,14 @@ impl TwoLevel {
     }
 
     #[inline(always)]
-    fn occluded_with<K: WideSlab<8>, I: Intersector, S: Stats>(
+    fn occluded_with<K: WideSlab<8> + TriangleKernel, I: Intersector, S: Stats>(
         &self,
         ray: &Ray,
         stats: &mut S,
     ) -> bool {
         let tlas = &self.tlas;
         let wray = WideRay::new(ray);
+        let data = I::prepare(ray);
         let tmax = ray.tmax * T_SCALE;
         let mut storage = MaybeUninit::uninit();
         let mut stack = Stack::new(&mut storage);
@@ -174,12 +244,8 @@ impl TwoLevel {
             });
             if cur.count != INTERIOR {
                 for k in cur.child..cur.child + cur.count {
-                    stats.instance_entered();
-                    let i = tlas.prim_indices[k as usize];
-                    record(stats, || Step::Instance { instance: i });
-                    let instance = &self.instances[i as usize];
-                    let local = to_object(instance, ray);
-                    if self.blases[instance.mesh].any_hit::<I, S>(&local, stats) {
+                    let r = tlas.prim_indices[k as usize] as usize;
+                    if self.enter_any::<K, I, S>(r, ray, (&wray, &data), stats) {
                         return true;
                     }
                 }

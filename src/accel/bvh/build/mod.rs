@@ -123,6 +123,11 @@ pub struct BuildParams {
     /// fraction of the triangle count, given to the triangles that gain most from being
     /// cut along the Morton grid. 0 turns it off.
     pub presplit: f32,
+    /// Two levels: partial re-braiding. The top level may open instances into references to
+    /// their BLAS's subtrees, up to this many extra references per instance (counting at
+    /// least 4096 instances; `two_level::rebraid`). 0 turns it off: one reference per
+    /// instance.
+    pub rebraid: f32,
 }
 
 impl Default for BuildParams {
@@ -139,6 +144,7 @@ impl Default for BuildParams {
             overlap_penalty: 0.0,
             split_budget: 1.0,
             presplit: 0.0,
+            rebraid: DEFAULT_REBRAID,
         }
     }
 }
@@ -156,6 +162,10 @@ pub const MAX_TREELET_ROUNDS: u32 = 16;
 pub const MAX_SPLIT_BUDGET: f32 = 16.0;
 /// The largest overlap penalty κ the SBVH accepts.
 pub const MAX_OVERLAP_PENALTY: f32 = 16.0;
+/// The two levels' re-braiding budget by default, and at most (extra references per
+/// instance).
+pub const DEFAULT_REBRAID: f32 = 1.0;
+pub const MAX_REBRAID: f32 = 16.0;
 
 impl BuildParams {
     pub fn with_strategy(strategy: Strategy) -> Self {
@@ -195,6 +205,7 @@ impl BuildParams {
         for (name, value, max) in [
             ("split budget", self.split_budget, MAX_SPLIT_BUDGET),
             ("presplit budget", self.presplit, MAX_SPLIT_BUDGET),
+            ("re-braiding budget", self.rebraid, MAX_REBRAID),
             ("overlap threshold α", self.split_alpha, 1.0),
             (
                 "overlap penalty κ",

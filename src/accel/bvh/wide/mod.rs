@@ -47,6 +47,35 @@ pub struct WideBvh<const W: usize> {
 pub type Bvh4 = WideBvh<4>;
 pub type Bvh8 = WideBvh<8>;
 
+/// A subtree of a wide BVH, named as its parent's lane names it: an interior node
+/// (`count` = `INTERIOR`, `child` its node index) or a leaf (`child` its first slot, `count`
+/// its triangles). A traversal can start at any subtree as at the root.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Subtree {
+    pub child: u32,
+    pub count: u32,
+}
+
+impl Subtree {
+    /// The whole tree: node 0.
+    pub const ROOT: Subtree = Subtree {
+        child: 0,
+        count: node::INTERIOR,
+    };
+
+    /// The subtree lane `lane` of `node` points to.
+    pub fn of_lane<const W: usize>(node: &WideNode<W>, lane: usize) -> Subtree {
+        Subtree {
+            child: node.child[lane],
+            count: node.count[lane],
+        }
+    }
+
+    pub fn is_leaf(self) -> bool {
+        self.count != node::INTERIOR
+    }
+}
+
 #[derive(Debug, thiserror::Error, PartialEq)]
 #[error("this CPU has no {} instructions (it has: {})", .0.label(), SimdLevel::available().iter().map(|l| l.label()).collect::<Vec<_>>().join(", "))]
 pub struct UnsupportedSimd(pub SimdLevel);
@@ -184,8 +213,77 @@ impl<const W: usize> WideBvh<W> {
     }
 
     /// The triangle in slot `slot` (block · 4 + lane).
-    fn slot_triangle(&self, slot: usize) -> Triangle {
+    pub fn slot_triangle(&self, slot: usize) -> Triangle {
         self.blocks[slot / BLOCK].triangle(slot % BLOCK)
+    }
+
+    /// The subtrees below `s` (its node's lanes; none for a leaf).
+    pub fn subtree_children(&self, s: Subtree) -> impl Iterator<Item = Subtree> + '_ {
+        let node = &self.nodes[if s.is_leaf() { 0 } else { s.child as usize }];
+        let lanes = if s.is_leaf() { 0 } else { node.child_count() };
+        (0..lanes).map(move |l| Subtree::of_lane(node, l))
+    }
+
+    /// The slots of the leaves under `s`, leaf by leaf, depth first.
+    pub fn subtree_slots(&self, s: Subtree) -> Vec<usize> {
+        let mut out = Vec::new();
+        let mut stack = vec![s];
+        while let Some(s) = stack.pop() {
+            if s.is_leaf() {
+                out.extend(s.child as usize..(s.child + s.count) as usize);
+            } else {
+                stack.extend(self.subtree_children(s));
+            }
+        }
+        out
+    }
+
+    /// The scene triangles under `s`, sorted, each once.
+    pub fn subtree_triangles(&self, s: Subtree) -> Vec<u32> {
+        let mut out: Vec<u32> = self
+            .subtree_slots(s)
+            .into_iter()
+            .map(|k| self.prim_indices[k])
+            .collect();
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
+
+    /// Per node, the triangle references of the leaves under it (a split triangle counts
+    /// once per leaf that holds a part of it).
+    pub fn triangles_per_node(&self) -> Vec<u32> {
+        let mut under = vec![0u32; self.nodes.len()];
+        // Children come after their parents: one backward pass sees children first.
+        for n in (0..self.nodes.len()).rev() {
+            let node = &self.nodes[n];
+            under[n] = (0..node.child_count())
+                .map(|l| match node.is_interior(l) {
+                    true => under[node.child[l] as usize],
+                    false => node.count[l],
+                })
+                .sum();
+        }
+        under
+    }
+
+    /// Per wide node, the index of its node in `outline()` (the root's is 0).
+    pub fn outline_index(&self) -> Vec<u32> {
+        let mut index = vec![u32::MAX; self.nodes.len()];
+        index[0] = 0;
+        let mut next = 1u32;
+        let mut queue = std::collections::VecDeque::from([0usize]);
+        while let Some(wide) = queue.pop_front() {
+            let w = &self.nodes[wide];
+            for lane in 0..w.child_count() {
+                if w.is_interior(lane) {
+                    index[w.child[lane] as usize] = next;
+                    queue.push_back(w.child[lane] as usize);
+                }
+                next += 1;
+            }
+        }
+        index
     }
 
     /// The tree for the explorer: wide nodes and their leaves, children contiguous.

@@ -8,10 +8,10 @@
 //! node visited, each child of a visited node one box test, and each triangle of a leaf's
 //! blocks one triangle test (the block tests them at once; `leaf`).
 
-use super::WideBvh;
 use super::leaf::Leaf;
 use super::node::INTERIOR;
 use super::stack::{Entry, Stack};
+use super::{Subtree, WideBvh};
 use crate::accel::bvh::packet::PACKET_SIZE;
 use crate::accel::bvh::traverse::T_SCALE;
 use crate::accel::replay::{Child, Level, Order, Step, Visited};
@@ -31,19 +31,40 @@ impl<const W: usize> WideBvh<W> {
         const ORDERED: bool,
     >(
         &self,
+        start: Subtree,
         ray: &Ray,
         stats: &mut S,
     ) -> Option<Hit> {
         let wray = WideRay::new(ray);
         let data = I::prepare(ray);
+        self.closest_prepared::<K, I, S, ORDERED>(start, ray, &wray, &data, stats)
+    }
+
+    /// The walk of `closest_with` with the ray's slab and intersector data made already
+    /// (`wray`, `data`): from a ray of `ray`'s origin and direction, whatever its interval.
+    /// The two levels walk an identity instance's BLAS with the world ray's.
+    #[inline(always)]
+    pub(crate) fn closest_prepared<
+        K: WideSlab<W> + TriangleKernel,
+        I: Intersector,
+        S: Stats,
+        const ORDERED: bool,
+    >(
+        &self,
+        start: Subtree,
+        ray: &Ray,
+        wray: &WideRay,
+        data: &I::RayData,
+        stats: &mut S,
+    ) -> Option<Hit> {
         let mut best = BestHit::new(ray);
         let mut box_tmax = ray.tmax * T_SCALE;
         let mut storage = MaybeUninit::uninit();
         let mut stack = Stack::new(&mut storage);
         let mut entry = [0.0f32; W];
         let mut cur = Entry {
-            child: 0,
-            count: INTERIOR,
+            child: start.child,
+            count: start.count,
             entry: ray.tmin,
         };
         loop {
@@ -56,7 +77,7 @@ impl<const W: usize> WideBvh<W> {
                 };
                 // SAFETY: a tree only selects a kernel its CPU supports (`set_simd`), and
                 // the entry points below are compiled for it.
-                if unsafe { self.leaf_closest::<K, I, S>(leaf, &data, ray, &mut best, stats) } {
+                if unsafe { self.leaf_closest::<K, I, S>(leaf, data, ray, &mut best, stats) } {
                     box_tmax = best.t * T_SCALE;
                 }
             } else {
@@ -67,7 +88,7 @@ impl<const W: usize> WideBvh<W> {
                 // SAFETY: a tree only selects a kernel its CPU supports (`set_simd`), and
                 // the entry points below are compiled for it.
                 let mut mask =
-                    unsafe { K::entries(&node.bounds, &wray, ray.tmin, box_tmax, &mut entry) };
+                    unsafe { K::entries(&node.bounds, wray, ray.tmin, box_tmax, &mut entry) };
                 let order = if ORDERED {
                     Order::Nearest
                 } else {
@@ -137,18 +158,33 @@ impl<const W: usize> WideBvh<W> {
     #[inline(always)]
     fn occluded_with<K: WideSlab<W> + TriangleKernel, I: Intersector, S: Stats>(
         &self,
+        start: Subtree,
         ray: &Ray,
         stats: &mut S,
     ) -> bool {
         let wray = WideRay::new(ray);
         let data = I::prepare(ray);
+        self.occluded_prepared::<K, I, S>(start, ray, &wray, &data, stats)
+    }
+
+    /// The walk of `occluded_with` with the ray's data made already (see
+    /// `closest_prepared`).
+    #[inline(always)]
+    pub(crate) fn occluded_prepared<K: WideSlab<W> + TriangleKernel, I: Intersector, S: Stats>(
+        &self,
+        start: Subtree,
+        ray: &Ray,
+        wray: &WideRay,
+        data: &I::RayData,
+        stats: &mut S,
+    ) -> bool {
         let tmax = ray.tmax * T_SCALE;
         let mut storage = MaybeUninit::uninit();
         let mut stack = Stack::new(&mut storage);
         let mut entry = [0.0f32; W];
         let mut cur = Entry {
-            child: 0,
-            count: INTERIOR,
+            child: start.child,
+            count: start.count,
             entry: ray.tmin,
         };
         loop {
@@ -160,7 +196,7 @@ impl<const W: usize> WideBvh<W> {
                     count: cur.count,
                 };
                 // SAFETY: as in `closest_with`.
-                if unsafe { self.leaf_any::<K, I, S>(leaf, &data, ray, stats) } {
+                if unsafe { self.leaf_any::<K, I, S>(leaf, data, ray, stats) } {
                     return true;
                 }
             } else {
@@ -170,7 +206,7 @@ impl<const W: usize> WideBvh<W> {
                 }
                 // SAFETY: as in `closest_with`.
                 let mut mask =
-                    unsafe { K::entries(&node.bounds, &wray, ray.tmin, tmax, &mut entry) };
+                    unsafe { K::entries(&node.bounds, wray, ray.tmin, tmax, &mut entry) };
                 record(stats, || {
                     self.children_step(cur.child, mask, &entry, Order::AnyHit)
                 });
@@ -305,15 +341,21 @@ macro_rules! entry_points {
             #[target_feature(enable = $features)]
             fn $closest<I: Intersector, S: Stats, const ORDERED: bool>(
                 &self,
+                start: Subtree,
                 ray: &Ray,
                 stats: &mut S,
             ) -> Option<Hit> {
-                self.closest_with::<$kernel, I, S, ORDERED>(ray, stats)
+                self.closest_with::<$kernel, I, S, ORDERED>(start, ray, stats)
             }
 
             #[target_feature(enable = $features)]
-            fn $occluded<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
-                self.occluded_with::<$kernel, I, S>(ray, stats)
+            fn $occluded<I: Intersector, S: Stats>(
+                &self,
+                start: Subtree,
+                ray: &Ray,
+                stats: &mut S,
+            ) -> bool {
+                self.occluded_with::<$kernel, I, S>(start, ray, stats)
             }
 
             #[target_feature(enable = $features)]
@@ -355,37 +397,69 @@ where
     #[inline(always)]
     fn closest_dispatch<I: Intersector, S: Stats, const ORDERED: bool>(
         &self,
+        start: Subtree,
         ray: &Ray,
         stats: &mut S,
     ) -> Option<Hit> {
         match self.simd {
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `simd` only holds a level this CPU supports (`set_simd`).
-            SimdLevel::Sse41 => unsafe { self.closest_sse41::<I, S, ORDERED>(ray, stats) },
+            SimdLevel::Sse41 => unsafe { self.closest_sse41::<I, S, ORDERED>(start, ray, stats) },
             #[cfg(target_arch = "x86_64")]
             // SAFETY: as above.
-            SimdLevel::Avx2 => unsafe { self.closest_avx2::<I, S, ORDERED>(ray, stats) },
+            SimdLevel::Avx2 => unsafe { self.closest_avx2::<I, S, ORDERED>(start, ray, stats) },
             #[cfg(target_arch = "x86_64")]
             // SAFETY: as above.
-            SimdLevel::Avx512 => unsafe { self.closest_avx512::<I, S, ORDERED>(ray, stats) },
-            _ => self.closest_with::<Portable, I, S, ORDERED>(ray, stats),
+            SimdLevel::Avx512 => unsafe { self.closest_avx512::<I, S, ORDERED>(start, ray, stats) },
+            _ => self.closest_with::<Portable, I, S, ORDERED>(start, ray, stats),
         }
     }
 
     #[inline(always)]
-    fn occluded_dispatch<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
+    fn occluded_dispatch<I: Intersector, S: Stats>(
+        &self,
+        start: Subtree,
+        ray: &Ray,
+        stats: &mut S,
+    ) -> bool {
         match self.simd {
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `simd` only holds a level this CPU supports (`set_simd`).
-            SimdLevel::Sse41 => unsafe { self.occluded_sse41::<I, S>(ray, stats) },
+            SimdLevel::Sse41 => unsafe { self.occluded_sse41::<I, S>(start, ray, stats) },
             #[cfg(target_arch = "x86_64")]
             // SAFETY: as above.
-            SimdLevel::Avx2 => unsafe { self.occluded_avx2::<I, S>(ray, stats) },
+            SimdLevel::Avx2 => unsafe { self.occluded_avx2::<I, S>(start, ray, stats) },
             #[cfg(target_arch = "x86_64")]
             // SAFETY: as above.
-            SimdLevel::Avx512 => unsafe { self.occluded_avx512::<I, S>(ray, stats) },
-            _ => self.occluded_with::<Portable, I, S>(ray, stats),
+            SimdLevel::Avx512 => unsafe { self.occluded_avx512::<I, S>(start, ray, stats) },
+            _ => self.occluded_with::<Portable, I, S>(start, ray, stats),
         }
+    }
+
+    /// The closest hit of `ray` among the triangles of subtree `start` alone, walked from
+    /// there as from a root: how the two levels walk a BLAS below a top-level reference.
+    pub fn closest_hit_in<I: Intersector, S: Stats>(
+        &self,
+        start: Subtree,
+        ray: &Ray,
+        stats: &mut S,
+    ) -> Option<Hit> {
+        crate::accel::stats::count_locally(stats, |local| match self.order {
+            TraversalOrder::FrontToBack => self.closest_dispatch::<I, S, true>(start, ray, local),
+            TraversalOrder::Naive => self.closest_dispatch::<I, S, false>(start, ray, local),
+        })
+    }
+
+    /// Whether `ray` hits a triangle of subtree `start`.
+    pub fn any_hit_in<I: Intersector, S: Stats>(
+        &self,
+        start: Subtree,
+        ray: &Ray,
+        stats: &mut S,
+    ) -> bool {
+        crate::accel::stats::count_locally(stats, |local| {
+            self.occluded_dispatch::<I, S>(start, ray, local)
+        })
     }
 }
 
@@ -397,16 +471,11 @@ where
     Avx512: WideSlab<W>,
 {
     fn closest_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
-        crate::accel::stats::count_locally(stats, |local| match self.order {
-            TraversalOrder::FrontToBack => self.closest_dispatch::<I, S, true>(ray, local),
-            TraversalOrder::Naive => self.closest_dispatch::<I, S, false>(ray, local),
-        })
+        self.closest_hit_in::<I, S>(Subtree::ROOT, ray, stats)
     }
 
     fn any_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
-        crate::accel::stats::count_locally(stats, |local| {
-            self.occluded_dispatch::<I, S>(ray, local)
-        })
+        self.any_hit_in::<I, S>(Subtree::ROOT, ray, stats)
     }
 
     fn closest_hits<I: Intersector>(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {

@@ -1,0 +1,189 @@
+//! Partial re-braiding (Benthin, Woop, Wald and Áfra, "Improved two-level BVHs using
+//! partial re-braiding", HPG 2017): the top level is built not over whole instances but over
+//! references, each an instance and one subtree of its BLAS. A large instance overlaps many
+//! others, and a ray entering its box walks its BLAS from the root; "opened", its reference
+//! is replaced by references to its subtree's children, whose boxes, each placed in the
+//! world, are tighter: the top level then sorts them by space among the other instances'
+//! references, as a flattened BVH sorts the triangles under them.
+//!
+//! Opening is greedy, before the top level is built: the reference with the largest world
+//! box (by surface area) is opened first and its children join the candidates, until one
+//! more opening would pass the budget of `rebraid` × max(instances, `SMALL_SCENE`) extra
+//! references. (The paper opens during the top-down build, where a reference is large
+//! against the node being split; measured on sponza that visited more nodes than opening
+//! the largest first, for the same number of references.) An instance's references always
+//! name a cut through its BLAS (the subtrees partition it), so every triangle is reached
+//! through exactly one reference, and a ray entering a top-level leaf walks the BLAS from
+//! that reference's subtree instead of from the root. With `rebraid` 0 each instance is one
+//! reference, its BLAS's root: the top level over whole instances.
+
+use super::WORLD_BOX_DEPTH;
+use crate::accel::bvh::{Bvh8, Subtree};
+use crate::geometry::Aabb;
+use crate::scene::Instance;
+use rayon::prelude::*;
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
+/// What a top-level leaf holds: a subtree of one instance's BLAS.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Reference {
+    pub instance: u32,
+    /// Where the BLAS walk starts (its root for an instance left whole).
+    pub subtree: Subtree,
+    /// The triangles under the subtree (each part of a split triangle counted).
+    pub triangles: u32,
+}
+
+/// No more references than this, whatever the budget: the top level numbers them in 32
+/// bits, with room to spare as for instances.
+pub const MAX_REFERENCES: usize = (u32::MAX / 2) as usize - 1;
+
+impl Reference {
+    /// Reference `instance`'s whole BLAS; `None` for an empty mesh, which no ray can hit.
+    pub fn root(instance: usize, blas: &Bvh8) -> Option<Reference> {
+        (blas.nodes[0].child_count() > 0).then_some(Reference {
+            instance: instance as u32,
+            subtree: Subtree::ROOT,
+            triangles: blas.triangle_count as u32,
+        })
+    }
+
+    /// Its box in the world (`placed_box`).
+    pub fn world_box(&self, instances: &[Instance], blases: &[Bvh8]) -> Aabb {
+        let instance = &instances[self.instance as usize];
+        placed_box(instance, &blases[instance.mesh], self.subtree)
+    }
+}
+
+/// The world box of `subtree` of `blas` placed by `instance`: the union of the placed boxes
+/// of the subtree's nodes down to `WORLD_BOX_DEPTH` (a leaf's box placed as it is). A
+/// rotated box's corners swing far beyond what it holds; its children's boxes, placed one
+/// by one, hug it closer, and the top-level boxes overlap less. The identity's boxes are
+/// the BLAS's own, exactly: its rays are not transformed, so there is no rounding to pad
+/// for (a padded box would take in rays that start just off a surface, as bounced rays do).
+pub fn placed_box(instance: &Instance, blas: &Bvh8, subtree: Subtree) -> Aabb {
+    let object = match subtree.is_leaf() {
+        true => leaf_box(blas, subtree),
+        false => blas.nodes[subtree.child as usize].bounds(),
+    };
+    if instance.is_identity() {
+        return object;
+    }
+    if subtree.is_leaf() || WORLD_BOX_DEPTH == 0 {
+        return instance.world_bounds(&object);
+    }
+    let mut world = Aabb::EMPTY;
+    let mut stack = vec![(subtree.child as usize, 1u32)];
+    while let Some((n, depth)) = stack.pop() {
+        let node = &blas.nodes[n];
+        for lane in 0..node.child_count() {
+            if node.is_interior(lane) && depth < WORLD_BOX_DEPTH {
+                stack.push((node.child[lane] as usize, depth + 1));
+            } else {
+                world = world.union(instance.world_bounds(&node.child_bounds(lane)));
+            }
+        }
+    }
+    world
+}
+
+/// A leaf subtree's box in its mesh's space: its triangles' (for a split triangle, the
+/// whole triangle's, which holds its part).
+fn leaf_box(blas: &Bvh8, leaf: Subtree) -> Aabb {
+    (leaf.child..leaf.child + leaf.count).fold(Aabb::EMPTY, |b, slot| {
+        b.union(blas.slot_triangle(slot as usize).bounds())
+    })
+}
+
+/// The budget counts at least this many instances: a scene of a few large objects (sponza's
+/// 38) gets enough references to open them deeply, one of 10^5 instances `rebraid` more
+/// per instance.
+pub const SMALL_SCENE: usize = 4096;
+
+/// A reference with its world box.
+#[derive(Clone, Copy, Debug)]
+pub struct Placed {
+    pub reference: Reference,
+    pub bounds: Aabb,
+}
+
+/// The top level's references with their world boxes: each instance of a non-empty mesh
+/// whole, then, with a `rebraid` budget above 0, the largest opened greedily. Sorted by
+/// instance, then by subtree, so that each instance's references lie together.
+pub fn references(blases: &[Bvh8], instances: &[Instance], rebraid: f32) -> Vec<Placed> {
+    let mut placed: Vec<Placed> = instances
+        .iter()
+        .enumerate()
+        .filter_map(|(i, inst)| Reference::root(i, blases.get(inst.mesh)?))
+        .collect::<Vec<_>>()
+        // Each box transforms up to 64 of its BLAS's boxes: in parallel for many instances.
+        .into_par_iter()
+        .with_min_len(1024)
+        .map(|reference| Placed {
+            bounds: reference.world_box(instances, blases),
+            reference,
+        })
+        .collect();
+    let extra = (rebraid.max(0.0) as f64 * placed.len().max(SMALL_SCENE) as f64)
+        .min(MAX_REFERENCES.saturating_sub(placed.len()) as f64) as usize;
+    if extra > 0 {
+        open_largest(blases, instances, &mut placed, extra);
+    }
+    placed.sort_unstable_by_key(|p| (p.reference.instance, p.reference.subtree));
+    placed
+}
+
+/// Opens the references with the largest world boxes first until one more opening would
+/// add more than `extra` references in all. A box that is not finite (an instance placed
+/// beyond f32) is never opened: the build reports it.
+fn open_largest(blases: &[Bvh8], instances: &[Instance], placed: &mut Vec<Placed>, extra: usize) {
+    let budget = placed.len() + extra;
+    // The triangles under each BLAS node, for the references' counts.
+    let under: Vec<Vec<u32>> = blases.par_iter().map(Bvh8::triangles_per_node).collect();
+    // Surface areas are non-negative, so their bits order as they do; of equal ones the
+    // reference made first opens first.
+    let key = |p: &Placed, k: usize| (p.bounds.surface_area().max(0.0).to_bits(), Reverse(k));
+    let openable = |p: &Placed| {
+        !p.reference.subtree.is_leaf() && p.bounds.min.is_finite() && p.bounds.max.is_finite()
+    };
+    let mut heap: BinaryHeap<_> = placed
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| openable(p))
+        .map(|(k, p)| key(p, k))
+        .collect();
+    while let Some((_, Reverse(k))) = heap.pop() {
+        let r = placed[k].reference;
+        let instance = &instances[r.instance as usize];
+        let blas = &blases[instance.mesh];
+        let lanes = blas.nodes[r.subtree.child as usize].child_count();
+        if placed.len() + lanes - 1 > budget {
+            break;
+        }
+        for (n, subtree) in blas.subtree_children(r.subtree).enumerate() {
+            let child = Placed {
+                reference: Reference {
+                    instance: r.instance,
+                    subtree,
+                    triangles: match subtree.is_leaf() {
+                        true => subtree.count,
+                        false => under[instance.mesh][subtree.child as usize],
+                    },
+                },
+                bounds: placed_box(instance, blas, subtree),
+            };
+            // The first child takes the opened reference's place, the others come after.
+            let at = if n == 0 {
+                placed[k] = child;
+                k
+            } else {
+                placed.push(child);
+                placed.len() - 1
+            };
+            if openable(&child) {
+                heap.push(key(&child, at));
+            }
+        }
+    }
+}
