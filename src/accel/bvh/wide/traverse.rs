@@ -37,15 +37,37 @@ impl<const W: usize> WideBvh<W> {
         let wray = WideRay::new(ray);
         let data = I::prepare(ray);
         let mut best = BestHit::new(ray);
-        let mut box_tmax = ray.tmax * T_SCALE;
-        let mut storage = MaybeUninit::uninit();
-        let mut stack = Stack::new(&mut storage);
-        let mut entry = [0.0f32; W];
-        let mut cur = Entry {
+        let root = Entry {
             child: 0,
             count: INTERIOR,
             entry: ray.tmin,
         };
+        self.closest_from::<K, I, S, ORDERED>(root, &wray, &data, ray, &mut best, stats);
+        best.hit()
+    }
+
+    /// The closest hit in the subtree `start` (the root, or a child a packet hands over to
+    /// one of its rays), kept in `best`, which may already hold a hit.
+    #[inline(always)]
+    pub(super) fn closest_from<
+        K: WideSlab<W> + TriangleKernel,
+        I: Intersector,
+        S: Stats,
+        const ORDERED: bool,
+    >(
+        &self,
+        start: Entry,
+        wray: &WideRay,
+        data: &I::RayData,
+        ray: &Ray,
+        best: &mut BestHit,
+        stats: &mut S,
+    ) {
+        let mut box_tmax = best.t * T_SCALE;
+        let mut storage = MaybeUninit::uninit();
+        let mut stack = Stack::new(&mut storage);
+        let mut entry = [0.0f32; W];
+        let mut cur = start;
         loop {
             stats.node_visit();
             record(stats, || self.visit_step(cur));
@@ -56,7 +78,7 @@ impl<const W: usize> WideBvh<W> {
                 };
                 // SAFETY: a tree only selects a kernel its CPU supports (`set_simd`), and
                 // the entry points below are compiled for it.
-                if unsafe { self.leaf_closest::<K, I, S>(leaf, &data, ray, &mut best, stats) } {
+                if unsafe { self.leaf_closest::<K, I, S>(leaf, data, ray, best, stats) } {
                     box_tmax = best.t * T_SCALE;
                 }
             } else {
@@ -67,7 +89,7 @@ impl<const W: usize> WideBvh<W> {
                 // SAFETY: a tree only selects a kernel its CPU supports (`set_simd`), and
                 // the entry points below are compiled for it.
                 let mut mask =
-                    unsafe { K::entries(&node.bounds, &wray, ray.tmin, box_tmax, &mut entry) };
+                    unsafe { K::entries(&node.bounds, wray, ray.tmin, box_tmax, &mut entry) };
                 let order = if ORDERED {
                     Order::Nearest
                 } else {
@@ -122,7 +144,7 @@ impl<const W: usize> WideBvh<W> {
             // Pop the next child the ray can still reach before the best hit.
             loop {
                 match stack.pop() {
-                    None => return best.hit(),
+                    None => return,
                     Some(e) if e.entry <= box_tmax => {
                         record(stats, || pop_step(e));
                         cur = e;
