@@ -7,11 +7,15 @@
 //! They compute exactly what the scalar `slab_entry` and `Watertight` compute, lane by lane and
 //! in the same order of operations, so a wide BVH's hits equal the BVH2's bit for bit.
 
+pub mod interval;
 pub mod packet;
+pub mod packet_triangle;
 pub mod slab;
 pub mod triangle;
 
+pub use interval::{IntervalSlab, WideInterval};
 pub use packet::{PACKET_RAYS, PacketSlab, RayPacket};
+pub use packet_triangle::{PacketBest, PacketHits, PacketShear, PacketTriangleKernel};
 pub use slab::{WideRay, WideSlab};
 pub use triangle::{BLOCK, BlockHits, TriangleBlock, TriangleKernel};
 

@@ -22,6 +22,7 @@ pub const PACKET_RAYS: usize = 64;
 #[repr(C, align(64))]
 pub struct RayPacket {
     pub origin: [[f32; PACKET_RAYS]; 3],
+    pub dir: [[f32; PACKET_RAYS]; 3],
     pub inv_dir: [[f32; PACKET_RAYS]; 3],
     pub tmin: [f32; PACKET_RAYS],
     /// Each ray's box-test limit: its tmax, or its best hit so far, widened by the caller
@@ -35,12 +36,15 @@ pub struct RayPacket {
 }
 
 impl RayPacket {
-    /// The packet of `rays` (at most `PACKET_RAYS`), with box-test limits `tmax`.
+    /// The packet of `rays` (at most `PACKET_RAYS`), with box-test limits `tmax`. Inlined
+    /// into the traversal, so that its loops use the traversal's vector instructions.
+    #[inline(always)]
     pub fn new(rays: &[Ray], tmax: impl Fn(&Ray) -> f32) -> Self {
         let n = rays.len().min(PACKET_RAYS);
         let mut p = RayPacket {
             origin: [[0.0; PACKET_RAYS]; 3],
-            inv_dir: [[0.0; PACKET_RAYS]; 3],
+            dir: [[1.0; PACKET_RAYS]; 3],
+            inv_dir: [[1.0; PACKET_RAYS]; 3],
             // No ray enters a box in (+∞, −∞): unused lanes stay out even if tested.
             tmin: [f32::INFINITY; PACKET_RAYS],
             tmax: [f32::NEG_INFINITY; PACKET_RAYS],
@@ -52,16 +56,45 @@ impl RayPacket {
             },
         };
         for (i, r) in rays[..n].iter().enumerate() {
-            let (o, d) = (r.origin.to_array(), r.direction.to_array());
             for axis in 0..3 {
-                p.origin[axis][i] = o[axis];
-                p.inv_dir[axis][i] = 1.0 / d[axis];
-                p.negative[axis] |= u64::from(d[axis].is_sign_negative()) << i;
+                p.origin[axis][i] = r.origin[axis];
+                p.dir[axis][i] = r.direction[axis];
             }
             p.tmin[i] = r.tmin;
             p.tmax[i] = tmax(r);
         }
+        // Whole rows at once, so that they vectorise.
+        for axis in 0..3 {
+            for (inv, &d) in p.inv_dir[axis].iter_mut().zip(&p.dir[axis]) {
+                *inv = 1.0 / d;
+            }
+            let mut negative = 0u64;
+            for (i, &d) in p.dir[axis].iter().enumerate() {
+                negative |= u64::from(d.to_bits() >> 31) << i;
+            }
+            p.negative[axis] = negative & p.rays;
+        }
         p
+    }
+
+    /// Rays in the packet (they are its lowest lanes).
+    #[inline(always)]
+    pub fn len(&self) -> usize {
+        self.rays.count_ones() as usize
+    }
+
+    #[inline(always)]
+    pub fn is_empty(&self) -> bool {
+        self.rays == 0
+    }
+
+    /// The largest box-test limit of the packet's rays.
+    #[inline(always)]
+    pub fn largest_tmax(&self) -> f32 {
+        // Unused lanes hold −∞; a plain comparison (no NaN rule) lets the loop vectorise.
+        self.tmax
+            .iter()
+            .fold(f32::NEG_INFINITY, |a, &b| if b > a { b } else { a })
     }
 }
 
@@ -123,34 +156,43 @@ impl PacketSlab for Portable {
     }
 }
 
-/// One group of `$lanes` rays starting at ray `$at`: evaluates to `(enter, exit)` vectors.
-/// `$blend(near_if_positive, near_if_negative, axis)` picks each lane's plane.
+/// One group of rays starting at ray `$at`: evaluates to `(enter, exit)` vectors.
+/// `$blend!(near_if_positive, near_if_negative, axis)` picks each lane's plane. Macros rather
+/// than closures: a closure does not inherit the caller's target features, so the
+/// intrinsics in it would not be inlined.
 #[cfg(target_arch = "x86_64")]
 macro_rules! packet_group {
-    ($b:expr, $p:expr, $at:expr, $blend:expr,
+    ($b:expr, $p:expr, $at:expr, $blend:ident,
      $load:ident, $set1:ident, $sub:ident, $mul:ident, $max:ident, $min:ident) => {{
         let (b, p, at) = ($b, $p, $at);
-        let blend = $blend;
         let s = $set1(FAR_SCALE);
-        let dist = |plane, axis: usize| {
-            $mul(
-                $sub(plane, $load(p.origin[axis][at..].as_ptr())),
-                $load(p.inv_dir[axis][at..].as_ptr()),
-            )
-        };
-        let (lo, hi) = (
-            [$set1(b[0]), $set1(b[1]), $set1(b[2])],
-            [$set1(b[3]), $set1(b[4]), $set1(b[5])],
-        );
-        let near = |axis: usize| dist(blend(lo[axis], hi[axis], axis), axis);
-        let far = |axis: usize| $mul(dist(blend(hi[axis], lo[axis], axis), axis), s);
+        let lo = [$set1(b[0]), $set1(b[1]), $set1(b[2])];
+        let hi = [$set1(b[3]), $set1(b[4]), $set1(b[5])];
+        macro_rules! dist {
+            ($plane:expr, $axis:expr) => {
+                $mul(
+                    $sub($plane, $load(p.origin[$axis][at..].as_ptr())),
+                    $load(p.inv_dir[$axis][at..].as_ptr()),
+                )
+            };
+        }
+        macro_rules! near {
+            ($axis:expr) => {
+                dist!($blend!(lo[$axis], hi[$axis], $axis), $axis)
+            };
+        }
+        macro_rules! far {
+            ($axis:expr) => {
+                $mul(dist!($blend!(hi[$axis], lo[$axis], $axis), $axis), s)
+            };
+        }
         let enter = $max(
-            near(2),
-            $max(near(1), $max(near(0), $load(p.tmin[at..].as_ptr()))),
+            near!(2),
+            $max(near!(1), $max(near!(0), $load(p.tmin[at..].as_ptr()))),
         );
         let exit = $min(
-            far(2),
-            $min(far(1), $min(far(0), $load(p.tmax[at..].as_ptr()))),
+            far!(2),
+            $min(far!(1), $min(far!(0), $load(p.tmax[at..].as_ptr()))),
         );
         (enter, exit)
     }};
@@ -179,9 +221,11 @@ mod x86 {
                         continue;
                     }
                     // The sign bit of 1/d is the sign bit of d: blendv picks by it.
-                    let blend = |pos, neg, axis: usize| {
-                        _mm_blendv_ps(pos, neg, _mm_loadu_ps(p.inv_dir[axis][at..].as_ptr()))
-                    };
+                    macro_rules! blend {
+                        ($pos:expr, $neg:expr, $axis:expr) => {
+                            _mm_blendv_ps($pos, $neg, _mm_loadu_ps(p.inv_dir[$axis][at..].as_ptr()))
+                        };
+                    }
                     let (enter, exit) = packet_group!(
                         b,
                         p,
@@ -235,9 +279,15 @@ mod x86 {
                     if bits == 0 {
                         continue;
                     }
-                    let blend = |pos, neg, axis: usize| {
-                        _mm256_blendv_ps(pos, neg, _mm256_loadu_ps(p.inv_dir[axis][at..].as_ptr()))
-                    };
+                    macro_rules! blend {
+                        ($pos:expr, $neg:expr, $axis:expr) => {
+                            _mm256_blendv_ps(
+                                $pos,
+                                $neg,
+                                _mm256_loadu_ps(p.inv_dir[$axis][at..].as_ptr()),
+                            )
+                        };
+                    }
                     let (enter, exit) = packet_group!(
                         b,
                         p,
@@ -283,9 +333,11 @@ mod x86 {
                     if bits == 0 {
                         continue;
                     }
-                    let blend = |pos, neg, axis: usize| {
-                        _mm512_mask_blend_ps((p.negative[axis] >> at) as u16, pos, neg)
-                    };
+                    macro_rules! blend {
+                        ($pos:expr, $neg:expr, $axis:expr) => {
+                            _mm512_mask_blend_ps((p.negative[$axis] >> at) as u16, $pos, $neg)
+                        };
+                    }
                     let (enter, exit) = packet_group!(
                         b,
                         p,

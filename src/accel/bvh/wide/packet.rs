@@ -2,22 +2,27 @@
 //! rays walk the tree together, stored as structures of arrays (`RayPacket`), and carry down
 //! the tree the mask of the rays still active.
 //!
-//! - At each node every child box is tested against all active rays of the packet at once,
-//!   SIMD across the rays (`PacketSlab`): 16 rays per instruction with AVX-512, 8 with AVX2.
-//!   Each ray's answer is its own scalar slab test, so a child gets the exact mask of the
-//!   rays that enter it, and a child no ray enters is culled.
+//! - Early miss: when the rays share an origin and a direction octant, one SIMD interval
+//!   test (`IntervalSlab`) over the packet's range of directions tells which of the W
+//!   children no ray can enter.
+//! - Each remaining child box is tested against all active rays at once, SIMD across the
+//!   rays (`PacketSlab`): 16 rays per instruction with AVX-512, 8 with AVX2. Each ray's answer
+//!   is its own scalar slab test, so a child gets the exact mask of the rays that enter it.
 //! - The entered children are pushed with their masks, nearest first by the smallest entry
 //!   distance of their rays. A popped child whose rays may have found closer hits since it
 //!   was pushed is tested once more, which drops the rays that now stop before it.
-//! - In a leaf each ray of the mask tests the triangles alone, with the SIMD block test of
-//!   single rays, and its box-test limit shrinks with each hit it finds.
+//! - In a leaf each triangle is tested against the mask's rays at once, SIMD across the rays
+//!   (`PacketTriangleKernel`, the watertight test), and each ray keeps its closest hit and
+//!   shrinks its box-test limit. An intersector without that form tests ray by ray with the
+//!   single rays' block test.
 //! - Hybrid traversal (as Embree's): once at most `HYBRID_RAYS` rays are left in a subtree,
 //!   each of them finishes it with the single-ray traversal, which tests the W children of a
 //!   node at once, SIMD across boxes.
 //!
 //! The hits are exactly those of `closest_hit` ray by ray: every ray tests the boxes it
-//! meets with its own slab test, and `BestHit` keeps, of equal distances, the lowest
-//! triangle index, so the order of the visit does not matter.
+//! meets with its own slab test and the triangles with its own watertight test (lane for
+//! lane the same operations), and of hits at equal distances the lowest triangle index wins
+//! (`BestHit`), so the order of the visit does not matter.
 
 use super::WideBvh;
 use super::leaf::Leaf;
@@ -25,9 +30,12 @@ use super::node::{INTERIOR, WideNode};
 use super::stack::{Entry, Stack};
 use crate::accel::bvh::traverse::T_SCALE;
 use crate::accel::{BestHit, Hit, NoStats};
+use crate::geometry::intersect::TriangleHit;
 use crate::geometry::simd::packet::BoxPlanes;
+use crate::geometry::simd::packet_triangle::TriangleVertices;
 use crate::geometry::simd::{
-    PACKET_RAYS, PacketSlab, RayPacket, TriangleKernel, WideRay, WideSlab,
+    BLOCK, IntervalSlab, PACKET_RAYS, PacketBest, PacketHits, PacketShear, PacketSlab,
+    PacketTriangleKernel, RayPacket, TriangleKernel, WideInterval, WideRay, WideSlab,
 };
 use crate::geometry::{Intersector, Ray};
 use std::mem::MaybeUninit;
@@ -35,6 +43,17 @@ use std::mem::MaybeUninit;
 /// A subtree that at most this many rays of a packet enter is traced ray by ray: testing
 /// one box against the packet costs about as much as testing all W boxes against one ray.
 pub const HYBRID_RAYS: u32 = 2;
+
+/// The traits a SIMD level's kernels implement for the packet traversal.
+pub trait PacketKernels<const W: usize>:
+    WideSlab<W> + IntervalSlab<W> + TriangleKernel + PacketSlab + PacketTriangleKernel
+{
+}
+
+impl<const W: usize, K> PacketKernels<W> for K where
+    K: WideSlab<W> + IntervalSlab<W> + TriangleKernel + PacketSlab + PacketTriangleKernel
+{
+}
 
 /// A child still to visit: the child, the packet rays that entered it and where to find its
 /// box again.
@@ -68,25 +87,90 @@ fn each_ray(mut mask: u64) -> impl Iterator<Item = usize> {
     })
 }
 
+/// A packet on its way through the tree: its rays, each ray's closest hit so far and the
+/// watertight test's per-ray values.
+struct Packet<'a> {
+    rays: &'a [Ray],
+    /// The rays as arrays, with each ray's box-test limit: its best distance widened by
+    /// the rounding of the box test.
+    soa: RayPacket,
+    best: PacketBest,
+    /// Each ray's shear, when the intersector is the watertight test.
+    shear: Option<PacketShear>,
+    /// The last triangle's answers left to one-ray-at-a-time decisions.
+    hits: PacketHits,
+    /// Incremented whenever some ray's limit shrinks.
+    found: u32,
+}
+
+impl Packet<'_> {
+    /// Ray `i`'s best hit as `BestHit` keeps it (for the single-ray code).
+    fn best_hit(&self, i: usize) -> BestHit {
+        let mut b = BestHit::new(&self.rays[i]);
+        if self.best.found >> i & 1 == 1 {
+            let h = TriangleHit {
+                t: self.best.t[i],
+                u: self.best.u[i],
+                v: self.best.v[i],
+            };
+            b.offer(h, self.best.triangle[i]);
+        }
+        b
+    }
+
+    /// Takes ray `i`'s best hit back from the single-ray code.
+    fn set_best_hit(&mut self, i: usize, b: &BestHit) {
+        let had = self.best.found >> i & 1 == 1;
+        if let Some(h) = b.hit()
+            && (!had || h.t != self.best.t[i] || h.triangle != u64::from(self.best.triangle[i]))
+        {
+            let best = &mut self.best;
+            (best.t[i], best.limit[i], best.u[i], best.v[i]) = (b.t, b.limit, h.u, h.v);
+            best.triangle[i] = h.triangle as u32;
+            best.found |= 1 << i;
+            self.improved(1 << i);
+        }
+    }
+
+    /// The rays of `mask` found closer hits: their box-test limits shrink.
+    #[inline(always)]
+    fn improved(&mut self, mask: u64) {
+        for i in each_ray(mask) {
+            self.soa.tmax[i] = self.best.t[i] * T_SCALE;
+        }
+        if mask != 0 {
+            self.found += 1;
+        }
+    }
+}
+
 impl<const W: usize> WideBvh<W> {
     /// The closest hit of each ray of `rays` (at most `PACKET_RAYS`).
     #[inline(always)]
-    pub(super) fn trace_packet<K, I>(&self, rays: &[Ray], out: &mut [Option<Hit>])
-    where
-        K: WideSlab<W> + TriangleKernel + PacketSlab,
-        I: Intersector,
-    {
+    pub(super) fn trace_packet<K: PacketKernels<W>, I: Intersector>(
+        &self,
+        rays: &[Ray],
+        out: &mut [Option<Hit>],
+    ) {
         let n = rays.len().min(PACKET_RAYS).min(out.len());
         if n == 0 {
             return;
         }
         let rays = &rays[..n];
-        let mut packet = RayPacket::new(rays, |r| r.tmax * T_SCALE);
-        // Unused slots copy the last ray; only the first `n` are ever read.
-        let ray = |i: usize| &rays[i.min(n - 1)];
-        let data: [I::RayData; PACKET_RAYS] = std::array::from_fn(|i| I::prepare(ray(i)));
-        let mut best: [BestHit; PACKET_RAYS] = std::array::from_fn(|i| BestHit::new(ray(i)));
-        let mut found = 0u32;
+        let soa = RayPacket::new(rays, |r| r.tmax * T_SCALE);
+        let mut p = Packet {
+            rays,
+            // The watertight test has a form that tests one triangle against many rays.
+            shear: I::PACKET_TEST.then(|| PacketShear::new(&soa)),
+            best: PacketBest::new(rays),
+            soa,
+            hits: PacketHits::default(),
+            found: 0,
+        };
+        // Rays from one origin into one octant: the interval test culls children first.
+        let interval = WideInterval::of_packet(&p.soa);
+        // The largest box-test limit of the packet, and the hit count it was taken at.
+        let (mut packet_tmax, mut tmax_found) = (f32::INFINITY, u32::MAX);
         let mut storage = MaybeUninit::uninit();
         let mut stack = Stack::<Pending>::new(&mut storage);
         let mut cur = Pending {
@@ -95,28 +179,25 @@ impl<const W: usize> WideBvh<W> {
                 count: INTERIOR,
                 entry: f32::NEG_INFINITY,
             },
-            rays: packet.rays,
+            rays: p.soa.rays,
             node: 0,
             lane: 0,
-            found,
+            found: 0,
         };
         'walk: loop {
             if cur.rays.count_ones() <= HYBRID_RAYS {
                 for i in each_ray(cur.rays) {
-                    let before = best[i].t;
-                    let wray = WideRay::new(&rays[i]);
+                    let ray = &rays[i];
+                    let mut best = p.best_hit(i);
                     self.closest_from::<K, I, NoStats, true>(
                         cur.child,
-                        &wray,
-                        &data[i],
-                        &rays[i],
-                        &mut best[i],
+                        &WideRay::new(ray),
+                        &I::prepare(ray),
+                        ray,
+                        &mut best,
                         &mut NoStats,
                     );
-                    if best[i].t != before {
-                        packet.tmax[i] = best[i].t * T_SCALE;
-                        found += 1;
-                    }
+                    p.set_best_hit(i, &best);
                 }
             } else if cur.child.count == INTERIOR {
                 let index = cur.child.child as usize;
@@ -124,14 +205,22 @@ impl<const W: usize> WideBvh<W> {
                 // The children some ray enters, with their rays and nearest entry.
                 let mut entered = [(0.0f32, 0u64, 0usize); W];
                 let mut k = 0;
-                for lane in 0..W {
-                    if node.count[lane] == 0 {
-                        break;
+                let mut lanes = (1u32 << node.child_count()) - 1;
+                if let Some(iv) = &interval {
+                    if tmax_found != p.found {
+                        packet_tmax = p.soa.largest_tmax();
+                        tmax_found = p.found;
                     }
                     // SAFETY: a tree only selects a kernel its CPU supports (`set_simd`),
                     // and the entry points are compiled for it.
+                    lanes &= unsafe { K::maybe_entered(&node.bounds, iv, packet_tmax) };
+                }
+                while lanes != 0 {
+                    let lane = lanes.trailing_zeros() as usize;
+                    lanes &= lanes - 1;
+                    // SAFETY: as above.
                     let (hit, d) =
-                        unsafe { K::packet_entries(&planes(node, lane), &packet, cur.rays) };
+                        unsafe { K::packet_entries(&planes(node, lane), &p.soa, cur.rays) };
                     if hit != 0 {
                         entered[k] = (d, hit, lane);
                         k += 1;
@@ -158,7 +247,7 @@ impl<const W: usize> WideBvh<W> {
                         rays: hit,
                         node: index as u32,
                         lane: lane as u32,
-                        found,
+                        found: p.found,
                     };
                     for e in &entered[..k - 1] {
                         stack.push(pending(e));
@@ -171,20 +260,24 @@ impl<const W: usize> WideBvh<W> {
                     first: cur.child.child,
                     count: cur.child.count,
                 };
-                for i in each_ray(cur.rays) {
+                if p.shear.is_some() {
                     // SAFETY: as above.
-                    let hit = unsafe {
-                        self.leaf_closest::<K, I, _>(
-                            leaf,
-                            &data[i],
-                            &rays[i],
-                            &mut best[i],
-                            &mut NoStats,
-                        )
-                    };
-                    if hit {
-                        packet.tmax[i] = best[i].t * T_SCALE;
-                        found += 1;
+                    unsafe { self.leaf_packet::<K, I>(leaf, cur.rays, &mut p) };
+                } else {
+                    for i in each_ray(cur.rays) {
+                        let ray = &rays[i];
+                        let mut best = p.best_hit(i);
+                        // SAFETY: as above.
+                        unsafe {
+                            self.leaf_closest::<K, I, _>(
+                                leaf,
+                                &I::prepare(ray),
+                                ray,
+                                &mut best,
+                                &mut NoStats,
+                            )
+                        };
+                        p.set_best_hit(i, &best);
                     }
                 }
             }
@@ -193,11 +286,11 @@ impl<const W: usize> WideBvh<W> {
                 let Some(mut next) = stack.pop() else {
                     break 'walk;
                 };
-                if next.found != found {
+                if next.found != p.found {
                     let node = &self.nodes[next.node as usize];
                     // SAFETY: as above.
                     next.rays = unsafe {
-                        K::packet_entries(&planes(node, next.lane as usize), &packet, next.rays)
+                        K::packet_entries(&planes(node, next.lane as usize), &p.soa, next.rays)
                     }
                     .0;
                     if next.rays == 0 {
@@ -208,8 +301,81 @@ impl<const W: usize> WideBvh<W> {
                 break;
             }
         }
-        for (o, b) in out.iter_mut().zip(&best[..n]) {
-            *o = b.hit();
+        let best = &p.best;
+        for (i, o) in out[..n].iter_mut().enumerate() {
+            *o = (best.found >> i & 1 == 1).then(|| Hit {
+                t: best.t[i],
+                u: best.u[i],
+                v: best.v[i],
+                triangle: best.triangle[i].into(),
+            });
         }
+    }
+
+    /// A leaf's triangles, each tested against the rays of `rays` at once (a call per
+    /// shear permutation among them).
+    ///
+    /// # Safety
+    /// The CPU supports K's instruction set.
+    #[inline(always)]
+    unsafe fn leaf_packet<K: PacketTriangleKernel, I: Intersector>(
+        &self,
+        leaf: Leaf,
+        rays: u64,
+        p: &mut Packet<'_>,
+    ) {
+        let Some(shear) = &p.shear else { return };
+        let mut improved = 0;
+        for (b, used) in leaf.blocks() {
+            let block = &self.blocks[b];
+            let mut lanes = used;
+            while lanes != 0 {
+                let lane = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                let tri: TriangleVertices =
+                    std::array::from_fn(|k| std::array::from_fn(|axis| block.v[k][axis][lane]));
+                let index = self.prim_indices[b * BLOCK + lane];
+                for kz in 0..3 {
+                    let active = rays & shear.by_axis[kz];
+                    if active == 0 {
+                        continue;
+                    }
+                    // SAFETY: the caller guarantees K's instruction set.
+                    improved |= unsafe {
+                        K::closest_packet(
+                            &tri,
+                            index,
+                            kz,
+                            shear,
+                            &p.soa,
+                            &mut p.best,
+                            active,
+                            &mut p.hits,
+                        )
+                    };
+                    // Ties and lanes handed back, one ray at a time.
+                    let h = &p.hits;
+                    for i in each_ray(h.rest) {
+                        let ray = &p.rays[i];
+                        let hit = if h.retest >> i & 1 == 1 {
+                            let tri = block.triangle(lane);
+                            I::intersect(&I::prepare(ray), ray, &tri, ray.tmin, p.best.limit[i])
+                        } else {
+                            Some(TriangleHit {
+                                t: h.t[i],
+                                u: h.u[i],
+                                v: h.v[i],
+                            })
+                        };
+                        if let Some(hit) = hit
+                            && p.best.offer(i, hit.t, hit.u, hit.v, index)
+                        {
+                            improved |= 1 << i;
+                        }
+                    }
+                }
+            }
+        }
+        p.improved(improved);
     }
 }

@@ -18,7 +18,7 @@ use crate::accel::replay::{Child, Level, Order, Step, Visited};
 use crate::accel::stats::record;
 use crate::accel::{Accel, BestHit, Hit, Stats, TraversalOrder};
 use crate::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab};
-use crate::geometry::simd::{SimdLevel, TriangleKernel, WideRay};
+use crate::geometry::simd::{IntervalSlab, SimdLevel, TriangleKernel, WideRay};
 use crate::geometry::{Intersector, Ray};
 use std::mem::MaybeUninit;
 
@@ -322,7 +322,7 @@ macro_rules! entry_points {
     ($closest:ident, $occluded:ident, $packets:ident, $kernel:ty, $features:literal) => {
         impl<const W: usize> WideBvh<W>
         where
-            $kernel: WideSlab<W>,
+            $kernel: super::packet::PacketKernels<W>,
         {
             #[target_feature(enable = $features)]
             fn $closest<I: Intersector, S: Stats, const ORDERED: bool>(
@@ -369,10 +369,10 @@ entry_points!(
 
 impl<const W: usize> WideBvh<W>
 where
-    Portable: WideSlab<W>,
-    Sse41: WideSlab<W>,
-    Avx2: WideSlab<W>,
-    Avx512: WideSlab<W>,
+    Portable: WideSlab<W> + IntervalSlab<W>,
+    Sse41: WideSlab<W> + IntervalSlab<W>,
+    Avx2: WideSlab<W> + IntervalSlab<W>,
+    Avx512: WideSlab<W> + IntervalSlab<W>,
 {
     #[inline(always)]
     fn closest_dispatch<I: Intersector, S: Stats, const ORDERED: bool>(
@@ -413,10 +413,10 @@ where
 
 impl<const W: usize> Accel for WideBvh<W>
 where
-    Portable: WideSlab<W>,
-    Sse41: WideSlab<W>,
-    Avx2: WideSlab<W>,
-    Avx512: WideSlab<W>,
+    Portable: WideSlab<W> + IntervalSlab<W>,
+    Sse41: WideSlab<W> + IntervalSlab<W>,
+    Avx2: WideSlab<W> + IntervalSlab<W>,
+    Avx512: WideSlab<W> + IntervalSlab<W>,
 {
     fn closest_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
         crate::accel::stats::count_locally(stats, |local| match self.order {
