@@ -25,7 +25,7 @@ use crate::geometry::frustum::RayInterval;
 use crate::geometry::{Intersector, Ray};
 
 /// Rays per packet: an 8 × 8 tile of pixels.
-pub const PACKET_SIZE: usize = 64;
+pub const PACKET_SIZE: usize = crate::geometry::simd::PACKET_RAYS;
 
 /// The per-ray state of a packet.
 struct PacketRays<'a, I: Intersector> {

@@ -8,7 +8,7 @@ mod watertight;
 
 pub use moller_trumbore::MollerTrumbore;
 pub use reference::ReferenceF64;
-pub use watertight::{Shear, Watertight};
+pub use watertight::{Shear, Watertight, shear_axes, shear_axes_of};
 
 use super::simd::triangle::{BlockHits, TriangleBlock, TriangleKernel};
 use super::{Ray, Triangle};
@@ -44,6 +44,11 @@ pub trait Intersector: Copy + Default + Send + Sync + 'static {
     ///
     /// # Safety
     /// The CPU supports K's instruction set (`SimdLevel::supported`).
+    /// Whether the test has a packet form that tests one triangle against many rays at
+    /// once with its answers bit for bit (`simd::packet_triangle`, the watertight test's);
+    /// without one a packet's leaves test ray by ray.
+    const PACKET_TEST: bool = false;
+
     #[inline(always)]
     unsafe fn intersect_block<K: TriangleKernel>(
         _data: &Self::RayData,

@@ -36,6 +36,12 @@ pub fn shear_axes(direction: Vec3) -> [usize; 3] {
     } else {
         2
     };
+    shear_axes_of(kz)
+}
+
+/// The permutation (kx, ky, kz) for the largest axis kz.
+#[inline(always)]
+pub fn shear_axes_of(kz: usize) -> [usize; 3] {
     let kx = (kz + 1) % 3;
     [kx, (kx + 1) % 3, kz]
 }
@@ -43,6 +49,7 @@ pub fn shear_axes(direction: Vec3) -> [usize; 3] {
 impl Intersector for Watertight {
     type RayData = Shear;
     const NAME: &'static str = "watertight";
+    const PACKET_TEST: bool = true;
 
     #[inline(always)]
     fn prepare(ray: &Ray) -> Shear {

@@ -1,14 +1,21 @@
-//! SIMD kernels: one slab test over the W child boxes of a wide BVH node at once, and one
-//! watertight triangle test over a wide leaf's block of four triangles.
+//! SIMD kernels: one slab test over the W child boxes of a wide BVH node at once, one slab
+//! test of one box against a packet of rays at once, and one watertight triangle test over a
+//! wide leaf's block of four triangles.
 //!
 //! Each kernel is written with `std::arch` for one instruction set and chosen at run time
 //! (`SimdLevel::detect`), with a portable path that gives identical answers on any machine.
 //! They compute exactly what the scalar `slab_entry` and `Watertight` compute, lane by lane and
 //! in the same order of operations, so a wide BVH's hits equal the BVH2's bit for bit.
 
+pub mod interval;
+pub mod packet;
+pub mod packet_triangle;
 pub mod slab;
 pub mod triangle;
 
+pub use interval::{IntervalSlab, WideInterval};
+pub use packet::{PACKET_RAYS, PacketSlab, RayPacket};
+pub use packet_triangle::{PacketBest, PacketHits, PacketShear, PacketTriangleKernel};
 pub use slab::{WideRay, WideSlab};
 pub use triangle::{BLOCK, BlockHits, TriangleBlock, TriangleKernel};
 

@@ -28,7 +28,7 @@ pub(super) struct Leaf {
 impl Leaf {
     /// The leaf's blocks, each with the mask of the lanes holding its triangles.
     #[inline(always)]
-    fn blocks(self) -> impl Iterator<Item = (usize, u32)> {
+    pub(super) fn blocks(self) -> impl Iterator<Item = (usize, u32)> {
         let first = self.first as usize;
         let end = first + self.count as usize;
         (first / BLOCK..end.div_ceil(BLOCK)).map(move |b| {

@@ -1,197 +1,381 @@
-//! Packet traversal of a wide BVH for coherent rays (a tile of primary rays), as the BVH2's
-//! packets do it (`bvh::packet`): the packet walks the tree together, and at each node the
-//! packet's first active ray is tested against all W children in one SIMD slab test. A child
-//! that ray misses is culled for the whole packet by the interval test, or else the other
-//! rays are tested one by one. Children are visited in the order the first ray enters them.
+//! Packet traversal of a wide BVH for coherent rays (a tile of 8 × 8 primary rays): the 64
+//! rays walk the tree together, stored as structures of arrays (`RayPacket`), and carry down
+//! the tree the mask of the rays still active.
 //!
-//! The hits are exactly those of `closest_hit` ray by ray (`BestHit` keeps, of equal
-//! distances, the lowest triangle index, so the order of the visit does not matter).
+//! - Early miss: when the rays share an origin and a direction octant, one SIMD interval
+//!   test (`IntervalSlab`) over the packet's range of directions tells which of the W
+//!   children no ray can enter.
+//! - Each remaining child box is tested against all active rays at once, SIMD across the
+//!   rays (`PacketSlab`): 16 rays per instruction with AVX-512, 8 with AVX2. Each ray's answer
+//!   is its own scalar slab test, so a child gets the exact mask of the rays that enter it.
+//! - The entered children are pushed with their masks, nearest first by the smallest entry
+//!   distance of their rays. A popped child whose rays may have found closer hits since it
+//!   was pushed is tested once more, which drops the rays that now stop before it.
+//! - In a leaf each triangle is tested against the mask's rays at once, SIMD across the rays
+//!   (`PacketTriangleKernel`, the watertight test), and each ray keeps its closest hit and
+//!   shrinks its box-test limit. An intersector without that form tests ray by ray with the
+//!   single rays' block test.
+//! - Hybrid traversal (as Embree's): once at most `HYBRID_RAYS` rays are left in a subtree,
+//!   each of them finishes it with the single-ray traversal, which tests the W children of a
+//!   node at once, SIMD across boxes.
+//!
+//! The hits are exactly those of `closest_hit` ray by ray: every ray tests the boxes it
+//! meets with its own slab test and the triangles with its own watertight test (lane for
+//! lane the same operations), and of hits at equal distances the lowest triangle index wins
+//! (`BestHit`), so the order of the visit does not matter.
 
 use super::WideBvh;
 use super::leaf::Leaf;
-use super::node::WideNode;
-use crate::accel::NoStats;
-use crate::accel::bvh::packet::PACKET_SIZE;
+use super::node::{INTERIOR, WideNode};
+use super::stack::{Entry, Stack};
 use crate::accel::bvh::traverse::T_SCALE;
-use crate::accel::{BestHit, Hit};
-use crate::geometry::aabb::{SlabRay, slab_entry};
-use crate::geometry::frustum::RayInterval;
-use crate::geometry::simd::slab::WideSlab;
-use crate::geometry::simd::{TriangleKernel, WideRay};
+use crate::accel::{BestHit, Hit, NoStats};
+use crate::geometry::intersect::TriangleHit;
+use crate::geometry::simd::packet::BoxPlanes;
+use crate::geometry::simd::packet_triangle::TriangleVertices;
+use crate::geometry::simd::{
+    BLOCK, IntervalSlab, PACKET_RAYS, PacketBest, PacketHits, PacketShear, PacketSlab,
+    PacketTriangleKernel, RayPacket, TriangleKernel, WideInterval, WideRay, WideSlab,
+};
 use crate::geometry::{Intersector, Ray};
-use glam::Vec3;
+use std::mem::MaybeUninit;
 
-/// The per-ray state of a packet.
-struct PacketRays<'a, I: Intersector> {
-    rays: &'a [Ray],
-    slabs: [SlabRay; PACKET_SIZE],
-    wide: [WideRay; PACKET_SIZE],
-    data: [I::RayData; PACKET_SIZE],
-    best: [BestHit; PACKET_SIZE],
-    /// Each ray's box-test limit: its best t, widened by the rounding of the box test.
-    box_tmax: [f32; PACKET_SIZE],
+/// A subtree that at most this many rays of a packet enter is traced ray by ray: testing
+/// one box against the packet costs about as much as testing all W boxes against one ray.
+pub const HYBRID_RAYS: u32 = 2;
+
+/// The traits a SIMD level's kernels implement for the packet traversal.
+pub trait PacketKernels<const W: usize>:
+    WideSlab<W> + IntervalSlab<W> + TriangleKernel + PacketSlab + PacketTriangleKernel
+{
 }
 
-impl<I: Intersector> PacketRays<'_, I> {
-    #[inline(always)]
-    fn enters(&self, corners: &[Vec3; 2], i: usize) -> bool {
-        slab_entry(corners, &self.slabs[i], self.rays[i].tmin, self.box_tmax[i]) != f32::INFINITY
-    }
-
-    fn packet_tmax(&self) -> f32 {
-        let n = self.rays.len();
-        self.box_tmax[..n]
-            .iter()
-            .copied()
-            .fold(f32::NEG_INFINITY, f32::max)
-    }
+impl<const W: usize, K> PacketKernels<W> for K where
+    K: WideSlab<W> + IntervalSlab<W> + TriangleKernel + PacketSlab + PacketTriangleKernel
+{
 }
 
-/// A child still to visit: its parent node and lane, and the packet's first ray that may
-/// enter it (the rays before it are known to miss it).
+/// A child still to visit: the child, the packet rays that entered it and where to find its
+/// box again.
 #[derive(Clone, Copy)]
 struct Pending {
+    /// The child, with the smallest entry distance of its rays.
+    child: Entry,
+    rays: u64,
+    /// The node and lane holding the child's box.
     node: u32,
     lane: u32,
-    first: u32,
-    /// The packet's hit count when the first ray was found to enter the child
-    /// (`u32::MAX`: not known to); while no hit is found since, it still enters.
-    entered_at: u32,
+    /// The packet's count of improved hits when the mask was found: while it is unchanged,
+    /// no ray's limit has shrunk and the mask still holds.
+    found: u32,
 }
 
-fn corners<const W: usize>(node: &WideNode<W>, lane: usize) -> [Vec3; 2] {
-    let b = node.child_bounds(lane);
-    [b.min, b.max]
+#[inline(always)]
+fn planes<const W: usize>(node: &WideNode<W>, lane: usize) -> BoxPlanes {
+    std::array::from_fn(|row| node.bounds[row][lane])
+}
+
+/// The rays of a mask, lowest first.
+#[inline(always)]
+fn each_ray(mut mask: u64) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let i = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            i
+        })
+    })
+}
+
+/// A packet on its way through the tree: its rays, each ray's closest hit so far and the
+/// watertight test's per-ray values.
+struct Packet<'a> {
+    rays: &'a [Ray],
+    /// The rays as arrays, with each ray's box-test limit: its best distance widened by
+    /// the rounding of the box test.
+    soa: RayPacket,
+    best: PacketBest,
+    /// Each ray's shear, when the intersector is the watertight test.
+    shear: Option<PacketShear>,
+    /// The last triangle's answers left to one-ray-at-a-time decisions.
+    hits: PacketHits,
+    /// Incremented whenever some ray's limit shrinks.
+    found: u32,
+}
+
+impl Packet<'_> {
+    /// Ray `i`'s best hit as `BestHit` keeps it (for the single-ray code).
+    fn best_hit(&self, i: usize) -> BestHit {
+        let mut b = BestHit::new(&self.rays[i]);
+        if self.best.found >> i & 1 == 1 {
+            let h = TriangleHit {
+                t: self.best.t[i],
+                u: self.best.u[i],
+                v: self.best.v[i],
+            };
+            b.offer(h, self.best.triangle[i]);
+        }
+        b
+    }
+
+    /// Takes ray `i`'s best hit back from the single-ray code.
+    fn set_best_hit(&mut self, i: usize, b: &BestHit) {
+        let had = self.best.found >> i & 1 == 1;
+        if let Some(h) = b.hit()
+            && (!had || h.t != self.best.t[i] || h.triangle != u64::from(self.best.triangle[i]))
+        {
+            let best = &mut self.best;
+            (best.t[i], best.limit[i], best.u[i], best.v[i]) = (b.t, b.limit, h.u, h.v);
+            best.triangle[i] = h.triangle as u32;
+            best.found |= 1 << i;
+            self.improved(1 << i);
+        }
+    }
+
+    /// The rays of `mask` found closer hits: their box-test limits shrink.
+    #[inline(always)]
+    fn improved(&mut self, mask: u64) {
+        for i in each_ray(mask) {
+            self.soa.tmax[i] = self.best.t[i] * T_SCALE;
+        }
+        if mask != 0 {
+            self.found += 1;
+        }
+    }
 }
 
 impl<const W: usize> WideBvh<W> {
-    /// The closest hit of each ray of `rays` (at most `PACKET_SIZE`).
+    /// The closest hit of each ray of `rays` (at most `PACKET_RAYS`).
     #[inline(always)]
-    pub(super) fn trace_packet<K: WideSlab<W> + TriangleKernel, I: Intersector>(
+    pub(super) fn trace_packet<K: PacketKernels<W>, I: Intersector>(
         &self,
         rays: &[Ray],
         out: &mut [Option<Hit>],
     ) {
-        let n = rays.len().min(PACKET_SIZE).min(out.len());
+        let n = rays.len().min(PACKET_RAYS).min(out.len());
         if n == 0 {
             return;
         }
-        let ray = |i: usize| &rays[i.min(n - 1)];
-        let mut p = PacketRays::<I> {
-            rays: &rays[..n],
-            slabs: std::array::from_fn(|i| SlabRay::new(ray(i))),
-            wide: std::array::from_fn(|i| WideRay::new(ray(i))),
-            data: std::array::from_fn(|i| I::prepare(ray(i))),
-            best: std::array::from_fn(|i| BestHit::new(ray(i))),
-            box_tmax: std::array::from_fn(|i| ray(i).tmax * T_SCALE),
+        let rays = &rays[..n];
+        let soa = RayPacket::new(rays, |r| r.tmax * T_SCALE);
+        let mut p = Packet {
+            rays,
+            // The watertight test has a form that tests one triangle against many rays.
+            shear: I::PACKET_TEST.then(|| PacketShear::new(&soa)),
+            best: PacketBest::new(rays),
+            soa,
+            hits: PacketHits::default(),
+            found: 0,
         };
-        let interval = RayInterval::new(&rays[..n]);
-        let mut packet_tmax = p.packet_tmax();
-        // At most W − 1 pending children per level of a tree no deeper than the BVH2's.
-        let mut stack: Vec<Pending> = Vec::with_capacity(64);
-        let mut entry = [0.0f32; W];
-        // Hits found so far by the whole packet: a ray's box-test limit only changes with one.
-        let mut found = 0u32;
-        // The node to open and its first ray that may enter it.
-        let mut open = Some((0usize, 0usize));
-        loop {
-            if let Some((index, f)) = open.take() {
+        // Rays from one origin into one octant: the interval test culls children first.
+        let interval = WideInterval::of_packet(&p.soa);
+        // The largest box-test limit of the packet, and the hit count it was taken at.
+        let (mut packet_tmax, mut tmax_found) = (f32::INFINITY, u32::MAX);
+        let mut storage = MaybeUninit::uninit();
+        let mut stack = Stack::<Pending>::new(&mut storage);
+        let mut cur = Pending {
+            child: Entry {
+                child: 0,
+                count: INTERIOR,
+                entry: f32::NEG_INFINITY,
+            },
+            rays: p.soa.rays,
+            node: 0,
+            lane: 0,
+            found: 0,
+        };
+        'walk: loop {
+            if cur.rays.count_ones() <= HYBRID_RAYS {
+                for i in each_ray(cur.rays) {
+                    let ray = &rays[i];
+                    let mut best = p.best_hit(i);
+                    self.closest_from::<K, I, NoStats, true>(
+                        cur.child,
+                        &WideRay::new(ray),
+                        &I::prepare(ray),
+                        ray,
+                        &mut best,
+                        &mut NoStats,
+                    );
+                    p.set_best_hit(i, &best);
+                }
+            } else if cur.child.count == INTERIOR {
+                let index = cur.child.child as usize;
                 let node = &self.nodes[index];
-                let r = &p.rays[f];
-                // SAFETY: a tree only selects a kernel its CPU supports (`set_simd`), and
-                // the entry points are compiled for it.
-                let mask = unsafe {
-                    K::entries(&node.bounds, &p.wide[f], r.tmin, p.box_tmax[f], &mut entry)
-                };
-                // Children the first ray enters, nearest first, then the others it misses
-                // that some later ray may still enter.
-                let mut order: [(f32, u32, u32); 8] = [(0.0, 0, 0); 8];
-                let k = node.child_count();
-                for (lane, (slot, &d)) in order.iter_mut().zip(&entry).take(k).enumerate() {
-                    let d = if mask >> lane & 1 == 1 {
-                        d
-                    } else {
-                        f32::INFINITY
-                    };
-                    *slot = (d, lane as u32, f as u32);
-                }
-                // Farthest first, so the nearest is pushed last (insertion sort: k ≤ 8).
-                let order = &mut order[..k];
-                for i in 1..k {
-                    let e = order[i];
-                    let mut j = i;
-                    while j > 0 && order[j - 1].0 < e.0 {
-                        order[j] = order[j - 1];
-                        j -= 1;
+                // The children some ray enters, with their rays and nearest entry.
+                let mut entered = [(0.0f32, 0u64, 0usize); W];
+                let mut k = 0;
+                let mut lanes = (1u32 << node.child_count()) - 1;
+                if let Some(iv) = &interval {
+                    if tmax_found != p.found {
+                        packet_tmax = p.soa.largest_tmax();
+                        tmax_found = p.found;
                     }
-                    order[j] = e;
+                    // SAFETY: a tree only selects a kernel its CPU supports (`set_simd`),
+                    // and the entry points are compiled for it.
+                    lanes &= unsafe { K::maybe_entered(&node.bounds, iv, packet_tmax) };
                 }
-                for &(d, lane, first) in order.iter() {
-                    if d == f32::INFINITY {
-                        // Not entered by the first ray: culled for the whole packet, or
-                        // left to a later ray (found when the child is popped).
-                        let c = corners(node, lane as usize);
-                        if first as usize + 1 == n
-                            || interval.is_some_and(|iv| iv.misses(&c, packet_tmax))
-                        {
-                            continue;
+                while lanes != 0 {
+                    let lane = lanes.trailing_zeros() as usize;
+                    lanes &= lanes - 1;
+                    // SAFETY: as above.
+                    let (hit, d) =
+                        unsafe { K::packet_entries(&planes(node, lane), &p.soa, cur.rays) };
+                    if hit != 0 {
+                        entered[k] = (d, hit, lane);
+                        k += 1;
+                    }
+                }
+                if k > 0 {
+                    // Farthest first, so the nearest is pushed last (insertion sort: k ≤ 8).
+                    let entered = &mut entered[..k];
+                    for a in 1..k {
+                        let e = entered[a];
+                        let mut j = a;
+                        while j > 0 && entered[j - 1].0 < e.0 {
+                            entered[j] = entered[j - 1];
+                            j -= 1;
                         }
-                        stack.push(Pending {
-                            node: index as u32,
-                            lane,
-                            first: first + 1,
-                            entered_at: u32::MAX,
-                        });
-                    } else {
-                        stack.push(Pending {
-                            node: index as u32,
-                            lane,
-                            first,
-                            entered_at: found,
-                        });
+                        entered[j] = e;
+                    }
+                    let pending = |&(d, hit, lane): &(f32, u64, usize)| Pending {
+                        child: Entry {
+                            child: node.child[lane],
+                            count: node.count[lane],
+                            entry: d,
+                        },
+                        rays: hit,
+                        node: index as u32,
+                        lane: lane as u32,
+                        found: p.found,
+                    };
+                    for e in &entered[..k - 1] {
+                        stack.push(pending(e));
+                    }
+                    cur = pending(&entered[k - 1]);
+                    continue 'walk;
+                }
+            } else {
+                let leaf = Leaf {
+                    first: cur.child.child,
+                    count: cur.child.count,
+                };
+                if p.shear.is_some() {
+                    // SAFETY: as above.
+                    unsafe { self.leaf_packet::<K, I>(leaf, cur.rays, &mut p) };
+                } else {
+                    for i in each_ray(cur.rays) {
+                        let ray = &rays[i];
+                        let mut best = p.best_hit(i);
+                        // SAFETY: as above.
+                        unsafe {
+                            self.leaf_closest::<K, I, _>(
+                                leaf,
+                                &I::prepare(ray),
+                                ray,
+                                &mut best,
+                                &mut NoStats,
+                            )
+                        };
+                        p.set_best_hit(i, &best);
                     }
                 }
             }
-            let Some(next) = stack.pop() else { break };
-            let node = &self.nodes[next.node as usize];
-            let lane = next.lane as usize;
-            let c = corners(node, lane);
-            // The first ray may have found a closer hit since the child was pushed.
-            let f = next.first as usize;
-            let active = if next.entered_at == found || p.enters(&c, f) {
-                Some(f)
-            } else if interval.is_some_and(|iv| iv.misses(&c, packet_tmax)) {
-                None
-            } else {
-                (f + 1..n).find(|&i| p.enters(&c, i))
-            };
-            let Some(f) = active else { continue };
-            if node.is_interior(lane) {
-                open = Some((node.child[lane] as usize, f));
-                continue;
-            }
-            let leaf = Leaf {
-                first: node.child[lane],
-                count: node.count[lane],
-            };
-            for i in f..n {
-                if i != f && !p.enters(&c, i) {
-                    continue;
-                }
-                let r = &p.rays[i];
-                // SAFETY: as above.
-                let hit = unsafe {
-                    self.leaf_closest::<K, I, _>(leaf, &p.data[i], r, &mut p.best[i], &mut NoStats)
+            // The next child some ray still enters before its best hit.
+            loop {
+                let Some(mut next) = stack.pop() else {
+                    break 'walk;
                 };
-                if hit {
-                    p.box_tmax[i] = p.best[i].t * T_SCALE;
-                    found += 1;
+                if next.found != p.found {
+                    let node = &self.nodes[next.node as usize];
+                    // SAFETY: as above.
+                    next.rays = unsafe {
+                        K::packet_entries(&planes(node, next.lane as usize), &p.soa, next.rays)
+                    }
+                    .0;
+                    if next.rays == 0 {
+                        continue;
+                    }
+                }
+                cur = next;
+                break;
+            }
+        }
+        let best = &p.best;
+        for (i, o) in out[..n].iter_mut().enumerate() {
+            *o = (best.found >> i & 1 == 1).then(|| Hit {
+                t: best.t[i],
+                u: best.u[i],
+                v: best.v[i],
+                triangle: best.triangle[i].into(),
+            });
+        }
+    }
+
+    /// A leaf's triangles, each tested against the rays of `rays` at once (a call per
+    /// shear permutation among them).
+    ///
+    /// # Safety
+    /// The CPU supports K's instruction set.
+    #[inline(always)]
+    unsafe fn leaf_packet<K: PacketTriangleKernel, I: Intersector>(
+        &self,
+        leaf: Leaf,
+        rays: u64,
+        p: &mut Packet<'_>,
+    ) {
+        let Some(shear) = &p.shear else { return };
+        let mut improved = 0;
+        for (b, used) in leaf.blocks() {
+            let block = &self.blocks[b];
+            let mut lanes = used;
+            while lanes != 0 {
+                let lane = lanes.trailing_zeros() as usize;
+                lanes &= lanes - 1;
+                let tri: TriangleVertices =
+                    std::array::from_fn(|k| std::array::from_fn(|axis| block.v[k][axis][lane]));
+                let index = self.prim_indices[b * BLOCK + lane];
+                for kz in 0..3 {
+                    let active = rays & shear.by_axis[kz];
+                    if active == 0 {
+                        continue;
+                    }
+                    // SAFETY: the caller guarantees K's instruction set.
+                    improved |= unsafe {
+                        K::closest_packet(
+                            &tri,
+                            index,
+                            kz,
+                            shear,
+                            &p.soa,
+                            &mut p.best,
+                            active,
+                            &mut p.hits,
+                        )
+                    };
+                    // Ties and lanes handed back, one ray at a time.
+                    let h = &p.hits;
+                    for i in each_ray(h.rest) {
+                        let ray = &p.rays[i];
+                        let hit = if h.retest >> i & 1 == 1 {
+                            let tri = block.triangle(lane);
+                            I::intersect(&I::prepare(ray), ray, &tri, ray.tmin, p.best.limit[i])
+                        } else {
+                            Some(TriangleHit {
+                                t: h.t[i],
+                                u: h.u[i],
+                                v: h.v[i],
+                            })
+                        };
+                        if let Some(hit) = hit
+                            && p.best.offer(i, hit.t, hit.u, hit.v, index)
+                        {
+                            improved |= 1 << i;
+                        }
+                    }
                 }
             }
-            packet_tmax = p.packet_tmax();
         }
-        for (o, b) in out.iter_mut().zip(&p.best[..n]) {
-            *o = b.hit();
-        }
+        p.improved(improved);
     }
 }

@@ -20,25 +20,26 @@ pub(crate) const STACK_SIZE: usize = 7 * MAX_DEPTH + 1;
 
 /// The traversal stack, left uninitialised: a BVH8 stack is 8 KiB, and clearing it for
 /// every ray would cost more than many rays' whole traversal. Its storage is a local of the
-/// traversal (`MaybeUninit` inside a struct value was measured to be zeroed anyway).
-pub(crate) struct Stack<'a> {
-    storage: &'a mut MaybeUninit<[Entry; STACK_SIZE]>,
+/// traversal (`MaybeUninit` inside a struct value was measured to be zeroed anyway). A
+/// packet's stack holds its own entries (`T`), which carry the rays of each child.
+pub(crate) struct Stack<'a, T: Copy = Entry> {
+    storage: &'a mut MaybeUninit<[T; STACK_SIZE]>,
     len: usize,
 }
 
-impl<'a> Stack<'a> {
+impl<'a, T: Copy> Stack<'a, T> {
     #[inline(always)]
-    pub(crate) fn new(storage: &'a mut MaybeUninit<[Entry; STACK_SIZE]>) -> Self {
+    pub(crate) fn new(storage: &'a mut MaybeUninit<[T; STACK_SIZE]>) -> Self {
         Stack { storage, len: 0 }
     }
 
     #[inline(always)]
-    fn slots(&mut self) -> *mut Entry {
+    fn slots(&mut self) -> *mut T {
         self.storage.as_mut_ptr().cast()
     }
 
     #[inline(always)]
-    pub(crate) fn push(&mut self, e: Entry) {
+    pub(crate) fn push(&mut self, e: T) {
         assert!(self.len < STACK_SIZE);
         // SAFETY: in bounds (checked above); writing needs no initialised value.
         unsafe { self.slots().add(self.len).write(e) };
@@ -46,7 +47,7 @@ impl<'a> Stack<'a> {
     }
 
     #[inline(always)]
-    pub(crate) fn pop(&mut self) -> Option<Entry> {
+    pub(crate) fn pop(&mut self) -> Option<T> {
         if self.len == 0 {
             return None;
         }
@@ -54,7 +55,9 @@ impl<'a> Stack<'a> {
         // SAFETY: entries below `len` were written by `push` and not popped since.
         Some(unsafe { self.slots().add(self.len).read() })
     }
+}
 
+impl Stack<'_> {
     /// Orders the top `n` entries so the nearest is on top (insertion sort: n ≤ 8).
     #[inline(always)]
     pub(crate) fn sort_top(&mut self, n: usize) {

@@ -18,7 +18,7 @@ use crate::accel::replay::{Child, Level, Order, Step, Visited};
 use crate::accel::stats::record;
 use crate::accel::{Accel, BestHit, Hit, Stats, TraversalOrder};
 use crate::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab};
-use crate::geometry::simd::{SimdLevel, TriangleKernel, WideRay};
+use crate::geometry::simd::{IntervalSlab, SimdLevel, TriangleKernel, WideRay};
 use crate::geometry::{Intersector, Ray};
 use std::mem::MaybeUninit;
 
@@ -58,15 +58,37 @@ impl<const W: usize> WideBvh<W> {
         stats: &mut S,
     ) -> Option<Hit> {
         let mut best = BestHit::new(ray);
-        let mut box_tmax = ray.tmax * T_SCALE;
-        let mut storage = MaybeUninit::uninit();
-        let mut stack = Stack::new(&mut storage);
-        let mut entry = [0.0f32; W];
-        let mut cur = Entry {
+        let root = Entry {
             child: start.child,
             count: start.count,
             entry: ray.tmin,
         };
+        self.closest_from::<K, I, S, ORDERED>(root, wray, data, ray, &mut best, stats);
+        best.hit()
+    }
+
+    /// The closest hit in the subtree `start` (the root, or a child a packet hands over to
+    /// one of its rays), kept in `best`, which may already hold a hit.
+    #[inline(always)]
+    pub(super) fn closest_from<
+        K: WideSlab<W> + TriangleKernel,
+        I: Intersector,
+        S: Stats,
+        const ORDERED: bool,
+    >(
+        &self,
+        start: Entry,
+        wray: &WideRay,
+        data: &I::RayData,
+        ray: &Ray,
+        best: &mut BestHit,
+        stats: &mut S,
+    ) {
+        let mut box_tmax = best.t * T_SCALE;
+        let mut storage = MaybeUninit::uninit();
+        let mut stack = Stack::new(&mut storage);
+        let mut entry = [0.0f32; W];
+        let mut cur = start;
         loop {
             stats.node_visit();
             record(stats, || self.visit_step(cur));
@@ -77,7 +99,7 @@ impl<const W: usize> WideBvh<W> {
                 };
                 // SAFETY: a tree only selects a kernel its CPU supports (`set_simd`), and
                 // the entry points below are compiled for it.
-                if unsafe { self.leaf_closest::<K, I, S>(leaf, data, ray, &mut best, stats) } {
+                if unsafe { self.leaf_closest::<K, I, S>(leaf, data, ray, best, stats) } {
                     box_tmax = best.t * T_SCALE;
                 }
             } else {
@@ -143,7 +165,7 @@ impl<const W: usize> WideBvh<W> {
             // Pop the next child the ray can still reach before the best hit.
             loop {
                 match stack.pop() {
-                    None => return best.hit(),
+                    None => return,
                     Some(e) if e.entry <= box_tmax => {
                         record(stats, || pop_step(e));
                         cur = e;
@@ -336,7 +358,7 @@ macro_rules! entry_points {
     ($closest:ident, $occluded:ident, $packets:ident, $kernel:ty, $features:literal) => {
         impl<const W: usize> WideBvh<W>
         where
-            $kernel: WideSlab<W>,
+            $kernel: super::packet::PacketKernels<W>,
         {
             #[target_feature(enable = $features)]
             fn $closest<I: Intersector, S: Stats, const ORDERED: bool>(
@@ -389,10 +411,10 @@ entry_points!(
 
 impl<const W: usize> WideBvh<W>
 where
-    Portable: WideSlab<W>,
-    Sse41: WideSlab<W>,
-    Avx2: WideSlab<W>,
-    Avx512: WideSlab<W>,
+    Portable: WideSlab<W> + IntervalSlab<W>,
+    Sse41: WideSlab<W> + IntervalSlab<W>,
+    Avx2: WideSlab<W> + IntervalSlab<W>,
+    Avx512: WideSlab<W> + IntervalSlab<W>,
 {
     #[inline(always)]
     fn closest_dispatch<I: Intersector, S: Stats, const ORDERED: bool>(
@@ -465,10 +487,10 @@ where
 
 impl<const W: usize> Accel for WideBvh<W>
 where
-    Portable: WideSlab<W>,
-    Sse41: WideSlab<W>,
-    Avx2: WideSlab<W>,
-    Avx512: WideSlab<W>,
+    Portable: WideSlab<W> + IntervalSlab<W>,
+    Sse41: WideSlab<W> + IntervalSlab<W>,
+    Avx2: WideSlab<W> + IntervalSlab<W>,
+    Avx512: WideSlab<W> + IntervalSlab<W>,
 {
     fn closest_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
         self.closest_hit_in::<I, S>(Subtree::ROOT, ray, stats)

@@ -1,0 +1,383 @@
+//! The slab test of one box against a whole packet of rays, SIMD across the rays: the
+//! packet's rays are stored as structures of arrays (`RayPacket`), and one instruction tests
+//! the box against 4 (SSE4.1), 8 (AVX2) or 16 (AVX-512) of them. A packet of 64 rays is
+//! tested in groups of that many; a group without an active ray is skipped.
+//!
+//! Every lane computes the scalar `slab_entry` exactly, as the wide slab kernels do: the near
+//! plane of each axis picked by the sign of that ray's direction (−0.0 counts as negative),
+//! the far distances scaled by 1 + 2γ(3), the same order of max and min, so `max_ps(x, acc)`
+//! is the scalar `max_keep(acc, x)` with its ±0 and NaN rules. Rays of one packet may point
+//! different ways, so the planes are chosen lane by lane (a blend), not once per packet.
+
+use super::slab::{Avx2, Avx512, Portable, Sse41};
+use crate::geometry::Ray;
+use crate::geometry::aabb::FAR_SCALE;
+
+/// Rays per packet: an 8 × 8 tile of pixels.
+pub const PACKET_RAYS: usize = 64;
+
+/// A packet's rays as structures of arrays: row `axis`, lane `i` is ray i's component. Lanes
+/// past the packet's rays are never active.
+#[derive(Clone, Debug)]
+#[repr(C, align(64))]
+pub struct RayPacket {
+    pub origin: [[f32; PACKET_RAYS]; 3],
+    pub dir: [[f32; PACKET_RAYS]; 3],
+    pub inv_dir: [[f32; PACKET_RAYS]; 3],
+    pub tmin: [f32; PACKET_RAYS],
+    /// Each ray's box-test limit: its tmax, or its best hit so far, widened by the caller
+    /// for the rounding of the box test.
+    pub tmax: [f32; PACKET_RAYS],
+    /// Per axis, bit i set where ray i's direction is negative (−0.0 included): its near
+    /// plane is the box's max.
+    pub negative: [u64; 3],
+    /// Bit i set for each ray of the packet.
+    pub rays: u64,
+}
+
+impl RayPacket {
+    /// The packet of `rays` (at most `PACKET_RAYS`), with box-test limits `tmax`. Inlined
+    /// into the traversal, so that its loops use the traversal's vector instructions.
+    #[inline(always)]
+    pub fn new(rays: &[Ray], tmax: impl Fn(&Ray) -> f32) -> Self {
+        let n = rays.len().min(PACKET_RAYS);
+        let mut p = RayPacket {
+            origin: [[0.0; PACKET_RAYS]; 3],
+            dir: [[1.0; PACKET_RAYS]; 3],
+            inv_dir: [[1.0; PACKET_RAYS]; 3],
+            // No ray enters a box in (+∞, −∞): unused lanes stay out even if tested.
+            tmin: [f32::INFINITY; PACKET_RAYS],
+            tmax: [f32::NEG_INFINITY; PACKET_RAYS],
+            negative: [0; 3],
+            rays: if n == PACKET_RAYS {
+                u64::MAX
+            } else {
+                (1u64 << n) - 1
+            },
+        };
+        for (i, r) in rays[..n].iter().enumerate() {
+            for axis in 0..3 {
+                p.origin[axis][i] = r.origin[axis];
+                p.dir[axis][i] = r.direction[axis];
+            }
+            p.tmin[i] = r.tmin;
+            p.tmax[i] = tmax(r);
+        }
+        // Whole rows at once, so that they vectorise.
+        for axis in 0..3 {
+            for (inv, &d) in p.inv_dir[axis].iter_mut().zip(&p.dir[axis]) {
+                *inv = 1.0 / d;
+            }
+            let mut negative = 0u64;
+            for (i, &d) in p.dir[axis].iter().enumerate() {
+                negative |= u64::from(d.to_bits() >> 31) << i;
+            }
+            p.negative[axis] = negative & p.rays;
+        }
+        p
+    }
+
+    /// Rays in the packet (they are its lowest lanes).
+    #[inline(always)]
+    pub fn len(&self) -> usize {
+        self.rays.count_ones() as usize
+    }
+
+    #[inline(always)]
+    pub fn is_empty(&self) -> bool {
+        self.rays == 0
+    }
+
+    /// The largest box-test limit of the packet's rays.
+    #[inline(always)]
+    pub fn largest_tmax(&self) -> f32 {
+        // Unused lanes hold −∞; a plain comparison (no NaN rule) lets the loop vectorise.
+        self.tmax
+            .iter()
+            .fold(f32::NEG_INFINITY, |a, &b| if b > a { b } else { a })
+    }
+}
+
+/// A box as its six planes: min x, min y, min z, max x, max y, max z.
+pub type BoxPlanes = [f32; 6];
+
+/// A slab kernel across the rays of a packet.
+pub trait PacketSlab {
+    /// The rays of `active` whose scalar slab test enters the box within their
+    /// [tmin, tmax], and the smallest entry distance among them (+∞ if none).
+    ///
+    /// # Safety
+    /// The CPU supports the kernel's instruction set (`SimdLevel::supported`).
+    unsafe fn packet_entries(b: &BoxPlanes, p: &RayPacket, active: u64) -> (u64, f32);
+}
+
+#[inline(always)]
+fn max_keep(acc: f32, x: f32) -> f32 {
+    if x > acc { x } else { acc }
+}
+
+#[inline(always)]
+fn min_keep(acc: f32, x: f32) -> f32 {
+    if x < acc { x } else { acc }
+}
+
+impl PacketSlab for Portable {
+    /// The scalar test ray by ray.
+    #[inline(always)]
+    unsafe fn packet_entries(b: &BoxPlanes, p: &RayPacket, active: u64) -> (u64, f32) {
+        let mut hits = 0;
+        let mut nearest = f32::INFINITY;
+        let mut rest = active & p.rays;
+        while rest != 0 {
+            let i = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            let d = |axis: usize, far: bool| {
+                let max = (p.negative[axis] >> i & 1 == 1) != far;
+                let plane = b[axis + 3 * usize::from(max)];
+                (plane - p.origin[axis][i]) * p.inv_dir[axis][i]
+            };
+            let enter = max_keep(
+                max_keep(max_keep(p.tmin[i], d(0, false)), d(1, false)),
+                d(2, false),
+            );
+            let exit = min_keep(
+                min_keep(
+                    min_keep(p.tmax[i], d(0, true) * FAR_SCALE),
+                    d(1, true) * FAR_SCALE,
+                ),
+                d(2, true) * FAR_SCALE,
+            );
+            if enter <= exit {
+                hits |= 1 << i;
+                nearest = nearest.min(enter);
+            }
+        }
+        (hits, nearest)
+    }
+}
+
+/// One group of rays starting at ray `$at`: evaluates to `(enter, exit)` vectors.
+/// `$blend!(near_if_positive, near_if_negative, axis)` picks each lane's plane. Macros rather
+/// than closures: a closure does not inherit the caller's target features, so the
+/// intrinsics in it would not be inlined.
+#[cfg(target_arch = "x86_64")]
+macro_rules! packet_group {
+    ($b:expr, $p:expr, $at:expr, $blend:ident,
+     $load:ident, $set1:ident, $sub:ident, $mul:ident, $max:ident, $min:ident) => {{
+        let (b, p, at) = ($b, $p, $at);
+        let s = $set1(FAR_SCALE);
+        let lo = [$set1(b[0]), $set1(b[1]), $set1(b[2])];
+        let hi = [$set1(b[3]), $set1(b[4]), $set1(b[5])];
+        macro_rules! dist {
+            ($plane:expr, $axis:expr) => {
+                $mul(
+                    $sub($plane, $load(p.origin[$axis][at..].as_ptr())),
+                    $load(p.inv_dir[$axis][at..].as_ptr()),
+                )
+            };
+        }
+        macro_rules! near {
+            ($axis:expr) => {
+                dist!($blend!(lo[$axis], hi[$axis], $axis), $axis)
+            };
+        }
+        macro_rules! far {
+            ($axis:expr) => {
+                $mul(dist!($blend!(hi[$axis], lo[$axis], $axis), $axis), s)
+            };
+        }
+        let enter = $max(
+            near!(2),
+            $max(near!(1), $max(near!(0), $load(p.tmin[at..].as_ptr()))),
+        );
+        let exit = $min(
+            far!(2),
+            $min(far!(1), $min(far!(0), $load(p.tmax[at..].as_ptr()))),
+        );
+        (enter, exit)
+    }};
+}
+
+#[cfg(target_arch = "x86_64")]
+mod x86 {
+    use super::*;
+    use std::arch::x86_64::*;
+
+    impl PacketSlab for Sse41 {
+        #[inline(always)]
+        unsafe fn packet_entries(b: &BoxPlanes, p: &RayPacket, active: u64) -> (u64, f32) {
+            const LANES: usize = 4;
+            // SAFETY: the caller guarantees SSE4.1; every load reads lanes at..at + 4 of
+            // arrays of `PACKET_RAYS`, at a multiple of 4 below it.
+            unsafe {
+                let active = active & p.rays;
+                let mut hits = 0u64;
+                let mut nearest = _mm_set1_ps(f32::INFINITY);
+                let lane_bits = _mm_set_epi32(8, 4, 2, 1);
+                for g in 0..PACKET_RAYS / LANES {
+                    let at = g * LANES;
+                    let bits = (active >> at) as i32 & 0xf;
+                    if bits == 0 {
+                        continue;
+                    }
+                    // The sign bit of 1/d is the sign bit of d: blendv picks by it.
+                    macro_rules! blend {
+                        ($pos:expr, $neg:expr, $axis:expr) => {
+                            _mm_blendv_ps($pos, $neg, _mm_loadu_ps(p.inv_dir[$axis][at..].as_ptr()))
+                        };
+                    }
+                    let (enter, exit) = packet_group!(
+                        b,
+                        p,
+                        at,
+                        blend,
+                        _mm_loadu_ps,
+                        _mm_set1_ps,
+                        _mm_sub_ps,
+                        _mm_mul_ps,
+                        _mm_max_ps,
+                        _mm_min_ps
+                    );
+                    let on = _mm_castsi128_ps(_mm_cmpeq_epi32(
+                        _mm_and_si128(_mm_set1_epi32(bits), lane_bits),
+                        lane_bits,
+                    ));
+                    let hit = _mm_and_ps(_mm_cmple_ps(enter, exit), on);
+                    nearest = _mm_blendv_ps(nearest, _mm_min_ps(enter, nearest), hit);
+                    hits |= (_mm_movemask_ps(hit) as u64) << at;
+                }
+                (hits, min_lane_128(nearest))
+            }
+        }
+    }
+
+    /// The smallest of four lanes (none NaN).
+    #[inline(always)]
+    unsafe fn min_lane_128(v: __m128) -> f32 {
+        // SAFETY: the caller guarantees SSE4.1.
+        unsafe {
+            let v = _mm_min_ps(v, _mm_movehl_ps(v, v));
+            let v = _mm_min_ss(v, _mm_shuffle_ps::<0b01>(v, v));
+            _mm_cvtss_f32(v)
+        }
+    }
+
+    impl PacketSlab for Avx2 {
+        #[inline(always)]
+        unsafe fn packet_entries(b: &BoxPlanes, p: &RayPacket, active: u64) -> (u64, f32) {
+            const LANES: usize = 8;
+            // SAFETY: the caller guarantees AVX2; every load reads lanes at..at + 8 of
+            // arrays of `PACKET_RAYS`, at a multiple of 8 below it.
+            unsafe {
+                let active = active & p.rays;
+                let mut hits = 0u64;
+                let mut nearest = _mm256_set1_ps(f32::INFINITY);
+                let lane_bits = _mm256_set_epi32(128, 64, 32, 16, 8, 4, 2, 1);
+                for g in 0..PACKET_RAYS / LANES {
+                    let at = g * LANES;
+                    let bits = (active >> at) as i32 & 0xff;
+                    if bits == 0 {
+                        continue;
+                    }
+                    macro_rules! blend {
+                        ($pos:expr, $neg:expr, $axis:expr) => {
+                            _mm256_blendv_ps(
+                                $pos,
+                                $neg,
+                                _mm256_loadu_ps(p.inv_dir[$axis][at..].as_ptr()),
+                            )
+                        };
+                    }
+                    let (enter, exit) = packet_group!(
+                        b,
+                        p,
+                        at,
+                        blend,
+                        _mm256_loadu_ps,
+                        _mm256_set1_ps,
+                        _mm256_sub_ps,
+                        _mm256_mul_ps,
+                        _mm256_max_ps,
+                        _mm256_min_ps
+                    );
+                    let on = _mm256_castsi256_ps(_mm256_cmpeq_epi32(
+                        _mm256_and_si256(_mm256_set1_epi32(bits), lane_bits),
+                        lane_bits,
+                    ));
+                    let hit = _mm256_and_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(enter, exit), on);
+                    nearest = _mm256_blendv_ps(nearest, _mm256_min_ps(enter, nearest), hit);
+                    hits |= (_mm256_movemask_ps(hit) as u64) << at;
+                }
+                let halves = _mm_min_ps(
+                    _mm256_castps256_ps128(nearest),
+                    _mm256_extractf128_ps::<1>(nearest),
+                );
+                (hits, min_lane_128(halves))
+            }
+        }
+    }
+
+    impl PacketSlab for Avx512 {
+        #[inline(always)]
+        unsafe fn packet_entries(b: &BoxPlanes, p: &RayPacket, active: u64) -> (u64, f32) {
+            const LANES: usize = 16;
+            // SAFETY: the caller guarantees AVX-512 F (+ VL); every load reads lanes
+            // at..at + 16 of arrays of `PACKET_RAYS`, at a multiple of 16 below it.
+            unsafe {
+                let active = active & p.rays;
+                let mut hits = 0u64;
+                let mut nearest = _mm512_set1_ps(f32::INFINITY);
+                for g in 0..PACKET_RAYS / LANES {
+                    let at = g * LANES;
+                    let bits = (active >> at) as u16;
+                    if bits == 0 {
+                        continue;
+                    }
+                    macro_rules! blend {
+                        ($pos:expr, $neg:expr, $axis:expr) => {
+                            _mm512_mask_blend_ps((p.negative[$axis] >> at) as u16, $pos, $neg)
+                        };
+                    }
+                    let (enter, exit) = packet_group!(
+                        b,
+                        p,
+                        at,
+                        blend,
+                        _mm512_loadu_ps,
+                        _mm512_set1_ps,
+                        _mm512_sub_ps,
+                        _mm512_mul_ps,
+                        _mm512_max_ps,
+                        _mm512_min_ps
+                    );
+                    let hit = _mm512_mask_cmp_ps_mask::<_CMP_LE_OQ>(bits, enter, exit);
+                    nearest = _mm512_mask_min_ps(nearest, hit, enter, nearest);
+                    hits |= u64::from(hit) << at;
+                }
+                (hits, _mm512_reduce_min_ps(nearest))
+            }
+        }
+    }
+}
+
+/// Elsewhere the x86 kernels are never selected (`SimdLevel::supported`); they run the
+/// portable lanes so that code generic over them compiles.
+#[cfg(not(target_arch = "x86_64"))]
+mod elsewhere {
+    use super::*;
+
+    macro_rules! portable_as {
+        ($kernel:ty) => {
+            impl PacketSlab for $kernel {
+                #[inline(always)]
+                unsafe fn packet_entries(b: &BoxPlanes, p: &RayPacket, active: u64) -> (u64, f32) {
+                    // SAFETY: the portable kernel has no requirement.
+                    unsafe { Portable::packet_entries(b, p, active) }
+                }
+            }
+        };
+    }
+    portable_as!(Sse41);
+    portable_as!(Avx2);
+    portable_as!(Avx512);
+}
