@@ -525,7 +525,9 @@ fn under_the_two_levels_a_selected_instances_blas_continues_the_levels_and_the_w
     settle(&mut h);
     let o2 = h.state().instance_outline.clone().unwrap();
     assert_eq!(o2.instance, other_instance);
-    let entered = o2.entry_below(other as u32).expect("the leaf holds the instance");
+    let entered = o2
+        .entry_below(other as u32)
+        .expect("the leaf holds the instance");
     assert_eq!(
         h.state().walk,
         Some(h.state().levels().id(WalkNode::Bottom(entered as usize)))
