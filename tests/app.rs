@@ -467,7 +467,11 @@ fn under_the_two_levels_a_selected_instances_blas_continues_the_levels_and_the_w
     let info = h.state().shown.clone().unwrap().walk.clone().unwrap();
     assert_eq!(info.triangles, 36);
     assert_eq!(info.children.len(), outline_children(&h.state().outline, 0));
-    let leaf = o.tlas_leaf.expect("the instance is in a leaf") as usize;
+    // The instance hangs below each leaf holding one of its references (the whole BLAS, or
+    // with re-braiding a subtree of it): the walk goes down to the first such leaf.
+    let entry = *o.entries.first().expect("the instance is in a leaf");
+    let leaf = entry.tlas_leaf as usize;
+    let below = entry.blas_node as usize;
     let outline = h.state().outline.clone();
     for pair in path_to(&outline, leaf).windows(2) {
         let levels = h.state().levels();
@@ -478,25 +482,32 @@ fn under_the_two_levels_a_selected_instances_blas_continues_the_levels_and_the_w
     settle(&mut h);
     let info = h.state().shown.clone().unwrap().walk.clone().unwrap();
     assert_eq!((info.instance, info.in_blas), (Some(0), false));
-    assert_eq!(info.triangles, o.triangle_count);
-    h.get_by_label_contains("TLAS leaf: instance 0");
+    let under = o.triangles_under(below).len();
+    assert_eq!(info.triangles, under);
+    let whole = below == 0;
+    assert_eq!(info.whole_instance, whole);
+    h.get_by_label_contains(if whole {
+        "TLAS leaf: instance 0"
+    } else {
+        "TLAS leaf: a subtree of instance 0"
+    });
     h.key_press(egui::Key::ArrowLeft);
     settle(&mut h);
-    let root = h.state().levels().id(WalkNode::Bottom(0));
-    assert_eq!(h.state().walk, Some(root));
+    let node = h.state().levels().id(WalkNode::Bottom(below));
+    assert_eq!(h.state().walk, Some(node));
     let info = h.state().shown.clone().unwrap().walk.clone().unwrap();
     assert_eq!(
         (info.node, info.in_blas, info.instance),
-        (root, true, Some(0))
+        (node, true, Some(0))
     );
-    assert_eq!(info.depth, top + 1);
-    assert_eq!(info.triangles, o.triangle_count);
-    let expected: Vec<usize> = o.blas.nodes[0]
+    assert_eq!(info.depth, top + 1 + o.blas.nodes[below].depth);
+    assert_eq!(info.triangles, under);
+    let expected: Vec<usize> = o.blas.nodes[below]
         .children()
         .map(|c| h.state().levels().id(WalkNode::Bottom(c)) as usize)
         .collect();
     assert_eq!(info.children, expected);
-    h.get_by_label(&format!("{root} (BLAS of instance 0)"));
+    h.get_by_label(&format!("{node} (BLAS of instance 0)"));
     h.key_press(egui::Key::ArrowUp);
     settle(&mut h);
     assert_eq!(h.state().walk, Some(leaf as u32));
@@ -514,10 +525,12 @@ fn under_the_two_levels_a_selected_instances_blas_continues_the_levels_and_the_w
     settle(&mut h);
     let o2 = h.state().instance_outline.clone().unwrap();
     assert_eq!(o2.instance, other_instance);
-    assert_eq!(o2.tlas_leaf, Some(other as u32));
+    let entered = o2
+        .entry_below(other as u32)
+        .expect("the leaf holds the instance");
     assert_eq!(
         h.state().walk,
-        Some(h.state().levels().id(WalkNode::Bottom(0)))
+        Some(h.state().levels().id(WalkNode::Bottom(entered as usize)))
     );
 
     // Clicking an object with the move tool selects its instance; after a drag the panel

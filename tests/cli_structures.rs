@@ -122,6 +122,68 @@ fn single_structure_bench_json_keeps_its_keys_and_adds_the_structure() {
     }
 }
 
+/// `--rebraid f` reaches the two levels' build: `bench --json` reports the budget and the
+/// top level's references (one per object with 0), `stats` the opened instances, and a
+/// budget out of range is an error naming it.
+#[test]
+fn rebraid_sets_the_two_levels_references_and_bad_budgets_are_errors() {
+    let references = |rebraid: &str| {
+        let mut args = vec![
+            "bench",
+            "--scene",
+            "cornell",
+            "--accel",
+            "two-level",
+            "--rebraid",
+            rebraid,
+            "--json",
+        ];
+        args.extend(SMALL_BENCH);
+        let out = bvhlab(&args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(json["rebraid"].as_f64(), rebraid.parse().ok());
+        json["references"].as_u64().expect("references")
+    };
+    // The Cornell box's objects, each one instance of its own mesh.
+    let objects = bvhlab::scene::Scene::load("cornell").unwrap().objects.len() as u64;
+    assert_eq!(references("0"), objects);
+    let opened = references("1");
+    assert!(opened > objects, "{opened} references");
+    let out = bvhlab(&["stats", "--scene", "cornell", "--accel", "two-level"]);
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        text.contains(&format!("TLAS references          {opened}")),
+        "{text}"
+    );
+    assert!(text.contains("instances opened; budget 1 × max("), "{text}");
+    let out = bvhlab(&[
+        "stats",
+        "--scene",
+        "cornell",
+        "--accel",
+        "two-level",
+        "--rebraid",
+        "0",
+    ]);
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(text.contains("off (one reference per instance)"), "{text}");
+    for bad in ["17", "-1", "NaN"] {
+        let flag = format!("--rebraid={bad}");
+        let out = bvhlab(&["stats", "--scene", "cornell", "--accel", "two-level", &flag]);
+        assert!(!out.status.success(), "{flag}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains(&format!("re-braiding budget {bad} is outside 0..=16")),
+            "{err}"
+        );
+    }
+}
+
 #[test]
 fn every_building_subcommand_takes_accel_and_all_is_for_bench_only() {
     let dir = std::env::temp_dir().join(format!("bvhlab-cli-structures-{}", std::process::id()));

@@ -587,7 +587,12 @@ fn walk_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                     ui.label("node");
                     ui.label(match (info.in_blas, info.instance) {
                         (true, Some(i)) => format!("{} (BLAS of instance {i})", info.node),
-                        (false, Some(i)) => format!("{} (TLAS leaf: instance {i})", info.node),
+                        (false, Some(i)) if info.whole_instance => {
+                            format!("{} (TLAS leaf: instance {i})", info.node)
+                        }
+                        (false, Some(i)) => {
+                            format!("{} (TLAS leaf: a subtree of instance {i})", info.node)
+                        }
                         _ => info.node.to_string(),
                     });
                     ui.end_row();

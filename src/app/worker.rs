@@ -143,6 +143,9 @@ pub struct WalkInfo {
     /// top-level leaf holds (`in_blas` tells which).
     pub instance: Option<usize>,
     pub in_blas: bool,
+    /// A top-level leaf's reference is its instance's whole BLAS (not a subtree that
+    /// re-braiding opened).
+    pub whole_instance: bool,
     pub triangles: usize,
     pub surface_area: f32,
     /// For an interior node, C = C_trav + Σ S_child/S_N·N_child·C_isect; for a leaf,
@@ -1090,11 +1093,19 @@ impl State {
             return None;
         };
         let n = &outline.nodes[node];
+        let whole_instance = match (&self.structure, self.leaf_references.get(node)) {
+            (Some(Structure::TwoLevel(tl)), Some(&r)) => tl
+                .references
+                .get(r as usize)
+                .is_some_and(|r| r.subtree == crate::accel::bvh::Subtree::ROOT),
+            _ => false,
+        };
         let mut info = WalkInfo {
             node: id,
             depth: n.depth,
             instance: self.leaf_instance(node),
             in_blas: false,
+            whole_instance,
             surface_area: n.bounds.surface_area(),
             triangles: 0,
             sah_cost: 0.0,
@@ -1262,6 +1273,7 @@ impl State {
             depth: levels.depth(WalkNode::Bottom(k)),
             instance: Some(inst.instance),
             in_blas: true,
+            whole_instance: false,
             surface_area: n.bounds.surface_area(),
             triangles: 0,
             sah_cost: 0.0,

@@ -18,6 +18,7 @@
 //! reference, its BLAS's root: the top level over whole instances.
 
 use super::WORLD_BOX_DEPTH;
+use crate::accel::bvh::wide::WideNode;
 use crate::accel::bvh::{Bvh8, Subtree};
 use crate::geometry::Aabb;
 use crate::scene::Instance;
@@ -129,9 +130,25 @@ pub fn references(blases: &[Bvh8], instances: &[Instance], rebraid: f32) -> Vec<
         .min(MAX_REFERENCES.saturating_sub(placed.len()) as f64) as usize;
     if extra > 0 {
         open_largest(blases, instances, &mut placed, extra);
+        // The opened references' boxes, made from their nodes' boxes further down.
+        placed
+            .par_iter_mut()
+            .with_min_len(1024)
+            .filter(|p| p.reference.subtree != Subtree::ROOT)
+            .for_each(|p| p.bounds = p.reference.world_box(instances, blases));
     }
     placed.sort_unstable_by_key(|p| (p.reference.instance, p.reference.subtree));
     placed
+}
+
+/// `subtree`'s box placed by `instance` from its own box alone (its eight corners placed):
+/// what opening ranks it by, one transform where `placed_box` may make 64.
+fn rough_box(instance: &Instance, parent: &WideNode<8>, lane: usize) -> Aabb {
+    let object = parent.child_bounds(lane);
+    match instance.is_identity() {
+        true => object,
+        false => instance.world_bounds(&object),
+    }
 }
 
 /// Opens the references with the largest world boxes first until one more opening would
@@ -161,6 +178,7 @@ fn open_largest(blases: &[Bvh8], instances: &[Instance], placed: &mut Vec<Placed
         if placed.len() + lanes - 1 > budget {
             break;
         }
+        let node = &blas.nodes[r.subtree.child as usize];
         for (n, subtree) in blas.subtree_children(r.subtree).enumerate() {
             let child = Placed {
                 reference: Reference {
@@ -171,7 +189,7 @@ fn open_largest(blases: &[Bvh8], instances: &[Instance], placed: &mut Vec<Placed
                         false => under[instance.mesh][subtree.child as usize],
                     },
                 },
-                bounds: placed_box(instance, blas, subtree),
+                bounds: rough_box(instance, node, n),
             };
             // The first child takes the opened reference's place, the others come after.
             let at = if n == 0 {
