@@ -4,7 +4,9 @@ use glam::Vec3;
 
 /// A ray `origin + t · direction` for t in the open interval (`tmin`, `tmax`).
 /// The direction need not be normalised; t is measured in units of it.
+/// `repr(C)`: a packet loads rays as eight floats each (`simd::ray_packet`).
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct Ray {
     pub origin: Vec3,
     pub direction: Vec3,

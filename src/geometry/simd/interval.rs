@@ -4,7 +4,7 @@
 //! bit for bit, only never cull a box that one of the rays' own slab tests enters (see
 //! `frustum`: the rounded products are monotonic in the reciprocal direction).
 
-use super::packet::RayPacket;
+use super::ray_packet::{ORIGIN, RayPacket, TMIN, max, min};
 use super::slab::{Avx2, Avx512, Portable, Sse41};
 use crate::geometry::aabb::FAR_SCALE;
 
@@ -27,8 +27,7 @@ impl WideInterval {
     /// sign within the packet, or a reciprocal is zero or not finite.
     #[inline(always)]
     pub fn of_packet(p: &RayPacket) -> Option<WideInterval> {
-        let n = p.len();
-        if n == 0 {
+        if p.is_empty() {
             return None;
         }
         let mut iv = WideInterval {
@@ -37,15 +36,15 @@ impl WideInterval {
             inv_hi: [0.0; 3],
             near: [0; 3],
             far: [0; 3],
-            // Plain comparisons and `&` rather than `f32::min` and `all`: the loops vectorise.
-            tmin: p.tmin[..n]
-                .iter()
-                .fold(f32::INFINITY, |a, &b| if b < a { b } else { a }),
+            tmin: min(p.row(TMIN)),
         };
+        let n = p.len();
         for axis in 0..3 {
-            let o = p.origin[axis][0];
-            let same = p.origin[axis][..n].iter().fold(true, |a, &b| a & (b == o));
+            let origin = p.row(ORIGIN + axis);
+            let o = origin[0];
             let inv = &p.inv_dir[axis][..n];
+            // `&` rather than `all`: the loops vectorise.
+            let same = origin.iter().fold(true, |a, &b| a & (b == o));
             let usable = inv
                 .iter()
                 .fold(true, |a, &b| a & b.is_finite() & (b != 0.0));
@@ -54,12 +53,8 @@ impl WideInterval {
                 return None;
             }
             iv.origin[axis] = o;
-            iv.inv_lo[axis] = inv
-                .iter()
-                .fold(f32::INFINITY, |a, &b| if b < a { b } else { a });
-            iv.inv_hi[axis] = inv
-                .iter()
-                .fold(f32::NEG_INFINITY, |a, &b| if b > a { b } else { a });
+            iv.inv_lo[axis] = min(inv);
+            iv.inv_hi[axis] = max(inv);
             let max = usize::from(negative != 0);
             iv.near[axis] = axis + 3 * max;
             iv.far[axis] = axis + 3 * (1 - max);

@@ -10,12 +10,14 @@
 pub mod interval;
 pub mod packet;
 pub mod packet_triangle;
+pub mod ray_packet;
 pub mod slab;
 pub mod triangle;
 
 pub use interval::{IntervalSlab, WideInterval};
-pub use packet::{PACKET_RAYS, PacketSlab, RayPacket};
+pub use packet::PacketSlab;
 pub use packet_triangle::{PacketBest, PacketHits, PacketShear, PacketTriangleKernel};
+pub use ray_packet::{PACKET_RAYS, RayLoad, RayPacket};
 pub use slab::{WideRay, WideSlab};
 pub use triangle::{BLOCK, BlockHits, TriangleBlock, TriangleKernel};
 

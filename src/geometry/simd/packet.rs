@@ -9,94 +9,9 @@
 //! is the scalar `max_keep(acc, x)` with its ±0 and NaN rules. Rays of one packet may point
 //! different ways, so the planes are chosen lane by lane (a blend), not once per packet.
 
+use super::ray_packet::{ORIGIN, PACKET_RAYS, RayPacket, TMIN};
 use super::slab::{Avx2, Avx512, Portable, Sse41};
-use crate::geometry::Ray;
 use crate::geometry::aabb::FAR_SCALE;
-
-/// Rays per packet: an 8 × 8 tile of pixels.
-pub const PACKET_RAYS: usize = 64;
-
-/// A packet's rays as structures of arrays: row `axis`, lane `i` is ray i's component. Lanes
-/// past the packet's rays are never active.
-#[derive(Clone, Debug)]
-#[repr(C, align(64))]
-pub struct RayPacket {
-    pub origin: [[f32; PACKET_RAYS]; 3],
-    pub dir: [[f32; PACKET_RAYS]; 3],
-    pub inv_dir: [[f32; PACKET_RAYS]; 3],
-    pub tmin: [f32; PACKET_RAYS],
-    /// Each ray's box-test limit: its tmax, or its best hit so far, widened by the caller
-    /// for the rounding of the box test.
-    pub tmax: [f32; PACKET_RAYS],
-    /// Per axis, bit i set where ray i's direction is negative (−0.0 included): its near
-    /// plane is the box's max.
-    pub negative: [u64; 3],
-    /// Bit i set for each ray of the packet.
-    pub rays: u64,
-}
-
-impl RayPacket {
-    /// The packet of `rays` (at most `PACKET_RAYS`), with box-test limits `tmax`. Inlined
-    /// into the traversal, so that its loops use the traversal's vector instructions.
-    #[inline(always)]
-    pub fn new(rays: &[Ray], tmax: impl Fn(&Ray) -> f32) -> Self {
-        let n = rays.len().min(PACKET_RAYS);
-        let mut p = RayPacket {
-            origin: [[0.0; PACKET_RAYS]; 3],
-            dir: [[1.0; PACKET_RAYS]; 3],
-            inv_dir: [[1.0; PACKET_RAYS]; 3],
-            // No ray enters a box in (+∞, −∞): unused lanes stay out even if tested.
-            tmin: [f32::INFINITY; PACKET_RAYS],
-            tmax: [f32::NEG_INFINITY; PACKET_RAYS],
-            negative: [0; 3],
-            rays: if n == PACKET_RAYS {
-                u64::MAX
-            } else {
-                (1u64 << n) - 1
-            },
-        };
-        for (i, r) in rays[..n].iter().enumerate() {
-            for axis in 0..3 {
-                p.origin[axis][i] = r.origin[axis];
-                p.dir[axis][i] = r.direction[axis];
-            }
-            p.tmin[i] = r.tmin;
-            p.tmax[i] = tmax(r);
-        }
-        // Whole rows at once, so that they vectorise.
-        for axis in 0..3 {
-            for (inv, &d) in p.inv_dir[axis].iter_mut().zip(&p.dir[axis]) {
-                *inv = 1.0 / d;
-            }
-            let mut negative = 0u64;
-            for (i, &d) in p.dir[axis].iter().enumerate() {
-                negative |= u64::from(d.to_bits() >> 31) << i;
-            }
-            p.negative[axis] = negative & p.rays;
-        }
-        p
-    }
-
-    /// Rays in the packet (they are its lowest lanes).
-    #[inline(always)]
-    pub fn len(&self) -> usize {
-        self.rays.count_ones() as usize
-    }
-
-    #[inline(always)]
-    pub fn is_empty(&self) -> bool {
-        self.rays == 0
-    }
-
-    /// The largest box-test limit of the packet's rays.
-    #[inline(always)]
-    pub fn largest_tmax(&self) -> f32 {
-        // Unused lanes hold −∞; a plain comparison (no NaN rule) lets the loop vectorise.
-        self.tmax
-            .iter()
-            .fold(f32::NEG_INFINITY, |a, &b| if b > a { b } else { a })
-    }
-}
 
 /// A box as its six planes: min x, min y, min z, max x, max y, max z.
 pub type BoxPlanes = [f32; 6];
@@ -134,10 +49,10 @@ impl PacketSlab for Portable {
             let d = |axis: usize, far: bool| {
                 let max = (p.negative[axis] >> i & 1 == 1) != far;
                 let plane = b[axis + 3 * usize::from(max)];
-                (plane - p.origin[axis][i]) * p.inv_dir[axis][i]
+                (plane - p.ray[ORIGIN + axis][i]) * p.inv_dir[axis][i]
             };
             let enter = max_keep(
-                max_keep(max_keep(p.tmin[i], d(0, false)), d(1, false)),
+                max_keep(max_keep(p.ray[TMIN][i], d(0, false)), d(1, false)),
                 d(2, false),
             );
             let exit = min_keep(
@@ -171,7 +86,7 @@ macro_rules! packet_group {
         macro_rules! dist {
             ($plane:expr, $axis:expr) => {
                 $mul(
-                    $sub($plane, $load(p.origin[$axis][at..].as_ptr())),
+                    $sub($plane, $load(p.ray[ORIGIN + $axis][at..].as_ptr())),
                     $load(p.inv_dir[$axis][at..].as_ptr()),
                 )
             };
@@ -188,7 +103,7 @@ macro_rules! packet_group {
         }
         let enter = $max(
             near!(2),
-            $max(near!(1), $max(near!(0), $load(p.tmin[at..].as_ptr()))),
+            $max(near!(1), $max(near!(0), $load(p.ray[TMIN][at..].as_ptr()))),
         );
         let exit = $min(
             far!(2),

@@ -13,11 +13,10 @@
 //! a hit at exactly the best distance (a tie, decided by the triangle index) and the lanes
 //! handed back, go to the caller (`PacketHits::rest`), which decides them one ray at a time.
 
-use super::packet::{PACKET_RAYS, RayPacket};
+use super::ray_packet::{DIR, ORIGIN, PACKET_RAYS, RayPacket, TMAX, TMIN};
 use super::slab::{Avx2, Avx512, Portable, Sse41};
-use crate::geometry::Ray;
 use crate::geometry::gamma;
-use crate::geometry::intersect::{shear_axes, shear_axes_of};
+use crate::geometry::intersect::shear_axes_of;
 use glam::Vec3;
 
 /// The packet's rays in the watertight test's terms: each ray's shear as structures of
@@ -40,22 +39,43 @@ impl PacketShear {
             s: [[0.0; PACKET_RAYS]; 3],
             by_axis: [0; 3],
         };
-        // Each ray's direction components d_kx, d_ky, d_kz (unused lanes: 1).
+        let [dx, dy, dz] = [&p.ray[DIR], &p.ray[DIR + 1], &p.ray[DIR + 2]];
+        // Each ray's largest axis kz (`shear_axes`), with selects rather than branches, and
+        // its components d_kx, d_ky, d_kz: whole rows at once, so that they vectorise.
+        let mut kz = [0u8; PACKET_RAYS];
         let mut dk = [[1.0f32; PACKET_RAYS]; 3];
-        for i in 0..p.len() {
-            let d = Vec3::new(p.dir[0][i], p.dir[1][i], p.dir[2][i]);
-            let k = shear_axes(d);
-            for (row, &axis) in dk.iter_mut().zip(&k) {
-                row[i] = d[axis];
-            }
-            shear.by_axis[k[2]] |= 1 << i;
+        for i in 0..PACKET_RAYS {
+            let (x, y, z) = (dx[i], dy[i], dz[i]);
+            let (ax, ay, az) = (x.abs(), y.abs(), z.abs());
+            let on_x = ax >= ay && ax >= az;
+            let on_y = !on_x && ay >= az;
+            kz[i] = if on_x {
+                0
+            } else if on_y {
+                1
+            } else {
+                2
+            };
+            // (kx, ky, kz) = (1, 2, 0), (2, 0, 1) or (0, 1, 2).
+            let (a, b, c) = if on_x {
+                (y, z, x)
+            } else if on_y {
+                (z, x, y)
+            } else {
+                (x, y, z)
+            };
+            dk[0][i] = a;
+            dk[1][i] = b;
+            dk[2][i] = c;
         }
-        // Whole rows at once, so that the divisions vectorise.
         let [sx, sy, sz] = &mut shear.s;
         for i in 0..PACKET_RAYS {
             sx[i] = -dk[0][i] / dk[2][i];
             sy[i] = -dk[1][i] / dk[2][i];
             sz[i] = 1.0 / dk[2][i];
+        }
+        for (i, &k) in kz.iter().enumerate().take(p.len()) {
+            shear.by_axis[usize::from(k)] |= 1 << i;
         }
         shear
     }
@@ -79,20 +99,15 @@ pub struct PacketBest {
 impl PacketBest {
     /// No hit yet: each ray's best distance and limit are its tmax.
     #[inline(always)]
-    pub fn new(rays: &[Ray]) -> Self {
-        let mut best = PacketBest {
-            t: [f32::INFINITY; PACKET_RAYS],
-            limit: [f32::INFINITY; PACKET_RAYS],
+    pub fn new(p: &RayPacket) -> Self {
+        PacketBest {
+            t: p.ray[TMAX],
+            limit: p.ray[TMAX],
             u: [0.0; PACKET_RAYS],
             v: [0.0; PACKET_RAYS],
             triangle: [u32::MAX; PACKET_RAYS],
             found: 0,
-        };
-        for (i, r) in rays.iter().enumerate().take(PACKET_RAYS) {
-            best.t[i] = r.tmax;
-            best.limit[i] = r.tmax;
         }
-        best
     }
 
     /// `BestHit::offer` for ray `i`: keeps the hit if it is closer than the best so far, or
@@ -185,7 +200,7 @@ impl PacketTriangleKernel for Portable {
             let i = lanes.trailing_zeros() as usize;
             lanes &= lanes - 1;
             let s = Vec3::new(shear.s[0][i], shear.s[1][i], shear.s[2][i]);
-            let o = [p.origin[0][i], p.origin[1][i], p.origin[2][i]];
+            let o = [p.ray[ORIGIN][i], p.ray[ORIGIN + 1][i], p.ray[ORIGIN + 2][i]];
             let rel = |k: usize| {
                 let q = &tri[k];
                 Vec3::new(q[kx] - o[kx], q[ky] - o[ky], q[kz] - o[kz])
@@ -203,7 +218,7 @@ impl PacketTriangleKernel for Portable {
             let (az, bz, cz) = (s.z * a.z, s.z * b.z, s.z * c.z);
             let inv_det = 1.0 / det;
             let t = (e0 * az + e1 * bz + e2 * cz) * inv_det;
-            let inside = !outside && det != 0.0 && t > p.tmin[i] && t < best.limit[i];
+            let inside = !outside && det != 0.0 && t > p.ray[TMIN][i] && t < best.limit[i];
             let max_z = az.abs().max(bz.abs()).max(cz.abs());
             let max_qz = a.z.abs().max(b.z.abs()).max(c.z.abs());
             let max_x = ax.abs().max(bx.abs()).max(cx.abs());
@@ -262,9 +277,9 @@ macro_rules! watertight_rays {
             $load(shear.s[2][at..].as_ptr()),
         );
         let (ox, oy, oz) = (
-            $load(p.origin[kx][at..].as_ptr()),
-            $load(p.origin[ky][at..].as_ptr()),
-            $load(p.origin[kz][at..].as_ptr()),
+            $load(p.ray[ORIGIN + kx][at..].as_ptr()),
+            $load(p.ray[ORIGIN + ky][at..].as_ptr()),
+            $load(p.ray[ORIGIN + kz][at..].as_ptr()),
         );
         // Vertex k relative to each origin, permuted and sheared: (x, y, unscaled z).
         macro_rules! vertex {
@@ -305,7 +320,7 @@ macro_rules! watertight_rays {
             $mand!(
                 $neq!(det, zero),
                 $mand!(
-                    $gt!(t, $load(p.tmin[at..].as_ptr())),
+                    $gt!(t, $load(p.ray[TMIN][at..].as_ptr())),
                     $lt!(t, $load(limit[at..].as_ptr()))
                 )
             )

@@ -35,7 +35,7 @@ use crate::geometry::simd::packet::BoxPlanes;
 use crate::geometry::simd::packet_triangle::TriangleVertices;
 use crate::geometry::simd::{
     BLOCK, IntervalSlab, PACKET_RAYS, PacketBest, PacketHits, PacketShear, PacketSlab,
-    PacketTriangleKernel, RayPacket, TriangleKernel, WideInterval, WideRay, WideSlab,
+    PacketTriangleKernel, RayLoad, RayPacket, TriangleKernel, WideInterval, WideRay, WideSlab,
 };
 use crate::geometry::{Intersector, Ray};
 use std::mem::MaybeUninit;
@@ -46,12 +46,12 @@ pub const HYBRID_RAYS: u32 = 2;
 
 /// The traits a SIMD level's kernels implement for the packet traversal.
 pub trait PacketKernels<const W: usize>:
-    WideSlab<W> + IntervalSlab<W> + TriangleKernel + PacketSlab + PacketTriangleKernel
+    WideSlab<W> + IntervalSlab<W> + TriangleKernel + RayLoad + PacketSlab + PacketTriangleKernel
 {
 }
 
 impl<const W: usize, K> PacketKernels<W> for K where
-    K: WideSlab<W> + IntervalSlab<W> + TriangleKernel + PacketSlab + PacketTriangleKernel
+    K: WideSlab<W> + IntervalSlab<W> + TriangleKernel + RayLoad + PacketSlab + PacketTriangleKernel
 {
 }
 
@@ -157,12 +157,14 @@ impl<const W: usize> WideBvh<W> {
             return;
         }
         let rays = &rays[..n];
-        let soa = RayPacket::new(rays, |r| r.tmax * T_SCALE);
+        // SAFETY: a tree only selects a kernel its CPU supports (`set_simd`), and the entry
+        // points are compiled for it.
+        let soa = unsafe { RayPacket::load::<K>(rays, T_SCALE) };
         let mut p = Packet {
             rays,
             // The watertight test has a form that tests one triangle against many rays.
             shear: I::PACKET_TEST.then(|| PacketShear::new(&soa)),
-            best: PacketBest::new(rays),
+            best: PacketBest::new(&soa),
             soa,
             hits: PacketHits::default(),
             found: 0,
