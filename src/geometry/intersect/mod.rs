@@ -38,17 +38,17 @@ pub trait Intersector: Copy + Default + Send + Sync + 'static {
         tmax: f32,
     ) -> Option<TriangleHit>;
 
+    /// Whether the test has a packet form that tests one triangle against many rays at
+    /// once with its answers bit for bit (`simd::packet_triangle`, the watertight test's);
+    /// without one a packet's leaves test ray by ray.
+    const PACKET_TEST: bool = false;
+
     /// The four triangles of a wide leaf's block at once with the SIMD kernel `K`, where the
     /// test has a block form that gives its own answers bit for bit; lanes it leaves to
     /// `intersect` are marked `retest`. By default every lane is: the test runs lane by lane.
     ///
     /// # Safety
     /// The CPU supports K's instruction set (`SimdLevel::supported`).
-    /// Whether the test has a packet form that tests one triangle against many rays at
-    /// once with its answers bit for bit (`simd::packet_triangle`, the watertight test's);
-    /// without one a packet's leaves test ray by ray.
-    const PACKET_TEST: bool = false;
-
     #[inline(always)]
     unsafe fn intersect_block<K: TriangleKernel>(
         _data: &Self::RayData,

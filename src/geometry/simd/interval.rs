@@ -77,6 +77,7 @@ impl<const W: usize> IntervalSlab<W> for Portable {
     #[inline(always)]
     unsafe fn maybe_entered(b: &[[f32; W]; 6], iv: &WideInterval, tmax: f32) -> u32 {
         let mut mask = 0;
+        #[allow(clippy::needless_range_loop)] // lane i of six rows
         for i in 0..W {
             let mut enter = iv.tmin;
             let mut exit = tmax;
@@ -88,7 +89,11 @@ impl<const W: usize> IntervalSlab<W> for Portable {
                 enter = enter.max((near * lo).min(near * hi));
                 exit = exit.min((far * lo).max(far * hi) * FAR_SCALE);
             }
-            mask |= u32::from(!(enter > exit)) << i;
+            // Not `enter <= exit`: a NaN bound keeps the child (the interval cannot rule
+            // it out).
+            #[allow(clippy::neg_cmp_op_on_partial_ord)]
+            let kept = !(enter > exit);
+            mask |= u32::from(kept) << i;
         }
         mask
     }
