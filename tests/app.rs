@@ -88,6 +88,35 @@ fn choosing_lbvh_with_treelets_rebuilds_with_its_rounds() {
 }
 
 #[test]
+fn the_overlap_penalty_slider_rebuilds_the_sbvh_with_it() {
+    let mut h = app("walls-rotated:60");
+    h.get_by_label("SBVH (spatial splits)").click();
+    settle(&mut h);
+    let plain = h.state().bvh_report.clone().expect("rebuilt");
+    assert_eq!(plain.params.strategy, Strategy::Sbvh);
+    assert_eq!(plain.params.overlap_penalty, 0.0);
+    h.get_by_role_and_label(egui::accesskit::Role::Slider, "overlap penalty κ")
+        .set_value_accesskit(1.0);
+    settle(&mut h);
+    let r = h.state().bvh_report.clone().expect("rebuilt");
+    assert_eq!(r.params.overlap_penalty, 1.0);
+    let expected = build(
+        &bvhlab::scene::Scene::load("walls-rotated:60")
+            .unwrap()
+            .triangles,
+        &BuildParams {
+            strategy: Strategy::Sbvh,
+            overlap_penalty: 1.0,
+            ..Default::default()
+        },
+    )
+    .unwrap()
+    .1;
+    assert_eq!(r.tree.sah_cost, expected.tree.sah_cost);
+    assert_ne!(r.tree.sah_cost, plain.tree.sah_cost);
+}
+
+#[test]
 fn stepping_levels_changes_the_overlay() {
     let mut h = app("cornell");
     let plain = h.state().shown.clone().expect("frame").rgba.clone();

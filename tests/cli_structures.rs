@@ -385,6 +385,68 @@ fn treelet_flags_reach_the_build_and_bad_values_are_errors() {
     }
 }
 
+/// `--overlap-penalty` reaches the SBVH: the report names κ, the JSON carries it, the
+/// builder's label says it, and values outside 0..=16 are refused with the parameter's name.
+#[test]
+fn the_overlap_penalty_reaches_the_sbvh_and_bad_values_are_errors() {
+    let out = bvhlab(&[
+        "stats",
+        "--scene",
+        "walls-rotated",
+        "--builder",
+        "sbvh",
+        "--overlap-penalty",
+        "1",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert!(
+        text.lines()
+            .any(|l| l.contains("overlap penalty κ") && l.trim_end().ends_with(" 1")),
+        "{text}"
+    );
+    let mut args = vec![
+        "bench",
+        "--scene",
+        "walls-rotated:50",
+        "--accel",
+        "bvh",
+        "--builder",
+        "sbvh",
+        "--overlap-penalty",
+        "2",
+        "--json",
+    ];
+    args.extend(SMALL_BENCH);
+    let out = bvhlab(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(json["overlap_penalty"], 2.0);
+    assert_eq!(json["builder"], "SBVH (κ = 2; budget 1 N)");
+    for bad in ["-1", "17", "NaN"] {
+        let flag = format!("--overlap-penalty={bad}");
+        let out = bvhlab(&[
+            "stats",
+            "--scene",
+            "walls-rotated",
+            "--builder",
+            "sbvh",
+            &flag,
+        ]);
+        assert!(!out.status.success(), "{bad} accepted");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains("overlap penalty κ"), "{bad}: {stderr}");
+    }
+}
+
 #[test]
 fn tradeoff_and_rotation_sweep_write_their_csv_and_plot() {
     let dir = std::env::temp_dir().join(format!("bvhlab-tradeoff-{}", std::process::id()));

@@ -14,6 +14,7 @@
 use super::prim::PrimRef;
 use crate::geometry::clip::clipped_bounds;
 use crate::geometry::{Aabb, Triangle};
+use rayon::iter::Either;
 use rayon::prelude::*;
 
 /// Levels of the grid, as the LBVH's Morton codes have per axis.
@@ -120,9 +121,29 @@ pub fn references(triangles: &[Triangle], budget: f32) -> Vec<PrimRef> {
     if total <= 0.0 {
         return whole();
     }
-    // s_t = ⌊D · p_t⌋ with the largest D whose splits fit the budget (bisection; D = budget
-    // / Σp always fits). Triangles of equal priority cross each step together, so what the
-    // steps leave of the budget goes one split each to the largest remainders D · p_t − s_t.
+    let splits = apportion(&priorities, total, extra);
+    triangles
+        .par_iter()
+        .zip(&splits)
+        .enumerate()
+        .flat_map_iter(|(i, (t, &s))| {
+            if s == 0 {
+                // Most triangles: their whole box, without a vector of pieces.
+                return Either::Left(std::iter::once(PrimRef::new(t.bounds(), i as u32)));
+            }
+            let mut out = Vec::new();
+            split(t, i as u32, t.bounds(), s, &grid, &mut out);
+            Either::Right(out.into_iter())
+        })
+        .collect()
+}
+
+/// `extra` splits shared out in proportion to `priorities` (summing to `total`):
+/// s_t = ⌊D · p_t⌋ with the largest D whose splits fit the budget (bisection; D = budget / Σp
+/// always fits). Triangles of equal priority cross each step together, so what the steps
+/// leave of the budget goes one split each to the largest remainders D · p_t − s_t, ties to
+/// the lower index. The same on any number of threads.
+fn apportion(priorities: &[f64], total: f64, extra: u64) -> Vec<u64> {
     let splits_for = |d: f64| -> u64 { priorities.par_iter().map(|&p| (d * p) as u64).sum() };
     let (mut lo, mut hi) = (extra as f64 / total, 2.0 * extra as f64 / total);
     while splits_for(hi) <= extra {
@@ -147,21 +168,18 @@ pub fn references(triangles: &[Triangle], budget: f32) -> Vec<PrimRef> {
             .filter(|(_, p)| **p > 0.0)
             .map(|(i, &p)| (d * p - (d * p).floor(), i as u32))
             .collect();
-        by_remainder.par_sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-        for &(_, i) in by_remainder.iter().take(left) {
+        // Only the `left` largest are needed, in no particular order: a selection, not a sort.
+        let largest_first =
+            |a: &(f64, u32), b: &(f64, u32)| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1));
+        let left = left.min(by_remainder.len());
+        if left < by_remainder.len() {
+            by_remainder.select_nth_unstable_by(left, largest_first);
+        }
+        for &(_, i) in &by_remainder[..left] {
             splits[i as usize] += 1;
         }
     }
-    triangles
-        .par_iter()
-        .zip(&splits)
-        .enumerate()
-        .flat_map_iter(|(i, (t, &s))| {
-            let mut out = Vec::new();
-            split(t, i as u32, t.bounds(), s, &grid, &mut out);
-            out
-        })
-        .collect()
+    splits
 }
 
 /// Cuts the reference (`t`, `bounds`) with `splits` more cuts, each at the most important
