@@ -255,8 +255,7 @@ impl TwoLevel {
     }
 
     /// Builds the top level again over the instances where they are now (after moves,
-    /// whose refits loosen it): the BLASes stay.
-    /// The references are opened anew for where the instances are now.
+    /// whose refits loosen it), its references opened anew: the BLASes stay.
     pub fn rebuild_top_level(&mut self) -> Result<(), BuildError> {
         let (mut tlas, references) = build_tlas(&self.blases, &self.instances, &self.params)?;
         tlas.order = self.order;
