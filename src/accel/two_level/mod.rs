@@ -229,31 +229,33 @@ impl TwoLevel {
     pub fn move_instance(&mut self, i: usize, transform: Affine3A) -> Result<(), MoveError> {
         let instance = self.instances.get_mut(i).ok_or(MoveError::NoInstance(i))?;
         let old = std::mem::replace(instance, Instance::new(instance.mesh, transform)?);
-        let refs = self.references_of(i);
-        let finite = self.references[refs.clone()].iter().all(|r| {
-            let w = r.world_box(&self.instances, &self.blases);
-            w.min.is_finite() && w.max.is_finite()
-        });
-        if !finite {
+        // The new boxes of the instance's references: in parallel for one opened into many.
+        let moved: Vec<(usize, Aabb)> = self
+            .references_of(i)
+            .into_par_iter()
+            .with_min_len(1024)
+            .map(|r| {
+                (
+                    r,
+                    self.references[r].world_box(&self.instances, &self.blases),
+                )
+            })
+            .collect();
+        if moved
+            .iter()
+            .any(|(_, w)| !(w.min.is_finite() && w.max.is_finite()))
+        {
             // Moved out of range (a box beyond f32): the instance stays where it was.
             self.instances[i] = old;
             return Err(BuildError::NonFinite(i).into());
         }
         // An empty mesh's instance has no reference: the TLAS does not depend on it.
-        refit::refit_references(
-            &mut self.tlas,
-            &self.top_index,
-            &self.blases,
-            &self.instances,
-            &self.references,
-            refs,
-        );
+        refit::refit_references(&mut self.tlas, &self.top_index, &moved);
         Ok(())
     }
 
     /// Builds the top level again over the instances where they are now (after moves,
-    /// whose refits loosen it): the BLASes stay.
-    /// The references are opened anew for where the instances are now.
+    /// whose refits loosen it), its references opened anew: the BLASes stay.
     pub fn rebuild_top_level(&mut self) -> Result<(), BuildError> {
         let (mut tlas, references) = build_tlas(&self.blases, &self.instances, &self.params)?;
         tlas.order = self.order;

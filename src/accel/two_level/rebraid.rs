@@ -32,7 +32,8 @@ pub struct Reference {
     pub instance: u32,
     /// Where the BLAS walk starts (its root for an instance left whole).
     pub subtree: Subtree,
-    /// The triangles under the subtree (each part of a split triangle counted).
+    /// The triangles the subtree reaches (below the root, a triangle that spatial splits
+    /// cut counts once for each leaf holding a part of it).
     pub triangles: u32,
 }
 

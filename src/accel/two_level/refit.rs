@@ -1,12 +1,12 @@
 //! Refit of the top level after one instance moved: the same TLAS, the leaf box of each of
 //! the instance's references replaced by its new world box and each box above them
-//! recomputed from its node's children, up to the root. A few dozen boxes per reference,
-//! where a rebuild sorts every reference again; the tree keeps its shape (and the
-//! references stay as they were opened), so a long drag loosens it until the next rebuild.
+//! recomputed from its node's children, up to the root: a few dozen boxes per reference
+//! (or, for an instance opened into very many, one pass over every node), where a rebuild
+//! sorts every reference again. The tree keeps its shape (and the references stay as they
+//! were opened), so a long drag loosens it until the next rebuild.
 
-use super::Reference;
 use crate::accel::bvh::Bvh8;
-use crate::scene::Instance;
+use crate::geometry::Aabb;
 use std::collections::BTreeSet;
 
 /// Where each reference and each TLAS node sits in its parent: made with the TLAS.
@@ -43,35 +43,32 @@ impl TopLevelIndex {
     }
 }
 
-/// Puts the new world boxes of references `moved` into `tlas` and widens or shrinks every
-/// box above them. `index` must have been made for `tlas` and `references`.
-pub fn refit_references(
-    tlas: &mut Bvh8,
-    index: &TopLevelIndex,
-    blases: &[Bvh8],
-    instances: &[Instance],
-    references: &[Reference],
-    moved: std::ops::Range<usize>,
-) {
+/// Puts the new world boxes of the references in `moved` (reference, box) into `tlas` and
+/// widens or shrinks every box above them. `index` must have been made for `tlas`.
+pub fn refit_references(tlas: &mut Bvh8, index: &TopLevelIndex, moved: &[(usize, Aabb)]) {
+    // One reference a leaf, as built: its box is the leaf's.
+    let leaves: Vec<((u32, u8), Aabb)> = moved
+        .iter()
+        .filter_map(|&(r, b)| Some((index.slot_of(r)?, b)))
+        .collect();
+    for &((node, lane), bounds) in &leaves {
+        tlas.nodes[node as usize].set_child_bounds(lane as usize, bounds);
+    }
+    if leaves.len() * FULL_PASS > tlas.nodes.len() {
+        // So many leaves moved that most nodes lie above one: one pass over every node,
+        // children before parents, costs less than the paths one by one.
+        for n in (0..tlas.nodes.len()).rev() {
+            let node = tlas.nodes[n];
+            for lane in (0..node.child_count()).filter(|&l| node.is_interior(l)) {
+                let bounds = tlas.nodes[node.child[lane] as usize].bounds();
+                tlas.nodes[n].set_child_bounds(lane, bounds);
+            }
+        }
+        return;
+    }
     // Nodes whose boxes changed: their parents' lanes are set from them, deepest first
     // (children come after their parents, so the largest index first).
-    let mut changed = BTreeSet::new();
-    for r in moved {
-        let Some((node, lane)) = index.slot_of(r) else {
-            continue;
-        };
-        // The leaf lane's box: its reference's box (one reference a leaf, as built).
-        let n = &tlas.nodes[node as usize];
-        let first = n.child[lane as usize] as usize;
-        let count = n.count[lane as usize] as usize;
-        let leaf = tlas.prim_indices[first..first + count]
-            .iter()
-            .fold(crate::geometry::Aabb::EMPTY, |b, &k| {
-                b.union(references[k as usize].world_box(instances, blases))
-            });
-        tlas.nodes[node as usize].set_child_bounds(lane as usize, leaf);
-        changed.insert(node);
-    }
+    let mut changed: BTreeSet<u32> = leaves.iter().map(|((node, _), _)| *node).collect();
     while let Some(node) = changed.pop_last() {
         if node == 0 {
             continue;
@@ -82,3 +79,6 @@ pub fn refit_references(
         changed.insert(p);
     }
 }
+
+/// Past one moved leaf per this many TLAS nodes, the refit recomputes every node.
+const FULL_PASS: usize = 16;
