@@ -4,7 +4,7 @@
 //! bit for bit, only never cull a box that one of the rays' own slab tests enters (see
 //! `frustum`: the rounded products are monotonic in the reciprocal direction).
 
-use super::ray_packet::{ORIGIN, RayPacket, TMIN, max, min};
+use super::ray_packet::{ORIGIN, PACKET_RAYS, RayPacket, TMIN, max, min};
 use super::slab::{Avx2, Avx512, Portable, Sse41};
 use crate::geometry::aabb::FAR_SCALE;
 
@@ -36,25 +36,26 @@ impl WideInterval {
             inv_hi: [0.0; 3],
             near: [0; 3],
             far: [0; 3],
-            tmin: min(p.row(TMIN)),
+            tmin: min(&p.ray[TMIN], p.len()),
         };
         let n = p.len();
         for axis in 0..3 {
-            let origin = p.row(ORIGIN + axis);
+            let origin = &p.ray[ORIGIN + axis];
             let o = origin[0];
-            let inv = &p.inv_dir[axis][..n];
-            // `&` rather than `all`: the loops vectorise.
-            let same = origin.iter().fold(true, |a, &b| a & (b == o));
-            let usable = inv
-                .iter()
-                .fold(true, |a, &b| a & b.is_finite() & (b != 0.0));
+            let inv = &p.inv_dir[axis];
+            // Fixed trip counts and `&` rather than `all`: the loops vectorise.
+            let same = (0..PACKET_RAYS).fold(true, |a, i| a & ((origin[i] == o) | (i >= n)));
+            let usable = (0..PACKET_RAYS).fold(true, |a, i| {
+                let x = inv[i];
+                a & ((x.is_finite() & (x != 0.0)) | (i >= n))
+            });
             let negative = p.negative[axis];
             if !same || !usable || (negative != 0 && negative != p.rays) {
                 return None;
             }
             iv.origin[axis] = o;
-            iv.inv_lo[axis] = min(inv);
-            iv.inv_hi[axis] = max(inv);
+            iv.inv_lo[axis] = min(inv, n);
+            iv.inv_hi[axis] = max(inv, n);
             let max = usize::from(negative != 0);
             iv.near[axis] = axis + 3 * max;
             iv.far[axis] = axis + 3 * (1 - max);

@@ -13,7 +13,7 @@
 //! a hit at exactly the best distance (a tie, decided by the triangle index) and the lanes
 //! handed back, go to the caller (`PacketHits::rest`), which decides them one ray at a time.
 
-use super::ray_packet::{DIR, ORIGIN, PACKET_RAYS, RayPacket, TMAX, TMIN};
+use super::ray_packet::{DIR, ORIGIN, PACKET_RAYS, RayLoad, RayPacket, TMAX, TMIN};
 use super::slab::{Avx2, Avx512, Portable, Sse41};
 use crate::geometry::gamma;
 use crate::geometry::intersect::shear_axes_of;
@@ -33,29 +33,29 @@ pub struct PacketShear {
 
 impl PacketShear {
     /// Each ray's shear, as `Watertight::prepare` computes it.
+    ///
+    /// # Safety
+    /// The CPU supports K's instruction set.
     #[inline(always)]
-    pub fn new(p: &RayPacket) -> Self {
+    pub unsafe fn new<K: RayLoad>(p: &RayPacket) -> Self {
         let mut shear = PacketShear {
             s: [[0.0; PACKET_RAYS]; 3],
             by_axis: [0; 3],
         };
         let [dx, dy, dz] = [&p.ray[DIR], &p.ray[DIR + 1], &p.ray[DIR + 2]];
-        // Each ray's largest axis kz (`shear_axes`), with selects rather than branches, and
-        // its components d_kx, d_ky, d_kz: whole rows at once, so that they vectorise.
-        let mut kz = [0u8; PACKET_RAYS];
+        // Each ray's largest axis kz (`shear_axes`), with selects rather than branches, as
+        // sign masks (−1 on it), and its components d_kx, d_ky, d_kz: whole rows at once, so
+        // that they vectorise.
+        let mut on = [[1.0f32; PACKET_RAYS]; 2];
         let mut dk = [[1.0f32; PACKET_RAYS]; 3];
+        let [sx, sy, sz] = &mut shear.s;
         for i in 0..PACKET_RAYS {
             let (x, y, z) = (dx[i], dy[i], dz[i]);
             let (ax, ay, az) = (x.abs(), y.abs(), z.abs());
             let on_x = ax >= ay && ax >= az;
             let on_y = !on_x && ay >= az;
-            kz[i] = if on_x {
-                0
-            } else if on_y {
-                1
-            } else {
-                2
-            };
+            on[0][i] = if on_x { -1.0 } else { 1.0 };
+            on[1][i] = if on_y { -1.0 } else { 1.0 };
             // (kx, ky, kz) = (1, 2, 0), (2, 0, 1) or (0, 1, 2).
             let (a, b, c) = if on_x {
                 (y, z, x)
@@ -67,16 +67,23 @@ impl PacketShear {
             dk[0][i] = a;
             dk[1][i] = b;
             dk[2][i] = c;
+            // 1 / d_kz is the reciprocal the box test already took.
+            let (ix, iy, iz) = (p.inv_dir[0][i], p.inv_dir[1][i], p.inv_dir[2][i]);
+            sz[i] = if on_x {
+                ix
+            } else if on_y {
+                iy
+            } else {
+                iz
+            };
         }
-        let [sx, sy, sz] = &mut shear.s;
         for i in 0..PACKET_RAYS {
             sx[i] = -dk[0][i] / dk[2][i];
             sy[i] = -dk[1][i] / dk[2][i];
-            sz[i] = 1.0 / dk[2][i];
         }
-        for (i, &k) in kz.iter().enumerate().take(p.len()) {
-            shear.by_axis[usize::from(k)] |= 1 << i;
-        }
+        // SAFETY: the caller guarantees K's instruction set.
+        let [x, y] = unsafe { [K::signs(&on[0]), K::signs(&on[1])] };
+        shear.by_axis = [x & p.rays, y & p.rays, !(x | y) & p.rays];
         shear
     }
 }

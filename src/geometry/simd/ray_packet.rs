@@ -121,33 +121,37 @@ impl RayPacket {
     /// The largest box-test limit of the packet's rays (unused lanes hold −∞).
     #[inline(always)]
     pub fn largest_tmax(&self) -> f32 {
-        max(&self.tmax)
+        max(&self.tmax, PACKET_RAYS)
     }
 }
 
-/// The smallest of `xs` (NaN ignored; +∞ if empty). Sixteen running minima with plain
-/// comparisons, so that the loop vectorises.
+/// The smallest of the first `n` lanes of a row (NaN ignored; +∞ if none). Sixteen running
+/// minima over the whole row, then halves, with plain comparisons and fixed trip counts, so
+/// that the loops vectorise and stay in registers.
 #[inline(always)]
-pub fn min(xs: &[f32]) -> f32 {
-    let mut m = [f32::INFINITY; 16];
-    for chunk in xs.chunks(16) {
-        for (m, &x) in m.iter_mut().zip(chunk) {
-            *m = if x < *m { x } else { *m };
-        }
-    }
-    m.into_iter().fold(f32::INFINITY, f32::min)
+pub fn min(row: &[f32; PACKET_RAYS], n: usize) -> f32 {
+    reduce(row, n, f32::INFINITY, |a, b| if b < a { b } else { a })
 }
 
-/// The largest of `xs` (NaN ignored; −∞ if empty), as `min` finds the smallest.
+/// The largest of the first `n` lanes of a row (NaN ignored; −∞ if none), as `min`.
 #[inline(always)]
-pub fn max(xs: &[f32]) -> f32 {
-    let mut m = [f32::NEG_INFINITY; 16];
-    for chunk in xs.chunks(16) {
-        for (m, &x) in m.iter_mut().zip(chunk) {
-            *m = if x > *m { x } else { *m };
+pub fn max(row: &[f32; PACKET_RAYS], n: usize) -> f32 {
+    reduce(row, n, f32::NEG_INFINITY, |a, b| if b > a { b } else { a })
+}
+
+#[inline(always)]
+fn reduce(row: &[f32; PACKET_RAYS], n: usize, empty: f32, keep: impl Fn(f32, f32) -> f32) -> f32 {
+    let mut m = [empty; 16];
+    let (chunks, _) = row.as_chunks::<16>();
+    for (c, chunk) in chunks.iter().enumerate() {
+        for (j, (m, &x)) in m.iter_mut().zip(chunk).enumerate() {
+            let x = if 16 * c + j < n { x } else { empty };
+            *m = keep(*m, x);
         }
     }
-    m.into_iter().fold(f32::NEG_INFINITY, f32::max)
+    let m: [f32; 8] = std::array::from_fn(|i| keep(m[i], m[i + 8]));
+    let m: [f32; 4] = std::array::from_fn(|i| keep(m[i], m[i + 4]));
+    keep(keep(m[0], m[2]), keep(m[1], m[3]))
 }
 
 impl RayLoad for Portable {

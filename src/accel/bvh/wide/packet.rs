@@ -159,11 +159,15 @@ impl<const W: usize> WideBvh<W> {
         let rays = &rays[..n];
         // SAFETY: a tree only selects a kernel its CPU supports (`set_simd`), and the entry
         // points are compiled for it.
-        let soa = unsafe { RayPacket::load::<K>(rays, T_SCALE) };
+        let (soa, shear) = unsafe {
+            let soa = RayPacket::load::<K>(rays, T_SCALE);
+            // The watertight test has a form that tests one triangle against many rays.
+            let shear = I::PACKET_TEST.then(|| PacketShear::new::<K>(&soa));
+            (soa, shear)
+        };
         let mut p = Packet {
             rays,
-            // The watertight test has a form that tests one triangle against many rays.
-            shear: I::PACKET_TEST.then(|| PacketShear::new(&soa)),
+            shear,
             best: PacketBest::new(&soa),
             soa,
             hits: PacketHits::default(),
