@@ -172,17 +172,15 @@ pub(super) struct Candidate {
     pub repeats_previous: bool,
 }
 
-/// Bins `refs` and offers every boundary with primitives on both sides to `visit`, in the
-/// builder's order (boundary by boundary, the three axes at each). Boundaries after an
-/// empty bucket repeat the one before; they are offered only `with_repeats` (the bucket
-/// plot draws them; choosing a split needs only the others, and near the leaves, where
-/// most buckets are empty, skipping them halves the sweep).
+/// Bins `refs` and offers every boundary with primitives on both sides to `visit`, boundary
+/// by boundary, the three axes at each, those after an empty bucket (which repeat the one
+/// before) included: what the bucket plot draws. `best` finds the same cheapest split
+/// without visiting the repeats.
 fn candidates(
     refs: &[PrimRef],
     binning: &Binning,
     parent_area: f32,
     p: &BuildParams,
-    with_repeats: bool,
     mut visit: impl FnMut(Candidate),
 ) {
     let b = binning.buckets;
@@ -214,8 +212,6 @@ fn candidates(
                 if bin.count > 0 {
                     acc[axis] = acc[axis].union(bin.bounds);
                     count[axis] += bin.count;
-                } else if !with_repeats {
-                    continue;
                 }
                 if count[axis] == 0 || right == 0 {
                     continue;
@@ -240,21 +236,35 @@ fn candidates(
     });
 }
 
-/// The cheapest object split at a bucket boundary (of equal costs the first offered; a
-/// boundary after an empty bucket repeats the one before), or `None` if every centroid
-/// fell into one bucket.
+/// The cheapest object split at a bucket boundary, or `None` if every centroid fell into
+/// one bucket. Of equal costs the first in `candidates`' order wins (the lowest boundary,
+/// then the lowest axis); a boundary after an empty bucket repeats the one before at the
+/// same cost, so only the boundaries after filled buckets are evaluated. Near the leaves,
+/// where a node's few primitives fill a few of the B buckets, each axis's sweeps then take
+/// as many steps as there are filled buckets instead of B.
 pub fn best(refs: &[PrimRef], info: &NodeInfo, p: &BuildParams) -> Option<ObjectSplit> {
     let b = p.buckets as usize;
     let binning = Binning::new(&info.centroids, b);
-    let mut best: Option<(f32, usize, usize)> = None;
-    candidates(refs, &binning, info.bounds.surface_area(), p, false, |c| {
-        if !c.repeats_previous && best.is_none_or(|(cost, _, _)| c.cost < cost) {
-            best = Some((c.cost, c.axis, c.k));
+    let parent_area = info.bounds.surface_area();
+    SCRATCH.with_borrow_mut(|s| {
+        s.bins.clear();
+        s.bins.resize(3 * b, EMPTY_BIN);
+        s.right_area.resize(b, 0.0);
+        s.right_count.resize(b, 0);
+        binning.fill_parallel(refs, &mut s.bins);
+        let mut per_axis = [AxisBest::default(); 3];
+        for (axis, result) in per_axis.iter_mut().enumerate() {
+            *result = best_on_axis(
+                &s.bins,
+                axis,
+                b,
+                parent_area,
+                p,
+                &mut s.right_area,
+                &mut s.right_count,
+            );
         }
-    });
-    let (cost, axis, bucket) = best?;
-    // The children's boxes from the bins `candidates` left in this thread's scratch.
-    SCRATCH.with_borrow(|s| {
+        let (cost, axis, bucket) = pick(&per_axis)?;
         let side = |range: std::ops::Range<usize>| {
             range.fold(Box3A::EMPTY, |a, k| a.union(s.bins[3 * k + axis].bounds))
         };
@@ -267,6 +277,92 @@ pub fn best(refs: &[PrimRef], info: &NodeInfo, p: &BuildParams) -> Option<Object
     })
 }
 
+/// One axis's share of `best`: its first boundary with primitives on both sides, and its
+/// cheapest boundary (of equal costs the lowest), NaN costs aside.
+#[derive(Clone, Copy, Default)]
+struct AxisBest {
+    first: Option<(usize, f32)>,
+    cheapest: Option<(usize, f32)>,
+}
+
+/// The sweeps of one axis over its filled buckets only: right to left for the right
+/// sides' areas and counts, then left to right for the costs, with the same unions in the
+/// same order as `candidates`, so every cost is the same to the last bit.
+fn best_on_axis(
+    bins: &[Bin],
+    axis: usize,
+    b: usize,
+    parent_area: f32,
+    p: &BuildParams,
+    right_area: &mut [f32],
+    right_count: &mut [u32],
+) -> AxisBest {
+    let mut filled = [0u16; super::MAX_BUCKETS as usize];
+    let mut m = 0;
+    for k in 0..b {
+        filled[m] = k as u16;
+        m += usize::from(bins[3 * k + axis].count > 0);
+    }
+    let filled = &filled[..m];
+    // right_area[i], right_count[i]: the union of the filled buckets from filled[i] on.
+    let (mut acc, mut count) = (Box3A::EMPTY, 0u32);
+    for (i, &k) in filled.iter().enumerate().rev() {
+        let bin = &bins[3 * k as usize + axis];
+        acc = acc.union(bin.bounds);
+        count += bin.count;
+        right_area[i] = acc.surface_area();
+        right_count[i] = count;
+    }
+    let mut result = AxisBest::default();
+    let (mut acc, mut count) = (Box3A::EMPTY, 0u32);
+    for (i, &k) in filled.iter().enumerate().take(m.saturating_sub(1)) {
+        let bin = &bins[3 * k as usize + axis];
+        acc = acc.union(bin.bounds);
+        count += bin.count;
+        let cost = sah_split_cost(
+            parent_area,
+            acc.surface_area(),
+            count as usize,
+            right_area[i + 1],
+            right_count[i + 1] as usize,
+            p,
+        );
+        let boundary = k as usize + 1;
+        result.first.get_or_insert((boundary, cost));
+        if !cost.is_nan() && result.cheapest.is_none_or(|(_, c)| cost < c) {
+            result.cheapest = Some((boundary, cost));
+        }
+    }
+    result
+}
+
+/// The winner of the three axes, as a scan of every boundary in `candidates`' order keeping
+/// the strictly cheaper one finds it: the first boundary offered if its cost is NaN (nothing
+/// is cheaper than NaN), else the cheapest, of equal costs the lowest boundary, then axis.
+fn pick(per_axis: &[AxisBest; 3]) -> Option<(f32, usize, usize)> {
+    let (first_axis, (_, first_cost)) = per_axis
+        .iter()
+        .enumerate()
+        .filter_map(|(axis, a)| Some((axis, a.first?)))
+        .min_by_key(|&(axis, (k, _))| (k, axis))?;
+    if first_cost.is_nan() {
+        let (k, _) = per_axis[first_axis].first?;
+        return Some((first_cost, first_axis, k));
+    }
+    let mut best: Option<(f32, usize, usize)> = None;
+    for (axis, a) in per_axis.iter().enumerate() {
+        let Some((k, cost)) = a.cheapest else {
+            continue;
+        };
+        let better =
+            best.is_none_or(|(c, baxis, bk)| cost < c || (cost == c && (k, axis) < (bk, baxis)));
+        if better {
+            best = Some((cost, axis, k));
+        }
+    }
+    best
+}
+
 /// Splits a node at its cheapest bucket boundary; a node large enough for its passes to
 /// run on all threads adds their times to `clock`.
 pub fn split(
@@ -276,6 +372,9 @@ pub fn split(
     clock: &TopSplitClock,
 ) -> Option<Split> {
     let n = refs.len();
+    if n <= p.max_leaf_size as usize && no_split_pays(refs, info, p) {
+        return None;
+    }
     // Only the nodes near the root are timed: reading the clock at each of the ~10^5
     // small nodes took a few per cent of the build.
     let start = (n >= PARALLEL_PASS).then(Instant::now);
@@ -298,6 +397,27 @@ pub fn split(
     Some(split)
 }
 
+/// Whether no split of a node can beat its leaf, without binning: a child's box holds
+/// each of its primitives' boxes, so A_L·N_L + A_R·N_R ≥ Σ A_i, and every split costs at
+/// least C_trav·A + C_isect·Σ A_i. Most nodes of two primitives (two halves of a quad,
+/// whose boxes are the quad's) end there. The margin covers the rounding of both sums, so
+/// the answer is the one binning would give: a node that passes here is never split.
+fn no_split_pays(refs: &[PrimRef], info: &NodeInfo, p: &BuildParams) -> bool {
+    let area = info.bounds.surface_area();
+    let sum: f32 = refs
+        .iter()
+        .map(|r| {
+            Box3A {
+                min: r.lo(),
+                max: r.hi(),
+            }
+            .surface_area()
+        })
+        .sum();
+    let least_split = p.c_trav * area + p.c_isect * sum;
+    least_split >= p.c_isect * area * refs.len() as f32 * (1.0 + 1e-4)
+}
+
 /// Every bucket boundary of the node over `refs`, with the plane's position along its
 /// axis (world units): what the bucket-cost plot draws.
 pub(super) fn all_candidates(
@@ -307,7 +427,7 @@ pub(super) fn all_candidates(
 ) -> Vec<(Candidate, f32)> {
     let binning = Binning::new(&info.centroids, p.buckets as usize);
     let mut out = Vec::new();
-    candidates(refs, &binning, info.bounds.surface_area(), p, true, |c| {
+    candidates(refs, &binning, info.bounds.surface_area(), p, |c| {
         out.push((c, binning.plane(c.axis, c.k)));
     });
     out
@@ -359,5 +479,89 @@ mod tests {
                 }
             }
         }
+    }
+    /// `best` chooses what a scan of every boundary `candidates` offers finds, keeping the
+    /// strictly cheaper one: the same split, cost and child boxes, for few and many
+    /// primitives, clustered and spread, and every bucket count.
+    #[test]
+    fn best_equals_the_scan_of_every_candidate() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let p0 = BuildParams::default();
+        for case in 0..3000 {
+            let n = [2, 3, 5, 9, 17, 40, 300][case % 7];
+            let spread = [1.0, 0.01, 100.0][case % 3];
+            let refs: Vec<PrimRef> = (0..n)
+                .map(|i| {
+                    let lo = Vec3::new(next(), next() * spread, (next() * 8.0).floor());
+                    let size = Vec3::new(next(), next(), next()) * 0.3;
+                    PrimRef::new(Aabb::new(lo, lo + size), i as u32)
+                })
+                .collect();
+            let info = NodeInfo::of(&refs);
+            for buckets in [2, 3, 16, 64, 256] {
+                let p = BuildParams { buckets, ..p0 };
+                let binning = Binning::new(&info.centroids, buckets as usize);
+                let mut scan: Option<Candidate> = None;
+                candidates(&refs, &binning, info.bounds.surface_area(), &p, |c| {
+                    if !c.repeats_previous && scan.is_none_or(|s| c.cost < s.cost) {
+                        scan = Some(c);
+                    }
+                });
+                let found = best(&refs, &info, &p);
+                assert_eq!(
+                    found.map(|f| (f.axis, f.boundary[f.axis], f.cost.to_bits())),
+                    scan.map(|c| (c.axis, c.k as f32, c.cost.to_bits())),
+                    "case {case}, {n} refs, {buckets} buckets"
+                );
+            }
+        }
+    }
+    /// A node `no_split_pays` turns into a leaf is one that binning would not split either,
+    /// and the bound does decide most nodes of two primitives of a mesh.
+    #[test]
+    fn no_split_pays_only_where_binning_agrees() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut decided = 0;
+        for case in 0..20000 {
+            let n = 2 + case % 7;
+            let c_trav = [1.0, 0.3, 2.0, 0.0][case % 4];
+            let p = BuildParams {
+                c_trav,
+                ..BuildParams::default()
+            };
+            // Pieces of a grid of quads, some flat, some touching, some far apart.
+            let refs: Vec<PrimRef> = (0..n)
+                .map(|i| {
+                    let lo = Vec3::new(
+                        (next() * 4.0).floor(),
+                        (next() * 4.0).floor() * next(),
+                        next() * 0.1,
+                    );
+                    let size = Vec3::new(1.0, next() + 0.5, [0.0, next()][case % 2]);
+                    PrimRef::new(Aabb::new(lo, lo + size), i as u32)
+                })
+                .collect();
+            let info = NodeInfo::of(&refs);
+            if no_split_pays(&refs, &info, &p) {
+                decided += 1;
+                let area = info.bounds.surface_area();
+                if let Some(b) = best(&refs, &info, &p) {
+                    assert!(!sah_worth_splitting(n, b.cost, area, &p), "case {case}");
+                }
+            }
+        }
+        assert!(decided > 500, "only {decided} nodes decided");
     }
 }
