@@ -84,6 +84,68 @@ fn a_small_island_hits_what_its_flattened_scene_hits() {
     assert!(grazing * 500 <= 2 * rays.len(), "{grazing} rays grazing");
 }
 
+/// The renderer's packets of 8 × 8 view rays through the two levels hit what the same rays
+/// hit one by one.
+#[test]
+fn a_small_islands_view_in_packets_hits_what_single_rays_hit() {
+    let scene = island::island(300, &Detail::SMALL);
+    let built = structure::build_scene(&scene, &two_level(), &Default::default()).unwrap();
+    let tl = &built.structure;
+    let (w, h) = (64, 40);
+    let cam = scene.camera().rays(w, h);
+    for (x0, y0) in (0..h / 8).flat_map(|ty| (0..w / 8).map(move |tx| (tx * 8, ty * 8))) {
+        let rays: Vec<Ray> = (0..64)
+            .map(|k| cam.pixel_center(x0 + k % 8, y0 + k / 8))
+            .collect();
+        let mut packet = [None; 64];
+        tl.closest_hits::<Watertight>(&rays, &mut packet);
+        for (ray, got) in rays.iter().zip(packet) {
+            assert_eq!(got, tl.closest_hit::<Watertight, _>(ray, &mut NoStats));
+        }
+    }
+}
+
+/// A crown's leaf cards are the size of a leaf cluster: a ray that reaches a tree tests a
+/// few cards before its hit, as in any well-sorted mesh. (Cards of 70 cm put each point of
+/// the crown inside the boxes of some 70 of them, and cost about 60 tests a ray.)
+#[test]
+fn a_ray_into_a_crown_tests_few_leaf_cards() {
+    let scene = island::island(1, &Detail::FULL);
+    for mesh in scene
+        .meshes
+        .iter()
+        .filter(|m| m.name.contains("tree") || m.name == "conifer")
+    {
+        let built = structure::build(
+            &mesh.triangles,
+            &StructureParams::of_kind(AccelKind::Bvh8),
+            &Default::default(),
+        )
+        .unwrap();
+        let b = mesh
+            .triangles
+            .iter()
+            .fold(bvhlab::geometry::Aabb::EMPTY, |b, t| b.union(t.bounds()));
+        let cam = bvhlab::scene::Camera::framing(&b).rays(64, 64);
+        let (mut tests, mut hits) = (0, 0);
+        for (x, y) in (0..64).flat_map(|y| (0..64).map(move |x| (x, y))) {
+            let mut c = Counters::default();
+            let ray = cam.pixel_center(x, y);
+            if built
+                .structure
+                .closest_hit::<Watertight, _>(&ray, &mut c)
+                .is_some()
+            {
+                tests += c.triangle_tests;
+                hits += 1;
+            }
+        }
+        assert!(hits > 400, "{}: the crown is opaque: {hits}", mesh.name);
+        let mean = tests as f32 / hits as f32;
+        assert!(mean < 12.0, "{}: {mean} triangle tests a hit", mesh.name);
+    }
+}
+
 #[test]
 fn the_default_island_places_over_fifteen_billion_triangles_unflattened() {
     let scene = Scene::load("island").unwrap();

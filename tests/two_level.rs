@@ -1116,3 +1116,83 @@ fn sponza_as_instances_hits_what_the_flattened_bvh8_hits() {
         assert!(hits > rays.len() / 2, "{hits} hits");
     }
 }
+
+/// 8 × 8 tiles of a camera's rays, as the renderer sends them: one origin per packet.
+fn tiles_of(scene: &Scene, eye: Vec3, w: u32, h: u32) -> Vec<Ray> {
+    let rays = bvhlab::scene::Camera::new(eye, scene.bounds().center()).rays(w, h);
+    let mut out = Vec::new();
+    for y0 in (0..h).step_by(8) {
+        for x0 in (0..w).step_by(8) {
+            for y in y0..(y0 + 8).min(h) {
+                for x in x0..(x0 + 8).min(w) {
+                    out.push(rays.pixel_center(x, y));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Packets through the top level give exactly the single rays' hits: for coherent tiles of
+/// a camera (the interval test culls) and for random rays of different origins (it cannot),
+/// at every re-braiding budget and with every slab kernel, packets cut short included.
+#[test]
+fn packets_of_the_two_levels_hit_what_single_rays_hit() {
+    use bvhlab::geometry::simd::SimdLevel;
+    let scene = instanced_scene(60, 61);
+    let b = scene.bounds();
+    let mut sets = vec![
+        tiles_of(
+            &scene,
+            b.center() + Vec3::new(0.1, 0.15, 0.4) * b.diagonal(),
+            40,
+            27,
+        ),
+        tiles_of(
+            &scene,
+            b.center() - Vec3::new(0.4, 0.1, 0.05) * b.diagonal(),
+            24,
+            24,
+        ),
+        common::rays(&b, 1000, 62),
+    ];
+    sets.push(rays_at_triangles(&scene, 500, 63));
+    for rebraid in BUDGETS {
+        let mut built = structure::build_scene(
+            &scene,
+            &rebraided(TraversalOrder::FrontToBack, rebraid),
+            &Default::default(),
+        )
+        .unwrap()
+        .structure;
+        let mut levels = vec![SimdLevel::Portable];
+        levels.extend(SimdLevel::available());
+        for level in levels {
+            built.set_simd(level).unwrap();
+            for rays in &sets {
+                let single: Vec<_> = rays
+                    .iter()
+                    .map(|r| built.closest_hit::<Watertight, _>(r, &mut NoStats))
+                    .collect();
+                let hits = single.iter().filter(|h| h.is_some()).count();
+                assert!(hits > rays.len() / 10, "{hits} of {}", rays.len());
+                // Whole packets, and packets of 13 rays (a packet shorter than 64).
+                for chunk in [64, 13] {
+                    let mut packets = vec![None; rays.len()];
+                    for (r, h) in rays.chunks(chunk).zip(packets.chunks_mut(chunk)) {
+                        built.closest_hits::<Watertight>(r, h);
+                    }
+                    for (k, (p, s)) in packets.iter().zip(&single).enumerate() {
+                        assert_eq!(
+                            p,
+                            s,
+                            "ray {k} {:?}, budget {rebraid}, {}",
+                            rays[k],
+                            level.label()
+                        );
+                    }
+                }
+            }
+        }
+    }
+}

@@ -5,8 +5,10 @@
 //! layout, as a two-level ray takes as many steps as a flat one and more. The top level's
 //! leaves hold references, each an instance and a subtree of its BLAS: whole instances,
 //! or with partial re-braiding (`rebraid`) the large ones opened into their BLAS's subtrees.
+//! Coherent primary rays walk the top level in packets (`packet`).
 
 pub mod outline;
+mod packet;
 pub mod rebraid;
 pub mod refit;
 mod traverse;

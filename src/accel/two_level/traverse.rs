@@ -21,7 +21,7 @@ use crate::accel::stats::{count_locally, record};
 use crate::accel::{Accel, BestHit, Hit, Stats, TraversalOrder};
 use crate::geometry::intersect::TriangleHit;
 use crate::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab};
-use crate::geometry::simd::{SimdLevel, TriangleKernel, WideRay};
+use crate::geometry::simd::{PACKET_RAYS, SimdLevel, TriangleKernel, WideRay};
 use crate::geometry::{Intersector, Ray};
 use crate::scene::Instance;
 use std::mem::MaybeUninit;
@@ -47,7 +47,7 @@ impl TwoLevel {
     /// still wins as in the flattened scene. An identity instance's BLAS is walked with the
     /// world ray's slab and intersector data (`wray`, `data`), made once per ray.
     #[inline(always)]
-    fn enter_closest<
+    pub(super) fn enter_closest<
         K: WideSlab<8> + TriangleKernel,
         I: Intersector,
         S: Stats,
@@ -126,19 +126,40 @@ impl TwoLevel {
         ray: &Ray,
         stats: &mut S,
     ) -> Option<Hit> {
-        let tlas = &self.tlas;
         let wray = WideRay::new(ray);
         let data = I::prepare(ray);
         let mut best = BestHit::new(ray);
-        let mut box_tmax = ray.tmax * T_SCALE;
-        let mut storage = MaybeUninit::uninit();
-        let mut stack = Stack::new(&mut storage);
-        let mut entry = [0.0f32; 8];
-        let mut cur = Entry {
+        let root = Entry {
             child: 0,
             count: INTERIOR,
             entry: ray.tmin,
         };
+        self.closest_from::<K, I, S, ORDERED>(root, ray, (&wray, &data), &mut best, stats);
+        best.hit()
+    }
+
+    /// Walks the TLAS below `start` (the root, or a child a packet left to this ray alone)
+    /// with `ray`, keeping the closest hit in `best`.
+    #[inline(always)]
+    pub(super) fn closest_from<
+        K: WideSlab<8> + TriangleKernel,
+        I: Intersector,
+        S: Stats,
+        const ORDERED: bool,
+    >(
+        &self,
+        start: Entry,
+        ray: &Ray,
+        (wray, data): (&WideRay, &I::RayData),
+        best: &mut BestHit,
+        stats: &mut S,
+    ) {
+        let tlas = &self.tlas;
+        let mut box_tmax = best.t * T_SCALE;
+        let mut storage = MaybeUninit::uninit();
+        let mut stack = Stack::new(&mut storage);
+        let mut entry = [0.0f32; 8];
+        let mut cur = start;
         loop {
             stats.top_node_visit();
             record(stats, || {
@@ -147,13 +168,7 @@ impl TwoLevel {
             if cur.count != INTERIOR {
                 for k in cur.child..cur.child + cur.count {
                     let r = tlas.prim_indices[k as usize] as usize;
-                    self.enter_closest::<K, I, S, ORDERED>(
-                        r,
-                        ray,
-                        (&wray, &data),
-                        &mut best,
-                        stats,
-                    );
+                    self.enter_closest::<K, I, S, ORDERED>(r, ray, (wray, data), best, stats);
                 }
                 box_tmax = best.t * T_SCALE;
             } else {
@@ -164,7 +179,7 @@ impl TwoLevel {
                 // SAFETY: the TLAS only selects a kernel its CPU supports (`set_simd`), and
                 // the entry points below are compiled for it.
                 let mut mask =
-                    unsafe { K::entries(&node.bounds, &wray, ray.tmin, box_tmax, &mut entry) };
+                    unsafe { K::entries(&node.bounds, wray, ray.tmin, box_tmax, &mut entry) };
                 let order = if ORDERED {
                     Order::Nearest
                 } else {
@@ -208,7 +223,7 @@ impl TwoLevel {
             // Pop the next child the ray can still reach before the best hit.
             loop {
                 match stack.pop() {
-                    None => return best.hit(),
+                    None => return,
                     Some(e) if e.entry <= box_tmax => {
                         cur = e;
                         break;
@@ -281,8 +296,15 @@ impl TwoLevel {
 /// Entry points compiled for each instruction set: the TLAS walk and its kernel are inlined
 /// into them.
 macro_rules! entry_points {
-    ($closest:ident, $occluded:ident, $kernel:ty, $features:literal) => {
+    ($closest:ident, $occluded:ident, $packets:ident, $kernel:ty, $features:literal) => {
         impl TwoLevel {
+            #[target_feature(enable = $features)]
+            fn $packets<I: Intersector>(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+                for (rays, hits) in rays.chunks(PACKET_RAYS).zip(hits.chunks_mut(PACKET_RAYS)) {
+                    self.trace_packet::<$kernel, I>(rays, hits);
+                }
+            }
+
             #[target_feature(enable = $features)]
             fn $closest<I: Intersector, S: Stats, const ORDERED: bool>(
                 &self,
@@ -301,11 +323,23 @@ macro_rules! entry_points {
 }
 
 #[cfg(target_arch = "x86_64")]
-entry_points!(closest_sse41, occluded_sse41, Sse41, "sse4.1");
+entry_points!(
+    closest_sse41,
+    occluded_sse41,
+    packets_sse41,
+    Sse41,
+    "sse4.1"
+);
 #[cfg(target_arch = "x86_64")]
-entry_points!(closest_avx2, occluded_avx2, Avx2, "avx2");
+entry_points!(closest_avx2, occluded_avx2, packets_avx2, Avx2, "avx2");
 #[cfg(target_arch = "x86_64")]
-entry_points!(closest_avx512, occluded_avx512, Avx512, "avx512f,avx512vl");
+entry_points!(
+    closest_avx512,
+    occluded_avx512,
+    packets_avx512,
+    Avx512,
+    "avx512f,avx512vl"
+);
 
 impl TwoLevel {
     #[inline(always)]
@@ -355,5 +389,26 @@ impl Accel for TwoLevel {
 
     fn any_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
         count_locally(stats, |s| self.occluded_dispatch::<I, S>(ray, s))
+    }
+
+    /// Closest hits in packets of 8 × 8 coherent rays through the top level
+    /// (`two_level::packet`), the same hits as ray by ray.
+    fn closest_hits<I: Intersector>(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
+        match self.simd {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `simd` only holds a level this CPU supports (`set_simd`).
+            SimdLevel::Sse41 => unsafe { self.packets_sse41::<I>(rays, hits) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above.
+            SimdLevel::Avx2 => unsafe { self.packets_avx2::<I>(rays, hits) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: as above.
+            SimdLevel::Avx512 => unsafe { self.packets_avx512::<I>(rays, hits) },
+            _ => {
+                for (rays, hits) in rays.chunks(PACKET_RAYS).zip(hits.chunks_mut(PACKET_RAYS)) {
+                    self.trace_packet::<Portable, I>(rays, hits);
+                }
+            }
+        }
     }
 }
