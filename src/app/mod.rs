@@ -362,6 +362,13 @@ impl BvhLabApp {
                     }
                     self.shown = Some(shown);
                 }
+                Reply::Counted { job, frame } => {
+                    // The counts of the full frame on screen: same hits, same image.
+                    if let Some(shown) = self.shown.as_mut().filter(|s| s.job == job) {
+                        self.full_summary = Some(frame.summary.clone());
+                        Arc::make_mut(shown).frame = frame;
+                    }
+                }
                 Reply::Snapshot(scene) => self.snapshot = Some(scene),
                 Reply::InstanceSelected(outlined) => self.instance_selected(outlined),
                 Reply::Replayed(Ok(replay)) => {

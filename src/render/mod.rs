@@ -20,6 +20,7 @@ use crate::scene::{Camera, Scene};
 use colormap::{srgb8, to_rgba8, viridis};
 use glam::Vec3;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -118,14 +119,32 @@ pub fn trace_with<A: Accel, I: Intersector>(
     scene: &Scene,
     settings: &RenderSettings,
 ) -> Frame {
+    // Never stopped, the trace always gives its frame.
+    trace_unless::<A, I>(accel, scene, settings, &|| false).unwrap_or_default()
+}
+
+/// `trace_with`, given up (`None`) as soon as `stop` says so: `stop` is asked before each
+/// tile, so a frame no longer wanted (the app's counted pass, when a newer command
+/// arrives) costs at most a tile per thread more.
+pub fn trace_unless<A: Accel, I: Intersector>(
+    accel: &A,
+    scene: &Scene,
+    settings: &RenderSettings,
+    stop: &(dyn Fn() -> bool + Sync),
+) -> Option<Frame> {
     let (w, h) = (settings.width.max(1), settings.height.max(1));
     let rays = settings.camera.rays(w, h);
     let start = Instant::now();
     let mut samples = sample_pool::take((w * h) as usize);
+    let stopped = AtomicBool::new(false);
     let tiles = samples.par_chunks_mut((w * TILE_ROWS) as usize).enumerate();
     // Each tile sums its own samples while they are still in cache: a separate pass over
     // a 1280 × 720 frame's 96 MB of samples costs as much as colouring it.
     let sums = tiles.map(|(tile, out)| {
+        if stopped.load(Ordering::Relaxed) || stop() {
+            stopped.store(true, Ordering::Relaxed);
+            return FrameSummary::default();
+        }
         let y0 = tile as u32 * TILE_ROWS;
         if settings.counters {
             for (k, sample) in out.iter_mut().enumerate() {
@@ -156,18 +175,21 @@ pub fn trace_with<A: Accel, I: Intersector>(
                 out[pixel] = shade::<A, I, NoStats>(accel, scene, ray, hit, NoStats, settings);
             }
         }
-        FrameSummary::sum_of(out, settings.shadows)
+        // Nothing was counted: only the rays and hits to sum.
+        FrameSummary::sum_of_uncounted(out, settings.shadows)
     });
     let sums = sums.reduce(FrameSummary::default, FrameSummary::merged);
     let trace_time = start.elapsed();
-    Frame {
+    let frame = Frame {
         width: w,
         height: h,
         rgba: Vec::new(),
         summary: sums.with_means(trace_time),
         samples,
         heat_max: None,
-    }
+    };
+    // A stopped frame's samples go back to the pool as it drops.
+    (!stopped.into_inner()).then_some(frame)
 }
 
 /// A pixel's sample from its primary ray's hit (found with `primary` counting) and, if it
