@@ -253,8 +253,9 @@ impl BvhLabApp {
         }
     }
 
-    /// Handles everything the worker has said since the last frame.
-    fn handle_replies(&mut self, ctx: &egui::Context, replies: Vec<Reply>) {
+    /// Handles everything the worker has said since the last frame (public for the UI
+    /// tests, which hand it replies in a chosen order).
+    pub fn handle_replies(&mut self, ctx: &egui::Context, replies: Vec<Reply>) {
         for r in replies {
             match r {
                 Reply::Loaded { spec, scene } => {

@@ -912,6 +912,10 @@ impl State {
                 let (image, compared, a) = self.compare(&frame, &c, &job);
                 (image, Some(compared), a)
             }
+            // A shaded frame comes coloured from the trace.
+            None if job.mode == Mode::Shaded && !frame.rgba.is_empty() => {
+                ((frame.rgba.clone(), None), None, None)
+            }
             None => (colorize(&frame, job.mode, job.heat_max), None, None),
         };
         let walk = self.draw_overlay(&frame, &mut rgba, &job);

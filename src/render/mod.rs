@@ -104,8 +104,9 @@ pub fn render_with<A: Accel, I: Intersector>(
     frame
 }
 
-/// Traces a frame with the default intersector, leaving `rgba` empty: for callers that
-/// colour it themselves (`colorize`).
+/// Traces a frame with the default intersector. Its `rgba` holds the shaded image when
+/// `settings.mode` is `Mode::Shaded` (coloured as each tile is traced, while its samples are
+/// in cache), and is empty otherwise: callers colour it themselves (`colorize`).
 pub fn trace<A: Accel>(accel: &A, scene: &Scene, settings: &RenderSettings) -> Frame {
     trace_with::<A, Watertight>(accel, scene, settings)
 }
@@ -137,15 +138,57 @@ pub fn trace_unless<A: Accel, I: Intersector>(
     let start = Instant::now();
     let mut samples = sample_pool::take((w * h) as usize);
     let stopped = AtomicBool::new(false);
-    let tiles = samples.par_chunks_mut((w * TILE_ROWS) as usize).enumerate();
-    // Each tile sums its own samples while they are still in cache: a separate pass over
-    // a 1280 × 720 frame's 96 MB of samples costs as much as colouring it.
-    let sums = tiles.map(|(tile, out)| {
+    let tile_pixels = (w * TILE_ROWS) as usize;
+    // A shaded frame's pixels are coloured tile by tile, as the tile's samples are made.
+    let shaded = settings.mode == Mode::Shaded;
+    let mut rgba = vec![0u8; if shaded { samples.len() * 4 } else { 0 }];
+    let mut rgba_tiles: Vec<&mut [u8]> = rgba.chunks_mut(tile_pixels * 4).collect();
+    rgba_tiles.resize_with(samples.len().div_ceil(tile_pixels), Default::default);
+    let tiles = samples
+        .par_chunks_mut(tile_pixels)
+        .zip(rgba_tiles)
+        .enumerate();
+    // Each tile sums (and colours) its own samples while they are still in cache: a
+    // separate pass over a 1280 × 720 frame's 96 MB of samples costs as much as tracing
+    // its primary rays in packets.
+    let sums = tiles.map(|(tile, (out, pixels))| {
         if stopped.load(Ordering::Relaxed) || stop() {
             stopped.store(true, Ordering::Relaxed);
             return FrameSummary::default();
         }
-        let y0 = tile as u32 * TILE_ROWS;
+        let sums = trace_tile::<A, I>(accel, scene, settings, &rays, tile as u32, out);
+        for (px, s) in pixels.chunks_exact_mut(4).zip(out.iter()) {
+            px.copy_from_slice(&shaded_color(s));
+        }
+        sums
+    });
+    let sums = sums.reduce(FrameSummary::default, FrameSummary::merged);
+    let trace_time = start.elapsed();
+    let frame = Frame {
+        width: w,
+        height: h,
+        rgba,
+        summary: sums.with_means(trace_time),
+        samples,
+        heat_max: None,
+    };
+    // A stopped frame's samples go back to the pool as it drops.
+    (!stopped.into_inner()).then_some(frame)
+}
+
+/// Traces the tile of `TILE_ROWS` rows from row `tile * TILE_ROWS` into its samples `out`
+/// and sums them.
+fn trace_tile<A: Accel, I: Intersector>(
+    accel: &A,
+    scene: &Scene,
+    settings: &RenderSettings,
+    rays: &crate::scene::camera::CameraRays,
+    tile: u32,
+    out: &mut [Sample],
+) -> FrameSummary {
+    let w = settings.width.max(1);
+    let y0 = tile * TILE_ROWS;
+    {
         if settings.counters {
             for (k, sample) in out.iter_mut().enumerate() {
                 let ray = rays.pixel_center(k as u32 % w, y0 + k as u32 / w);
@@ -177,19 +220,7 @@ pub fn trace_unless<A: Accel, I: Intersector>(
         }
         // Nothing was counted: only the rays and hits to sum.
         FrameSummary::sum_of_uncounted(out, settings.shadows)
-    });
-    let sums = sums.reduce(FrameSummary::default, FrameSummary::merged);
-    let trace_time = start.elapsed();
-    let frame = Frame {
-        width: w,
-        height: h,
-        rgba: Vec::new(),
-        summary: sums.with_means(trace_time),
-        samples,
-        heat_max: None,
-    };
-    // A stopped frame's samples go back to the pool as it drops.
-    (!stopped.into_inner()).then_some(frame)
+    }
 }
 
 /// A pixel's sample from its primary ray's hit (found with `primary` counting) and, if it
@@ -251,6 +282,19 @@ pub fn shadow_ray(tri: &crate::geometry::Triangle, normal: Vec3, hit: &Hit, ligh
     SurfacePoint::on_triangle(tri, hit.u, hit.v).ray_towards(normal, light)
 }
 
+const BACKGROUND: Vec3 = Vec3::new(0.06, 0.07, 0.09);
+
+/// A sample's pixel in the shaded mode: Lambert shading with the hard shadow, or the
+/// background for a miss.
+fn shaded_color(s: &Sample) -> [u8; 4] {
+    if !s.is_hit() {
+        return to_rgba8(BACKGROUND);
+    }
+    let light = if s.lit { s.cos_light } else { 0.0 };
+    let c = s.albedo * (AMBIENT + (1.0 - AMBIENT) * light);
+    [srgb8(c.x), srgb8(c.y), srgb8(c.z), 255]
+}
+
 impl Frame {
     /// Recomputes `rgba` and `heat_max` for another mode or scale, without tracing again.
     pub fn recolor(&mut self, mode: Mode, heat_max: Option<u32>) {
@@ -283,18 +327,14 @@ pub fn colorize(frame: &Frame, mode: Mode, heat_max: Option<u32>) -> (Vec<u8>, O
         ),
         _ => None,
     };
-    let background = to_rgba8(Vec3::new(0.06, 0.07, 0.09));
+    let background = to_rgba8(BACKGROUND);
     let color = |s: &Sample| match mode {
         Mode::Heatmap(c, r) => {
             let max = scale.unwrap_or(1) as f32;
             to_rgba8(viridis(s.counters(r).get(c) as f32 / max))
         }
+        Mode::Shaded => shaded_color(s),
         _ if !s.is_hit() => background,
-        Mode::Shaded => {
-            let light = if s.lit { s.cos_light } else { 0.0 };
-            let c = s.albedo * (AMBIENT + (1.0 - AMBIENT) * light);
-            [srgb8(c.x), srgb8(c.y), srgb8(c.z), 255]
-        }
         Mode::Normals => to_rgba8(s.normal * 0.5 + 0.5),
         Mode::Depth => {
             let range = (t_far - t_near).max(f32::MIN_POSITIVE);
