@@ -1,6 +1,8 @@
 //! The app's frame pipeline: a full shaded frame is shown traced without counting (primary
 //! rays in packets), and its counted pass follows. Both must show the same frame.
 
+mod common;
+
 use bvhlab::accel::structure::{self, AccelKind, StructureParams};
 use bvhlab::app::worker::{Command, Overlay, RenderJob, Reply, Worker};
 use bvhlab::render::{Frame, Mode, RenderSettings, colorize, trace, trace_unless};
@@ -74,6 +76,48 @@ fn an_uncounted_shaded_frame_is_the_counted_frame_pixel_for_pixel() {
                 a.rgba == image && b.rgba == image,
                 "{what}: the shaded image"
             );
+        }
+    }
+}
+
+/// On the shared meshes, from the views the frame times are measured from: every pixel's
+/// shadow ray, traced in the packet of its tile, gives the single any-hit ray's lit flag.
+#[test]
+fn packet_shadow_rays_light_the_pixels_the_single_rays_light_on_real_scenes() {
+    let Some(dir) = common::shared_scenes() else {
+        eprintln!("BVHLAB_SCENES not set: skipping the shared scenes");
+        return;
+    };
+    for (file, view) in [
+        ("cornell-box.obj", None),
+        ("sponza.obj", Some(([-14.0, 3.0, 0.0], [10.0, 5.0, 0.0]))),
+        (
+            "conference.obj",
+            Some(([1500.0, 100.0, 80.0], [0.0, 400.0, 20.0])),
+        ),
+    ] {
+        let scene = Scene::load(dir.join(file).to_str().unwrap()).unwrap();
+        let mut counted = RenderSettings::for_scene(&scene, 160, 90);
+        if let Some((eye, look)) = view {
+            counted.camera.eye = eye.into();
+            counted.camera.look_at = look.into();
+        }
+        let quick = RenderSettings {
+            counters: false,
+            ..counted
+        };
+        for kind in [AccelKind::Bvh, AccelKind::Bvh8] {
+            let params = StructureParams {
+                kind,
+                ..Default::default()
+            };
+            let s = structure::build_scene(&scene, &params, &AtomicUsize::new(0))
+                .unwrap()
+                .structure;
+            let (a, b) = (trace(&s, &scene, &counted), trace(&s, &scene, &quick));
+            let what = format!("{file}, {}", kind.label());
+            assert!(a.summary.shadow_rays > 0, "{what}: the view sees the scene");
+            assert_same_pixels(&a, &b, &what);
         }
     }
 }

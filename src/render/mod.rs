@@ -114,7 +114,8 @@ pub fn trace<A: Accel>(accel: &A, scene: &Scene, settings: &RenderSettings) -> F
 /// Traces every pixel's rays into the frame's samples. The image is cut into tiles of
 /// `TILE_ROWS` full rows, contiguous in memory, so each worker thread writes its own slice.
 /// A counting frame traces ray by ray, as the lecture's counters are defined; without
-/// counting, the primary rays go in 8 × 8 packets (`Accel::closest_hits`), with the same hits.
+/// counting, the primary rays go in 8 × 8 packets (`Accel::closest_hits`), then their shadow
+/// rays, with the same hits and the same lit pixels.
 pub fn trace_with<A: Accel, I: Intersector>(
     accel: &A,
     scene: &Scene,
@@ -194,15 +195,19 @@ fn trace_tile<A: Accel, I: Intersector>(
                 let ray = rays.pixel_center(k as u32 % w, y0 + k as u32 / w);
                 let mut primary = Counters::default();
                 let hit = accel.closest_hit::<I, _>(&ray, &mut primary);
-                *sample = shade::<A, I, Counters>(accel, scene, &ray, hit, primary, settings);
+                let occluded = |r: &Ray, s: &mut Counters| accel.any_hit::<I, _>(r, s);
+                *sample = shade(scene, &ray, hit, primary, settings, occluded);
             }
             return FrameSummary::sum_of(out, settings.shadows);
         }
-        // Without counting, primary rays go through the tree in 8 × 8 packets.
+        // Without counting, primary rays go through the tree in 8 × 8 packets, and the
+        // shadow rays of their hits after them.
         let rows = out.len() as u32 / w;
         let mut packet = Vec::with_capacity(PACKET_SIZE);
         let mut pixels = Vec::with_capacity(PACKET_SIZE);
         let mut hits = [None; PACKET_SIZE];
+        let mut shadows = Vec::with_capacity(PACKET_SIZE);
+        let mut lit_pixels = Vec::with_capacity(PACKET_SIZE);
         for x0 in (0..w).step_by(PACKET_COLUMNS as usize) {
             packet.clear();
             pixels.clear();
@@ -214,8 +219,23 @@ fn trace_tile<A: Accel, I: Intersector>(
             }
             let hits = &mut hits[..packet.len()];
             accel.closest_hits::<I>(&packet, hits);
+            // The packet's shadow rays are gathered as it is shaded (each hit taken as lit
+            // for now), then traced together: a shadow ray is blocked exactly when it has
+            // a closest hit within its segment.
+            shadows.clear();
+            lit_pixels.clear();
             for ((ray, &hit), &pixel) in packet.iter().zip(hits.iter()).zip(&pixels) {
-                out[pixel] = shade::<A, I, NoStats>(accel, scene, ray, hit, NoStats, settings);
+                let gather = |r: &Ray, _: &mut NoStats| {
+                    shadows.push(*r);
+                    lit_pixels.push(pixel);
+                    false
+                };
+                out[pixel] = shade(scene, ray, hit, NoStats, settings, gather);
+            }
+            let blockers = &mut hits[..shadows.len()];
+            accel.closest_hits::<I>(&shadows, blockers);
+            for (blocker, &pixel) in blockers.iter().zip(&lit_pixels) {
+                out[pixel].lit = blocker.is_none();
             }
         }
         // Nothing was counted: only the rays and hits to sum.
@@ -224,14 +244,14 @@ fn trace_tile<A: Accel, I: Intersector>(
 }
 
 /// A pixel's sample from its primary ray's hit (found with `primary` counting) and, if it
-/// hit, the shadow ray towards the light.
-fn shade<A: Accel, I: Intersector, S: Stats + Into<Counters>>(
-    accel: &A,
+/// hit, the shadow ray towards the light, which `occluded` traces (or gathers for later).
+fn shade<S: Stats + Into<Counters>>(
     scene: &Scene,
     ray: &Ray,
     hit: Option<Hit>,
     primary: S,
     settings: &RenderSettings,
+    mut occluded: impl FnMut(&Ray, &mut S) -> bool,
 ) -> Sample {
     let light = settings.light;
     let Some(hit) = hit else {
@@ -258,8 +278,8 @@ fn shade<A: Accel, I: Intersector, S: Stats + Into<Counters>>(
     let mut shadow = S::default();
     let (lit, cos_light) = if settings.shadows {
         let shadow_ray = shadow_ray(tri, normal, &hit, light);
-        let occluded = accel.any_hit::<I, _>(&shadow_ray, &mut shadow);
-        (!occluded, normal.dot(shadow_ray.direction).max(0.0))
+        let blocked = occluded(&shadow_ray, &mut shadow);
+        (!blocked, normal.dot(shadow_ray.direction).max(0.0))
     } else {
         let to_light = (light - ray.at(hit.t)).normalize_or_zero();
         (true, normal.dot(to_light).max(0.0))
