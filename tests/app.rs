@@ -591,3 +591,62 @@ fn under_the_two_levels_a_selected_instances_blas_continues_the_levels_and_the_w
     assert_eq!(h.state().levels().max_depth(), top);
     assert!(h.state().settings.level <= top);
 }
+
+/// A full shaded frame comes before its counts: until the counted pass arrives, the stats
+/// panel says "counting…" and the pixel report waits; then it shows the counted means.
+#[test]
+fn the_stats_panel_says_counting_until_the_counted_pass_arrives() {
+    use bvhlab::app::worker::{Reply, Shown};
+    use bvhlab::render::trace;
+    use std::sync::Arc;
+    let mut h = app("cornell");
+    assert!(h.query_by_label("primary mean / max").is_some());
+    assert!(h.query_by_label("counting…").is_none());
+    let (shown, scene) = {
+        let app = h.state();
+        (app.shown.clone().unwrap(), app.scene.clone().unwrap())
+    };
+    assert!(
+        shown.frame.summary.counted(),
+        "a settled full frame is counted"
+    );
+    // The same view traced as the worker shows it first: without counting.
+    let (bvh, _) = build(&scene.triangles, &BuildParams::default()).unwrap();
+    let settings = RenderSettings {
+        width: shown.job.width,
+        height: shown.job.height,
+        camera: shown.job.camera,
+        light: scene.light(),
+        mode: shown.job.mode,
+        heat_max: None,
+        shadows: true,
+        counters: false,
+    };
+    let uncounted = Arc::new(trace(&bvh, &scene, &settings));
+    let first = Shown {
+        frame: uncounted,
+        ..(*shown).clone()
+    };
+    let ctx = h.ctx.clone();
+    h.state_mut()
+        .handle_replies(&ctx, vec![Reply::Frame(Arc::new(first))]);
+    h.run_steps(2);
+    assert!(h.query_by_label("counting…").is_some());
+    assert!(h.query_by_label("primary mean / max").is_none());
+    h.state_mut().handle_replies(
+        &ctx,
+        vec![Reply::Counted {
+            job: shown.job.clone(),
+            frame: shown.frame.clone(),
+        }],
+    );
+    h.run_steps(2);
+    assert!(h.query_by_label("counting…").is_none());
+    assert!(h.query_by_label("primary mean / max").is_some());
+    let now = h.state().shown.clone().unwrap();
+    assert!(
+        Arc::ptr_eq(&now.frame, &shown.frame),
+        "the counted frame is shown"
+    );
+    assert_eq!(now.rgba, shown.rgba, "the image does not change");
+}

@@ -253,8 +253,9 @@ impl BvhLabApp {
         }
     }
 
-    /// Handles everything the worker has said since the last frame.
-    fn handle_replies(&mut self, ctx: &egui::Context, replies: Vec<Reply>) {
+    /// Handles everything the worker has said since the last frame (public for the UI
+    /// tests, which hand it replies in a chosen order).
+    pub fn handle_replies(&mut self, ctx: &egui::Context, replies: Vec<Reply>) {
         for r in replies {
             match r {
                 Reply::Loaded { spec, scene } => {
@@ -361,6 +362,13 @@ impl BvhLabApp {
                         self.compared = shown.compared.clone();
                     }
                     self.shown = Some(shown);
+                }
+                Reply::Counted { job, frame } => {
+                    // The counts of the full frame on screen: same hits, same image.
+                    if let Some(shown) = self.shown.as_mut().filter(|s| s.job == job) {
+                        self.full_summary = Some(frame.summary.clone());
+                        Arc::make_mut(shown).frame = frame;
+                    }
                 }
                 Reply::Snapshot(scene) => self.snapshot = Some(scene),
                 Reply::InstanceSelected(outlined) => self.instance_selected(outlined),

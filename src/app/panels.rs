@@ -152,13 +152,20 @@ pub fn status_bar(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             if let Some(shown) = &app.shown {
                 ui.separator();
                 let s = &shown.frame.summary;
+                // The time of the image on screen (its counts may come from a later pass).
+                let ms = shown.image_time.as_secs_f64() * 1e3;
                 ui.label(format!(
-                    "{}×{}{}  {:.1} ms  {:.2} Mrays/s",
+                    "{}×{}{}  {:.1} ms  {:.2} Mrays/s{}",
                     shown.job.width,
                     shown.job.height,
                     if shown.job.preview { " (preview)" } else { "" },
-                    s.trace_time.as_secs_f64() * 1e3,
-                    s.mrays_per_s()
+                    ms,
+                    s.rays() as f64 / ms.max(1e-9) / 1e3,
+                    if !shown.job.preview && !s.counted() {
+                        "  counting…"
+                    } else {
+                        ""
+                    }
                 ));
             }
         });
@@ -867,35 +874,12 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             s.shadow_rays,
             s.mrays_per_s()
         ));
-        egui::Grid::new("counters")
-            .num_columns(3)
-            .striped(true)
-            .show(ui, |ui| {
-                ui.label("");
-                ui.strong("primary mean / max");
-                ui.strong("shadow mean / max");
-                ui.end_row();
-                let two_level =
-                    s.counter(
-                        crate::render::RayKind::Primary,
-                        crate::accel::Counter::TopNodesVisited,
-                    )
-                    .max > 0;
-                for which in crate::accel::Counter::ALL {
-                    if which.is_two_level() && !two_level {
-                        continue;
-                    }
-                    ui.label(which.label());
-                    for rays in [
-                        crate::render::RayKind::Primary,
-                        crate::render::RayKind::Shadow,
-                    ] {
-                        let c = s.counter(rays, which);
-                        ui.label(format!("{:.1} / {}", c.mean, c.max));
-                    }
-                    ui.end_row();
-                }
-            });
+        // The frame on screen was traced without counting; its counted pass follows.
+        if !s.counted() {
+            ui.label("counting…");
+        } else {
+            counter_grid(ui, s);
+        }
     }
     sah_check_section(app, ui);
     super::export::section(app, ui);
@@ -923,12 +907,49 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     }
 }
 
+/// The counted frame's mean and maximum of every counter, for both kinds of ray.
+fn counter_grid(ui: &mut egui::Ui, s: &crate::render::FrameSummary) {
+    egui::Grid::new("counters")
+        .num_columns(3)
+        .striped(true)
+        .show(ui, |ui| {
+            ui.label("");
+            ui.strong("primary mean / max");
+            ui.strong("shadow mean / max");
+            ui.end_row();
+            let two_level =
+                s.counter(
+                    crate::render::RayKind::Primary,
+                    crate::accel::Counter::TopNodesVisited,
+                )
+                .max > 0;
+            for which in crate::accel::Counter::ALL {
+                if which.is_two_level() && !two_level {
+                    continue;
+                }
+                ui.label(which.label());
+                for rays in [
+                    crate::render::RayKind::Primary,
+                    crate::render::RayKind::Shadow,
+                ] {
+                    let c = s.counter(rays, which);
+                    ui.label(format!("{:.1} / {}", c.mean, c.max));
+                }
+                ui.end_row();
+            }
+        });
+}
+
 /// The SAH's prediction against the cost per ray measured: on the random lines it assumes,
 /// and on the frame's own rays, which start at the camera or on surfaces and stop at hits.
 fn sah_check_section(app: &BvhLabApp, ui: &mut egui::Ui) {
     let (Some(p), Some(s)) = (&app.sah_prediction, &app.full_summary) else {
         return;
     };
+    // Nothing measured yet: the counted pass is still on its way.
+    if !s.counted() {
+        return;
+    }
     use crate::accel::Counter;
     use crate::render::RayKind;
     let measured = |rays: RayKind| {

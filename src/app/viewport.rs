@@ -75,8 +75,13 @@ fn pixel_at(app: &BvhLabApp, rect: egui::Rect, pos: egui::Pos2) -> Option<(u32, 
 
 fn pixel_report(app: &BvhLabApp, rect: egui::Rect, pos: egui::Pos2) -> Option<String> {
     let (x, y) = pixel_at(app, rect, pos)?;
-    if !app.shown.as_ref()?.frame.summary.counted() {
-        return Some("preview: the counts come with the full frame".into());
+    let shown = app.shown.as_ref()?;
+    if !shown.frame.summary.counted() {
+        return Some(if shown.job.preview {
+            "preview: the counts come with the full frame".into()
+        } else {
+            "counting…: the counts come with the counted pass".into()
+        });
     }
     let s = app.shown.as_ref()?.frame.sample(x, y)?;
     let work = |c: &crate::accel::Counters| {

@@ -17,6 +17,7 @@ use crate::accel::two_level::{InstanceOutline, ReferenceLocator};
 use crate::accel::{Outline, StructureReport};
 use crate::bench::sah_check::{mean_work_of, random_lines};
 use crate::geometry::Aabb;
+use crate::geometry::Watertight;
 use crate::render::compare::{
     CompareSummary, CompareView, compare_image, compared_counters, summarize,
 };
@@ -24,11 +25,11 @@ use crate::render::overlay::{
     OutlinedBox, outline_boxes, outline_corners, palette, tint_triangles,
 };
 use crate::render::replay::{Replay, replay_pixel};
-use crate::render::{Frame, Mode, RayKind, RenderSettings, colorize, trace};
+use crate::render::{Frame, Mode, RayKind, RenderSettings, colorize, trace, trace_unless};
 use crate::scene::{Camera, Scene};
 use glam::Vec3;
 use std::cell::RefCell;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::mpsc::{Receiver, Sender, channel};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
@@ -185,6 +186,7 @@ impl SahPrediction {
 }
 
 /// A frame as the UI shows it.
+#[derive(Clone)]
 pub struct Shown {
     pub job: RenderJob,
     pub rgba: Vec<u8>,
@@ -193,6 +195,10 @@ pub struct Shown {
     pub walk: Option<WalkInfo>,
     /// Whether this frame was traced (rather than only recoloured).
     pub traced: bool,
+    /// Time to trace the image shown. A full frame in a mode that shows no counts is
+    /// traced without counting, so its counters (`frame`) come later with `Reply::Counted`,
+    /// from a second, slower pass.
+    pub image_time: Duration,
     /// With a pinned A: the comparison, and A's frame of the same view.
     pub compared: Option<Compared>,
     pub pinned_frame: Option<Arc<Frame>>,
@@ -243,6 +249,12 @@ pub enum Reply {
         transform: glam::Affine3A,
     },
     Frame(Arc<Shown>),
+    /// The counted frame of the full frame just shown without counts: the same hits and
+    /// image, now with every ray's counters. `job` is the shown frame's job.
+    Counted {
+        job: RenderJob,
+        frame: Arc<Frame>,
+    },
     Snapshot(Arc<Scene>),
     /// The recorded traversal of a pixel's ray, or why there is none.
     Replayed(Result<Arc<Replay>, String>),
@@ -255,6 +267,8 @@ pub struct Worker {
     tx: Option<Sender<(u64, Command)>>,
     rx: Receiver<Reply>,
     sent: u64,
+    /// `sent`, for the worker: a counted pass stops when a newer command is waiting.
+    latest: Arc<AtomicU64>,
     /// The newest command the worker has reported done.
     done: u64,
     /// Triangles placed by the build in progress, and how many there are in all.
@@ -268,7 +282,10 @@ impl Worker {
         let (tx, commands) = channel();
         let (replies, rx) = channel();
         let progress = Arc::new((AtomicUsize::new(0), AtomicUsize::new(0)));
+        let latest = Arc::new(AtomicU64::new(0));
         let state = State {
+            latest: latest.clone(),
+            light: None,
             replies,
             wake: Box::new(wake),
             progress: progress.clone(),
@@ -301,6 +318,7 @@ impl Worker {
             tx: Some(tx),
             rx,
             sent: 0,
+            latest,
             done: 0,
             progress,
             thread,
@@ -309,6 +327,7 @@ impl Worker {
 
     pub fn send(&mut self, command: Command) {
         self.sent += 1;
+        self.latest.store(self.sent, Ordering::Relaxed);
         if let Some(tx) = &self.tx {
             // A failed send means the worker is gone; the UI keeps its last state.
             let _ = tx.send((self.sent, command));
@@ -353,6 +372,14 @@ impl Worker {
         out
     }
 
+    /// The next reply, waiting at most `timeout` (`None` if none came). For measuring when
+    /// each reply arrives, never the interactive UI.
+    pub fn next_reply(&mut self, timeout: Duration) -> Option<Reply> {
+        let r = self.rx.recv_timeout(timeout).ok()?;
+        self.note_done(std::slice::from_ref(&r));
+        Some(r)
+    }
+
     pub fn sent(&self) -> u64 {
         self.sent
     }
@@ -376,8 +403,19 @@ struct TraceKey {
     version: u64,
 }
 
+/// A traced frame, the view it is valid for, and whether it was traced with counting.
+struct Traced {
+    key: TraceKey,
+    frame: Arc<Frame>,
+    counted: bool,
+}
+
 struct State {
     replies: Sender<Reply>,
+    /// The newest command the UI has sent.
+    latest: Arc<AtomicU64>,
+    /// The light (the scene's, or the standard one from its box) at `scene_version`.
+    light: Option<(u64, Vec3)>,
     wake: Box<dyn Fn() + Send>,
     progress: Arc<(AtomicUsize, AtomicUsize)>,
     scene: Option<Scene>,
@@ -403,7 +441,7 @@ struct State {
     pinned: Option<PinnedStructure>,
     /// Builds of A so far: A's frames are traced again after each.
     pinned_builds: u64,
-    traced: Option<(TraceKey, Arc<Frame>)>,
+    traced: Option<Traced>,
     pinned_traced: Option<(TraceKey, Arc<Frame>)>,
     last_job: Option<RenderJob>,
     /// For partial refits of the current tree; made at the first move after a build.
@@ -487,6 +525,7 @@ impl State {
             if let Some(j) = job.or(again) {
                 self.render(j);
             }
+            self.count_shown(last_seq);
             self.reply(Reply::Idle(last_seq));
         }
     }
@@ -840,6 +879,7 @@ impl State {
     }
 
     fn render(&mut self, job: RenderJob) {
+        let light = self.light();
         let (Some(scene), Some(structure)) = (&self.scene, &self.structure) else {
             return;
         };
@@ -850,19 +890,31 @@ impl State {
             height: job.height,
             version: self.version,
         };
+        let settings = Self::trace_settings(light, &job);
         let (frame, traced) = match &self.traced {
-            Some((k, f)) if *k == key => (f.clone(), false),
+            // A counted frame serves every mode; an uncounted one only a mode without counts.
+            Some(t) if t.key == key && (t.counted || !settings.counters) => {
+                (t.frame.clone(), false)
+            }
             _ => {
-                let settings = Self::trace_settings(scene, &job);
                 let f = Arc::new(trace(structure, scene, &settings));
-                self.traced = Some((key, f.clone()));
+                self.traced = Some(Traced {
+                    key,
+                    frame: f.clone(),
+                    counted: settings.counters,
+                });
                 (f, true)
             }
         };
+        let image_time = frame.summary.trace_time;
         let ((mut rgba, heat_max), compared, pinned_frame) = match job.compare {
             Some(c) => {
                 let (image, compared, a) = self.compare(&frame, &c, &job);
                 (image, Some(compared), a)
+            }
+            // A shaded frame comes coloured from the trace.
+            None if job.mode == Mode::Shaded && !frame.rgba.is_empty() => {
+                ((frame.rgba.clone(), None), None, None)
             }
             None => (colorize(&frame, job.mode, job.heat_max), None, None),
         };
@@ -874,24 +926,84 @@ impl State {
             frame,
             walk,
             traced,
+            image_time,
             compared,
             pinned_frame,
         })));
     }
 
+    /// The scene's light, worked out again only when the scene changed (the standard
+    /// light follows the scene's box, a pass over every triangle).
+    fn light(&mut self) -> Vec3 {
+        match (self.light, &self.scene) {
+            (Some((v, light)), _) if v == self.scene_version => light,
+            (_, Some(scene)) => {
+                let light = scene.light();
+                self.light = Some((self.scene_version, light));
+                light
+            }
+            (_, None) => Vec3::ZERO,
+        }
+    }
+
+    /// After a full frame shown without counts: traces it again with counting and sends
+    /// its counters (`Reply::Counted`), unless a command newer than `seq` is waiting (then
+    /// the pass stops at once and is done after a later frame). The hits are the same, so
+    /// the image does not change.
+    fn count_shown(&mut self, seq: u64) {
+        let Some(job) = self.last_job.clone().filter(|j| !j.preview) else {
+            return;
+        };
+        let light = self.light();
+        let (Some(scene), Some(structure), Some(traced)) =
+            (&self.scene, &self.structure, &self.traced)
+        else {
+            return;
+        };
+        let key = TraceKey {
+            camera: job.camera,
+            width: job.width,
+            height: job.height,
+            version: self.version,
+        };
+        if traced.counted || traced.key != key {
+            return;
+        }
+        let settings = RenderSettings {
+            counters: true,
+            ..Self::trace_settings(light, &job)
+        };
+        let latest = &self.latest;
+        let newer = || latest.load(Ordering::Relaxed) > seq;
+        let Some(counted) = trace_unless::<_, Watertight>(structure, scene, &settings, &newer)
+        else {
+            return;
+        };
+        let frame = Arc::new(counted);
+        self.traced = Some(Traced {
+            key,
+            frame: frame.clone(),
+            counted: true,
+        });
+        self.reply(Reply::Counted { job, frame });
+    }
+
     /// The settings a job's frames are traced with.
-    fn trace_settings(scene: &Scene, job: &RenderJob) -> RenderSettings {
+    fn trace_settings(light: Vec3, job: &RenderJob) -> RenderSettings {
         RenderSettings {
             width: job.width,
             height: job.height,
             camera: job.camera,
-            light: scene.light(),
+            light,
             mode: job.mode,
             heat_max: job.heat_max,
             // A preview skips the shadow rays unless they are what it shows.
             shadows: !job.preview || job.mode.counts_shadow_rays(),
-            // A shaded preview shows no counts: it skips counting too.
-            counters: !job.preview || matches!(job.mode, Mode::Heatmap(..)),
+            // Only a heatmap shows counts, and a comparison of full frames sums them. Any
+            // other frame is traced without counting (its primary rays in packets, the same
+            // hits); a full one is counted after it is shown (`count_shown`).
+            counters: matches!(job.mode, Mode::Heatmap(..))
+                || (!job.preview && job.compare.is_some()),
         }
     }
 
@@ -999,7 +1111,7 @@ impl State {
         {
             return Ok(f.clone());
         }
-        let settings = Self::trace_settings(scene, job);
+        let settings = Self::trace_settings(scene.light(), job);
         let frame = Arc::new(trace(structure, scene, &settings));
         self.pinned_traced = Some((key, frame.clone()));
         Ok(frame)

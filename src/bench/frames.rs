@@ -20,6 +20,9 @@ pub struct FrameTime {
     pub preview: bool,
     /// Median over the runs, command to frame.
     pub median: Duration,
+    /// For a frame shown before its counts (a full frame in a mode without counts): the
+    /// median from the command to the counted pass's counters.
+    pub counted: Option<Duration>,
 }
 
 #[derive(Clone, Debug)]
@@ -52,6 +55,9 @@ pub struct DragTime {
 struct Step {
     /// Time spent tracing the frame, if one came.
     trace: Option<Duration>,
+    /// When the frame came, and when its counts came if they came after it.
+    shown: Option<Instant>,
+    counted: Option<Instant>,
     refit: Duration,
     flat_refit: Option<Duration>,
 }
@@ -59,9 +65,18 @@ struct Step {
 /// Waits for the frame of the command just sent; `None` if the worker went quiet.
 fn frame_after(worker: &mut Worker) -> Option<Step> {
     let mut step = Step::default();
-    for r in worker.wait_idle(Duration::from_secs(300)) {
+    let deadline = Instant::now() + Duration::from_secs(300);
+    while !worker.is_idle() {
+        let left = deadline.saturating_duration_since(Instant::now());
+        let Some(r) = worker.next_reply(left) else {
+            break;
+        };
         match r {
-            Reply::Frame(f) => step.trace = Some(f.frame.summary.trace_time),
+            Reply::Frame(f) => {
+                step.trace = Some(f.frame.summary.trace_time);
+                step.shown = Some(Instant::now());
+            }
+            Reply::Counted { .. } => step.counted = Some(Instant::now()),
             Reply::Refitted { refit_time, .. } => step.refit += refit_time,
             Reply::RebuiltAfterMove { rebuild_time, .. } => step.refit += rebuild_time,
             Reply::InstanceMoved {
@@ -122,7 +137,7 @@ pub fn run(
     let mut frames = Vec::new();
     for &size in sizes {
         for mode in modes {
-            let mut times = Vec::new();
+            let (mut times, mut counted) = (Vec::new(), Vec::new());
             for k in 0..runs {
                 // A new camera each time, as an orbit would, so every frame is traced; the
                 // nudges are tiny and do not add up, so every frame shows the same view.
@@ -130,8 +145,10 @@ pub fn run(
                 nudged.eye += Vec3::splat(1e-5 * (k as f32 + 1.0) * scene.bounds().diagonal());
                 let start = Instant::now();
                 worker.send(Command::Render(job(nudged, mode, size)));
-                frame_after(&mut worker).ok_or("no frame")?;
-                times.push(start.elapsed());
+                let step = frame_after(&mut worker).ok_or("no frame")?;
+                let shown = step.shown.unwrap_or_else(Instant::now);
+                times.push(shown - start);
+                counted.extend(step.counted.map(|c| c - start));
             }
             frames.push(FrameTime {
                 mode,
@@ -139,6 +156,7 @@ pub fn run(
                 height: size.1,
                 preview: size.2,
                 median: median(times),
+                counted: (!counted.is_empty()).then(|| median(counted)),
             });
         }
     }
@@ -185,7 +203,7 @@ pub fn run(
                 }
             });
             let step = frame_after(&mut worker).ok_or("no frame after a move")?;
-            times.push(start.elapsed());
+            times.push(step.shown.unwrap_or_else(Instant::now) - start);
             refits.push(step.refit);
             traces.push(step.trace.unwrap_or_default());
             flat.extend(step.flat_refit);

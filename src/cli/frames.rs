@@ -48,6 +48,15 @@ pub fn run(args: FramesArgs) -> Result<()> {
             f.median.as_secs_f64() * 1e3,
             1.0 / f.median.as_secs_f64().max(1e-9)
         );
+        if let Some(c) = f.counted {
+            out!(
+                "  {:>9} {:<8} {:<30} {:>7.1} ms until its counters are in (counted pass after the image)",
+                "",
+                "",
+                "",
+                c.as_secs_f64() * 1e3
+            );
+        }
     }
     let two_level = params.kind == AccelKind::TwoLevel;
     for d in &r.drags {

@@ -143,6 +143,21 @@ impl FrameSummary {
         s
     }
 
+    /// The ray counts of `samples` traced without counting: their counters are all zero,
+    /// so only rays, hits and shadowed hits are summed.
+    pub(crate) fn sum_of_uncounted(samples: &[Sample], shadows: bool) -> Self {
+        let mut s = FrameSummary {
+            primary_rays: samples.len() as u64,
+            ..Default::default()
+        };
+        for sample in samples.iter().filter(|s| s.is_hit()) {
+            s.primary_hits += 1;
+            s.shadow_occluded += u64::from(!sample.lit);
+        }
+        s.shadow_rays = if shadows { s.primary_hits } else { 0 };
+        s
+    }
+
     /// Two chunks' sums as one.
     pub(crate) fn merged(mut a: Self, b: Self) -> Self {
         a.primary_rays += b.primary_rays;
@@ -237,5 +252,26 @@ mod tests {
         let nodes = chunked.counter(RayKind::Primary, Counter::NodesVisited);
         assert_eq!(nodes.max, 96);
         assert!((nodes.mean - nodes.total as f64 / 100_003.0).abs() < 1e-12);
+    }
+
+    /// Samples without counts sum to the same rays, hits and shadowed hits either way.
+    #[test]
+    fn an_uncounted_sum_is_the_full_sum_of_samples_without_counts() {
+        let samples: Vec<Sample> = (0..5_000u32)
+            .map(|i| {
+                let mut s = Sample::default();
+                if i % 3 != 0 {
+                    s.triangle = u64::from(i);
+                    s.lit = i % 7 != 0;
+                }
+                s
+            })
+            .collect();
+        for shadows in [false, true] {
+            assert_eq!(
+                FrameSummary::sum_of_uncounted(&samples, shadows),
+                FrameSummary::sum_of(&samples, shadows)
+            );
+        }
     }
 }

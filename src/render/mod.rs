@@ -20,6 +20,7 @@ use crate::scene::{Camera, Scene};
 use colormap::{srgb8, to_rgba8, viridis};
 use glam::Vec3;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -103,8 +104,9 @@ pub fn render_with<A: Accel, I: Intersector>(
     frame
 }
 
-/// Traces a frame with the default intersector, leaving `rgba` empty: for callers that
-/// colour it themselves (`colorize`).
+/// Traces a frame with the default intersector. Its `rgba` holds the shaded image when
+/// `settings.mode` is `Mode::Shaded` (coloured as each tile is traced, while its samples are
+/// in cache), and is empty otherwise: callers colour it themselves (`colorize`).
 pub fn trace<A: Accel>(accel: &A, scene: &Scene, settings: &RenderSettings) -> Frame {
     trace_with::<A, Watertight>(accel, scene, settings)
 }
@@ -112,35 +114,100 @@ pub fn trace<A: Accel>(accel: &A, scene: &Scene, settings: &RenderSettings) -> F
 /// Traces every pixel's rays into the frame's samples. The image is cut into tiles of
 /// `TILE_ROWS` full rows, contiguous in memory, so each worker thread writes its own slice.
 /// A counting frame traces ray by ray, as the lecture's counters are defined; without
-/// counting, the primary rays go in 8 × 8 packets (`Accel::closest_hits`), with the same hits.
+/// counting, the primary rays go in 8 × 8 packets (`Accel::closest_hits`), then their shadow
+/// rays, with the same hits and the same lit pixels.
 pub fn trace_with<A: Accel, I: Intersector>(
     accel: &A,
     scene: &Scene,
     settings: &RenderSettings,
 ) -> Frame {
+    // Never stopped, the trace always gives its frame.
+    trace_unless::<A, I>(accel, scene, settings, &|| false).unwrap_or_default()
+}
+
+/// `trace_with`, given up (`None`) as soon as `stop` says so: `stop` is asked before each
+/// tile, so a frame no longer wanted (the app's counted pass, when a newer command
+/// arrives) costs at most a tile per thread more.
+pub fn trace_unless<A: Accel, I: Intersector>(
+    accel: &A,
+    scene: &Scene,
+    settings: &RenderSettings,
+    stop: &(dyn Fn() -> bool + Sync),
+) -> Option<Frame> {
     let (w, h) = (settings.width.max(1), settings.height.max(1));
     let rays = settings.camera.rays(w, h);
     let start = Instant::now();
     let mut samples = sample_pool::take((w * h) as usize);
-    let tiles = samples.par_chunks_mut((w * TILE_ROWS) as usize).enumerate();
-    // Each tile sums its own samples while they are still in cache: a separate pass over
-    // a 1280 × 720 frame's 96 MB of samples costs as much as colouring it.
-    let sums = tiles.map(|(tile, out)| {
-        let y0 = tile as u32 * TILE_ROWS;
+    let stopped = AtomicBool::new(false);
+    let tile_pixels = (w * TILE_ROWS) as usize;
+    // A shaded frame's pixels are coloured tile by tile, as the tile's samples are made.
+    let shaded = settings.mode == Mode::Shaded;
+    let mut rgba = vec![0u8; if shaded { samples.len() * 4 } else { 0 }];
+    let mut rgba_tiles: Vec<&mut [u8]> = rgba.chunks_mut(tile_pixels * 4).collect();
+    rgba_tiles.resize_with(samples.len().div_ceil(tile_pixels), Default::default);
+    let tiles = samples
+        .par_chunks_mut(tile_pixels)
+        .zip(rgba_tiles)
+        .enumerate();
+    // Each tile sums (and colours) its own samples while they are still in cache: a
+    // separate pass over a 1280 × 720 frame's 96 MB of samples costs as much as tracing
+    // its primary rays in packets.
+    let sums = tiles.map(|(tile, (out, pixels))| {
+        if stopped.load(Ordering::Relaxed) || stop() {
+            stopped.store(true, Ordering::Relaxed);
+            return FrameSummary::default();
+        }
+        let sums = trace_tile::<A, I>(accel, scene, settings, &rays, tile as u32, out);
+        for (px, s) in pixels.chunks_exact_mut(4).zip(out.iter()) {
+            px.copy_from_slice(&shaded_color(s));
+        }
+        sums
+    });
+    let sums = sums.reduce(FrameSummary::default, FrameSummary::merged);
+    let trace_time = start.elapsed();
+    let frame = Frame {
+        width: w,
+        height: h,
+        rgba,
+        summary: sums.with_means(trace_time),
+        samples,
+        heat_max: None,
+    };
+    // A stopped frame's samples go back to the pool as it drops.
+    (!stopped.into_inner()).then_some(frame)
+}
+
+/// Traces the tile of `TILE_ROWS` rows from row `tile * TILE_ROWS` into its samples `out`
+/// and sums them.
+fn trace_tile<A: Accel, I: Intersector>(
+    accel: &A,
+    scene: &Scene,
+    settings: &RenderSettings,
+    rays: &crate::scene::camera::CameraRays,
+    tile: u32,
+    out: &mut [Sample],
+) -> FrameSummary {
+    let w = settings.width.max(1);
+    let y0 = tile * TILE_ROWS;
+    {
         if settings.counters {
             for (k, sample) in out.iter_mut().enumerate() {
                 let ray = rays.pixel_center(k as u32 % w, y0 + k as u32 / w);
                 let mut primary = Counters::default();
                 let hit = accel.closest_hit::<I, _>(&ray, &mut primary);
-                *sample = shade::<A, I, Counters>(accel, scene, &ray, hit, primary, settings);
+                let occluded = |r: &Ray, s: &mut Counters| accel.any_hit::<I, _>(r, s);
+                *sample = shade(scene, &ray, hit, primary, settings, occluded);
             }
             return FrameSummary::sum_of(out, settings.shadows);
         }
-        // Without counting, primary rays go through the tree in 8 × 8 packets.
+        // Without counting, primary rays go through the tree in 8 × 8 packets, and the
+        // shadow rays of their hits after them.
         let rows = out.len() as u32 / w;
         let mut packet = Vec::with_capacity(PACKET_SIZE);
         let mut pixels = Vec::with_capacity(PACKET_SIZE);
         let mut hits = [None; PACKET_SIZE];
+        let mut shadows = Vec::with_capacity(PACKET_SIZE);
+        let mut lit_pixels = Vec::with_capacity(PACKET_SIZE);
         for x0 in (0..w).step_by(PACKET_COLUMNS as usize) {
             packet.clear();
             pixels.clear();
@@ -152,33 +219,39 @@ pub fn trace_with<A: Accel, I: Intersector>(
             }
             let hits = &mut hits[..packet.len()];
             accel.closest_hits::<I>(&packet, hits);
+            // The packet's shadow rays are gathered as it is shaded (each hit taken as lit
+            // for now), then traced together: a shadow ray is blocked exactly when it has
+            // a closest hit within its segment.
+            shadows.clear();
+            lit_pixels.clear();
             for ((ray, &hit), &pixel) in packet.iter().zip(hits.iter()).zip(&pixels) {
-                out[pixel] = shade::<A, I, NoStats>(accel, scene, ray, hit, NoStats, settings);
+                let gather = |r: &Ray, _: &mut NoStats| {
+                    shadows.push(*r);
+                    lit_pixels.push(pixel);
+                    false
+                };
+                out[pixel] = shade(scene, ray, hit, NoStats, settings, gather);
+            }
+            let blockers = &mut hits[..shadows.len()];
+            accel.closest_hits::<I>(&shadows, blockers);
+            for (blocker, &pixel) in blockers.iter().zip(&lit_pixels) {
+                out[pixel].lit = blocker.is_none();
             }
         }
-        FrameSummary::sum_of(out, settings.shadows)
-    });
-    let sums = sums.reduce(FrameSummary::default, FrameSummary::merged);
-    let trace_time = start.elapsed();
-    Frame {
-        width: w,
-        height: h,
-        rgba: Vec::new(),
-        summary: sums.with_means(trace_time),
-        samples,
-        heat_max: None,
+        // Nothing was counted: only the rays and hits to sum.
+        FrameSummary::sum_of_uncounted(out, settings.shadows)
     }
 }
 
 /// A pixel's sample from its primary ray's hit (found with `primary` counting) and, if it
-/// hit, the shadow ray towards the light.
-fn shade<A: Accel, I: Intersector, S: Stats + Into<Counters>>(
-    accel: &A,
+/// hit, the shadow ray towards the light, which `occluded` traces (or gathers for later).
+fn shade<S: Stats + Into<Counters>>(
     scene: &Scene,
     ray: &Ray,
     hit: Option<Hit>,
     primary: S,
     settings: &RenderSettings,
+    mut occluded: impl FnMut(&Ray, &mut S) -> bool,
 ) -> Sample {
     let light = settings.light;
     let Some(hit) = hit else {
@@ -205,8 +278,8 @@ fn shade<A: Accel, I: Intersector, S: Stats + Into<Counters>>(
     let mut shadow = S::default();
     let (lit, cos_light) = if settings.shadows {
         let shadow_ray = shadow_ray(tri, normal, &hit, light);
-        let occluded = accel.any_hit::<I, _>(&shadow_ray, &mut shadow);
-        (!occluded, normal.dot(shadow_ray.direction).max(0.0))
+        let blocked = occluded(&shadow_ray, &mut shadow);
+        (!blocked, normal.dot(shadow_ray.direction).max(0.0))
     } else {
         let to_light = (light - ray.at(hit.t)).normalize_or_zero();
         (true, normal.dot(to_light).max(0.0))
@@ -227,6 +300,19 @@ fn shade<A: Accel, I: Intersector, S: Stats + Into<Counters>>(
 /// on the side of `normal`, the triangle's normal facing the ray that hit it.
 pub fn shadow_ray(tri: &crate::geometry::Triangle, normal: Vec3, hit: &Hit, light: Vec3) -> Ray {
     SurfacePoint::on_triangle(tri, hit.u, hit.v).ray_towards(normal, light)
+}
+
+const BACKGROUND: Vec3 = Vec3::new(0.06, 0.07, 0.09);
+
+/// A sample's pixel in the shaded mode: Lambert shading with the hard shadow, or the
+/// background for a miss.
+fn shaded_color(s: &Sample) -> [u8; 4] {
+    if !s.is_hit() {
+        return to_rgba8(BACKGROUND);
+    }
+    let light = if s.lit { s.cos_light } else { 0.0 };
+    let c = s.albedo * (AMBIENT + (1.0 - AMBIENT) * light);
+    [srgb8(c.x), srgb8(c.y), srgb8(c.z), 255]
 }
 
 impl Frame {
@@ -261,18 +347,14 @@ pub fn colorize(frame: &Frame, mode: Mode, heat_max: Option<u32>) -> (Vec<u8>, O
         ),
         _ => None,
     };
-    let background = to_rgba8(Vec3::new(0.06, 0.07, 0.09));
+    let background = to_rgba8(BACKGROUND);
     let color = |s: &Sample| match mode {
         Mode::Heatmap(c, r) => {
             let max = scale.unwrap_or(1) as f32;
             to_rgba8(viridis(s.counters(r).get(c) as f32 / max))
         }
+        Mode::Shaded => shaded_color(s),
         _ if !s.is_hit() => background,
-        Mode::Shaded => {
-            let light = if s.lit { s.cos_light } else { 0.0 };
-            let c = s.albedo * (AMBIENT + (1.0 - AMBIENT) * light);
-            [srgb8(c.x), srgb8(c.y), srgb8(c.z), 255]
-        }
         Mode::Normals => to_rgba8(s.normal * 0.5 + 0.5),
         Mode::Depth => {
             let range = (t_far - t_near).max(f32::MIN_POSITIVE);

@@ -291,9 +291,13 @@ impl Scene {
                     .map_or(b, |m| b.union(i.world_bounds(m)))
             });
         }
+        // On every thread: the default light follows this box, so each frame asks for it
+        // (minima and maxima, the same box in any order).
+        use rayon::prelude::*;
         self.triangles
-            .iter()
-            .fold(Aabb::EMPTY, |b, t| b.union(t.bounds()))
+            .par_chunks(1 << 14)
+            .map(|chunk| chunk.iter().fold(Aabb::EMPTY, |b, t| b.union(t.bounds())))
+            .reduce(|| Aabb::EMPTY, Aabb::union)
     }
 
     pub fn camera(&self) -> Camera {

@@ -1,0 +1,237 @@
+//! The app's frame pipeline: a full shaded frame is shown traced without counting (primary
+//! rays in packets), and its counted pass follows. Both must show the same frame.
+
+mod common;
+
+use bvhlab::accel::structure::{self, AccelKind, StructureParams};
+use bvhlab::app::worker::{Command, Overlay, RenderJob, Reply, Worker};
+use bvhlab::render::{Frame, Mode, RenderSettings, colorize, trace, trace_unless};
+use bvhlab::scene::Scene;
+use std::sync::atomic::AtomicUsize;
+use std::time::Duration;
+
+const KINDS: [AccelKind; 5] = [
+    AccelKind::Bvh,
+    AccelKind::Bvh4,
+    AccelKind::Bvh8,
+    AccelKind::KdTree,
+    AccelKind::TwoLevel,
+];
+
+/// Every pixel of `b` shows what the same pixel of `a` shows: the same hit, normal, colour,
+/// light and shadow.
+fn assert_same_pixels(a: &Frame, b: &Frame, what: &str) {
+    assert_eq!(a.samples.len(), b.samples.len(), "{what}");
+    for (i, (x, y)) in a.samples.iter().zip(&b.samples).enumerate() {
+        assert_eq!(
+            (x.t.to_bits(), x.triangle, x.lit, x.cos_light.to_bits()),
+            (y.t.to_bits(), y.triangle, y.lit, y.cos_light.to_bits()),
+            "{what}: pixel {i}"
+        );
+        assert_eq!(
+            (x.normal, x.albedo),
+            (y.normal, y.albedo),
+            "{what}: pixel {i}"
+        );
+    }
+}
+
+#[test]
+fn an_uncounted_shaded_frame_is_the_counted_frame_pixel_for_pixel() {
+    for name in ["cornell", "teapot-in-stadium", "walls-rotated", "island:12"] {
+        let scene = Scene::load(name).unwrap();
+        for kind in KINDS {
+            let params = StructureParams {
+                kind,
+                ..Default::default()
+            };
+            let s = structure::build_scene(&scene, &params, &AtomicUsize::new(0))
+                .unwrap()
+                .structure;
+            let counted = RenderSettings::for_scene(&scene, 77, 45);
+            let quick = RenderSettings {
+                counters: false,
+                ..counted
+            };
+            let (a, b) = (trace(&s, &scene, &counted), trace(&s, &scene, &quick));
+            let what = format!("{name}, {}", kind.label());
+            assert!(
+                a.summary.primary_hits > 0,
+                "{what}: the view sees the scene"
+            );
+            assert!(a.summary.counted() && !b.summary.counted(), "{what}");
+            assert_same_pixels(&a, &b, &what);
+            assert_eq!(
+                (a.summary.primary_hits, a.summary.shadow_rays),
+                (b.summary.primary_hits, b.summary.shadow_rays),
+                "{what}"
+            );
+            assert_eq!(
+                a.summary.shadow_occluded, b.summary.shadow_occluded,
+                "{what}"
+            );
+            // Both come coloured from the trace, as colouring them afterwards would.
+            let (image, _) = colorize(&a, Mode::Shaded, None);
+            assert!(
+                a.rgba == image && b.rgba == image,
+                "{what}: the shaded image"
+            );
+        }
+    }
+}
+
+/// On the shared meshes, from the views the frame times are measured from: every pixel's
+/// shadow ray, traced in the packet of its tile, gives the single any-hit ray's lit flag.
+#[test]
+fn packet_shadow_rays_light_the_pixels_the_single_rays_light_on_real_scenes() {
+    let Some(dir) = common::shared_scenes() else {
+        eprintln!("BVHLAB_SCENES not set: skipping the shared scenes");
+        return;
+    };
+    for (file, view) in [
+        ("cornell-box.obj", None),
+        ("sponza.obj", Some(([-14.0, 3.0, 0.0], [10.0, 5.0, 0.0]))),
+        (
+            "conference.obj",
+            Some(([1500.0, 100.0, 80.0], [0.0, 400.0, 20.0])),
+        ),
+    ] {
+        let scene = Scene::load(dir.join(file).to_str().unwrap()).unwrap();
+        let mut counted = RenderSettings::for_scene(&scene, 160, 90);
+        if let Some((eye, look)) = view {
+            counted.camera.eye = eye.into();
+            counted.camera.look_at = look.into();
+        }
+        let quick = RenderSettings {
+            counters: false,
+            ..counted
+        };
+        for kind in [AccelKind::Bvh, AccelKind::Bvh8] {
+            let params = StructureParams {
+                kind,
+                ..Default::default()
+            };
+            let s = structure::build_scene(&scene, &params, &AtomicUsize::new(0))
+                .unwrap()
+                .structure;
+            let (a, b) = (trace(&s, &scene, &counted), trace(&s, &scene, &quick));
+            let what = format!("{file}, {}", kind.label());
+            assert!(a.summary.shadow_rays > 0, "{what}: the view sees the scene");
+            assert_same_pixels(&a, &b, &what);
+        }
+    }
+}
+
+#[test]
+fn a_frame_in_another_mode_comes_uncoloured_and_a_stopped_trace_gives_none() {
+    let scene = Scene::load("cornell").unwrap();
+    let s = structure::build_scene(&scene, &StructureParams::default(), &AtomicUsize::new(0))
+        .unwrap()
+        .structure;
+    let settings = RenderSettings {
+        mode: Mode::Normals,
+        ..RenderSettings::for_scene(&scene, 40, 30)
+    };
+    assert!(trace(&s, &scene, &settings).rgba.is_empty());
+    let watertight = |stop: &(dyn Fn() -> bool + Sync)| {
+        trace_unless::<_, bvhlab::geometry::Watertight>(&s, &scene, &settings, stop)
+    };
+    assert!(watertight(&|| true).is_none());
+    let whole = watertight(&|| false).expect("never stopped");
+    assert_same_pixels(&whole, &trace(&s, &scene, &settings), "cornell");
+}
+
+fn job(scene: &Scene, mode: Mode, preview: bool) -> RenderJob {
+    RenderJob {
+        camera: scene.camera(),
+        width: 64,
+        height: 48,
+        mode,
+        heat_max: None,
+        overlay: Overlay::default(),
+        preview,
+        compare: None,
+    }
+}
+
+/// The frames and counted passes among `replies`.
+fn frames_and_counts(replies: Vec<Reply>) -> (Vec<Reply>, Vec<Reply>) {
+    replies
+        .into_iter()
+        .filter(|r| matches!(r, Reply::Frame(_) | Reply::Counted { .. }))
+        .partition(|r| matches!(r, Reply::Frame(_)))
+}
+
+#[test]
+fn the_worker_shows_a_full_shaded_frame_first_and_its_counts_after() {
+    let mut worker = Worker::spawn(|| {});
+    worker.send(Command::Load("teapot-in-stadium".into()));
+    let wait = Duration::from_secs(120);
+    let scene = worker
+        .wait_idle(wait)
+        .into_iter()
+        .find_map(|r| match r {
+            Reply::Loaded { scene, .. } => Some(scene),
+            _ => None,
+        })
+        .expect("the scene loads");
+    let shaded = job(&scene, Mode::Shaded, false);
+    worker.send(Command::Render(shaded.clone()));
+    let replies = worker.wait_idle(wait);
+    let order: Vec<bool> = replies
+        .iter()
+        .filter_map(|r| match r {
+            Reply::Frame(_) => Some(true),
+            Reply::Counted { .. } => Some(false),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(order, [true, false], "the frame, then its counts");
+    let (frames, counts) = frames_and_counts(replies);
+    let (
+        Reply::Frame(shown),
+        Reply::Counted {
+            job: counted_job,
+            frame,
+        },
+    ) = (&frames[0], &counts[0])
+    else {
+        unreachable!()
+    };
+    assert!(!shown.frame.summary.counted(), "shown before counting");
+    assert!(frame.summary.counted(), "then counted");
+    assert_eq!(*counted_job, shaded);
+    assert_same_pixels(&shown.frame, frame, "teapot-in-stadium");
+    assert_eq!(shown.image_time, shown.frame.summary.trace_time);
+
+    // The heatmap of the same view recolours the counted frame: no tracing, no second pass.
+    worker.send(Command::Render(job_with(
+        &shaded,
+        Mode::Heatmap(bvhlab::accel::Counter::NodesVisited, Default::default()),
+    )));
+    let (frames, counts) = frames_and_counts(worker.wait_idle(wait));
+    let Reply::Frame(heat) = &frames[0] else {
+        unreachable!()
+    };
+    assert!(!heat.traced && heat.frame.summary.counted() && counts.is_empty());
+
+    // A preview is never counted; a full heatmap of a new view is counted at once.
+    for (mode, preview) in [(Mode::Shaded, true), (heat.job.mode, false)] {
+        let mut j = job(&scene, mode, preview);
+        j.camera.eye += glam::Vec3::splat(0.01);
+        worker.send(Command::Render(j));
+        let (frames, counts) = frames_and_counts(worker.wait_idle(wait));
+        let Reply::Frame(f) = &frames[0] else {
+            unreachable!()
+        };
+        assert!(
+            counts.is_empty(),
+            "{mode:?} preview {preview}: no counted pass"
+        );
+        assert_eq!(f.frame.summary.counted(), !preview);
+    }
+}
+
+fn job_with(j: &RenderJob, mode: Mode) -> RenderJob {
+    RenderJob { mode, ..j.clone() }
+}
