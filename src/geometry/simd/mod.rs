@@ -21,6 +21,41 @@ pub use ray_packet::{PACKET_RAYS, RayLoad, RayPacket};
 pub use slab::{WideRay, WideSlab};
 pub use triangle::{BLOCK, BlockHits, TriangleBlock, TriangleKernel};
 
+/// The instruction set of a kernel type, known when the traversal is compiled: a traversal
+/// generic over its kernel calls the out-of-line parts compiled for the same set.
+pub trait KernelLevel {
+    const LEVEL: SimdLevel;
+}
+
+impl KernelLevel for slab::Portable {
+    const LEVEL: SimdLevel = SimdLevel::Portable;
+}
+impl KernelLevel for slab::Sse41 {
+    const LEVEL: SimdLevel = SimdLevel::Sse41;
+}
+impl KernelLevel for slab::Avx2 {
+    const LEVEL: SimdLevel = SimdLevel::Avx2;
+}
+impl KernelLevel for slab::Avx512 {
+    const LEVEL: SimdLevel = SimdLevel::Avx512;
+}
+
+/// Asks for the cache line holding `p` ahead of its use, so that loading a child's box rows
+/// or a leaf's triangles overlaps the work on its siblings. A hint: it never faults, and does
+/// nothing where there is no prefetch instruction.
+#[inline(always)]
+pub fn prefetch<T>(p: *const T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch reads nothing and never faults, whatever the address; SSE is part
+    // of every x86-64 CPU.
+    unsafe {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        _mm_prefetch::<_MM_HINT_T0>(p.cast());
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = p;
+}
+
 /// The instruction set a kernel is written for.
 #[derive(
     Clone,

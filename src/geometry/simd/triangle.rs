@@ -74,7 +74,7 @@ impl BlockHits {
 }
 
 /// The watertight test of one ray against a block, one kernel per instruction set.
-pub trait TriangleKernel {
+pub trait TriangleKernel: super::KernelLevel {
     /// # Safety
     /// The CPU supports the kernel's instruction set (`SimdLevel::supported`).
     unsafe fn watertight(

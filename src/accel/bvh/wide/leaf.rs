@@ -11,7 +11,7 @@ use crate::accel::replay::Step;
 use crate::accel::stats::record;
 use crate::accel::{BestHit, Stats};
 use crate::geometry::intersect::TriangleHit;
-use crate::geometry::simd::{BLOCK, TriangleBlock, TriangleKernel};
+use crate::geometry::simd::{BLOCK, SimdLevel, TriangleBlock, TriangleKernel, prefetch};
 use crate::geometry::{Intersector, Ray, Triangle};
 
 /// The index of a padding lane (a lane of no leaf, NaN).
@@ -169,6 +169,138 @@ impl<const W: usize> WideBvh<W> {
             }
         }
         false
+    }
+}
+
+/// The leaf tests compiled for each instruction set and kept out of the traversal loop:
+/// the block test needs most vector registers, and inlined it pushed the ray's slab
+/// constants out of theirs at every node; called, it leaves the node loop small.
+macro_rules! leaf_entry_points {
+    ($closest:ident, $any:ident, $kernel:ty, $features:literal) => {
+        impl<const W: usize> WideBvh<W> {
+            #[target_feature(enable = $features)]
+            #[inline(never)]
+            fn $closest<I: Intersector, S: Stats>(
+                &self,
+                leaf: Leaf,
+                data: &I::RayData,
+                ray: &Ray,
+                best: &mut BestHit,
+                stats: &mut S,
+            ) -> bool {
+                // SAFETY: this function is compiled for the kernel's instruction set.
+                unsafe { self.leaf_closest::<$kernel, I, S>(leaf, data, ray, best, stats) }
+            }
+
+            #[target_feature(enable = $features)]
+            #[inline(never)]
+            fn $any<I: Intersector, S: Stats>(
+                &self,
+                leaf: Leaf,
+                data: &I::RayData,
+                ray: &Ray,
+                stats: &mut S,
+            ) -> bool {
+                // SAFETY: as above.
+                unsafe { self.leaf_any::<$kernel, I, S>(leaf, data, ray, stats) }
+            }
+        }
+    };
+}
+
+#[cfg(target_arch = "x86_64")]
+leaf_entry_points!(
+    leaf_closest_sse41,
+    leaf_any_sse41,
+    crate::geometry::simd::slab::Sse41,
+    "sse4.1"
+);
+#[cfg(target_arch = "x86_64")]
+leaf_entry_points!(
+    leaf_closest_avx2,
+    leaf_any_avx2,
+    crate::geometry::simd::slab::Avx2,
+    "avx2"
+);
+#[cfg(target_arch = "x86_64")]
+leaf_entry_points!(
+    leaf_closest_avx512,
+    leaf_any_avx512,
+    crate::geometry::simd::slab::Avx512,
+    "avx512f,avx512vl"
+);
+
+impl<const W: usize> WideBvh<W> {
+    /// `leaf_closest` through the out-of-line copy compiled for K's instruction set (the
+    /// match is decided when the traversal is compiled).
+    ///
+    /// # Safety
+    /// The CPU supports K's instruction set.
+    #[inline(always)]
+    pub(super) unsafe fn leaf_closest_called<K: TriangleKernel, I: Intersector, S: Stats>(
+        &self,
+        leaf: Leaf,
+        data: &I::RayData,
+        ray: &Ray,
+        best: &mut BestHit,
+        stats: &mut S,
+    ) -> bool {
+        // SAFETY: the caller guarantees K's instruction set, which each arm's copy is
+        // compiled for.
+        unsafe {
+            match K::LEVEL {
+                #[cfg(target_arch = "x86_64")]
+                SimdLevel::Sse41 => self.leaf_closest_sse41::<I, S>(leaf, data, ray, best, stats),
+                #[cfg(target_arch = "x86_64")]
+                SimdLevel::Avx2 => self.leaf_closest_avx2::<I, S>(leaf, data, ray, best, stats),
+                #[cfg(target_arch = "x86_64")]
+                SimdLevel::Avx512 => self.leaf_closest_avx512::<I, S>(leaf, data, ray, best, stats),
+                _ => self.leaf_closest::<K, I, S>(leaf, data, ray, best, stats),
+            }
+        }
+    }
+
+    /// `leaf_any` through the out-of-line copy compiled for K's instruction set.
+    ///
+    /// # Safety
+    /// The CPU supports K's instruction set.
+    #[inline(always)]
+    pub(super) unsafe fn leaf_any_called<K: TriangleKernel, I: Intersector, S: Stats>(
+        &self,
+        leaf: Leaf,
+        data: &I::RayData,
+        ray: &Ray,
+        stats: &mut S,
+    ) -> bool {
+        // SAFETY: as in `leaf_closest_called`.
+        unsafe {
+            match K::LEVEL {
+                #[cfg(target_arch = "x86_64")]
+                SimdLevel::Sse41 => self.leaf_any_sse41::<I, S>(leaf, data, ray, stats),
+                #[cfg(target_arch = "x86_64")]
+                SimdLevel::Avx2 => self.leaf_any_avx2::<I, S>(leaf, data, ray, stats),
+                #[cfg(target_arch = "x86_64")]
+                SimdLevel::Avx512 => self.leaf_any_avx512::<I, S>(leaf, data, ray, stats),
+                _ => self.leaf_any::<K, I, S>(leaf, data, ray, stats),
+            }
+        }
+    }
+
+    /// Prefetches a leaf child's first block of triangles when its parent is tested, so the
+    /// block test does not wait for it. Interior children are not prefetched: a node's rows
+    /// are loaded together at its test, and the hardware fetches neighbouring lines.
+    #[inline(always)]
+    pub(super) fn prefetch_child(&self, child: u32, count: u32) {
+        const LINE: usize = 64;
+        if count != super::node::INTERIOR {
+            // A block (144 bytes, 16-byte aligned) touches at most three lines: those of its
+            // first byte, of the byte a line further and of its last byte.
+            let p = self.blocks.as_ptr().wrapping_add(child as usize / BLOCK);
+            let p = p.cast::<u8>();
+            prefetch(p);
+            prefetch(p.wrapping_add(LINE));
+            prefetch(p.wrapping_add(std::mem::size_of::<TriangleBlock>() - 1));
+        }
     }
 }
 

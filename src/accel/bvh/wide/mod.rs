@@ -11,6 +11,7 @@
 pub mod collapse;
 pub mod leaf;
 pub mod node;
+mod order;
 pub mod packet;
 pub mod refit;
 pub(crate) mod stack;

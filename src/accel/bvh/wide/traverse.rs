@@ -10,6 +10,7 @@
 
 use super::leaf::Leaf;
 use super::node::INTERIOR;
+use super::order::{Lane, nearest_first3, nearest_first4};
 use super::stack::{Entry, Stack};
 use super::{Subtree, WideBvh};
 use crate::accel::bvh::packet::PACKET_SIZE;
@@ -99,7 +100,7 @@ impl<const W: usize> WideBvh<W> {
                 };
                 // SAFETY: a tree only selects a kernel its CPU supports (`set_simd`), and
                 // the entry points below are compiled for it.
-                if unsafe { self.leaf_closest::<K, I, S>(leaf, data, ray, best, stats) } {
+                if unsafe { self.leaf_closest_called::<K, I, S>(leaf, data, ray, best, stats) } {
                     box_tmax = best.t * T_SCALE;
                 }
             } else {
@@ -128,19 +129,50 @@ impl<const W: usize> WideBvh<W> {
                         continue;
                     }
                     let mut n = 0;
-                    if ORDERED && (mask & (mask - 1)).count_ones() == 1 {
+                    let second = mask & (mask - 1);
+                    let third = second & (second - 1);
+                    if ORDERED && third == 0 {
                         // Two children, the commonest case: one compare, no sort.
                         let a = lane(mask.trailing_zeros());
-                        let b = lane((mask & (mask - 1)).trailing_zeros());
+                        let b = lane(second.trailing_zeros());
                         let (near, far) = if b.entry < a.entry { (b, a) } else { (a, b) };
                         record(stats, || push_step(far));
+                        self.prefetch_entry(far);
                         stack.push(far);
                         cur = near;
+                        continue;
+                    }
+                    let fourth = third & (third - 1);
+                    if ORDERED && !S::RECORDING && (fourth & fourth.wrapping_sub(1)) == 0 {
+                        // Three or four children: sorted in registers, pushed farthest
+                        // first (a replay records the pushes and the sort on the stack).
+                        let at = |m: u32| Lane {
+                            child: lane(m.trailing_zeros()),
+                            lane: m.trailing_zeros(),
+                        };
+                        let mut push = |l: Lane| {
+                            self.prefetch_entry(l.child);
+                            stack.push(l.child);
+                        };
+                        cur = if fourth == 0 {
+                            let [a, b, c] = nearest_first3([at(mask), at(second), at(third)]);
+                            push(c);
+                            push(b);
+                            a.child
+                        } else {
+                            let [a, b, c, d] =
+                                nearest_first4([at(mask), at(second), at(third), at(fourth)]);
+                            push(d);
+                            push(c);
+                            push(b);
+                            a.child
+                        };
                         continue;
                     }
                     if ORDERED {
                         while mask != 0 {
                             record(stats, || push_step(lane(mask.trailing_zeros())));
+                            self.prefetch_entry(lane(mask.trailing_zeros()));
                             stack.push(lane(mask.trailing_zeros()));
                             mask &= mask - 1;
                             n += 1;
@@ -151,6 +183,7 @@ impl<const W: usize> WideBvh<W> {
                         while mask != 0 {
                             let i = 31 - mask.leading_zeros();
                             record(stats, || push_step(lane(i)));
+                            self.prefetch_entry(lane(i));
                             stack.push(lane(i));
                             mask &= !(1 << i);
                         }
@@ -218,7 +251,7 @@ impl<const W: usize> WideBvh<W> {
                     count: cur.count,
                 };
                 // SAFETY: as in `closest_with`.
-                if unsafe { self.leaf_any::<K, I, S>(leaf, data, ray, stats) } {
+                if unsafe { self.leaf_any_called::<K, I, S>(leaf, data, ray, stats) } {
                     return true;
                 }
             } else {
@@ -244,6 +277,7 @@ impl<const W: usize> WideBvh<W> {
                             entry: entry[j],
                         };
                         record(stats, || push_step(e));
+                        self.prefetch_entry(e);
                         stack.push(e);
                     }
                     cur = Entry {
@@ -262,6 +296,15 @@ impl<const W: usize> WideBvh<W> {
                 }
             }
         }
+    }
+}
+
+impl<const W: usize> WideBvh<W> {
+    /// Prefetches a child as it is pushed, so its data arrives while its siblings are
+    /// visited (a child visited at once gains little, and is not prefetched).
+    #[inline(always)]
+    fn prefetch_entry(&self, e: Entry) {
+        self.prefetch_child(e.child, e.count);
     }
 }
 
