@@ -16,11 +16,12 @@
 
 use super::TwoLevel;
 use crate::accel::bvh::traverse::T_SCALE;
-use crate::accel::bvh::wide::node::{INTERIOR, WideNode};
-use crate::accel::bvh::wide::packet::HYBRID_RAYS;
-use crate::accel::bvh::wide::stack::{Entry, Stack};
+use crate::accel::bvh::wide::node::INTERIOR;
+use crate::accel::bvh::wide::packet::{
+    HYBRID_RAYS, Pending, each_ray, enter_children, next_pending,
+};
+use crate::accel::bvh::wide::stack::Stack;
 use crate::accel::{BestHit, Hit, NoStats};
-use crate::geometry::simd::packet::BoxPlanes;
 use crate::geometry::simd::{
     IntervalSlab, PACKET_RAYS, PacketSlab, RayLoad, RayPacket, TriangleKernel, WideInterval,
     WideRay, WideSlab,
@@ -37,35 +38,6 @@ pub(super) trait TopPacketKernels:
 impl<K> TopPacketKernels for K where
     K: WideSlab<8> + IntervalSlab<8> + TriangleKernel + RayLoad + PacketSlab
 {
-}
-
-/// A TLAS child still to visit: the child, the rays that entered it, where its box is,
-/// and the packet's count of improved hits when its mask was found (while unchanged, no
-/// ray's limit has shrunk and the mask still holds).
-#[derive(Clone, Copy)]
-struct Pending {
-    child: Entry,
-    rays: u64,
-    node: u32,
-    lane: u32,
-    found: u32,
-}
-
-#[inline(always)]
-fn planes(node: &WideNode<8>, lane: usize) -> BoxPlanes {
-    std::array::from_fn(|row| node.bounds[row][lane])
-}
-
-/// The rays of a mask, lowest first.
-#[inline(always)]
-fn each_ray(mut mask: u64) -> impl Iterator<Item = usize> {
-    std::iter::from_fn(move || {
-        (mask != 0).then(|| {
-            let i = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
-            i
-        })
-    })
 }
 
 impl TwoLevel {
@@ -92,17 +64,7 @@ impl TwoLevel {
         let (mut packet_tmax, mut tmax_found) = (f32::INFINITY, u32::MAX);
         let mut storage = MaybeUninit::uninit();
         let mut stack = Stack::<Pending>::new(&mut storage);
-        let mut cur = Pending {
-            child: Entry {
-                child: 0,
-                count: INTERIOR,
-                entry: f32::NEG_INFINITY,
-            },
-            rays: soa.rays,
-            node: 0,
-            lane: 0,
-            found: 0,
-        };
+        let mut cur = Pending::root(soa.rays);
         'walk: loop {
             if cur.rays.count_ones() <= HYBRID_RAYS || cur.child.count != INTERIOR {
                 // A leaf, or a child few rays entered: each ray on its own.
@@ -143,76 +105,27 @@ impl TwoLevel {
             } else {
                 let index = cur.child.child as usize;
                 let node = &self.tlas.nodes[index];
-                let mut entered = [(0.0f32, 0u64, 0usize); 8];
-                let mut k = 0;
-                let mut lanes = (1u32 << node.child_count()) - 1;
-                if let Some(iv) = &interval {
+                let cull = interval.as_ref().map(|iv| {
                     if tmax_found != found {
                         packet_tmax = soa.largest_tmax();
                         tmax_found = found;
                     }
-                    // SAFETY: as above.
-                    lanes &= unsafe { K::maybe_entered(&node.bounds, iv, packet_tmax) };
-                }
-                while lanes != 0 {
-                    let lane = lanes.trailing_zeros() as usize;
-                    lanes &= lanes - 1;
-                    // SAFETY: as above.
-                    let (hit, d) =
-                        unsafe { K::packet_entries(&planes(node, lane), &soa, cur.rays) };
-                    if hit != 0 {
-                        entered[k] = (d, hit, lane);
-                        k += 1;
-                    }
-                }
-                if k > 0 {
-                    // Farthest first, so the nearest is pushed last (insertion sort: k ≤ 8).
-                    let entered = &mut entered[..k];
-                    for a in 1..k {
-                        let e = entered[a];
-                        let mut j = a;
-                        while j > 0 && entered[j - 1].0 < e.0 {
-                            entered[j] = entered[j - 1];
-                            j -= 1;
-                        }
-                        entered[j] = e;
-                    }
-                    let pending = |&(d, hit, lane): &(f32, u64, usize)| Pending {
-                        child: Entry {
-                            child: node.child[lane],
-                            count: node.count[lane],
-                            entry: d,
-                        },
-                        rays: hit,
-                        node: index as u32,
-                        lane: lane as u32,
-                        found,
-                    };
-                    for e in &entered[..k - 1] {
-                        stack.push(pending(e));
-                    }
-                    cur = pending(&entered[k - 1]);
+                    (iv, packet_tmax)
+                });
+                // SAFETY: as above.
+                let nearest = unsafe {
+                    enter_children::<K, 8>(node, index, &soa, cur.rays, cull, found, &mut stack)
+                };
+                if let Some(nearest) = nearest {
+                    cur = nearest;
                     continue 'walk;
                 }
             }
             // The next child some ray still enters before its best hit.
-            loop {
-                let Some(mut next) = stack.pop() else {
-                    break 'walk;
-                };
-                if next.found != found {
-                    let node = &self.tlas.nodes[next.node as usize];
-                    // SAFETY: as above.
-                    next.rays = unsafe {
-                        K::packet_entries(&planes(node, next.lane as usize), &soa, next.rays)
-                    }
-                    .0;
-                    if next.rays == 0 {
-                        continue;
-                    }
-                }
-                cur = next;
-                break;
+            // SAFETY: as above.
+            match unsafe { next_pending::<K, 8>(&self.tlas.nodes, &soa, found, &mut stack) } {
+                Some(next) => cur = next,
+                None => break 'walk,
             }
         }
         for (o, b) in out[..n].iter_mut().zip(&best) {

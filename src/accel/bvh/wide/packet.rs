@@ -58,26 +58,136 @@ impl<const W: usize, K> PacketKernels<W> for K where
 /// A child still to visit: the child, the packet rays that entered it and where to find its
 /// box again.
 #[derive(Clone, Copy)]
-struct Pending {
+pub(crate) struct Pending {
     /// The child, with the smallest entry distance of its rays.
-    child: Entry,
-    rays: u64,
+    pub(crate) child: Entry,
+    pub(crate) rays: u64,
     /// The node and lane holding the child's box.
-    node: u32,
-    lane: u32,
+    pub(crate) node: u32,
+    pub(crate) lane: u32,
     /// The packet's count of improved hits when the mask was found: while it is unchanged,
     /// no ray's limit has shrunk and the mask still holds.
+    pub(crate) found: u32,
+}
+
+impl Pending {
+    /// The walk's start: the root, entered by every ray of the packet.
+    pub(crate) fn root(rays: u64) -> Self {
+        Pending {
+            child: Entry {
+                child: 0,
+                count: INTERIOR,
+                entry: f32::NEG_INFINITY,
+            },
+            rays,
+            node: 0,
+            lane: 0,
+            found: 0,
+        }
+    }
+}
+
+/// One interior node of a packet walk (the wide BVH's, or the two levels' top): the
+/// children some ray of `rays` enters, after the interval test `cull` (with the packet's
+/// largest box-test limit) has dropped those no ray can, each tested against the rays at
+/// once. All but the nearest are pushed, farthest first; the nearest is returned.
+///
+/// # Safety
+/// The CPU supports K's instruction set.
+#[inline(always)]
+pub(crate) unsafe fn enter_children<K: PacketSlab + IntervalSlab<W>, const W: usize>(
+    node: &WideNode<W>,
+    index: usize,
+    soa: &RayPacket,
+    rays: u64,
+    cull: Option<(&WideInterval, f32)>,
     found: u32,
+    stack: &mut Stack<Pending>,
+) -> Option<Pending> {
+    // The children some ray enters, with their rays and nearest entry.
+    let mut entered = [(0.0f32, 0u64, 0usize); W];
+    let mut k = 0;
+    let mut lanes = (1u32 << node.child_count()) - 1;
+    if let Some((iv, packet_tmax)) = cull {
+        // SAFETY: the caller guarantees K's instruction set.
+        lanes &= unsafe { K::maybe_entered(&node.bounds, iv, packet_tmax) };
+    }
+    while lanes != 0 {
+        let lane = lanes.trailing_zeros() as usize;
+        lanes &= lanes - 1;
+        // SAFETY: as above.
+        let (hit, d) = unsafe { K::packet_entries(&planes(node, lane), soa, rays) };
+        if hit != 0 {
+            entered[k] = (d, hit, lane);
+            k += 1;
+        }
+    }
+    if k == 0 {
+        return None;
+    }
+    // Farthest first, so the nearest is pushed last (insertion sort: k ≤ 8).
+    let entered = &mut entered[..k];
+    for a in 1..k {
+        let e = entered[a];
+        let mut j = a;
+        while j > 0 && entered[j - 1].0 < e.0 {
+            entered[j] = entered[j - 1];
+            j -= 1;
+        }
+        entered[j] = e;
+    }
+    let pending = |&(d, hit, lane): &(f32, u64, usize)| Pending {
+        child: Entry {
+            child: node.child[lane],
+            count: node.count[lane],
+            entry: d,
+        },
+        rays: hit,
+        node: index as u32,
+        lane: lane as u32,
+        found,
+    };
+    for e in &entered[..k - 1] {
+        stack.push(pending(e));
+    }
+    Some(pending(&entered[k - 1]))
+}
+
+/// The next child some ray still enters before its best hit: a child pushed before some
+/// ray's limit shrank (`found` moved on) is tested again, and dropped if no ray is left.
+///
+/// # Safety
+/// The CPU supports K's instruction set.
+#[inline(always)]
+pub(crate) unsafe fn next_pending<K: PacketSlab, const W: usize>(
+    nodes: &[WideNode<W>],
+    soa: &RayPacket,
+    found: u32,
+    stack: &mut Stack<Pending>,
+) -> Option<Pending> {
+    loop {
+        let mut next = stack.pop()?;
+        if next.found != found {
+            let node = &nodes[next.node as usize];
+            // SAFETY: the caller guarantees K's instruction set.
+            next.rays =
+                unsafe { K::packet_entries(&planes(node, next.lane as usize), soa, next.rays) }.0;
+            if next.rays == 0 {
+                continue;
+            }
+        }
+        return Some(next);
+    }
 }
 
 #[inline(always)]
-fn planes<const W: usize>(node: &WideNode<W>, lane: usize) -> BoxPlanes {
+pub(crate) fn planes<const W: usize>(node: &WideNode<W>, lane: usize) -> BoxPlanes {
     std::array::from_fn(|row| node.bounds[row][lane])
 }
 
 /// The rays of a mask, lowest first.
 #[inline(always)]
-fn each_ray(mut mask: u64) -> impl Iterator<Item = usize> {
+pub(crate) fn each_ray(mut mask: u64) -> impl Iterator<Item = usize> {
     std::iter::from_fn(move || {
         (mask != 0).then(|| {
             let i = mask.trailing_zeros() as usize;
@@ -179,17 +289,7 @@ impl<const W: usize> WideBvh<W> {
         let (mut packet_tmax, mut tmax_found) = (f32::INFINITY, u32::MAX);
         let mut storage = MaybeUninit::uninit();
         let mut stack = Stack::<Pending>::new(&mut storage);
-        let mut cur = Pending {
-            child: Entry {
-                child: 0,
-                count: INTERIOR,
-                entry: f32::NEG_INFINITY,
-            },
-            rays: p.soa.rays,
-            node: 0,
-            lane: 0,
-            found: 0,
-        };
+        let mut cur = Pending::root(p.soa.rays);
         'walk: loop {
             if cur.rays.count_ones() <= HYBRID_RAYS {
                 for i in each_ray(cur.rays) {
@@ -208,57 +308,20 @@ impl<const W: usize> WideBvh<W> {
             } else if cur.child.count == INTERIOR {
                 let index = cur.child.child as usize;
                 let node = &self.nodes[index];
-                // The children some ray enters, with their rays and nearest entry.
-                let mut entered = [(0.0f32, 0u64, 0usize); W];
-                let mut k = 0;
-                let mut lanes = (1u32 << node.child_count()) - 1;
-                if let Some(iv) = &interval {
+                let cull = interval.as_ref().map(|iv| {
                     if tmax_found != p.found {
                         packet_tmax = p.soa.largest_tmax();
                         tmax_found = p.found;
                     }
-                    // SAFETY: a tree only selects a kernel its CPU supports (`set_simd`),
-                    // and the entry points are compiled for it.
-                    lanes &= unsafe { K::maybe_entered(&node.bounds, iv, packet_tmax) };
-                }
-                while lanes != 0 {
-                    let lane = lanes.trailing_zeros() as usize;
-                    lanes &= lanes - 1;
-                    // SAFETY: as above.
-                    let (hit, d) =
-                        unsafe { K::packet_entries(&planes(node, lane), &p.soa, cur.rays) };
-                    if hit != 0 {
-                        entered[k] = (d, hit, lane);
-                        k += 1;
-                    }
-                }
-                if k > 0 {
-                    // Farthest first, so the nearest is pushed last (insertion sort: k ≤ 8).
-                    let entered = &mut entered[..k];
-                    for a in 1..k {
-                        let e = entered[a];
-                        let mut j = a;
-                        while j > 0 && entered[j - 1].0 < e.0 {
-                            entered[j] = entered[j - 1];
-                            j -= 1;
-                        }
-                        entered[j] = e;
-                    }
-                    let pending = |&(d, hit, lane): &(f32, u64, usize)| Pending {
-                        child: Entry {
-                            child: node.child[lane],
-                            count: node.count[lane],
-                            entry: d,
-                        },
-                        rays: hit,
-                        node: index as u32,
-                        lane: lane as u32,
-                        found: p.found,
-                    };
-                    for e in &entered[..k - 1] {
-                        stack.push(pending(e));
-                    }
-                    cur = pending(&entered[k - 1]);
+                    (iv, packet_tmax)
+                });
+                // SAFETY: a tree only selects a kernel its CPU supports (`set_simd`), and the
+                // entry points are compiled for it.
+                let nearest = unsafe {
+                    enter_children::<K, W>(node, index, &p.soa, cur.rays, cull, p.found, &mut stack)
+                };
+                if let Some(nearest) = nearest {
+                    cur = nearest;
                     continue 'walk;
                 }
             } else {
@@ -288,23 +351,10 @@ impl<const W: usize> WideBvh<W> {
                 }
             }
             // The next child some ray still enters before its best hit.
-            loop {
-                let Some(mut next) = stack.pop() else {
-                    break 'walk;
-                };
-                if next.found != p.found {
-                    let node = &self.nodes[next.node as usize];
-                    // SAFETY: as above.
-                    next.rays = unsafe {
-                        K::packet_entries(&planes(node, next.lane as usize), &p.soa, next.rays)
-                    }
-                    .0;
-                    if next.rays == 0 {
-                        continue;
-                    }
-                }
-                cur = next;
-                break;
+            // SAFETY: as above.
+            match unsafe { next_pending::<K, W>(&self.nodes, &p.soa, p.found, &mut stack) } {
+                Some(next) => cur = next,
+                None => break 'walk,
             }
         }
         let best = &p.best;
