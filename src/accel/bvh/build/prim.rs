@@ -49,6 +49,15 @@ impl PrimRef {
         let v = unsafe { std::ptr::read((self as *const Self).cast::<[f32; 4]>().add(1)) };
         Vec3A::from_vec4(Vec4::from_array(v))
     }
+
+    /// The reference's box in SIMD registers.
+    #[inline(always)]
+    pub fn box3a(&self) -> Box3A {
+        Box3A {
+            min: self.lo(),
+            max: self.hi(),
+        }
+    }
 }
 
 /// A box in SIMD registers, for the builders' inner loops.

@@ -404,16 +404,7 @@ pub fn split(
 /// the answer is the one binning would give: a node that passes here is never split.
 fn no_split_pays(refs: &[PrimRef], info: &NodeInfo, p: &BuildParams) -> bool {
     let area = info.bounds.surface_area();
-    let sum: f32 = refs
-        .iter()
-        .map(|r| {
-            Box3A {
-                min: r.lo(),
-                max: r.hi(),
-            }
-            .surface_area()
-        })
-        .sum();
+    let sum: f32 = refs.iter().map(|r| r.box3a().surface_area()).sum();
     let least_split = p.c_trav * area + p.c_isect * sum;
     least_split >= p.c_isect * area * refs.len() as f32 * (1.0 + 1e-4)
 }

@@ -361,10 +361,7 @@ impl Builder<'_> {
                     bins[first].bounds.grow(r.lo(), r.hi());
                     continue;
                 }
-                let mut rest = Box3A {
-                    min: r.lo(),
-                    max: r.hi(),
-                };
+                let mut rest = r.box3a();
                 for (k, bin) in bins.iter_mut().enumerate().take(last).skip(first) {
                     let (below, above) = split_estimate(&v, &rest, axis, grid.plane(axis, k + 1));
                     bin.bounds = bin.bounds.union(below);
@@ -392,10 +389,7 @@ impl Builder<'_> {
             } else if r.min[axis] >= c {
                 sides.push_right(*r);
             } else {
-                let whole = Box3A {
-                    min: r.lo(),
-                    max: r.hi(),
-                };
+                let whole = r.box3a();
                 let to_left = s.left.union(whole).surface_area() * n_l + area_r * (n_r - 1.0);
                 let to_right = area_l * (n_l - 1.0) + s.right.union(whole).surface_area() * n_r;
                 if to_left < split_cost && to_left <= to_right {
