@@ -20,7 +20,8 @@ use super::WideBvh;
 use super::leaf::BlockPacker;
 use super::node::{INTERIOR, WideNode};
 use crate::accel::bvh::Bvh;
-use crate::geometry::simd::{BLOCK, SimdLevel};
+use crate::geometry::simd::{SimdLevel, TriangleBlock};
+use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
 /// The costs the collapse minimises, and the largest leaf it may form.
@@ -49,6 +50,8 @@ struct Costs<const W: usize> {
     cost: Vec<[f32; W]>,
     /// Whether C(n, 1) makes n a leaf.
     leaf: Vec<bool>,
+    /// The triangle references under n.
+    tris: Vec<u32>,
 }
 
 impl<const W: usize> Costs<W> {
@@ -85,7 +88,7 @@ impl<const W: usize> Costs<W> {
             }
             cost[i] = c;
         }
-        Costs { cost, leaf }
+        Costs { cost, leaf, tris }
     }
 }
 
@@ -109,36 +112,139 @@ impl<const W: usize> WideBvh<W> {
 
     /// The collapse, with the time of its two phases: the dynamic program's cost table, and
     /// the layout of the wide nodes and leaf blocks.
+    ///
+    /// The layout runs in parallel: the top of the tree is laid out first, down to subtrees
+    /// of at most `part_size` triangles, which are then laid out as parts of their own, side
+    /// by side, and placed after it. Where the cut falls depends on the triangle count
+    /// alone, so the tree is the same for any number of threads.
     pub fn collapse_timed(bvh: &Bvh, params: &CollapseParams) -> (Self, CollapsePhases) {
         let start = Instant::now();
         let costs = Costs::<W>::new(bvh, params);
         let table = start.elapsed();
         let start = Instant::now();
-        let split = bvh.duplicated_references() > 0;
-        let mut out = WideBvh {
-            nodes: vec![WideNode::default()],
-            blocks: Vec::with_capacity(bvh.triangles.len().div_ceil(BLOCK)),
-            prim_indices: Vec::with_capacity(bvh.prim_indices.len()),
+        let tree = Layout::lay_out_tree(bvh, &costs, part_size(bvh.triangles.len()));
+        let out = WideBvh {
+            nodes: tree.nodes,
+            blocks: tree.blocks,
+            prim_indices: tree.prim_indices,
             triangle_count: bvh.triangle_count,
             order: bvh.order,
             simd: SimdLevel::detect(),
-            depth: 1,
+            depth: tree.depth,
         };
+        let layout = start.elapsed();
+        (out, CollapsePhases { table, layout })
+    }
+}
+
+/// Subtrees of at most this many triangles are laid out as parts of their own, in parallel
+/// (none for a small tree, where the parts would cost more than they save).
+fn part_size(triangles: usize) -> Option<u32> {
+    (triangles >= 1 << 15).then(|| (triangles / 32).max(1 << 12) as u32)
+}
+
+/// A part of the wide tree laid out as if it were a whole tree: its first node is its root,
+/// its leaves' slots start at 0.
+struct Part<const W: usize> {
+    nodes: Vec<WideNode<W>>,
+    blocks: Vec<TriangleBlock>,
+    prim_indices: Vec<u32>,
+    /// The depth of its deepest node in the whole tree.
+    depth: u32,
+}
+
+impl<const W: usize> Part<W> {
+    /// Places `part` after this one: its node indices and slots move by this one's counts.
+    fn append(&mut self, part: Part<W>) {
+        let (node_base, slot_base) = (self.nodes.len() as u32, self.prim_indices.len() as u32);
+        self.nodes.extend(part.nodes.into_iter().map(|mut n| {
+            for lane in 0..n.child_count() {
+                n.child[lane] += if n.is_interior(lane) {
+                    node_base
+                } else {
+                    slot_base
+                };
+            }
+            n
+        }));
+        self.blocks.extend(part.blocks);
+        self.prim_indices.extend(part.prim_indices);
+        self.depth = self.depth.max(part.depth);
+    }
+}
+
+/// A subtree left to be laid out as a part: the BVH2 node `slot` under lane `lane` of wide
+/// node `node`, at depth `depth`.
+struct Cut {
+    node: usize,
+    lane: usize,
+    slot: usize,
+    depth: u32,
+}
+
+/// What laying out a part needs: the BVH2, the collapse's choices, and where to cut.
+#[derive(Clone, Copy)]
+struct Layout<'a, const W: usize> {
+    bvh: &'a Bvh,
+    costs: &'a Costs<W>,
+    cut: Option<u32>,
+}
+
+impl<'a, const W: usize> Layout<'a, W> {
+    /// The whole wide tree: its top laid out down to the cuts, then the parts below the cuts
+    /// in parallel, placed after the top in the order of their cuts.
+    fn lay_out_tree(bvh: &'a Bvh, costs: &'a Costs<W>, cut: Option<u32>) -> Part<W> {
         let root = &bvh.nodes[0];
         let root_slots = if root.is_leaf() {
-            if root.count == 0 { vec![] } else { vec![0] }
+            vec![0]
         } else {
             let mut s = Vec::with_capacity(W);
-            open(bvh, &costs, 0, W, &mut s);
+            open(bvh, costs, 0, W, &mut s);
             s
         };
+        let mut layout = Layout { bvh, costs, cut };
+        let (mut tree, cuts) = layout.lay_out(root_slots, 1);
+        layout.cut = None;
+        let parts: Vec<(Part<W>, Cut)> = cuts
+            .into_par_iter()
+            .map(|c| {
+                let mut slots = Vec::with_capacity(W);
+                open(bvh, costs, c.slot, W, &mut slots);
+                (layout.lay_out(slots, c.depth).0, c)
+            })
+            .collect();
+        // One copy of each part: the whole tree's room reserved before the first.
+        tree.nodes.reserve(parts.iter().map(|(p, _)| p.nodes.len()).sum());
+        tree.blocks.reserve(parts.iter().map(|(p, _)| p.blocks.len()).sum());
+        tree.prim_indices.reserve(parts.iter().map(|(p, _)| p.prim_indices.len()).sum());
+        for (part, c) in parts {
+            tree.nodes[c.node].child[c.lane] = tree.nodes.len() as u32;
+            tree.append(part);
+        }
+        tree
+    }
+
+    /// Lays out the wide node over the BVH2 nodes `root_slots`, at depth `depth`, and all
+    /// below it, depth first; interior children of at most `cut` triangles are left as cuts.
+    fn lay_out(&self, root_slots: Vec<usize>, depth: u32) -> (Part<W>, Vec<Cut>) {
+        let (bvh, costs) = (self.bvh, self.costs);
+        let split = bvh.duplicated_references() > 0;
+        let mut part = Part {
+            nodes: vec![WideNode::default()],
+            blocks: Vec::new(),
+            prim_indices: Vec::new(),
+            depth,
+        };
+        let mut cuts = Vec::new();
         let mut packer = BlockPacker::default();
         // Buffers reused by every leaf: one allocation each instead of one per leaf.
         let (mut under, mut stack, mut tris) = (Vec::new(), Vec::new(), Vec::new());
         // (wide node index, its BVH2 slots, depth), filled depth first.
-        let mut work = vec![(0usize, root_slots, 1u32)];
-        while let Some((index, slots, depth)) = work.pop() {
-            out.depth = out.depth.max(depth);
+        let mut work = vec![(0usize, root_slots, depth)];
+        while let Some((index, mut slots, depth)) = work.pop() {
+            part.depth = part.depth.max(depth);
+            // An empty subtree (a BVH2 leaf of no triangles) would read as an unused lane.
+            slots.retain(|&s| costs.tris[s] > 0);
             let mut node = WideNode::<W>::default();
             for (lane, &s) in slots.iter().enumerate() {
                 node.set_child_bounds(lane, bvh.nodes[s].bounds());
@@ -153,33 +259,31 @@ impl<const W: usize> WideBvh<W> {
                         }
                         tris.push((bvh.triangles[t], id));
                     }
-                    node.child[lane] = packer.place(&mut out.blocks, &mut out.prim_indices, &tris);
+                    node.child[lane] =
+                        packer.place(&mut part.blocks, &mut part.prim_indices, &tris);
                     node.count[lane] = tris.len() as u32;
                 } else {
-                    let child = out.nodes.len();
-                    out.nodes.push(WideNode::default());
-                    node.child[lane] = child as u32;
                     node.count[lane] = INTERIOR;
+                    if self.cut.is_some_and(|c| costs.tris[s] <= c) {
+                        cuts.push(Cut {
+                            node: index,
+                            lane,
+                            slot: s,
+                            depth: depth + 1,
+                        });
+                        continue;
+                    }
+                    let child = part.nodes.len();
+                    part.nodes.push(WideNode::default());
+                    node.child[lane] = child as u32;
                     let mut s2 = Vec::with_capacity(W);
-                    open(bvh, &costs, s, W, &mut s2);
+                    open(bvh, costs, s, W, &mut s2);
                     work.push((child, s2, depth + 1));
                 }
             }
-            // An empty leaf (a BVH2 leaf of an empty subtree) would read as an unused lane.
-            let mut lanes: Vec<usize> = (0..slots.len()).filter(|&l| node.count[l] != 0).collect();
-            if lanes.len() != slots.len() {
-                let mut packed = WideNode::<W>::default();
-                for (to, from) in lanes.drain(..).enumerate() {
-                    packed.set_child_bounds(to, node.child_bounds(from));
-                    packed.child[to] = node.child[from];
-                    packed.count[to] = node.count[from];
-                }
-                node = packed;
-            }
-            out.nodes[index] = node;
+            part.nodes[index] = node;
         }
-        let layout = start.elapsed();
-        (out, CollapsePhases { table, layout })
+        (part, cuts)
     }
 }
 
@@ -239,6 +343,70 @@ impl Bvh {
             } else {
                 stack.push(n.left_first as usize + 1);
                 stack.push(n.left_first as usize);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::bvh::{self, BuildParams};
+    use crate::scene::builtin;
+
+    /// The subtree under `lane` of node `n`, written out depth first: boxes, counts and the
+    /// scene triangles of each leaf, with no node index or slot in it.
+    fn canonical<const W: usize>(t: &WideBvh<W>, n: usize, out: &mut Vec<u64>) {
+        let node = &t.nodes[n];
+        out.push(node.child_count() as u64);
+        for lane in 0..node.child_count() {
+            let b = node.child_bounds(lane);
+            out.extend(
+                b.min
+                    .to_array()
+                    .iter()
+                    .chain(&b.max.to_array())
+                    .map(|x| x.to_bits() as u64),
+            );
+            out.push(node.count[lane] as u64);
+            if node.is_interior(lane) {
+                canonical(t, node.child[lane] as usize, out);
+            } else {
+                let first = node.child[lane] as usize;
+                let slots = first..first + node.count[lane] as usize;
+                out.extend(slots.map(|s| t.prim_indices[s] as u64));
+            }
+        }
+    }
+
+    /// Laying the tree out in parts, at any cut, gives the tree laid out in one piece: the
+    /// same nodes, boxes and leaves, only stored in another order.
+    #[test]
+    fn parts_laid_out_apart_make_the_same_tree() {
+        for spec in ["soup:6000", "sphere:5000", "teapot-in-stadium", "same-centroid"] {
+            let scene = builtin::by_name(spec).unwrap().unwrap();
+            let (b2, _) = bvh::build(&scene.triangles, &BuildParams::default()).unwrap();
+            let costs = Costs::<8>::new(&b2, &CollapseParams::default());
+            let whole = |cut| {
+                let part = Layout::lay_out_tree(&b2, &costs, cut);
+                let tree = WideBvh::<8> {
+                    nodes: part.nodes,
+                    blocks: part.blocks,
+                    prim_indices: part.prim_indices,
+                    triangle_count: b2.triangle_count,
+                    order: b2.order,
+                    simd: SimdLevel::detect(),
+                    depth: part.depth,
+                };
+                tree.validate()
+                    .unwrap_or_else(|e| panic!("{spec}, cut {cut:?}: {e}"));
+                let mut c = Vec::new();
+                canonical(&tree, 0, &mut c);
+                (c, tree.depth, tree.nodes.len())
+            };
+            let one_piece = whole(None);
+            for cut in [1, 8, 50, 400, 3000, 1 << 20] {
+                assert_eq!(whole(Some(cut)), one_piece, "{spec}, cut {cut}");
             }
         }
     }
