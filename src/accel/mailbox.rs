@@ -9,9 +9,10 @@
 //! triangle's test does not depend on the cell it was found in, and a hit beyond the
 //! current cell is kept as the best so far rather than thrown away.
 
+use super::Stats;
+use super::query::Query;
 use super::replay::Step;
 use super::stats::record;
-use super::{BestHit, Stats};
 use crate::geometry::{Intersector, Ray, Triangle};
 
 /// Slots of the inline table (a power of two); it spills when three quarters are used.
@@ -76,44 +77,15 @@ impl Mailbox {
         true
     }
 
-    /// Tests the triangles a cell lists (ids as cells store them, `SHARED` flagged), keeping
-    /// the closest hit in `best`, whether or not it lies inside the cell.
+    /// Tests the triangles a cell lists (ids as cells store them, `SHARED` flagged) for the
+    /// query, a hit beyond the cell included; whether the walk is over.
     #[inline(always)]
-    pub fn closest_in_cell<I: Intersector, S: Stats>(
+    pub fn test_cell<I: Intersector, S: Stats, Q: Query>(
         &mut self,
         ids: &[u32],
         triangles: &[Triangle],
         (data, ray): (&I::RayData, &Ray),
-        best: &mut BestHit,
-        stats: &mut S,
-    ) {
-        for &id in ids {
-            let tri = id & !SHARED;
-            if id & SHARED != 0 && !self.admit(tri, stats) {
-                record(stats, || Step::Mailboxed {
-                    triangle: tri.into(),
-                });
-                continue;
-            }
-            stats.triangle_test();
-            let hit = I::intersect(data, ray, &triangles[tri as usize], ray.tmin, best.limit);
-            record(stats, || Step::Triangle {
-                triangle: tri.into(),
-                t: hit.map(|h| h.t),
-            });
-            if let Some(h) = hit {
-                best.offer(h, tri);
-            }
-        }
-    }
-
-    /// Whether any triangle a cell lists is hit within the ray's interval.
-    #[inline(always)]
-    pub fn any_in_cell<I: Intersector, S: Stats>(
-        &mut self,
-        ids: &[u32],
-        triangles: &[Triangle],
-        (data, ray): (&I::RayData, &Ray),
+        query: &mut Q,
         stats: &mut S,
     ) -> bool {
         for &id in ids {
@@ -125,12 +97,14 @@ impl Mailbox {
                 continue;
             }
             stats.triangle_test();
-            let hit = I::intersect(data, ray, &triangles[tri as usize], ray.tmin, ray.tmax);
+            let hit = I::intersect(data, ray, &triangles[tri as usize], ray.tmin, query.limit());
             record(stats, || Step::Triangle {
                 triangle: tri.into(),
                 t: hit.map(|h| h.t),
             });
-            if hit.is_some() {
+            if let Some(h) = hit
+                && query.offer(h, tri)
+            {
                 return true;
             }
         }

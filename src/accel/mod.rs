@@ -12,6 +12,7 @@ pub mod kdtree;
 pub mod mailbox;
 pub mod octree;
 pub mod outline;
+pub mod query;
 pub mod replay;
 pub mod report;
 pub mod split_costs;

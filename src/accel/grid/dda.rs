@@ -10,9 +10,10 @@
 
 use super::Grid;
 use crate::accel::bvh::traverse::T_SCALE;
+use crate::accel::query::{AnyHit, Closest, Query};
 use crate::accel::replay::{Level, Step, Visited, entered};
 use crate::accel::stats::{count_locally, record};
-use crate::accel::{Accel, BestHit, Hit, Mailbox, NoStats, Stats};
+use crate::accel::{Accel, Hit, Mailbox, NoStats, Stats};
 use crate::geometry::aabb::SlabRay;
 use crate::geometry::{Aabb, Intersector, Ray};
 use glam::DVec3;
@@ -150,53 +151,33 @@ impl Grid {
         out
     }
 
+    /// The query's answer for `ray`, the cells tested as the walk reaches them.
     #[inline(always)]
-    fn closest_counted<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
+    fn query<I: Intersector, S: Stats, Q: Query>(&self, ray: &Ray, stats: &mut S) -> Q::Answer {
+        let mut query = Q::new(ray);
         if self.triangles.is_empty() {
-            return None;
+            return query.answer();
         }
         let data = I::prepare(ray);
-        let mut best = BestHit::new(ray);
         let mut mailbox = Mailbox::new(self.mailbox);
         self.walk(ray, stats, |c, stats| {
             let (a, b) = (self.offsets[c] as usize, self.offsets[c + 1] as usize);
             let ids = &self.ids[a..b];
-            mailbox.closest_in_cell::<I, S>(ids, &self.triangles, (&data, ray), &mut best, stats);
-            match best.hit() {
-                Some(_) => Next::Until(widened(best.t)),
-                None => Next::Until(f64::INFINITY),
-            }
-        });
-        best.hit()
-    }
-
-    #[inline(always)]
-    fn occluded_counted<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
-        if self.triangles.is_empty() {
-            return false;
-        }
-        let data = I::prepare(ray);
-        let mut mailbox = Mailbox::new(self.mailbox);
-        let mut hit = false;
-        self.walk(ray, stats, |c, stats| {
-            let (a, b) = (self.offsets[c] as usize, self.offsets[c + 1] as usize);
-            let ids = &self.ids[a..b];
-            if mailbox.any_in_cell::<I, S>(ids, &self.triangles, (&data, ray), stats) {
-                hit = true;
+            if mailbox.test_cell::<I, S, Q>(ids, &self.triangles, (&data, ray), &mut query, stats) {
                 return Next::Stop;
             }
-            Next::Until(f64::INFINITY)
+            Next::Until(query.found().map_or(f64::INFINITY, widened))
         });
-        hit
+        query.answer()
     }
 }
 
 impl Accel for Grid {
     fn closest_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
-        count_locally(stats, |local| self.closest_counted::<I, S>(ray, local))
+        count_locally(stats, |local| self.query::<I, S, Closest>(ray, local))
     }
 
     fn any_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
-        count_locally(stats, |local| self.occluded_counted::<I, S>(ray, local))
+        count_locally(stats, |local| self.query::<I, S, AnyHit>(ray, local))
     }
 }

@@ -10,9 +10,10 @@
 
 use super::{KdTree, MAX_DEPTH};
 use crate::accel::bvh::traverse::T_SCALE;
+use crate::accel::query::{AnyHit, Closest, Query};
 use crate::accel::replay::{Level, Step, Visited, entered};
 use crate::accel::stats::{count_locally, record};
-use crate::accel::{Accel, BestHit, Hit, Mailbox, Stats};
+use crate::accel::{Accel, Hit, Mailbox, Stats};
 use crate::geometry::aabb::SlabRay;
 use crate::geometry::{Aabb, Intersector, Ray};
 
@@ -162,33 +163,36 @@ impl KdTree {
         )
     }
 
-    /// Closest hit, counting into a local sink (kept in registers) added to `stats` once.
-    fn closest<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
+    /// The query's answer for `ray`, counting into a local sink (kept in registers) added
+    /// to `stats` once.
+    fn query<I: Intersector, S: Stats, Q: Query>(&self, ray: &Ray, stats: &mut S) -> Q::Answer {
         if self.depth_bound as usize <= SHALLOW {
             count_locally(stats, |local| {
-                self.closest_counted::<I, S, SHALLOW>(ray, local)
+                self.front_to_back::<I, S, Q, SHALLOW>(ray, local)
             })
         } else {
             count_locally(stats, |local| {
-                self.closest_counted::<I, S, STACK_SIZE>(ray, local)
+                self.front_to_back::<I, S, Q, STACK_SIZE>(ray, local)
             })
         }
     }
 
     #[inline(always)]
-    fn closest_counted<I: Intersector, S: Stats, const N: usize>(
+    fn front_to_back<I: Intersector, S: Stats, Q: Query, const N: usize>(
         &self,
         ray: &Ray,
         stats: &mut S,
-    ) -> Option<Hit> {
+    ) -> Q::Answer {
+        let mut query = Q::new(ray);
         let slab = SlabRay::new(ray);
         stats.box_tests(1);
-        let (t0, t1) = self.root_interval(ray, &slab, stats)?;
+        let Some((t0, t1)) = self.root_interval(ray, &slab, stats) else {
+            return query.answer();
+        };
         let plane_ray = PlaneRay::new(&slab);
         let data = I::prepare(ray);
-        let mut best = BestHit::new(ray);
         // A cell entered beyond this cannot hold a hit closer than the best.
-        let mut reach = ray.tmax * T_SCALE;
+        let mut reach = query.reach() * T_SCALE;
         let mut mailbox = Mailbox::new(self.mailbox);
         let mut stack: [Pending; N] = [(0, 0.0, 0.0); N];
         let mut sp = 0;
@@ -208,115 +212,41 @@ impl KdTree {
                 }
                 (index, tmin, tmax) = next;
                 continue;
-            } else {
-                for &tri in node.leaf_refs(&self.refs) {
-                    if !mailbox.admit(tri, stats) {
-                        record(stats, || Step::Mailboxed {
-                            triangle: tri.into(),
-                        });
-                        continue;
-                    }
-                    stats.triangle_test();
-                    let t = &self.triangles[tri as usize];
-                    let hit = I::intersect(&data, ray, t, ray.tmin, best.limit);
-                    record(stats, || Step::Triangle {
+            }
+            for &tri in node.leaf_refs(&self.refs) {
+                if !mailbox.admit(tri, stats) {
+                    record(stats, || Step::Mailboxed {
                         triangle: tri.into(),
-                        t: hit.map(|h| h.t),
                     });
-                    if let Some(h) = hit {
-                        best.offer(h, tri);
-                        reach = best.t * T_SCALE;
+                    continue;
+                }
+                stats.triangle_test();
+                let t = &self.triangles[tri as usize];
+                let hit = I::intersect(&data, ray, t, ray.tmin, query.limit());
+                record(stats, || Step::Triangle {
+                    triangle: tri.into(),
+                    t: hit.map(|h| h.t),
+                });
+                if let Some(h) = hit {
+                    if query.offer(h, tri) {
+                        return query.answer();
                     }
+                    reach = query.reach() * T_SCALE;
                 }
             }
             // The next cell that starts before the best hit.
             loop {
                 if sp == 0 {
-                    return best.hit();
+                    return query.answer();
                 }
                 sp -= 1;
                 let (next, start, end) = stack[sp];
-                record(stats, || self.pop_step(next, start, reach, best.t));
+                record(stats, || self.pop_step(next, start, reach, query.reach()));
                 if start <= reach {
                     (index, tmin, tmax) = (next as usize, start, end);
                     break;
                 }
             }
-        }
-    }
-
-    /// Any hit, counting like `closest`.
-    fn occluded<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
-        if self.depth_bound as usize <= SHALLOW {
-            count_locally(stats, |local| {
-                self.occluded_counted::<I, S, SHALLOW>(ray, local)
-            })
-        } else {
-            count_locally(stats, |local| {
-                self.occluded_counted::<I, S, STACK_SIZE>(ray, local)
-            })
-        }
-    }
-
-    #[inline(always)]
-    fn occluded_counted<I: Intersector, S: Stats, const N: usize>(
-        &self,
-        ray: &Ray,
-        stats: &mut S,
-    ) -> bool {
-        let slab = SlabRay::new(ray);
-        stats.box_tests(1);
-        let Some((t0, t1)) = self.root_interval(ray, &slab, stats) else {
-            return false;
-        };
-        let plane_ray = PlaneRay::new(&slab);
-        let data = I::prepare(ray);
-        let reach = f32::INFINITY;
-        let mut mailbox = Mailbox::new(self.mailbox);
-        let mut stack: [Pending; N] = [(0, 0.0, 0.0); N];
-        let mut sp = 0;
-        let (mut index, mut tmin, mut tmax) = (0usize, t0, t1);
-        loop {
-            stats.node_visit();
-            let node = &self.nodes[index];
-            record(stats, || self.visit_step(index));
-            if !node.is_leaf() {
-                stats.box_tests(1);
-                let (next, later) = self.step(index, &plane_ray, tmin, tmax, reach);
-                record(stats, || self.plane_step(index, &plane_ray, next.0, later));
-                if let Some(entry) = later {
-                    record(stats, || self.push_step(entry));
-                    stack[sp] = entry;
-                    sp += 1;
-                }
-                (index, tmin, tmax) = next;
-                continue;
-            } else {
-                for &tri in node.leaf_refs(&self.refs) {
-                    if !mailbox.admit(tri, stats) {
-                        record(stats, || Step::Mailboxed {
-                            triangle: tri.into(),
-                        });
-                        continue;
-                    }
-                    stats.triangle_test();
-                    let t = &self.triangles[tri as usize];
-                    let hit = I::intersect(&data, ray, t, ray.tmin, ray.tmax);
-                    record(stats, || Step::Triangle {
-                        triangle: tri.into(),
-                        t: hit.map(|h| h.t),
-                    });
-                    if hit.is_some() {
-                        return true;
-                    }
-                }
-            }
-            if sp == 0 {
-                return false;
-            }
-            sp -= 1;
-            (index, tmin, tmax) = (stack[sp].0 as usize, stack[sp].1, stack[sp].2);
-            record(stats, || self.pop_step(stack[sp].0, tmin, reach, reach));
         }
     }
 }
@@ -395,11 +325,11 @@ impl KdTree {
 
 impl Accel for KdTree {
     fn closest_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
-        self.closest::<I, S>(ray, stats)
+        self.query::<I, S, Closest>(ray, stats)
     }
 
     fn any_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
-        self.occluded::<I, S>(ray, stats)
+        self.query::<I, S, AnyHit>(ray, stats)
     }
 }
 

@@ -7,9 +7,10 @@
 
 use super::Octree;
 use crate::accel::grid::dda::{Next, widened, widened64};
+use crate::accel::query::{AnyHit, Closest, Query};
 use crate::accel::replay::{Child, Level, Step, Visited, entered};
 use crate::accel::stats::{count_locally, record};
-use crate::accel::{Accel, BestHit, Hit, Mailbox, Stats};
+use crate::accel::{Accel, Hit, Mailbox, Stats};
 use crate::geometry::Aabb;
 use crate::geometry::aabb::SlabRay;
 use crate::geometry::{Intersector, Ray};
@@ -209,49 +210,32 @@ impl Octree {
         }
     }
 
+    /// The query's answer for `ray`, the cells tested as the walk reaches them.
     #[inline(always)]
-    fn closest_counted<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
+    fn query<I: Intersector, S: Stats, Q: Query>(&self, ray: &Ray, stats: &mut S) -> Q::Answer {
+        let mut query = Q::new(ray);
         if self.triangles.is_empty() {
-            return None;
-        }
-        let data = I::prepare(ray);
-        let mut best = BestHit::new(ray);
-        let mut mailbox = Mailbox::new(self.mailbox);
-        self.walk(ray, stats, |refs, stats| {
-            mailbox.closest_in_cell::<I, S>(refs, &self.triangles, (&data, ray), &mut best, stats);
-            match best.hit() {
-                Some(_) => Next::Until(widened(best.t)),
-                None => Next::Until(f64::INFINITY),
-            }
-        });
-        best.hit()
-    }
-
-    #[inline(always)]
-    fn occluded_counted<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
-        if self.triangles.is_empty() {
-            return false;
+            return query.answer();
         }
         let data = I::prepare(ray);
         let mut mailbox = Mailbox::new(self.mailbox);
-        let mut hit = false;
         self.walk(ray, stats, |refs, stats| {
-            if mailbox.any_in_cell::<I, S>(refs, &self.triangles, (&data, ray), stats) {
-                hit = true;
+            if mailbox.test_cell::<I, S, Q>(refs, &self.triangles, (&data, ray), &mut query, stats)
+            {
                 return Next::Stop;
             }
-            Next::Until(f64::INFINITY)
+            Next::Until(query.found().map_or(f64::INFINITY, widened))
         });
-        hit
+        query.answer()
     }
 }
 
 impl Accel for Octree {
     fn closest_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> Option<Hit> {
-        count_locally(stats, |local| self.closest_counted::<I, S>(ray, local))
+        count_locally(stats, |local| self.query::<I, S, Closest>(ray, local))
     }
 
     fn any_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
-        count_locally(stats, |local| self.occluded_counted::<I, S>(ray, local))
+        count_locally(stats, |local| self.query::<I, S, AnyHit>(ray, local))
     }
 }

@@ -214,9 +214,12 @@ impl<'a, const W: usize> Layout<'a, W> {
             })
             .collect();
         // One copy of each part: the whole tree's room reserved before the first.
-        tree.nodes.reserve(parts.iter().map(|(p, _)| p.nodes.len()).sum());
-        tree.blocks.reserve(parts.iter().map(|(p, _)| p.blocks.len()).sum());
-        tree.prim_indices.reserve(parts.iter().map(|(p, _)| p.prim_indices.len()).sum());
+        tree.nodes
+            .reserve(parts.iter().map(|(p, _)| p.nodes.len()).sum());
+        tree.blocks
+            .reserve(parts.iter().map(|(p, _)| p.blocks.len()).sum());
+        tree.prim_indices
+            .reserve(parts.iter().map(|(p, _)| p.prim_indices.len()).sum());
         for (part, c) in parts {
             tree.nodes[c.node].child[c.lane] = tree.nodes.len() as u32;
             tree.append(part);
@@ -383,7 +386,12 @@ mod tests {
     /// same nodes, boxes and leaves, only stored in another order.
     #[test]
     fn parts_laid_out_apart_make_the_same_tree() {
-        for spec in ["soup:6000", "sphere:5000", "teapot-in-stadium", "same-centroid"] {
+        for spec in [
+            "soup:6000",
+            "sphere:5000",
+            "teapot-in-stadium",
+            "same-centroid",
+        ] {
             let scene = builtin::by_name(spec).unwrap().unwrap();
             let (b2, _) = bvh::build(&scene.triangles, &BuildParams::default()).unwrap();
             let costs = Costs::<8>::new(&b2, &CollapseParams::default());
