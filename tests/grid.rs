@@ -6,7 +6,7 @@
 mod common;
 
 use bvhlab::accel::grid::{GridError, GridParams, MAX_CELLS, build};
-use bvhlab::accel::{Accel, BruteForce, Counters, NoStats};
+use bvhlab::accel::{Accel, BruteForce, NoStats};
 use bvhlab::geometry::overlap::triangle_box_overlap;
 use bvhlab::geometry::{Aabb, Ray, Triangle, Watertight};
 use bvhlab::scene::Scene;
@@ -36,24 +36,13 @@ fn check(tris: &[Triangle], lambda: f32, rays: &[Ray], what: &str) {
         .collect();
     for mailbox in [true, false] {
         grid.mailbox = mailbox;
-        for (i, (ray, want)) in rays.iter().zip(&expected).enumerate() {
-            let got = grid.closest_hit::<Watertight, _>(ray, &mut NoStats);
-            assert!(
-                same_hit(got, *want),
-                "{what} λ={lambda} mailbox={mailbox}: ray {i} {ray:?}: grid {got:?}, brute force {want:?}"
-            );
-            let mut c = Counters::default();
-            let counted = grid.closest_hit::<Watertight, _>(ray, &mut c);
-            assert!(same_hit(got, counted), "{what}: counting changed ray {i}");
-            if mailbox {
-                assert_eq!(c.repeated_tests, 0);
-            }
-            assert_eq!(
-                grid.any_hit::<Watertight, _>(ray, &mut NoStats),
-                want.is_some(),
-                "{what} λ={lambda} mailbox={mailbox}: any hit of ray {i} {ray:?}"
-            );
-        }
+        common::assert_mailboxed_hits(
+            &grid,
+            rays,
+            &expected,
+            mailbox,
+            &format!("{what} λ={lambda}"),
+        );
     }
 }
 
@@ -155,34 +144,11 @@ fn lambda_out_of_range_and_too_many_cells_are_clear_errors() {
 
 #[test]
 fn mailboxing_removes_repeated_tests_and_changes_no_hit() {
-    // Large triangles across the unit cube, each in many cells.
-    let mut rng = Rng::new(5);
-    let tris: Vec<Triangle> = (0..300)
-        .map(|_| {
-            let c = vec3(rng.f32(), rng.f32(), rng.f32());
-            Triangle::new(
-                c + rng.unit_vector() * 0.5,
-                c + rng.unit_vector() * 0.5,
-                c + rng.unit_vector() * 0.5,
-            )
-        })
-        .collect();
+    let tris = common::large_triangles(300, 5);
     let rays = rays(&bounds(&tris), 400, 6);
     let (mut grid, report) = build(&tris, &params(8.0, true)).expect("builds");
     assert!(report.references_per_triangle() > 10.0, "{report:?}");
-    let mut totals = [Counters::default(); 2];
-    for (m, mailbox) in [true, false].into_iter().enumerate() {
-        grid.mailbox = mailbox;
-        for ray in &rays {
-            let a = grid.closest_hit::<Watertight, _>(ray, &mut totals[m]);
-            let b = grid.closest_hit::<Watertight, _>(ray, &mut NoStats);
-            assert!(same_hit(a, b));
-        }
-    }
-    assert_eq!(totals[0].repeated_tests, 0);
-    assert!(totals[1].repeated_tests > 0, "{:?}", totals[1]);
-    assert!(totals[1].triangle_tests > totals[0].triangle_tests);
-    assert_eq!(totals[0].nodes_visited, totals[1].nodes_visited);
+    common::mailbox_totals(&mut grid, |g, on| g.mailbox = on, &rays, "grid");
     check(&tris, 8.0, &rays, "large triangles");
 }
 

@@ -6,7 +6,7 @@
 mod common;
 
 use bvhlab::accel::kdtree::{KdError, KdParams, KdSplit, KdTree, build};
-use bvhlab::accel::{Accel, BruteForce, Counters, NoStats, StructureReport};
+use bvhlab::accel::{Accel, BruteForce, NoStats, StructureReport};
 use bvhlab::geometry::{Aabb, Ray, Triangle, Watertight};
 use bvhlab::scene::Scene;
 use common::{Rng, rays, same_hit, soup};
@@ -105,22 +105,13 @@ fn check_shape(kd: &KdTree, report: &StructureReport, n: usize) {
 
 /// Closest and any hits of `kd` (mailbox on and off) equal brute force on `rays`.
 fn assert_matches_brute_force(kd: &mut KdTree, brute: &BruteForce, rays: &[Ray], what: &str) {
+    let expected: Vec<_> = rays
+        .iter()
+        .map(|r| brute.closest_hit::<Watertight, _>(r, &mut NoStats))
+        .collect();
     for mailbox in [true, false] {
         kd.mailbox = mailbox;
-        for (i, ray) in rays.iter().enumerate() {
-            let expected = brute.closest_hit::<Watertight, _>(ray, &mut NoStats);
-            let got = kd.closest_hit::<Watertight, _>(ray, &mut NoStats);
-            assert!(
-                same_hit(got, expected),
-                "{what} mailbox {mailbox}: ray {i} {ray:?}: kd {got:?}, brute force {expected:?}"
-            );
-            let occluded = kd.any_hit::<Watertight, _>(ray, &mut NoStats);
-            assert_eq!(
-                occluded,
-                expected.is_some(),
-                "{what} mailbox {mailbox}: any hit of ray {i} {ray:?}"
-            );
-        }
+        common::assert_mailboxed_hits(kd, rays, &expected, mailbox, what);
     }
 }
 
@@ -317,30 +308,12 @@ fn counting_changes_no_hit_and_mailboxing_removes_repeated_tests() {
             report.references > tris.len(),
             "triangles are referenced twice"
         );
-        let mut totals = [Counters::default(); 2];
-        for (m, mailbox) in [true, false].into_iter().enumerate() {
-            kd.mailbox = mailbox;
-            for ray in &rays {
-                let mut c = Counters::default();
-                let counted = kd.closest_hit::<Watertight, _>(ray, &mut c);
-                let plain = kd.closest_hit::<Watertight, _>(ray, &mut NoStats);
-                assert!(same_hit(counted, plain), "{ray:?}");
-                let mut c2 = Counters::default();
-                assert_eq!(
-                    kd.any_hit::<Watertight, _>(ray, &mut c2),
-                    kd.any_hit::<Watertight, _>(ray, &mut NoStats)
-                );
-                assert!(c.box_tests >= 1);
-                assert!(c.repeated_tests <= c.triangle_tests);
-                totals[m] += c;
-                totals[m] += c2;
-            }
-        }
-        let [on, off] = totals;
-        assert_eq!(on.repeated_tests, 0, "{split:?}");
-        assert!(off.repeated_tests > 0, "{split:?}: {off:?}");
-        assert_eq!(on.triangle_tests + off.repeated_tests, off.triangle_tests);
-        assert_eq!(on.nodes_visited, off.nodes_visited);
+        common::mailbox_totals(
+            &mut kd,
+            |k, on| k.mailbox = on,
+            &rays,
+            &format!("{split:?}"),
+        );
     }
 }
 

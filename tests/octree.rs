@@ -6,7 +6,7 @@
 mod common;
 
 use bvhlab::accel::octree::{Octree, OctreeError, OctreeParams, build};
-use bvhlab::accel::{Accel, BruteForce, Counters, NoStats};
+use bvhlab::accel::{Accel, BruteForce, NoStats};
 use bvhlab::geometry::{Aabb, Ray, Triangle, Watertight};
 use bvhlab::scene::Scene;
 use common::lattice::{PINS, contact_rays, contact_targets, lattice_rays, lattice_scene};
@@ -47,24 +47,7 @@ fn check(tris: &[Triangle], p: &OctreeParams, rays: &[Ray], what: &str) {
         .collect();
     for mailbox in [true, false] {
         octree.mailbox = mailbox;
-        for (i, (ray, want)) in rays.iter().zip(&expected).enumerate() {
-            let got = octree.closest_hit::<Watertight, _>(ray, &mut NoStats);
-            assert!(
-                same_hit(got, *want),
-                "{what} {p:?} mailbox={mailbox}: ray {i} {ray:?}: octree {got:?}, brute force {want:?}"
-            );
-            let mut c = Counters::default();
-            let counted = octree.closest_hit::<Watertight, _>(ray, &mut c);
-            assert!(same_hit(got, counted), "{what}: counting changed ray {i}");
-            if mailbox {
-                assert_eq!(c.repeated_tests, 0);
-            }
-            assert_eq!(
-                octree.any_hit::<Watertight, _>(ray, &mut NoStats),
-                want.is_some(),
-                "{what} {p:?} mailbox={mailbox}: any hit of ray {i} {ray:?}"
-            );
-        }
+        common::assert_mailboxed_hits(&octree, rays, &expected, mailbox, &format!("{what} {p:?}"));
     }
 }
 
@@ -159,33 +142,12 @@ fn parameter_errors_are_clear() {
 
 #[test]
 fn mailboxing_removes_repeated_tests_and_changes_no_hit() {
-    let mut rng = Rng::new(5);
-    let tris: Vec<Triangle> = (0..300)
-        .map(|_| {
-            let c = vec3(rng.f32(), rng.f32(), rng.f32());
-            Triangle::new(
-                c + rng.unit_vector() * 0.5,
-                c + rng.unit_vector() * 0.5,
-                c + rng.unit_vector() * 0.5,
-            )
-        })
-        .collect();
+    let tris = common::large_triangles(300, 5);
     let rays = rays(&bounds(&tris), 400, 6);
     let p = params(4, 6);
     let (mut octree, report) = build(&tris, &p).expect("builds");
     assert!(report.references_per_triangle() > 3.0, "{report:?}");
-    let mut totals = [Counters::default(); 2];
-    for (m, mailbox) in [true, false].into_iter().enumerate() {
-        octree.mailbox = mailbox;
-        for ray in &rays {
-            let a = octree.closest_hit::<Watertight, _>(ray, &mut totals[m]);
-            let b = octree.closest_hit::<Watertight, _>(ray, &mut NoStats);
-            assert!(same_hit(a, b));
-        }
-    }
-    assert_eq!(totals[0].repeated_tests, 0);
-    assert!(totals[1].repeated_tests > 0, "{:?}", totals[1]);
-    assert_eq!(totals[0].nodes_visited, totals[1].nodes_visited);
+    common::mailbox_totals(&mut octree, |o, on| o.mailbox = on, &rays, "octree");
     check(&tris, &p, &rays, "large triangles");
 }
 

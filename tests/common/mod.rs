@@ -7,8 +7,8 @@ pub mod gltf;
 pub mod instanced;
 pub mod lattice;
 
-use bvhlab::accel::Hit;
-use bvhlab::geometry::{Aabb, Ray, Triangle};
+use bvhlab::accel::{Accel, Counters, Hit, NoStats};
+use bvhlab::geometry::{Aabb, Ray, Triangle, Watertight};
 use glam::Vec3;
 
 /// splitmix64: small, seeded, good enough for test inputs.
@@ -153,6 +153,90 @@ pub fn same_hit(a: Option<Hit>, b: Option<Hit>) -> bool {
         (Some(x), Some(y)) => x.triangle == y.triangle && x.t.to_bits() == y.t.to_bits(),
         _ => false,
     }
+}
+
+/// A mailboxed structure's closest and any hits equal `expected` (brute force's) on
+/// `rays`, counting changes no hit, and with the mailbox on no test is counted as repeated.
+pub fn assert_mailboxed_hits<A: Accel>(
+    accel: &A,
+    rays: &[Ray],
+    expected: &[Option<Hit>],
+    mailbox: bool,
+    what: &str,
+) {
+    for (i, (ray, want)) in rays.iter().zip(expected).enumerate() {
+        let got = accel.closest_hit::<Watertight, _>(ray, &mut NoStats);
+        assert!(
+            same_hit(got, *want),
+            "{what} mailbox={mailbox}: ray {i} {ray:?}: {got:?}, brute force {want:?}"
+        );
+        let mut c = Counters::default();
+        let counted = accel.closest_hit::<Watertight, _>(ray, &mut c);
+        assert!(same_hit(got, counted), "{what}: counting changed ray {i}");
+        if mailbox {
+            assert_eq!(c.repeated_tests, 0, "{what}: ray {i}");
+        }
+        assert_eq!(
+            accel.any_hit::<Watertight, _>(ray, &mut NoStats),
+            want.is_some(),
+            "{what} mailbox={mailbox}: any hit of ray {i} {ray:?}"
+        );
+    }
+}
+
+/// Large triangles across the unit cube: each lies in many cells of a spatial structure.
+pub fn large_triangles(n: usize, seed: u64) -> Vec<Triangle> {
+    let mut rng = Rng::new(seed);
+    (0..n)
+        .map(|_| {
+            let c = Vec3::new(rng.f32(), rng.f32(), rng.f32());
+            Triangle::new(
+                c + rng.unit_vector() * 0.5,
+                c + rng.unit_vector() * 0.5,
+                c + rng.unit_vector() * 0.5,
+            )
+        })
+        .collect()
+}
+
+/// The counters of a mailboxed structure's closest and any hits over `rays`, with the
+/// mailbox on and then off (`set_mailbox`). Counting changes no hit; the mailbox changes no
+/// node visited, and removes exactly the tests counted as repeated without it.
+pub fn mailbox_totals<A: Accel>(
+    accel: &mut A,
+    set_mailbox: impl Fn(&mut A, bool),
+    rays: &[Ray],
+    what: &str,
+) -> [Counters; 2] {
+    let mut totals = [Counters::default(); 2];
+    for (m, mailbox) in [true, false].into_iter().enumerate() {
+        set_mailbox(accel, mailbox);
+        for ray in rays {
+            let mut c = Counters::default();
+            let counted = accel.closest_hit::<Watertight, _>(ray, &mut c);
+            let plain = accel.closest_hit::<Watertight, _>(ray, &mut NoStats);
+            assert!(same_hit(counted, plain), "{what}: {ray:?}");
+            let mut c2 = Counters::default();
+            assert_eq!(
+                accel.any_hit::<Watertight, _>(ray, &mut c2),
+                accel.any_hit::<Watertight, _>(ray, &mut NoStats),
+                "{what}: {ray:?}"
+            );
+            assert!(c.box_tests >= 1, "{what}: {ray:?}");
+            totals[m] += c;
+            totals[m] += c2;
+        }
+    }
+    let [on, off] = totals;
+    assert_eq!(on.repeated_tests, 0, "{what}");
+    assert!(off.repeated_tests > 0, "{what}: {off:?}");
+    assert_eq!(
+        on.triangle_tests + off.repeated_tests,
+        off.triangle_tests,
+        "{what}"
+    );
+    assert_eq!(on.nodes_visited, off.nodes_visited, "{what}");
+    totals
 }
 
 /// The directory of the shared reference scenes, if the environment provides it.
