@@ -427,7 +427,9 @@ fn build_tree(
         // A subtree over n primitives has at most 2n − 2 descendants. Giving each subtree a
         // fixed slice of that size lets both halves be built in parallel into disjoint
         // slices of one array; `compact` then squeezes out the slots leaves did not use.
-        let mut slots = vec![Node::default(); 2 * n - 1];
+        // Filled on every thread: the first touch of its pages is a large part of its cost.
+        let mut slots = Vec::with_capacity(2 * n - 1);
+        slots.par_extend(rayon::iter::repeat_n(Node::default(), 2 * n - 1));
         let builder = Builder {
             params,
             progress,
