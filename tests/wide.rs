@@ -316,6 +316,89 @@ fn every_triangle_kernel_equals_the_scalar_watertight_test() {
     check::<Avx512>(SimdLevel::Avx512, &mut rng);
 }
 
+/// The block test stops early when no lane can hit or be handed back (a ray beside all four
+/// triangles, triangles behind the origin or beyond tmax, a padding block) and only then:
+/// a lane on a shared edge is still handed back, a lane inside still hits. Every kernel
+/// agrees with the portable one and with the scalar test in each case.
+#[test]
+fn the_block_test_stops_early_only_when_no_lane_can_hit() {
+    // Four right triangles apart from each other in the plane z = 5, legs of length 1.
+    let tri = |x: f32| {
+        Triangle::new(
+            Vec3::new(x, 0.0, 5.0),
+            Vec3::new(x + 1.0, 0.0, 5.0),
+            Vec3::new(x, 1.0, 5.0),
+        )
+    };
+    let tris = [tri(0.0), tri(2.0), tri(4.0), tri(6.0)];
+    let mut block = TriangleBlock::EMPTY;
+    for (lane, t) in tris.iter().enumerate() {
+        block.set(lane, t);
+    }
+    // The first of them and its mirror image across its hypotenuse, which they share, in a
+    // block of their own: a ray through the hypotenuse has an edge function of exactly zero.
+    let a = tris[0];
+    let mut edge_block = TriangleBlock::EMPTY;
+    edge_block.set(0, &a);
+    edge_block.set(1, &Triangle::new(a.v[1], Vec3::new(1.0, 1.0, 5.0), a.v[2]));
+    let up = |x: f32, y: f32| Ray::new(Vec3::new(x, y, 0.0), Vec3::Z);
+    let down = |x: f32, y: f32| Ray::new(Vec3::new(x, y, 0.0), -Vec3::Z);
+    // (block, ray, tmax, expected hit lanes, whether some lane is handed back)
+    let cases: [(&TriangleBlock, Ray, f32, u32, bool); 8] = [
+        (&block, up(1.5, 0.5), f32::INFINITY, 0, false), // beside all four
+        (&block, up(0.25, 0.25), f32::INFINITY, 0b0001, false), // inside lane 0
+        (&block, up(4.25, 0.25), f32::INFINITY, 0b0100, false), // inside lane 2
+        (&block, down(0.25, 0.25), f32::INFINITY, 0, false), // lane 0 behind the origin
+        (&block, up(0.25, 0.25), 4.0, 0, false),         // lane 0 beyond tmax
+        (
+            &TriangleBlock::EMPTY,
+            up(0.25, 0.25),
+            f32::INFINITY,
+            0,
+            false,
+        ), // padding
+        (&edge_block, up(0.5, 0.5), f32::INFINITY, 0, true), // on the shared hypotenuse
+        (&edge_block, up(0.75, 0.75), f32::INFINITY, 0b0010, false), // inside lane 1
+    ];
+    fn check<K: TriangleKernel>(level: SimdLevel, cases: &[(&TriangleBlock, Ray, f32, u32, bool)]) {
+        if !level.supported() {
+            return;
+        }
+        for (i, &(block, ray, tmax, hit, handed_back)) in cases.iter().enumerate() {
+            let shear = Watertight::prepare(&ray);
+            // SAFETY: `level.supported()` was checked above.
+            let got = unsafe { K::watertight(block, &shear, &ray, 0.0, tmax) };
+            // SAFETY: the portable kernel has no requirement.
+            let portable = unsafe { Portable::watertight(block, &shear, &ray, 0.0, tmax) };
+            let what = format!("{} case {i}", level.label());
+            assert_eq!(
+                (got.hit, got.retest),
+                (portable.hit, portable.retest),
+                "{what}"
+            );
+            assert_eq!(got.hit, hit, "{what}: hit lanes");
+            assert_eq!(got.retest != 0, handed_back, "{what}: handed-back lanes");
+            for lane in 0..BLOCK {
+                let scalar = Watertight::intersect(&shear, &ray, &block.triangle(lane), 0.0, tmax);
+                if got.retest >> lane & 1 == 0 {
+                    assert_eq!(
+                        got.hit >> lane & 1 == 1,
+                        scalar.is_some(),
+                        "{what} lane {lane}"
+                    );
+                }
+                if let Some(s) = scalar.filter(|_| got.hit >> lane & 1 == 1) {
+                    assert_eq!(got.t[lane].to_bits(), s.t.to_bits(), "{what} lane {lane}");
+                }
+            }
+        }
+    }
+    check::<Portable>(SimdLevel::Portable, &cases);
+    check::<Sse41>(SimdLevel::Sse41, &cases);
+    check::<Avx2>(SimdLevel::Avx2, &cases);
+    check::<Avx512>(SimdLevel::Avx512, &cases);
+}
+
 /// The greedy collapse the dynamic program must beat or tie: open the child with the
 /// largest box until W children, leaves where the BVH2 has them.
 fn greedy_cost<const W: usize>(b2: &Bvh, p: &CollapseParams) -> f64 {

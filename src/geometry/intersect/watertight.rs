@@ -54,7 +54,8 @@ impl Intersector for Watertight {
     #[inline(always)]
     fn prepare(ray: &Ray) -> Shear {
         let [kx, ky, kz] = shear_axes(ray.direction);
-        let d = ray.direction;
+        // An array is indexed by address; a vector's index is a branch per axis.
+        let d = ray.direction.to_array();
         Shear {
             k: [kx, ky, kz],
             s: Vec3::new(-d[kx] / d[kz], -d[ky] / d[kz], 1.0 / d[kz]),
@@ -86,7 +87,7 @@ impl Intersector for Watertight {
         let s = shear.s;
         // Vertices relative to the origin, permuted so the ray runs along +z, then sheared.
         let rel = |p: Vec3| {
-            let q = p - ray.origin;
+            let q = (p - ray.origin).to_array();
             Vec3::new(q[kx], q[ky], q[kz])
         };
         let (a, b, c) = (rel(tri.v[0]), rel(tri.v[1]), rel(tri.v[2]));

@@ -71,6 +71,13 @@ impl BlockHits {
         hit: 0,
         retest: (1 << BLOCK) - 1,
     };
+
+    /// No lane hits and none is handed back (t, u and v are then never read).
+    pub const MISS: BlockHits = BlockHits {
+        hit: 0,
+        retest: 0,
+        ..BlockHits::RETEST_ALL
+    };
 }
 
 /// The watertight test of one ray against a block, one kernel per instruction set.
@@ -146,27 +153,32 @@ impl TriangleKernel for Portable {
 }
 
 /// The lanes of the test with the intrinsics of one vector width; evaluates to
-/// `(t, u, v, hit, retest)`, the last two as lane masks in vectors.
+/// `(t, u, v, hit, retest)`, the last two as lane masks in vectors. A block in which no
+/// lane can hit or be handed back — the commonest case, a ray passing beside all four
+/// triangles — returns `BlockHits::MISS` from the enclosing kernel as soon as the edge
+/// functions show it, before the division and the error bound: what those would decide
+/// is only ever read in hit or handed-back lanes.
 #[cfg(target_arch = "x86_64")]
 macro_rules! watertight_m128 {
     ($block:expr, $shear:expr, $ray:expr, $tmin:expr, $tmax:expr) => {{
         let (block, shear, ray) = ($block, $shear, $ray);
         let [kx, ky, kz] = shear.k;
-        let o = ray.origin;
+        // The origin as an array: its coordinates are then picked by address, not by
+        // a chain of branches per axis, and stay out of the loop over a leaf's blocks.
+        let o = ray.origin.to_array();
+        let (ox, oy, oz) = (_mm_set1_ps(o[kx]), _mm_set1_ps(o[ky]), _mm_set1_ps(o[kz]));
         let (sx, sy, sz) = (
             _mm_set1_ps(shear.s.x),
             _mm_set1_ps(shear.s.y),
             _mm_set1_ps(shear.s.z),
         );
-        let coord = |k: usize, axis: usize| {
-            _mm_sub_ps(_mm_load_ps(block.v[k][axis].as_ptr()), _mm_set1_ps(o[axis]))
-        };
+        let row = |k: usize, axis: usize| _mm_load_ps(block.v[k][axis].as_ptr());
         // Vertex k relative to the origin, permuted and sheared: (x, y, unscaled z).
         let vertex = |k: usize| {
-            let z = coord(k, kz);
+            let z = _mm_sub_ps(row(k, kz), oz);
             (
-                _mm_add_ps(coord(k, kx), _mm_mul_ps(sx, z)),
-                _mm_add_ps(coord(k, ky), _mm_mul_ps(sy, z)),
+                _mm_add_ps(_mm_sub_ps(row(k, kx), ox), _mm_mul_ps(sx, z)),
+                _mm_add_ps(_mm_sub_ps(row(k, ky), oy), _mm_mul_ps(sy, z)),
                 z,
             )
         };
@@ -192,6 +204,12 @@ macro_rules! watertight_m128 {
         );
         let outside = _mm_and_ps(negative, positive);
         let det = _mm_add_ps(_mm_add_ps(e0, e1), e2);
+        // A lane can hit only with its edges of one sign and a nonzero determinant (NaN,
+        // as in padding, is neither), and is handed back only with an edge at zero.
+        let det_nonzero = _mm_or_ps(_mm_cmplt_ps(det, zero), _mm_cmpgt_ps(det, zero));
+        if _mm_movemask_ps(_mm_or_ps(_mm_andnot_ps(outside, det_nonzero), on_edge)) == 0 {
+            return BlockHits::MISS;
+        }
         let (az, bz, cz) = (
             _mm_mul_ps(sz, aqz),
             _mm_mul_ps(sz, bqz),
@@ -215,6 +233,10 @@ macro_rules! watertight_m128 {
                 ),
             ),
         );
+        // No lane within the interval nor on an edge: the error bound decides nothing.
+        if _mm_movemask_ps(_mm_or_ps(inside, on_edge)) == 0 {
+            return BlockHits::MISS;
+        }
         // The rounding error of t, as the scalar test bounds it.
         let sign = _mm_set1_ps(-0.0);
         let abs = |x| _mm_andnot_ps(sign, x);
