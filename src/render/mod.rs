@@ -189,6 +189,7 @@ fn trace_tile<A: Accel, I: Intersector>(
 ) -> FrameSummary {
     let w = settings.width.max(1);
     let y0 = tile * TILE_ROWS;
+    let mut albedos = Albedos::new(scene);
     {
         if settings.counters {
             for (k, sample) in out.iter_mut().enumerate() {
@@ -196,7 +197,7 @@ fn trace_tile<A: Accel, I: Intersector>(
                 let mut primary = Counters::default();
                 let hit = accel.closest_hit::<I, _>(&ray, &mut primary);
                 let occluded = |r: &Ray, s: &mut Counters| accel.any_hit::<I, _>(r, s);
-                *sample = shade(scene, &ray, hit, primary, settings, occluded);
+                *sample = shade(scene, &mut albedos, &ray, hit, primary, settings, occluded);
             }
             return FrameSummary::sum_of(out, settings.shadows);
         }
@@ -230,7 +231,7 @@ fn trace_tile<A: Accel, I: Intersector>(
                     lit_pixels.push(pixel);
                     false
                 };
-                out[pixel] = shade(scene, ray, hit, NoStats, settings, gather);
+                out[pixel] = shade(scene, &mut albedos, ray, hit, NoStats, settings, gather);
             }
             let blockers = &mut hits[..shadows.len()];
             accel.closest_hits::<I>(&shadows, blockers);
@@ -247,6 +248,7 @@ fn trace_tile<A: Accel, I: Intersector>(
 /// hit, the shadow ray towards the light, which `occluded` traces (or gathers for later).
 fn shade<S: Stats + Into<Counters>>(
     scene: &Scene,
+    albedos: &mut Albedos,
     ray: &Ray,
     hit: Option<Hit>,
     primary: S,
@@ -272,9 +274,7 @@ fn shade<S: Stats + Into<Counters>>(
         };
     };
     let normal = tri.facing_normal(ray.direction);
-    let albedo = scene
-        .object_of(hit.triangle as usize)
-        .map_or(Vec3::splat(0.7), |o| scene.objects[o].color);
+    let albedo = albedos.of(hit.triangle as usize);
     let mut shadow = S::default();
     let (lit, cos_light) = if settings.shadows {
         let shadow_ray = shadow_ray(tri, normal, &hit, light);
@@ -293,6 +293,33 @@ fn shade<S: Stats + Into<Counters>>(
         lit,
         primary: primary.into(),
         shadow: shadow.into(),
+    }
+}
+
+/// The colour of the object a hit triangle belongs to. Neighbouring pixels mostly hit the
+/// same object, so the object of the last hit is tried before the search over the objects.
+struct Albedos<'a> {
+    scene: &'a Scene,
+    last: Option<(std::ops::Range<usize>, Vec3)>,
+}
+
+impl<'a> Albedos<'a> {
+    fn new(scene: &'a Scene) -> Self {
+        Albedos { scene, last: None }
+    }
+
+    fn of(&mut self, triangle: usize) -> Vec3 {
+        if let Some((range, color)) = &self.last
+            && range.contains(&triangle)
+        {
+            return *color;
+        }
+        let Some(o) = self.scene.object_of(triangle) else {
+            return Vec3::splat(0.7);
+        };
+        let object = &self.scene.objects[o];
+        self.last = Some((object.range(), object.color));
+        object.color
     }
 }
 
