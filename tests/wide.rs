@@ -575,7 +575,7 @@ fn partial_refits_report_the_sah_cost_of_the_tree() {
                 // Every triangle moves and a full refit runs: the index's sums are stale.
                 for t in &mut tris {
                     for v in &mut t.v {
-                        *v = *v * 1.25;
+                        *v *= 1.25;
                     }
                 }
                 tree.refit(&tris, 1.0, 2.0).unwrap();
