@@ -202,6 +202,10 @@ fn the_worker_shows_a_full_shaded_frame_first_and_its_counts_after() {
     assert!(frame.summary.counted(), "then counted");
     assert_eq!(*counted_job, shaded);
     assert_same_pixels(&shown.frame, frame, "teapot-in-stadium");
+    // The counted pass keeps the shown frame's image, which its samples colour.
+    assert_eq!(frame.rgba, shown.frame.rgba);
+    let (recoloured, _) = colorize(frame, Mode::Shaded, None);
+    assert_eq!(frame.rgba, recoloured);
     assert_eq!(shown.image_time, shown.frame.summary.trace_time);
 
     // The heatmap of the same view recolours the counted frame: no tracing, no second pass.

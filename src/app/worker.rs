@@ -25,7 +25,9 @@ use crate::render::overlay::{
     OutlinedBox, outline_boxes, outline_corners, palette, tint_triangles,
 };
 use crate::render::replay::{Replay, replay_pixel};
-use crate::render::{Frame, Mode, RayKind, RenderSettings, colorize, trace, trace_unless};
+use crate::render::{
+    Frame, Mode, RayKind, RenderSettings, colorize, trace, trace_uncoloured_unless,
+};
 use crate::scene::{Camera, Scene};
 use glam::Vec3;
 use std::cell::RefCell;
@@ -1095,10 +1097,13 @@ impl State {
         };
         let latest = &self.latest;
         let newer = || latest.load(Ordering::Relaxed) > seq;
-        let Some(counted) = trace_unless::<_, Watertight>(structure, scene, &settings, &newer)
+        // Not coloured again: the same hits give the shown frame's image.
+        let Some(mut counted) =
+            trace_uncoloured_unless::<_, Watertight>(structure, scene, &settings, &newer)
         else {
             return;
         };
+        counted.rgba = traced.frame.rgba.clone();
         let frame = Arc::new(counted);
         self.traced = Some(Traced {
             key,

@@ -134,6 +134,29 @@ pub fn trace_unless<A: Accel, I: Intersector>(
     settings: &RenderSettings,
     stop: &(dyn Fn() -> bool + Sync),
 ) -> Option<Frame> {
+    trace_tiles::<A, I>(accel, scene, settings, settings.mode == Mode::Shaded, stop)
+}
+
+/// `trace_unless` without colouring (`rgba` stays empty): for a frame whose image is known
+/// already, as the app's counted pass of a frame it has shown (the same hits, the same
+/// image).
+pub fn trace_uncoloured_unless<A: Accel, I: Intersector>(
+    accel: &A,
+    scene: &Scene,
+    settings: &RenderSettings,
+    stop: &(dyn Fn() -> bool + Sync),
+) -> Option<Frame> {
+    trace_tiles::<A, I>(accel, scene, settings, false, stop)
+}
+
+/// The tiles of `trace_unless`, coloured as they are traced when `shaded`.
+fn trace_tiles<A: Accel, I: Intersector>(
+    accel: &A,
+    scene: &Scene,
+    settings: &RenderSettings,
+    shaded: bool,
+    stop: &(dyn Fn() -> bool + Sync),
+) -> Option<Frame> {
     let (w, h) = (settings.width.max(1), settings.height.max(1));
     let rays = settings.camera.rays(w, h);
     let start = Instant::now();
@@ -141,7 +164,6 @@ pub fn trace_unless<A: Accel, I: Intersector>(
     let stopped = AtomicBool::new(false);
     let tile_pixels = (w * TILE_ROWS) as usize;
     // A shaded frame's pixels are coloured tile by tile, as the tile's samples are made.
-    let shaded = settings.mode == Mode::Shaded;
     let mut rgba = vec![0u8; if shaded { samples.len() * 4 } else { 0 }];
     let mut rgba_tiles: Vec<&mut [u8]> = rgba.chunks_mut(tile_pixels * 4).collect();
     rgba_tiles.resize_with(samples.len().div_ceil(tile_pixels), Default::default);
