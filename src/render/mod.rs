@@ -17,7 +17,7 @@ use crate::accel::{Accel, Counter, Counters, Hit, NoStats, Stats};
 use crate::geometry::spawn::SurfacePoint;
 use crate::geometry::{Intersector, Ray, Watertight};
 use crate::scene::{Camera, Scene};
-use colormap::{srgb8, to_rgba8, viridis};
+use colormap::{Srgb8, to_rgba8, viridis};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -180,8 +180,9 @@ fn trace_tiles<A: Accel, I: Intersector>(
             return FrameSummary::default();
         }
         let sums = trace_tile::<A, I>(accel, scene, settings, &rays, tile as u32, out);
+        let srgb = Srgb8::tables();
         for (px, s) in pixels.chunks_exact_mut(4).zip(out.iter()) {
-            px.copy_from_slice(&shaded_color(s));
+            px.copy_from_slice(&shaded_color(s, srgb));
         }
         sums
     });
@@ -355,13 +356,14 @@ const BACKGROUND: Vec3 = Vec3::new(0.06, 0.07, 0.09);
 
 /// A sample's pixel in the shaded mode: Lambert shading with the hard shadow, or the
 /// background for a miss.
-fn shaded_color(s: &Sample) -> [u8; 4] {
+#[inline]
+fn shaded_color(s: &Sample, srgb: &Srgb8) -> [u8; 4] {
     if !s.is_hit() {
         return to_rgba8(BACKGROUND);
     }
     let light = if s.lit { s.cos_light } else { 0.0 };
     let c = s.albedo * (AMBIENT + (1.0 - AMBIENT) * light);
-    [srgb8(c.x), srgb8(c.y), srgb8(c.z), 255]
+    [srgb.code(c.x), srgb.code(c.y), srgb.code(c.z), 255]
 }
 
 impl Frame {
@@ -397,12 +399,13 @@ pub fn colorize(frame: &Frame, mode: Mode, heat_max: Option<u32>) -> (Vec<u8>, O
         _ => None,
     };
     let background = to_rgba8(BACKGROUND);
+    let srgb = Srgb8::tables();
     let color = |s: &Sample| match mode {
         Mode::Heatmap(c, r) => {
             let max = scale.unwrap_or(1) as f32;
             to_rgba8(viridis(s.counters(r).get(c) as f32 / max))
         }
-        Mode::Shaded => shaded_color(s),
+        Mode::Shaded => shaded_color(s, srgb),
         _ if !s.is_hit() => background,
         Mode::Normals => to_rgba8(s.normal * 0.5 + 0.5),
         Mode::Depth => {
