@@ -202,6 +202,10 @@ fn the_worker_shows_a_full_shaded_frame_first_and_its_counts_after() {
     assert!(frame.summary.counted(), "then counted");
     assert_eq!(*counted_job, shaded);
     assert_same_pixels(&shown.frame, frame, "teapot-in-stadium");
+    // The counted pass keeps the shown frame's image, which its samples colour.
+    assert_eq!(frame.rgba, shown.frame.rgba);
+    let (recoloured, _) = colorize(frame, Mode::Shaded, None);
+    assert_eq!(frame.rgba, recoloured);
     assert_eq!(shown.image_time, shown.frame.summary.trace_time);
 
     // The heatmap of the same view recolours the counted frame: no tracing, no second pass.
@@ -234,4 +238,120 @@ fn the_worker_shows_a_full_shaded_frame_first_and_its_counts_after() {
 
 fn job_with(j: &RenderJob, mode: Mode) -> RenderJob {
     RenderJob { mode, ..j.clone() }
+}
+
+/// A drag keeps the selection's table and the scene's box in two parts from move to move
+/// (the standard light follows the box): every frame is the frame of the scene as moved,
+/// traced afresh with the scene's own light, for a selection pushed out of the box (it
+/// moves the light), back, undone, for another selection, and one listing a triangle twice.
+#[test]
+fn a_dragged_selection_is_lit_and_tinted_as_the_scene_it_moved() {
+    let mut worker = Worker::spawn(|| {});
+    let params = StructureParams {
+        kind: AccelKind::Bvh8,
+        ..Default::default()
+    };
+    worker.send(Command::Build(params));
+    // An OBJ has no light of its own: the standard one, from the box. A floor of 30 × 30
+    // quads under a roof of 10 × 10.
+    let mut obj = String::new();
+    for (name, n, y, size) in [("floor", 30, 0.0f32, 2.0f32), ("roof", 10, 0.8, 1.0)] {
+        obj += &format!("o {name}\n");
+        for i in 0..=n {
+            for j in 0..=n {
+                let (x, z) = (i as f32 / n as f32 - 0.5, j as f32 / n as f32 - 0.5);
+                obj += &format!("v {} {} {}\n", x * size, y + 0.1 * x * z, z * size);
+            }
+        }
+    }
+    let mut first_vertex = 1;
+    for n in [30, 10] {
+        for i in 0..n {
+            for j in 0..n {
+                let v = |a: usize, b: usize| first_vertex + a * (n + 1) + b;
+                let (a, b, c, d) = (v(i, j), v(i + 1, j), v(i + 1, j + 1), v(i, j + 1));
+                obj += &format!("f {a} {b} {c}\nf {a} {c} {d}\n");
+            }
+        }
+        first_vertex += (n + 1) * (n + 1);
+    }
+    let path = std::env::temp_dir().join(format!("bvhlab-drag-{}.obj", std::process::id()));
+    std::fs::write(&path, obj).unwrap();
+    worker.send(Command::Load(path.display().to_string()));
+    let wait = Duration::from_secs(120);
+    let scene = worker
+        .wait_idle(wait)
+        .into_iter()
+        .find_map(|r| match r {
+            Reply::Loaded { scene, .. } => Some(scene),
+            _ => None,
+        })
+        .expect("the scene loads");
+    assert!(scene.light.is_none(), "the standard light, from the box");
+    let range = |r: std::ops::Range<u32>| std::sync::Arc::new(r.collect::<Vec<u32>>());
+    let (first, second) = (|| range(0..600), || range(1_700..1_900));
+    let mut twice = (*second()).clone();
+    twice.push(twice[0]);
+    let up = glam::Vec3::Y * scene.bounds().diagonal();
+    let steps: Vec<(std::sync::Arc<Vec<u32>>, Option<glam::Vec3>)> = vec![
+        (first(), Some(up)),
+        (first(), Some(up * 0.5)),
+        (first(), Some(-up * 0.25)),
+        (first(), None),
+        (second(), Some(up * 0.1)),
+        (std::sync::Arc::new(twice), Some(-up * 0.3)),
+    ];
+    let (mut tinted, mut lights) = (0, vec![scene.light()]);
+    for (k, (selection, delta)) in steps.into_iter().enumerate() {
+        let mut dragged = job(&scene, Mode::Shaded, false);
+        dragged.overlay.selected = Some(selection.clone());
+        worker.send(Command::Render(dragged.clone()));
+        worker.send(match delta {
+            Some(delta) => Command::Move {
+                triangles: selection.clone(),
+                delta,
+            },
+            None => Command::Undo,
+        });
+        worker.send(Command::Snapshot);
+        let replies = worker.wait_idle(wait);
+        let moved = replies
+            .iter()
+            .find_map(|r| match r {
+                Reply::Snapshot(s) => Some(s.clone()),
+                _ => None,
+            })
+            .expect("a snapshot");
+        let shown = replies
+            .iter()
+            .rev()
+            .find_map(|r| match r {
+                Reply::Frame(f) => Some(f.clone()),
+                _ => None,
+            })
+            .expect("a frame after the move");
+        lights.push(moved.light());
+        let built = structure::build_scene(&moved, &params, &AtomicUsize::new(0)).unwrap();
+        let settings = RenderSettings {
+            camera: dragged.camera,
+            mode: Mode::Shaded,
+            ..RenderSettings::for_scene(&moved, dragged.width, dragged.height)
+        };
+        let fresh = trace(&built.structure, &moved, &settings);
+        assert_same_pixels(&shown.frame, &fresh, &format!("step {k}"));
+        // The selection is tinted, nothing else.
+        for (i, s) in shown.frame.samples.iter().enumerate() {
+            let px = &shown.rgba[4 * i..4 * i + 4];
+            if s.is_hit() && selection.contains(&(s.triangle as u32)) {
+                tinted += usize::from(px != &fresh.rgba[4 * i..4 * i + 4]);
+            } else {
+                assert_eq!(px, &fresh.rgba[4 * i..4 * i + 4], "step {k}: pixel {i}");
+            }
+        }
+    }
+    assert!(tinted > 0, "the selection is tinted");
+    // The moves moved the light, and the undo put it back (up to the rounding of the moves).
+    assert!(lights[1] != lights[0] && lights[2] != lights[1] && lights[3] != lights[2]);
+    assert!(lights[4].distance(lights[0]) < 1e-5, "{lights:?}");
+    let _ = std::fs::remove_file(&path);
 }

@@ -632,3 +632,47 @@ fn wide_packets_equal_single_rays() {
         check::<8>(&b2, &random, name);
     }
 }
+
+/// Partial refits through one index keep the SAH sums from refit to refit: each reports
+/// the tree's SAH cost before and after as a pass over every lane gives it, also after the
+/// tree was refitted otherwise in between (its root box changed: the sums are made again).
+#[test]
+fn partial_refits_report_the_sah_cost_of_the_tree() {
+    use bvhlab::accel::bvh::refit::RefitIndex;
+    fn check<const W: usize>(seed: u64) {
+        let mut tris = soup(5_000, seed);
+        let b2 = bvh2(&tris, Strategy::SahBinned);
+        let mut tree = WideBvh::<W>::collapse(&b2, &CollapseParams::default());
+        let mut index = RefitIndex::for_wide(&tree);
+        let moved: Vec<u32> = (0..tris.len() as u32).filter(|t| t % 7 == 3).collect();
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs();
+        for round in 0..40 {
+            let before = tree.sah_cost(1.0, 2.0);
+            let offset = Vec3::new(0.3, -0.1, 0.2) * if round % 2 == 0 { 1.0 } else { -0.5 };
+            for &t in &moved {
+                for v in &mut tris[t as usize].v {
+                    *v += offset;
+                }
+            }
+            if round == 20 {
+                // Every triangle moves and a full refit runs: the index's sums are stale.
+                for t in &mut tris {
+                    for v in &mut t.v {
+                        *v *= 1.25;
+                    }
+                }
+                tree.refit(&tris, 1.0, 2.0).unwrap();
+                continue;
+            }
+            let report = tree
+                .refit_moved(&mut index, &tris, &moved, 1.0, 2.0)
+                .unwrap();
+            let after = tree.sah_cost(1.0, 2.0);
+            assert!(close(report.sah_before, before), "round {round}");
+            assert!(close(report.sah_after, after), "round {round}");
+        }
+        tree.validate().unwrap();
+    }
+    check::<4>(3);
+    check::<8>(4);
+}

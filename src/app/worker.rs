@@ -25,7 +25,9 @@ use crate::render::overlay::{
     OutlinedBox, outline_boxes, outline_corners, palette, tint_triangles,
 };
 use crate::render::replay::{Replay, replay_pixel};
-use crate::render::{Frame, Mode, RayKind, RenderSettings, colorize, trace, trace_unless};
+use crate::render::{
+    Frame, Mode, RayKind, RenderSettings, colorize, trace, trace_uncoloured_unless,
+};
 use crate::scene::{Camera, Scene};
 use glam::Vec3;
 use std::cell::RefCell;
@@ -309,6 +311,8 @@ impl Worker {
             gesture: Vec::new(),
             undo: Vec::new(),
             split_costs: RefCell::default(),
+            selection: RefCell::default(),
+            drag_bounds: None,
         };
         let thread = std::thread::Builder::new()
             .name("bvhlab-worker".into())
@@ -451,6 +455,87 @@ struct State {
     undo: Vec<Vec<Motion>>,
     /// The walk node's split costs, kept while the tree, the node and the parameters stay.
     split_costs: RefCell<Option<(SplitCostsKey, Arc<SplitCosts>)>>,
+    /// The move tool's selection as a table, kept while the selection and the scene stay.
+    selection: RefCell<Option<Arc<SelectionTable>>>,
+    /// While a selection is dragged: the boxes the standard light is placed from.
+    drag_bounds: Option<DragBounds>,
+}
+
+/// The move tool's selection as a table by triangle index (a selection can be a whole
+/// object of 10^5 triangles): made once per selection and scene, then read by the tint of
+/// every frame and the box of every move of a drag.
+struct SelectionTable {
+    triangles: Arc<Vec<u32>>,
+    selected: Vec<bool>,
+    /// Some triangle is listed twice (a move moves it twice).
+    repeated: bool,
+}
+
+impl SelectionTable {
+    fn new(triangles: &Arc<Vec<u32>>, triangle_count: usize) -> Self {
+        let mut selected = vec![false; triangle_count];
+        let mut repeated = false;
+        for &t in triangles.iter() {
+            if let Some(s) = selected.get_mut(t as usize) {
+                repeated |= *s;
+                *s = true;
+            }
+        }
+        SelectionTable {
+            triangles: triangles.clone(),
+            selected,
+            repeated,
+        }
+    }
+
+    fn is_for(&self, triangles: &Arc<Vec<u32>>, triangle_count: usize) -> bool {
+        self.selected.len() == triangle_count && same_selection(&self.triangles, triangles)
+    }
+
+    fn contains(&self, t: u64) -> bool {
+        usize::try_from(t).is_ok_and(|t| self.selected.get(t) == Some(&true))
+    }
+}
+
+fn same_selection(a: &Arc<Vec<u32>>, b: &Arc<Vec<u32>>) -> bool {
+    Arc::ptr_eq(a, b) || a == b
+}
+
+/// The scene's box in two parts while one selection is dragged: the box of every other
+/// triangle, which the drag does not change, and the selection's, which each move
+/// translates. A translation moves the box exactly (rounding is monotonic, so the smallest
+/// coordinate stays the smallest), so the standard light, which follows the scene's box,
+/// costs no pass over the scene's triangles per move.
+struct DragBounds {
+    selection: Arc<Vec<u32>>,
+    /// The scene version the boxes are of.
+    scene_version: u64,
+    rest: Aabb,
+    selected: Aabb,
+}
+
+impl DragBounds {
+    /// The two boxes of a flattened scene (whose box is that of its triangles), or `None`
+    /// if a move would not translate the selection (a triangle listed twice moves twice).
+    fn new(scene: &Scene, table: &SelectionTable, scene_version: u64) -> Option<Self> {
+        if table.repeated || !scene.is_flattened() {
+            return None;
+        }
+        let (mut rest, mut selected) = (Aabb::EMPTY, Aabb::EMPTY);
+        for (t, &s) in scene.triangles.iter().zip(&table.selected) {
+            if s {
+                selected = selected.union(t.bounds());
+            } else {
+                rest = rest.union(t.bounds());
+            }
+        }
+        Some(DragBounds {
+            selection: table.triangles.clone(),
+            scene_version,
+            rest,
+            selected,
+        })
+    }
 }
 
 /// An image's pixels and its heatmap scale, as `colorize` gives them.
@@ -680,12 +765,21 @@ impl State {
         }
     }
 
-    fn move_triangles(&mut self, triangles: &[u32], delta: Vec3) {
+    fn move_triangles(&mut self, triangles: &Arc<Vec<u32>>, delta: Vec3) {
+        let bounds = self.drag_bounds(triangles);
         let (Some(scene), Some(structure)) = (&mut self.scene, &mut self.structure) else {
             return;
         };
         scene.move_triangles(triangles, delta);
         self.scene_version += 1;
+        // The standard light from the scene's box in its two parts, the selection's moved.
+        if let Some(mut b) = bounds {
+            b.selected = Aabb::new(b.selected.min + delta, b.selected.max + delta);
+            b.scene_version = self.scene_version;
+            let light = Scene::standard_light(&b.rest.union(b.selected));
+            self.light = Some((self.scene_version, light));
+            self.drag_bounds = Some(b);
+        }
         let start = Instant::now();
         let p = &self.params.bvh;
         // Only the moved triangles' leaves and their ancestors change.
@@ -730,6 +824,34 @@ impl State {
             rebuild_time,
             bvh_refit_time,
         });
+    }
+
+    /// The scene's box in two parts for a move of `triangles` now: kept from the last move
+    /// if it moved the same selection and nothing else changed the scene since, else made
+    /// (`None` for a scene with its own light, which needs no box).
+    fn drag_bounds(&mut self, triangles: &Arc<Vec<u32>>) -> Option<DragBounds> {
+        let scene = self.scene.as_ref().filter(|s| s.light.is_none())?;
+        match self.drag_bounds.take() {
+            Some(b)
+                if b.scene_version == self.scene_version
+                    && same_selection(&b.selection, triangles) =>
+            {
+                Some(b)
+            }
+            _ => DragBounds::new(scene, &self.selection_table(triangles), self.scene_version),
+        }
+    }
+
+    /// The table of selection `triangles`, made again only for another selection or scene.
+    fn selection_table(&self, triangles: &Arc<Vec<u32>>) -> Arc<SelectionTable> {
+        let count = self.scene.as_ref().map_or(0, |s| s.triangles.len());
+        let mut cache = self.selection.borrow_mut();
+        if let Some(table) = cache.as_ref().filter(|t| t.is_for(triangles, count)) {
+            return table.clone();
+        }
+        let table = Arc::new(SelectionTable::new(triangles, count));
+        *cache = Some(table.clone());
+        table
     }
 
     /// Replays a pixel through the structure as it is now, in the scene as it is now.
@@ -975,10 +1097,13 @@ impl State {
         };
         let latest = &self.latest;
         let newer = || latest.load(Ordering::Relaxed) > seq;
-        let Some(counted) = trace_unless::<_, Watertight>(structure, scene, &settings, &newer)
+        // Not coloured again: the same hits give the shown frame's image.
+        let Some(mut counted) =
+            trace_uncoloured_unless::<_, Watertight>(structure, scene, &settings, &newer)
         else {
             return;
         };
+        counted.rgba = traced.frame.rgba.clone();
         let frame = Arc::new(counted);
         self.traced = Some(Traced {
             key,
@@ -1122,15 +1247,9 @@ impl State {
         let o = &job.overlay;
         let triangle_count = self.scene.as_ref().map_or(0, |s| s.triangles.len());
         if let Some(sel) = &o.selected {
-            // A table by triangle index: a selection can be a whole object of 10^5 triangles.
-            let mut selected = vec![false; triangle_count];
-            for &t in sel.iter() {
-                if let Some(s) = selected.get_mut(t as usize) {
-                    *s = true;
-                }
-            }
+            let selection = self.selection_table(sel);
             tint_triangles(frame, rgba, |t| {
-                (selected.get(t as usize) == Some(&true)).then_some([255, 230, 80, 110])
+                selection.contains(t).then_some([255, 230, 80, 110])
             });
         }
         let instance = self.instance.as_deref();

@@ -35,47 +35,63 @@ pub fn linear_to_srgb(c: f32) -> f32 {
     }
 }
 
-/// `to_rgba8`'s rounding of `linear_to_srgb(c)` without the power per channel: the 255
-/// linear values at which the 8-bit sRGB code steps up (found once by bisection), and a
-/// table of 4096 cells over [0, 1] that gives each cell's first code, so a colour is one
-/// look-up and a step or two up the table (a frame colours three channels per pixel).
+/// `to_rgba8`'s rounding of `linear_to_srgb(c)` without the power per channel (see
+/// `Srgb8`).
 pub fn srgb8(c: f32) -> u8 {
-    struct Tables {
-        steps: [f32; 255],
-        cells: [u8; CELLS + 1],
-    }
-    const CELLS: usize = 4096;
-    static TABLES: std::sync::OnceLock<Box<Tables>> = std::sync::OnceLock::new();
-    let t = TABLES.get_or_init(|| {
-        // Code k + 1 starts where the exact transfer reaches (k + 0.5) / 255; the bisection
-        // on f32 finds the first linear value whose rounded code is k + 1.
-        let steps: [f32; 255] = std::array::from_fn(|k| {
-            let code = |x: f32| (linear_to_srgb(x) * 255.0 + 0.5) as u32;
-            let (mut lo, mut hi) = (0.0f32, 1.0f32);
-            for _ in 0..40 {
-                let mid = 0.5 * (lo + hi);
-                if code(mid) > k as u32 {
-                    hi = mid
-                } else {
-                    lo = mid
+    Srgb8::tables().code(c)
+}
+
+/// The 255 linear values at which the 8-bit sRGB code steps up (found once by bisection),
+/// and a table of 4096 cells over [0, 1] that gives each cell's first code, so a colour is
+/// one look-up and a step or two up the table (a frame colours three channels per pixel:
+/// take the tables once for many).
+pub struct Srgb8 {
+    steps: [f32; 255],
+    cells: [u8; SRGB8_CELLS + 1],
+}
+
+const SRGB8_CELLS: usize = 4096;
+
+impl Srgb8 {
+    pub fn tables() -> &'static Srgb8 {
+        static TABLES: std::sync::OnceLock<Box<Srgb8>> = std::sync::OnceLock::new();
+        TABLES.get_or_init(|| {
+            // Code k + 1 starts where the exact transfer reaches (k + 0.5) / 255; the
+            // bisection on f32 finds the first linear value whose rounded code is k + 1.
+            let steps: [f32; 255] = std::array::from_fn(|k| {
+                let code = |x: f32| (linear_to_srgb(x) * 255.0 + 0.5) as u32;
+                let (mut lo, mut hi) = (0.0f32, 1.0f32);
+                for _ in 0..40 {
+                    let mid = 0.5 * (lo + hi);
+                    if code(mid) > k as u32 {
+                        hi = mid
+                    } else {
+                        lo = mid
+                    }
                 }
-            }
-            hi
-        });
-        // A cell's code is that of its lower end: every c in the cell has that code or more.
-        let cells = std::array::from_fn(|i| {
-            let low = i as f32 / CELLS as f32;
-            steps.partition_point(|&step| step <= low) as u8
-        });
-        Box::new(Tables { steps, cells })
-    });
-    // NaN and c ≤ 0 fall in cell 0; the cast saturates, so c ≥ 1 falls in the last.
-    let cell = ((c * CELLS as f32) as usize).min(CELLS);
-    let mut code = t.cells[cell] as usize;
-    while code < 255 && t.steps[code] <= c {
-        code += 1;
+                hi
+            });
+            // A cell's code is that of its lower end: every c in the cell has that code or
+            // more.
+            let cells = std::array::from_fn(|i| {
+                let low = i as f32 / SRGB8_CELLS as f32;
+                steps.partition_point(|&step| step <= low) as u8
+            });
+            Box::new(Srgb8 { steps, cells })
+        })
     }
-    code as u8
+
+    /// The 8-bit sRGB code of linear `c`.
+    #[inline]
+    pub fn code(&self, c: f32) -> u8 {
+        // NaN and c ≤ 0 fall in cell 0; the cast saturates, so c ≥ 1 falls in the last.
+        let cell = ((c * SRGB8_CELLS as f32) as usize).min(SRGB8_CELLS);
+        let mut code = self.cells[cell] as usize;
+        while code < 255 && self.steps[code] <= c {
+            code += 1;
+        }
+        code as u8
+    }
 }
 
 pub fn to_rgba8(srgb: Vec3) -> [u8; 4] {

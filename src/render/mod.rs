@@ -17,7 +17,7 @@ use crate::accel::{Accel, Counter, Counters, Hit, NoStats, Stats};
 use crate::geometry::spawn::SurfacePoint;
 use crate::geometry::{Intersector, Ray, Watertight};
 use crate::scene::{Camera, Scene};
-use colormap::{srgb8, to_rgba8, viridis};
+use colormap::{Srgb8, to_rgba8, viridis};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -134,6 +134,29 @@ pub fn trace_unless<A: Accel, I: Intersector>(
     settings: &RenderSettings,
     stop: &(dyn Fn() -> bool + Sync),
 ) -> Option<Frame> {
+    trace_tiles::<A, I>(accel, scene, settings, settings.mode == Mode::Shaded, stop)
+}
+
+/// `trace_unless` without colouring (`rgba` stays empty): for a frame whose image is known
+/// already, as the app's counted pass of a frame it has shown (the same hits, the same
+/// image).
+pub fn trace_uncoloured_unless<A: Accel, I: Intersector>(
+    accel: &A,
+    scene: &Scene,
+    settings: &RenderSettings,
+    stop: &(dyn Fn() -> bool + Sync),
+) -> Option<Frame> {
+    trace_tiles::<A, I>(accel, scene, settings, false, stop)
+}
+
+/// The tiles of `trace_unless`, coloured as they are traced when `shaded`.
+fn trace_tiles<A: Accel, I: Intersector>(
+    accel: &A,
+    scene: &Scene,
+    settings: &RenderSettings,
+    shaded: bool,
+    stop: &(dyn Fn() -> bool + Sync),
+) -> Option<Frame> {
     let (w, h) = (settings.width.max(1), settings.height.max(1));
     let rays = settings.camera.rays(w, h);
     let start = Instant::now();
@@ -141,7 +164,6 @@ pub fn trace_unless<A: Accel, I: Intersector>(
     let stopped = AtomicBool::new(false);
     let tile_pixels = (w * TILE_ROWS) as usize;
     // A shaded frame's pixels are coloured tile by tile, as the tile's samples are made.
-    let shaded = settings.mode == Mode::Shaded;
     let mut rgba = vec![0u8; if shaded { samples.len() * 4 } else { 0 }];
     let mut rgba_tiles: Vec<&mut [u8]> = rgba.chunks_mut(tile_pixels * 4).collect();
     rgba_tiles.resize_with(samples.len().div_ceil(tile_pixels), Default::default);
@@ -158,8 +180,9 @@ pub fn trace_unless<A: Accel, I: Intersector>(
             return FrameSummary::default();
         }
         let sums = trace_tile::<A, I>(accel, scene, settings, &rays, tile as u32, out);
+        let srgb = Srgb8::tables();
         for (px, s) in pixels.chunks_exact_mut(4).zip(out.iter()) {
-            px.copy_from_slice(&shaded_color(s));
+            px.copy_from_slice(&shaded_color(s, srgb));
         }
         sums
     });
@@ -189,6 +212,7 @@ fn trace_tile<A: Accel, I: Intersector>(
 ) -> FrameSummary {
     let w = settings.width.max(1);
     let y0 = tile * TILE_ROWS;
+    let mut albedos = Albedos::new(scene);
     {
         if settings.counters {
             for (k, sample) in out.iter_mut().enumerate() {
@@ -196,7 +220,7 @@ fn trace_tile<A: Accel, I: Intersector>(
                 let mut primary = Counters::default();
                 let hit = accel.closest_hit::<I, _>(&ray, &mut primary);
                 let occluded = |r: &Ray, s: &mut Counters| accel.any_hit::<I, _>(r, s);
-                *sample = shade(scene, &ray, hit, primary, settings, occluded);
+                *sample = shade(scene, &mut albedos, &ray, hit, primary, settings, occluded);
             }
             return FrameSummary::sum_of(out, settings.shadows);
         }
@@ -230,7 +254,7 @@ fn trace_tile<A: Accel, I: Intersector>(
                     lit_pixels.push(pixel);
                     false
                 };
-                out[pixel] = shade(scene, ray, hit, NoStats, settings, gather);
+                out[pixel] = shade(scene, &mut albedos, ray, hit, NoStats, settings, gather);
             }
             let blockers = &mut hits[..shadows.len()];
             accel.closest_hits::<I>(&shadows, blockers);
@@ -247,6 +271,7 @@ fn trace_tile<A: Accel, I: Intersector>(
 /// hit, the shadow ray towards the light, which `occluded` traces (or gathers for later).
 fn shade<S: Stats + Into<Counters>>(
     scene: &Scene,
+    albedos: &mut Albedos,
     ray: &Ray,
     hit: Option<Hit>,
     primary: S,
@@ -272,9 +297,7 @@ fn shade<S: Stats + Into<Counters>>(
         };
     };
     let normal = tri.facing_normal(ray.direction);
-    let albedo = scene
-        .object_of(hit.triangle as usize)
-        .map_or(Vec3::splat(0.7), |o| scene.objects[o].color);
+    let albedo = albedos.of(hit.triangle as usize);
     let mut shadow = S::default();
     let (lit, cos_light) = if settings.shadows {
         let shadow_ray = shadow_ray(tri, normal, &hit, light);
@@ -296,6 +319,33 @@ fn shade<S: Stats + Into<Counters>>(
     }
 }
 
+/// The colour of the object a hit triangle belongs to. Neighbouring pixels mostly hit the
+/// same object, so the object of the last hit is tried before the search over the objects.
+struct Albedos<'a> {
+    scene: &'a Scene,
+    last: Option<(std::ops::Range<usize>, Vec3)>,
+}
+
+impl<'a> Albedos<'a> {
+    fn new(scene: &'a Scene) -> Self {
+        Albedos { scene, last: None }
+    }
+
+    fn of(&mut self, triangle: usize) -> Vec3 {
+        if let Some((range, color)) = &self.last
+            && range.contains(&triangle)
+        {
+            return *color;
+        }
+        let Some(o) = self.scene.object_of(triangle) else {
+            return Vec3::splat(0.7);
+        };
+        let object = &self.scene.objects[o];
+        self.last = Some((object.range(), object.color));
+        object.color
+    }
+}
+
 /// The shadow ray from `hit` on triangle `tri` towards the light: spawned off the surface
 /// on the side of `normal`, the triangle's normal facing the ray that hit it.
 pub fn shadow_ray(tri: &crate::geometry::Triangle, normal: Vec3, hit: &Hit, light: Vec3) -> Ray {
@@ -306,13 +356,14 @@ const BACKGROUND: Vec3 = Vec3::new(0.06, 0.07, 0.09);
 
 /// A sample's pixel in the shaded mode: Lambert shading with the hard shadow, or the
 /// background for a miss.
-fn shaded_color(s: &Sample) -> [u8; 4] {
+#[inline]
+fn shaded_color(s: &Sample, srgb: &Srgb8) -> [u8; 4] {
     if !s.is_hit() {
         return to_rgba8(BACKGROUND);
     }
     let light = if s.lit { s.cos_light } else { 0.0 };
     let c = s.albedo * (AMBIENT + (1.0 - AMBIENT) * light);
-    [srgb8(c.x), srgb8(c.y), srgb8(c.z), 255]
+    [srgb.code(c.x), srgb.code(c.y), srgb.code(c.z), 255]
 }
 
 impl Frame {
@@ -348,12 +399,13 @@ pub fn colorize(frame: &Frame, mode: Mode, heat_max: Option<u32>) -> (Vec<u8>, O
         _ => None,
     };
     let background = to_rgba8(BACKGROUND);
+    let srgb = Srgb8::tables();
     let color = |s: &Sample| match mode {
         Mode::Heatmap(c, r) => {
             let max = scale.unwrap_or(1) as f32;
             to_rgba8(viridis(s.counters(r).get(c) as f32 / max))
         }
-        Mode::Shaded => shaded_color(s),
+        Mode::Shaded => shaded_color(s, srgb),
         _ if !s.is_hit() => background,
         Mode::Normals => to_rgba8(s.normal * 0.5 + 0.5),
         Mode::Depth => {

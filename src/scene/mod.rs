@@ -306,10 +306,13 @@ impl Scene {
 
     /// The scene's light, or the standard one: box centre + (0, 0.6 × diagonal, 0).
     pub fn light(&self) -> Vec3 {
-        self.light.unwrap_or_else(|| {
-            let b = self.bounds();
-            b.center() + Vec3::new(0.0, 0.6 * b.diagonal(), 0.0)
-        })
+        self.light
+            .unwrap_or_else(|| Self::standard_light(&self.bounds()))
+    }
+
+    /// The standard light of a scene whose box is `bounds`.
+    pub fn standard_light(bounds: &Aabb) -> Vec3 {
+        bounds.center() + Vec3::new(0.0, 0.6 * bounds.diagonal(), 0.0)
     }
 
     /// The object that owns triangle `index` (objects are contiguous and ordered).

@@ -8,6 +8,7 @@
 //! lost until the next rebuild.
 
 use super::Bvh;
+use super::wide::LaneSums;
 use crate::geometry::{Aabb, Triangle};
 
 /// SAH cost of the tree before and after a refit.
@@ -86,6 +87,10 @@ pub struct RefitIndex {
     pub(crate) parent: Vec<u32>,
     /// Scratch: which nodes are already queued.
     pub(crate) queued: Vec<bool>,
+    /// A wide tree's SAH sums as the last partial refit through this index left them, with
+    /// the root box then: the next refit updates them from the nodes it changes instead of
+    /// summing every lane twice (see `WideBvh::refit_moved`).
+    pub(crate) lane_sums: Option<(Aabb, LaneSums)>,
 }
 
 impl RefitIndex {
@@ -105,6 +110,7 @@ impl RefitIndex {
             leaf_of,
             parent: bvh.parents(),
             queued: vec![false; bvh.nodes.len()],
+            lane_sums: None,
         }
     }
 }

@@ -45,6 +45,56 @@ pub struct WideBvh<const W: usize> {
     pub depth: u32,
 }
 
+/// The sums over a wide tree's lanes the SAH cost is made of, apart from the costs: the
+/// areas of the interior lanes, and the areas times triangles of the leaf lanes. A partial
+/// refit updates them from the nodes it changes.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub(crate) struct LaneSums {
+    interior_area: f64,
+    leaf_area_triangles: f64,
+}
+
+impl LaneSums {
+    pub(crate) fn of<const W: usize>(nodes: &[WideNode<W>]) -> Self {
+        let mut sums = LaneSums::default();
+        for n in nodes {
+            sums.add(n);
+        }
+        sums
+    }
+
+    /// C = (C_trav · (S_root + Σ S_interior) + C_isect · Σ S_leaf · N_leaf) / S_root.
+    pub(crate) fn sah_cost(&self, root: Aabb, c_trav: f32, c_isect: f32, triangles: usize) -> f64 {
+        let root_area = root.surface_area() as f64;
+        if root_area <= 0.0 {
+            return c_isect as f64 * triangles as f64;
+        }
+        (c_trav as f64 * (root_area + self.interior_area)
+            + c_isect as f64 * self.leaf_area_triangles)
+            / root_area
+    }
+
+    pub(crate) fn add<const W: usize>(&mut self, node: &WideNode<W>) {
+        self.sum(node, 1.0);
+    }
+
+    /// Takes a node's lanes out of the sums (before its boxes change).
+    pub(crate) fn take<const W: usize>(&mut self, node: &WideNode<W>) {
+        self.sum(node, -1.0);
+    }
+
+    fn sum<const W: usize>(&mut self, node: &WideNode<W>, sign: f64) {
+        for lane in 0..node.child_count() {
+            let area = sign * node.child_bounds(lane).surface_area() as f64;
+            if node.is_interior(lane) {
+                self.interior_area += area;
+            } else {
+                self.leaf_area_triangles += area * node.count[lane] as f64;
+            }
+        }
+    }
+}
+
 pub type Bvh4 = WideBvh<4>;
 pub type Bvh8 = WideBvh<8>;
 
@@ -110,23 +160,12 @@ impl<const W: usize> WideBvh<W> {
     /// The SAH cost of the wide tree, as the collapse minimised it: C_trav per interior node
     /// and C_isect per triangle, each weighted by its box's area relative to the root's.
     pub fn sah_cost(&self, c_trav: f32, c_isect: f32) -> f64 {
-        let root_area = self.nodes[0].bounds().surface_area() as f64;
-        if root_area <= 0.0 {
-            return c_isect as f64 * self.triangle_count as f64;
-        }
-        let mut sum = c_trav as f64 * root_area;
-        for n in &self.nodes {
-            for lane in 0..n.child_count() {
-                let area = n.child_bounds(lane).surface_area() as f64;
-                sum += area
-                    * if n.is_interior(lane) {
-                        c_trav as f64
-                    } else {
-                        c_isect as f64 * n.count[lane] as f64
-                    };
-            }
-        }
-        sum / root_area
+        LaneSums::of(&self.nodes).sah_cost(
+            self.nodes[0].bounds(),
+            c_trav,
+            c_isect,
+            self.triangle_count,
+        )
     }
 
     /// Checks that each triangle is in some leaf (exactly one unless its reference was split,

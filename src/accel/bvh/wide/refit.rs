@@ -2,6 +2,7 @@
 //! (a leaf lane from its triangles, an interior lane from its node's children), so the app's
 //! drag keeps the fastest tree instead of falling back to the BVH2.
 
+use super::LaneSums;
 use super::WideBvh;
 use super::leaf::PADDING;
 use super::node::WideNode;
@@ -103,18 +104,30 @@ impl<const W: usize> WideBvh<W> {
                 given: scene.len(),
             });
         }
-        let sah_before = self.sah_cost(c_trav, c_isect);
+        // The SAH cost before and after from the lane sums: as the last refit through this
+        // index left them (unless the root box says the tree changed otherwise since), and
+        // updated by the nodes this refit changes, rather than two passes over every lane.
+        let root_before = self.nodes[0].bounds();
+        let mut sums = match index.lane_sums {
+            Some((root, sums)) if root == root_before => sums,
+            _ => LaneSums::of(&self.nodes),
+        };
+        let sah_before = sums.sah_cost(root_before, c_trav, c_isect, self.triangle_count);
         let blocks = &mut self.blocks;
         let dirty = index.dirty_nodes(moved, |slot, t| {
             blocks[slot / BLOCK].set(slot % BLOCK, &scene[t]);
         });
         for i in dirty {
+            sums.take(&self.nodes[i]);
             Self::refit_leaves(&mut self.nodes[i], &self.blocks);
             self.refit_interior(i);
+            sums.add(&self.nodes[i]);
         }
+        let root_after = self.nodes[0].bounds();
+        index.lane_sums = Some((root_after, sums));
         Ok(RefitReport {
             sah_before,
-            sah_after: self.sah_cost(c_trav, c_isect),
+            sah_after: sums.sah_cost(root_after, c_trav, c_isect, self.triangle_count),
         })
     }
 }
@@ -139,15 +152,15 @@ impl Costs {
 
 /// The area-weighted lane costs of a subtree, with the boxes before and after the refit.
 #[derive(Clone, Copy, Default)]
-struct LaneSums {
+struct RefitSums {
     before: f64,
     after: f64,
 }
 
-impl std::ops::Add for LaneSums {
-    type Output = LaneSums;
-    fn add(self, o: LaneSums) -> LaneSums {
-        LaneSums {
+impl std::ops::Add for RefitSums {
+    type Output = RefitSums;
+    fn add(self, o: RefitSums) -> RefitSums {
+        RefitSums {
             before: self.before + o.before,
             after: self.after + o.after,
         }
@@ -173,18 +186,18 @@ impl<const W: usize> SharedTree<'_, W> {
     ///
     /// # Safety
     /// No other task may touch `i`'s subtree, its nodes or its leaves' slots.
-    unsafe fn refit_subtree(&self, i: usize, parallel_depth: u32, costs: Costs) -> LaneSums {
+    unsafe fn refit_subtree(&self, i: usize, parallel_depth: u32, costs: Costs) -> RefitSums {
         // SAFETY: node `i` is this task's alone (the caller's contract).
         let node = unsafe { &mut *self.nodes.add(i) };
         let lanes = node.child_count();
         // Children's sums first: every interior child is refitted before its box is read.
-        let mut child_sums = [LaneSums::default(); W];
+        let mut child_sums = [RefitSums::default(); W];
         if parallel_depth > 0 {
             let interior: Vec<(usize, usize)> = (0..lanes)
                 .filter(|&l| node.is_interior(l))
                 .map(|l| (l, node.child[l] as usize))
                 .collect();
-            let sums: Vec<LaneSums> = interior
+            let sums: Vec<RefitSums> = interior
                 .par_iter()
                 // SAFETY: distinct children own disjoint subtrees.
                 .map(|&(_, c)| unsafe { self.refit_subtree(c, parallel_depth - 1, costs) })
@@ -200,7 +213,7 @@ impl<const W: usize> SharedTree<'_, W> {
                 }
             }
         }
-        let mut sums = LaneSums::default();
+        let mut sums = RefitSums::default();
         for (l, child) in child_sums.iter().enumerate().take(lanes) {
             let old = node.child_bounds(l).surface_area() as f64;
             let new = if node.is_interior(l) {
@@ -215,7 +228,7 @@ impl<const W: usize> SharedTree<'_, W> {
             let weight = costs.of(node.is_interior(l), node.count[l]);
             sums = sums
                 + *child
-                + LaneSums {
+                + RefitSums {
                     before: weight * old,
                     after: weight * new.surface_area() as f64,
                 };
@@ -283,6 +296,7 @@ impl RefitIndex {
             leaf_of,
             parent,
             queued: vec![false; tree.nodes.len()],
+            lane_sums: None,
         }
     }
 }
