@@ -82,11 +82,9 @@ impl TwoLevel {
                             &mut NoStats,
                         );
                     } else {
-                        let tlas = &self.tlas;
                         for k in cur.child.child..cur.child.child + cur.child.count {
-                            let r = tlas.prim_indices[k as usize] as usize;
                             self.enter_closest::<K, I, NoStats, true>(
-                                r,
+                                k as usize,
                                 ray,
                                 prepared,
                                 &mut best[i],
