@@ -5,6 +5,7 @@
 //! layout, as a two-level ray takes as many steps as a flat one and more. The top level's
 //! leaves hold references, each an instance and a subtree of its BLAS: whole instances,
 //! or with partial re-braiding (`rebraid`) the large ones opened into their BLAS's subtrees.
+//! Each leaf slot keeps what a ray needs to enter its reference in one cache line (`leaf`).
 //! Coherent primary rays walk the top level in packets (`packet`).
 
 mod leaf;

@@ -1,5 +1,6 @@
 //! Two-level traversal: the ray walks the TLAS front to back like any wide BVH; at a leaf
-//! lane, which holds a reference (an instance and a subtree of its BLAS), it is carried
+//! lane, which holds a reference (an instance and a subtree of its BLAS, read from the
+//! slot's `LeafReference`, one cache line), it is carried
 //! into the instance's object space by the inverse transform and walks the BLAS there from
 //! the reference's subtree (the root, for an instance left whole). The direction is not
 //! renormalised, so t along the object-space ray is the world t: the BLAS search is
@@ -30,7 +31,9 @@ impl TwoLevel {
     /// offering its hits to `best` under their flattened numbers. The BLAS ray ends just
     /// past the best hit so far (`best.limit`), so that a tie on a lower-numbered triangle
     /// still wins as in the flattened scene. An identity instance's BLAS is walked with the
-    /// world ray's slab and intersector data (`wray`, `data`), made once per ray.
+    /// world ray's slab and intersector data (`world`) when the caller made them once for
+    /// the ray; they depend on the ray's origin and direction alone, so made here from the
+    /// BLAS ray they are the same.
     #[inline(always)]
     pub(super) fn enter_closest<
         K: WideSlab<8> + TriangleKernel,
@@ -41,7 +44,7 @@ impl TwoLevel {
         &self,
         k: usize,
         ray: &Ray,
-        (wray, data): (&WideRay, &I::RayData),
+        world: Option<(&WideRay, &I::RayData)>,
         best: &mut BestHit,
         stats: &mut S,
     ) {
@@ -51,19 +54,21 @@ impl TwoLevel {
         record(stats, || Step::Instance { instance: i });
         let blas = &self.blases[leaf.blas as usize];
         let start = leaf.subtree;
-        let found = if leaf.is_identity() {
-            let local = Ray {
-                tmax: best.limit,
-                ..*ray
-            };
-            blas.closest_prepared::<K, I, S, ORDERED>(start, &local, wray, data, stats)
-        } else {
-            let local = Ray {
-                tmax: best.limit,
-                ..leaf.to_object(ray)
-            };
-            let (wray, data) = (WideRay::new(&local), I::prepare(&local));
-            blas.closest_prepared::<K, I, S, ORDERED>(start, &local, &wray, &data, stats)
+        let local = Ray {
+            tmax: best.limit,
+            ..match leaf.is_identity() {
+                true => *ray,
+                false => leaf.to_object(ray),
+            }
+        };
+        let found = match world.filter(|_| leaf.is_identity()) {
+            Some((wray, data)) => {
+                blas.closest_prepared::<K, I, S, ORDERED>(start, &local, wray, data, stats)
+            }
+            None => {
+                let (wray, data) = (WideRay::new(&local), I::prepare(&local));
+                blas.closest_prepared::<K, I, S, ORDERED>(start, &local, &wray, &data, stats)
+            }
         };
         if let Some(h) = found {
             let hit = TriangleHit {
@@ -154,7 +159,7 @@ impl TwoLevel {
                     self.enter_closest::<K, I, S, ORDERED>(
                         k as usize,
                         ray,
-                        (wray, data),
+                        Some((wray, data)),
                         best,
                         stats,
                     );
