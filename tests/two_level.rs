@@ -1269,3 +1269,49 @@ fn rays_are_carried_into_object_space_exactly_as_the_instance_does() {
     assert!(leaf.is_identity());
     assert_eq!((leaf.instance(), leaf.blas), (9, 4));
 }
+
+#[test]
+fn packets_through_identity_instances_hit_what_single_rays_hit() {
+    // Each object of a built-in scene is an identity instance: a packet's ray entering one
+    // makes its slab and shear data from the BLAS ray, the single ray reuses the world
+    // ray's; both must be the same, signs of zero components included.
+    let scene = Scene::load("cornell").unwrap();
+    let built = structure::build_scene(
+        &scene,
+        &two_level_params(TraversalOrder::FrontToBack),
+        &Default::default(),
+    )
+    .unwrap()
+    .structure;
+    let b = scene.bounds();
+    let mut rays = tiles_of(
+        &scene,
+        b.center() + Vec3::new(0.1, 0.2, 0.9) * b.diagonal(),
+        32,
+        24,
+    );
+    // Axis-parallel rays from inside, with +0.0 and −0.0 components.
+    let c = b.center();
+    for d in [
+        Vec3::X,
+        Vec3::NEG_X,
+        Vec3::Y,
+        Vec3::NEG_Y,
+        Vec3::Z,
+        Vec3::NEG_Z,
+    ] {
+        let negative_zeros = Vec3::select(d.cmpeq(Vec3::ZERO), Vec3::splat(-0.0), d);
+        rays.push(Ray::new(c, d));
+        rays.push(Ray::new(c, negative_zeros));
+    }
+    let single: Vec<_> = rays
+        .iter()
+        .map(|r| built.closest_hit::<Watertight, _>(r, &mut NoStats))
+        .collect();
+    assert!(single.iter().filter(|h| h.is_some()).count() > rays.len() / 10);
+    let mut packets = vec![None; rays.len()];
+    for (r, h) in rays.chunks(64).zip(packets.chunks_mut(64)) {
+        built.closest_hits::<Watertight>(r, h);
+    }
+    assert_eq!(packets, single);
+}
