@@ -6,8 +6,10 @@
 
 mod common;
 
+use bvhlab::accel::bvh::Subtree;
 use bvhlab::accel::bvh::build::{DEFAULT_REBRAID, MAX_REBRAID};
 use bvhlab::accel::structure::{self, AccelKind, Structure, StructureParams};
+use bvhlab::accel::two_level::{LeafReference, Reference, TwoLevel};
 use bvhlab::accel::{Accel, BruteForce, Counters, NoStats, TraversalOrder};
 use bvhlab::geometry::{Ray, Triangle, Watertight};
 use bvhlab::scene::{Instance, Instancing, Mesh, Scene, instance};
@@ -529,6 +531,7 @@ fn moving_instances_rebuilds_the_top_level_only_and_equals_a_full_rebuild() {
         transforms[k] = random_transform(&mut rng, k);
         moved.move_instance(k, transforms[k]).unwrap();
     }
+    assert_leaves_match(&moved);
     let blases_after: Vec<_> = moved.blases.iter().map(|b| b.nodes.clone()).collect();
     assert_eq!(blases_before, blases_after, "the BLASes stay as they were");
     // Every reference of a moved instance moved with it: its leaf box holds its triangles
@@ -602,6 +605,21 @@ fn moving_instances_rebuilds_the_top_level_only_and_equals_a_full_rebuild() {
     let far = Affine3A::from_translation(Vec3::splat(f32::MAX));
     assert!(moved.move_instance(3, far).is_err());
     assert_eq!(moved.instances, before);
+    assert_leaves_match(&moved);
+    assert_leaves_match(&rebuilt_top);
+}
+
+/// Each TLAS leaf slot carries its reference's instance as it is now.
+fn assert_leaves_match(tl: &TwoLevel) {
+    assert_eq!(tl.leaves.len(), tl.tlas.prim_indices.len());
+    for (k, &r) in tl.tlas.prim_indices.iter().enumerate() {
+        let Some(reference) = tl.references.get(r as usize) else {
+            assert_eq!(tl.leaves[k], LeafReference::UNUSED, "padding slot {k}");
+            continue;
+        };
+        let want = LeafReference::new(reference, &tl.instances[reference.instance as usize]);
+        assert_eq!(tl.leaves[k], want, "leaf slot {k}");
+    }
 }
 
 #[test]
@@ -1195,4 +1213,105 @@ fn packets_of_the_two_levels_hit_what_single_rays_hit() {
             }
         }
     }
+}
+
+#[test]
+fn a_leaf_reference_is_one_cache_line() {
+    assert_eq!(std::mem::size_of::<LeafReference>(), 64);
+    assert_eq!(std::mem::align_of::<LeafReference>(), 64);
+}
+
+#[test]
+fn rays_are_carried_into_object_space_exactly_as_the_instance_does() {
+    let mut s = 0x2545_f491_4f6c_dd1du64;
+    let mut next = move || {
+        s ^= s << 13;
+        s ^= s >> 7;
+        s ^= s << 17;
+        (s >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
+    };
+    for k in 0..500 {
+        let scale = Vec3::new(0.1 + next().abs() * 4.0, 0.3 + next().abs(), -1.5 + next());
+        let turn = Quat::from_euler(glam::EulerRot::XYZ, next() * 3.0, next(), next() * 2.0);
+        let shift = Vec3::new(next(), next(), next()) * 1000.0;
+        let instance = Instance::new(
+            k % 3,
+            Affine3A::from_scale_rotation_translation(scale, turn, shift),
+        )
+        .unwrap();
+        let reference = Reference {
+            instance: k as u32,
+            subtree: Subtree { child: 7, count: 2 },
+            triangles: 2,
+        };
+        let leaf = LeafReference::new(&reference, &instance);
+        assert_eq!((leaf.instance(), leaf.blas), (k as u32, (k % 3) as u32));
+        assert!(!leaf.is_identity());
+        let ray = Ray::new(
+            Vec3::new(next(), next(), next()) * 500.0,
+            Vec3::new(next(), next(), next()),
+        );
+        let got = leaf.to_object(&ray);
+        let want_origin = instance.inverse.transform_point3(ray.origin);
+        let want_direction = instance.inverse.transform_vector3(ray.direction);
+        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+        assert_eq!(bits(got.origin), bits(want_origin));
+        assert_eq!(bits(got.direction), bits(want_direction));
+        assert_eq!((got.tmin, got.tmax), (ray.tmin, ray.tmax));
+    }
+    let identity = Instance::identity(4);
+    let reference = Reference {
+        instance: 9,
+        subtree: Subtree::ROOT,
+        triangles: 1,
+    };
+    let leaf = LeafReference::new(&reference, &identity);
+    assert!(leaf.is_identity());
+    assert_eq!((leaf.instance(), leaf.blas), (9, 4));
+}
+
+#[test]
+fn packets_through_identity_instances_hit_what_single_rays_hit() {
+    // Each object of a built-in scene is an identity instance: a packet's ray entering one
+    // makes its slab and shear data from the BLAS ray, the single ray reuses the world
+    // ray's; both must be the same, signs of zero components included.
+    let scene = Scene::load("cornell").unwrap();
+    let built = structure::build_scene(
+        &scene,
+        &two_level_params(TraversalOrder::FrontToBack),
+        &Default::default(),
+    )
+    .unwrap()
+    .structure;
+    let b = scene.bounds();
+    let mut rays = tiles_of(
+        &scene,
+        b.center() + Vec3::new(0.1, 0.2, 0.9) * b.diagonal(),
+        32,
+        24,
+    );
+    // Axis-parallel rays from inside, with +0.0 and −0.0 components.
+    let c = b.center();
+    for d in [
+        Vec3::X,
+        Vec3::NEG_X,
+        Vec3::Y,
+        Vec3::NEG_Y,
+        Vec3::Z,
+        Vec3::NEG_Z,
+    ] {
+        let negative_zeros = Vec3::select(d.cmpeq(Vec3::ZERO), Vec3::splat(-0.0), d);
+        rays.push(Ray::new(c, d));
+        rays.push(Ray::new(c, negative_zeros));
+    }
+    let single: Vec<_> = rays
+        .iter()
+        .map(|r| built.closest_hit::<Watertight, _>(r, &mut NoStats))
+        .collect();
+    assert!(single.iter().filter(|h| h.is_some()).count() > rays.len() / 10);
+    let mut packets = vec![None; rays.len()];
+    for (r, h) in rays.chunks(64).zip(packets.chunks_mut(64)) {
+        built.closest_hits::<Watertight>(r, h);
+    }
+    assert_eq!(packets, single);
 }

@@ -5,14 +5,17 @@
 //! layout, as a two-level ray takes as many steps as a flat one and more. The top level's
 //! leaves hold references, each an instance and a subtree of its BLAS: whole instances,
 //! or with partial re-braiding (`rebraid`) the large ones opened into their BLAS's subtrees.
+//! Each leaf slot keeps what a ray needs to enter its reference in one cache line (`leaf`).
 //! Coherent primary rays walk the top level in packets (`packet`).
 
+mod leaf;
 pub mod outline;
 mod packet;
 pub mod rebraid;
 pub mod refit;
 mod traverse;
 
+pub use leaf::LeafReference;
 pub use outline::{BlasEntry, InstanceOutline, ReferenceLocator};
 pub use rebraid::Reference;
 pub use refit::TopLevelIndex;
@@ -54,6 +57,8 @@ pub struct TwoLevel {
     pub params: BuildParams,
     /// Where each reference sits in the TLAS, for refitting an instance's when it moves.
     pub top_index: TopLevelIndex,
+    /// Per TLAS leaf slot (`tlas.prim_indices`' order), its reference ready to walk.
+    pub leaves: Vec<LeafReference>,
 }
 
 /// Why an instance could not be moved.
@@ -93,6 +98,9 @@ pub fn build(
     }
     if scene.instances.len() >= (u32::MAX / 2) as usize {
         return Err(BuildError::TooMany(scene.instances.len()));
+    }
+    if scene.meshes.len() >= (u32::MAX / 2) as usize {
+        return Err(BuildError::TooMany(scene.meshes.len()));
     }
     let mut first_triangle = Vec::with_capacity(scene.instances.len());
     let mut next = 0u64;
@@ -135,6 +143,7 @@ pub fn build(
     progress.store(scene.unique_triangles(), Ordering::Relaxed);
     let two_level = TwoLevel {
         top_index: TopLevelIndex::new(&tlas, references.len()),
+        leaves: leaf_references(&tlas, &references, &scene.instances),
         first_reference: first_reference(&references, scene.instances.len()),
         references,
         blases,
@@ -176,6 +185,24 @@ fn first_reference(references: &[Reference], instances: usize) -> Vec<u32> {
         .collect()
 }
 
+/// The references of the TLAS's leaf slots, in slot order.
+fn leaf_references(
+    tlas: &Bvh8,
+    references: &[Reference],
+    instances: &[Instance],
+) -> Vec<LeafReference> {
+    tlas.prim_indices
+        .iter()
+        .map(|&r| match references.get(r as usize) {
+            Some(reference) => {
+                LeafReference::new(reference, &instances[reference.instance as usize])
+            }
+            // A slot padding a leaf's block: never walked.
+            None => LeafReference::UNUSED,
+        })
+        .collect()
+}
+
 /// The top level over the references' world boxes (`rebraid::references`), one reference
 /// per leaf lane. The BVH builder sees primitives only as boxes, so each box goes in as the
 /// triangle from its min corner to its max corner, whose bounds are exactly that box.
@@ -213,6 +240,7 @@ impl TwoLevel {
             + self.first_triangle.len() * std::mem::size_of::<u64>()
             + self.references.len() * std::mem::size_of::<Reference>()
             + self.first_reference.len() * std::mem::size_of::<u32>()
+            + self.leaves.len() * std::mem::size_of::<LeafReference>()
     }
 
     /// The indices in `references` of instance `i`'s references.
@@ -253,6 +281,13 @@ impl TwoLevel {
         }
         // An empty mesh's instance has no reference: the TLAS does not depend on it.
         refit::refit_references(&mut self.tlas, &self.top_index, &moved);
+        // Its leaf slots carry its new inverse.
+        let instance = self.instances[i];
+        for &(r, _) in &moved {
+            if let Some(k) = self.top_index.leaf_slot_of(r) {
+                self.leaves[k] = LeafReference::new(&self.references[r], &instance);
+            }
+        }
         Ok(())
     }
 
@@ -263,6 +298,7 @@ impl TwoLevel {
         tlas.order = self.order;
         tlas.simd = self.simd;
         self.top_index = TopLevelIndex::new(&tlas, references.len());
+        self.leaves = leaf_references(&tlas, &references, &self.instances);
         self.first_reference = first_reference(&references, self.instances.len());
         self.references = references;
         self.tlas = tlas;

@@ -75,13 +75,20 @@ pub fn placed_box(instance: &Instance, blas: &Bvh8, subtree: Subtree) -> Aabb {
     if subtree.is_leaf() || WORLD_BOX_DEPTH == 0 {
         return instance.world_bounds(&object);
     }
+    // On the stack, not the heap: a drag places each of an opened instance's references
+    // again, 150 254 of them for the island's terrain.
+    let mut stack = [(0usize, 0u32); PLACED_BOX_STACK];
+    stack[0] = (subtree.child as usize, 1);
+    let mut len = 1;
     let mut world = Aabb::EMPTY;
-    let mut stack = vec![(subtree.child as usize, 1u32)];
-    while let Some((n, depth)) = stack.pop() {
+    while len > 0 {
+        len -= 1;
+        let (n, depth) = stack[len];
         let node = &blas.nodes[n];
         for lane in 0..node.child_count() {
             if node.is_interior(lane) && depth < WORLD_BOX_DEPTH {
-                stack.push((node.child[lane] as usize, depth + 1));
+                stack[len] = (node.child[lane] as usize, depth + 1);
+                len += 1;
             } else {
                 world = world.union(instance.world_bounds(&node.child_bounds(lane)));
             }
@@ -89,6 +96,10 @@ pub fn placed_box(instance: &Instance, blas: &Bvh8, subtree: Subtree) -> Aabb {
     }
     world
 }
+
+/// The most nodes `placed_box` holds at once: seven siblings waiting at each level above
+/// the deepest, and the eight of a node being opened.
+const PLACED_BOX_STACK: usize = 7 * WORLD_BOX_DEPTH as usize + 8;
 
 /// A leaf subtree's box in its mesh's space: its triangles' (for a split triangle, the
 /// whole triangle's, which holds its part).

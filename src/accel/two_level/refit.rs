@@ -14,6 +14,8 @@ use std::collections::BTreeSet;
 pub struct TopLevelIndex {
     /// Per reference: the (node, lane) whose leaf holds it.
     slot: Vec<(u32, u8)>,
+    /// Per reference: its index in `prim_indices` (its `TwoLevel::leaves` entry).
+    leaf_slot: Vec<u32>,
     /// Per TLAS node: the (node, lane) that points to it (the root's is unused).
     parent: Vec<(u32, u8)>,
 }
@@ -21,6 +23,7 @@ pub struct TopLevelIndex {
 impl TopLevelIndex {
     pub fn new(tlas: &Bvh8, references: usize) -> Self {
         let mut slot = vec![(u32::MAX, 0u8); references];
+        let mut leaf_slot = vec![u32::MAX; references];
         let mut parent = vec![(u32::MAX, 0u8); tlas.nodes.len()];
         for (n, node) in tlas.nodes.iter().enumerate() {
             for lane in 0..node.child_count() {
@@ -28,13 +31,27 @@ impl TopLevelIndex {
                 if node.is_interior(lane) {
                     parent[c] = (n as u32, lane as u8);
                 } else {
-                    for &r in &tlas.prim_indices[c..c + node.count[lane] as usize] {
-                        slot[r as usize] = (n as u32, lane as u8);
+                    for k in c..c + node.count[lane] as usize {
+                        let r = tlas.prim_indices[k] as usize;
+                        slot[r] = (n as u32, lane as u8);
+                        leaf_slot[r] = k as u32;
                     }
                 }
             }
         }
-        TopLevelIndex { slot, parent }
+        TopLevelIndex {
+            slot,
+            leaf_slot,
+            parent,
+        }
+    }
+
+    /// The index in the TLAS's `prim_indices` of reference `r`.
+    pub fn leaf_slot_of(&self, r: usize) -> Option<usize> {
+        self.leaf_slot
+            .get(r)
+            .filter(|&&k| k != u32::MAX)
+            .map(|&k| k as usize)
     }
 
     /// The TLAS (node, lane) whose leaf holds reference `r`.

@@ -1,5 +1,6 @@
 //! Two-level traversal: the ray walks the TLAS front to back like any wide BVH; at a leaf
-//! lane, which holds a reference (an instance and a subtree of its BLAS), it is carried
+//! lane, which holds a reference (an instance and a subtree of its BLAS, read from the
+//! slot's `LeafReference`, one cache line), it is carried
 //! into the instance's object space by the inverse transform and walks the BLAS there from
 //! the reference's subtree (the root, for an instance left whole). The direction is not
 //! renormalised, so t along the object-space ray is the world t: the BLAS search is
@@ -23,29 +24,16 @@ use crate::geometry::intersect::TriangleHit;
 use crate::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab};
 use crate::geometry::simd::{PACKET_RAYS, SimdLevel, TriangleKernel, WideRay};
 use crate::geometry::{Intersector, Ray};
-use crate::scene::Instance;
 use std::mem::MaybeUninit;
 
-/// `ray` in the instance's object space: the same t reaches the same point. The identity
-/// leaves the ray as it is, signs of zero components included.
-#[inline(always)]
-fn to_object(instance: &Instance, ray: &Ray) -> Ray {
-    if instance.is_identity() {
-        return *ray;
-    }
-    Ray {
-        origin: instance.inverse.transform_point3(ray.origin),
-        direction: instance.inverse.transform_vector3(ray.direction),
-        ..*ray
-    }
-}
-
 impl TwoLevel {
-    /// Walks reference `r`'s subtree of its instance's BLAS with the world ray `ray`,
+    /// Walks the subtree of the reference in TLAS leaf slot `k` with the world ray `ray`,
     /// offering its hits to `best` under their flattened numbers. The BLAS ray ends just
     /// past the best hit so far (`best.limit`), so that a tie on a lower-numbered triangle
     /// still wins as in the flattened scene. An identity instance's BLAS is walked with the
-    /// world ray's slab and intersector data (`wray`, `data`), made once per ray.
+    /// world ray's slab and intersector data (`world`) when the caller made them once for
+    /// the ray; they depend on the ray's origin and direction alone, so made here from the
+    /// BLAS ray they are the same.
     #[inline(always)]
     pub(super) fn enter_closest<
         K: WideSlab<8> + TriangleKernel,
@@ -54,32 +42,33 @@ impl TwoLevel {
         const ORDERED: bool,
     >(
         &self,
-        r: usize,
+        k: usize,
         ray: &Ray,
-        (wray, data): (&WideRay, &I::RayData),
+        world: Option<(&WideRay, &I::RayData)>,
         best: &mut BestHit,
         stats: &mut S,
     ) {
         stats.instance_entered();
-        let reference = &self.references[r];
-        let i = reference.instance as usize;
-        record(stats, || Step::Instance { instance: i as u32 });
-        let instance = &self.instances[i];
-        let blas = &self.blases[instance.mesh];
-        let start = reference.subtree;
-        let found = if instance.is_identity() {
-            let local = Ray {
-                tmax: best.limit,
-                ..*ray
-            };
-            blas.closest_prepared::<K, I, S, ORDERED>(start, &local, wray, data, stats)
-        } else {
-            let local = Ray {
-                tmax: best.limit,
-                ..to_object(instance, ray)
-            };
-            let (wray, data) = (WideRay::new(&local), I::prepare(&local));
-            blas.closest_prepared::<K, I, S, ORDERED>(start, &local, &wray, &data, stats)
+        let leaf = &self.leaves[k];
+        let i = leaf.instance();
+        record(stats, || Step::Instance { instance: i });
+        let blas = &self.blases[leaf.blas as usize];
+        let start = leaf.subtree;
+        let local = Ray {
+            tmax: best.limit,
+            ..match leaf.is_identity() {
+                true => *ray,
+                false => leaf.to_object(ray),
+            }
+        };
+        let found = match world.filter(|_| leaf.is_identity()) {
+            Some((wray, data)) => {
+                blas.closest_prepared::<K, I, S, ORDERED>(start, &local, wray, data, stats)
+            }
+            None => {
+                let (wray, data) = (WideRay::new(&local), I::prepare(&local));
+                blas.closest_prepared::<K, I, S, ORDERED>(start, &local, &wray, &data, stats)
+            }
         };
         if let Some(h) = found {
             let hit = TriangleHit {
@@ -87,30 +76,30 @@ impl TwoLevel {
                 u: h.u,
                 v: h.v,
             };
-            best.offer(hit, self.first_triangle[i] + h.triangle);
+            best.offer(hit, self.first_triangle[i as usize] + h.triangle);
         }
     }
 
-    /// Whether reference `r`'s subtree blocks the world ray `ray` (see `enter_closest`).
+    /// Whether the subtree of the reference in TLAS leaf slot `k` blocks the world ray
+    /// `ray` (see `enter_closest`).
     #[inline(always)]
     fn enter_any<K: WideSlab<8> + TriangleKernel, I: Intersector, S: Stats>(
         &self,
-        r: usize,
+        k: usize,
         ray: &Ray,
         (wray, data): (&WideRay, &I::RayData),
         stats: &mut S,
     ) -> bool {
         stats.instance_entered();
-        let reference = &self.references[r];
-        let i = reference.instance;
+        let leaf = &self.leaves[k];
+        let i = leaf.instance();
         record(stats, || Step::Instance { instance: i });
-        let instance = &self.instances[i as usize];
-        let blas = &self.blases[instance.mesh];
-        let start = reference.subtree;
-        if instance.is_identity() {
+        let blas = &self.blases[leaf.blas as usize];
+        let start = leaf.subtree;
+        if leaf.is_identity() {
             return blas.occluded_prepared::<K, I, S>(start, ray, wray, data, stats);
         }
-        let local = to_object(instance, ray);
+        let local = leaf.to_object(ray);
         let (wray, data) = (WideRay::new(&local), I::prepare(&local));
         blas.occluded_prepared::<K, I, S>(start, &local, &wray, &data, stats)
     }
@@ -167,8 +156,13 @@ impl TwoLevel {
             });
             if cur.count != INTERIOR {
                 for k in cur.child..cur.child + cur.count {
-                    let r = tlas.prim_indices[k as usize] as usize;
-                    self.enter_closest::<K, I, S, ORDERED>(r, ray, (wray, data), best, stats);
+                    self.enter_closest::<K, I, S, ORDERED>(
+                        k as usize,
+                        ray,
+                        Some((wray, data)),
+                        best,
+                        stats,
+                    );
                 }
                 box_tmax = best.t * T_SCALE;
             } else {
@@ -259,8 +253,7 @@ impl TwoLevel {
             });
             if cur.count != INTERIOR {
                 for k in cur.child..cur.child + cur.count {
-                    let r = tlas.prim_indices[k as usize] as usize;
-                    if self.enter_any::<K, I, S>(r, ray, (&wray, &data), stats) {
+                    if self.enter_any::<K, I, S>(k as usize, ray, (&wray, &data), stats) {
                         return true;
                     }
                 }
