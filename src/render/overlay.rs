@@ -6,6 +6,7 @@ use super::Frame;
 use crate::geometry::Aabb;
 use crate::scene::Camera;
 use glam::Vec3;
+use rayon::prelude::*;
 
 /// A box to outline, with its colour (RGBA, alpha = opacity).
 #[derive(Clone, Copy, Debug)]
@@ -117,15 +118,27 @@ pub fn outline_corners(
     }
 }
 
-/// Tints every pixel whose primary hit is a triangle `tint_of` gives a colour for.
-pub fn tint_triangles(frame: &Frame, rgba: &mut [u8], tint_of: impl Fn(u64) -> Option<[u8; 4]>) {
-    for (s, px) in frame.samples.iter().zip(rgba.chunks_exact_mut(4)) {
-        if s.is_hit()
-            && let Some(c) = tint_of(s.triangle)
-        {
-            blend(px, c);
-        }
-    }
+/// Tints every pixel whose primary hit is a triangle `tint_of` gives a colour for. On every
+/// thread: a pass over the frame's samples is bound by memory (a drag's selection is tinted
+/// in every frame).
+pub fn tint_triangles(
+    frame: &Frame,
+    rgba: &mut [u8],
+    tint_of: impl Fn(u64) -> Option<[u8; 4]> + Sync,
+) {
+    const PIXELS: usize = 4096;
+    let samples = frame.samples.par_chunks(PIXELS);
+    samples
+        .zip(rgba.par_chunks_mut(4 * PIXELS))
+        .for_each(|(samples, rgba)| {
+            for (s, px) in samples.iter().zip(rgba.chunks_exact_mut(4)) {
+                if s.is_hit()
+                    && let Some(c) = tint_of(s.triangle)
+                {
+                    blend(px, c);
+                }
+            }
+        });
 }
 
 fn blend(dst: &mut [u8], c: [u8; 4]) {
