@@ -162,19 +162,24 @@ fn frames_and_counts(replies: Vec<Reply>) -> (Vec<Reply>, Vec<Reply>) {
         .partition(|r| matches!(r, Reply::Frame(_)))
 }
 
-#[test]
-fn the_worker_shows_a_full_shaded_frame_first_and_its_counts_after() {
-    let mut worker = Worker::spawn(|| {});
-    worker.send(Command::Load("teapot-in-stadium".into()));
-    let wait = Duration::from_secs(120);
-    let scene = worker
-        .wait_idle(wait)
+/// Loads `spec` in the worker and waits for it: the loaded scene.
+fn load(worker: &mut Worker, spec: &str) -> std::sync::Arc<bvhlab::scene::Scene> {
+    worker.send(Command::Load(spec.into()));
+    worker
+        .wait_idle(Duration::from_secs(120))
         .into_iter()
         .find_map(|r| match r {
             Reply::Loaded { scene, .. } => Some(scene),
             _ => None,
         })
-        .expect("the scene loads");
+        .expect("the scene loads")
+}
+
+#[test]
+fn the_worker_shows_a_full_shaded_frame_first_and_its_counts_after() {
+    let mut worker = Worker::spawn(|| {});
+    let wait = Duration::from_secs(120);
+    let scene = load(&mut worker, "teapot-in-stadium");
     let shaded = job(&scene, Mode::Shaded, false);
     worker.send(Command::Render(shaded.clone()));
     let replies = worker.wait_idle(wait);
@@ -277,16 +282,8 @@ fn a_dragged_selection_is_lit_and_tinted_as_the_scene_it_moved() {
     }
     let path = std::env::temp_dir().join(format!("bvhlab-drag-{}.obj", std::process::id()));
     std::fs::write(&path, obj).unwrap();
-    worker.send(Command::Load(path.display().to_string()));
     let wait = Duration::from_secs(120);
-    let scene = worker
-        .wait_idle(wait)
-        .into_iter()
-        .find_map(|r| match r {
-            Reply::Loaded { scene, .. } => Some(scene),
-            _ => None,
-        })
-        .expect("the scene loads");
+    let scene = load(&mut worker, &path.display().to_string());
     assert!(scene.light.is_none(), "the standard light, from the box");
     let range = |r: std::ops::Range<u32>| std::sync::Arc::new(r.collect::<Vec<u32>>());
     let (first, second) = (|| range(0..600), || range(1_700..1_900));
