@@ -15,7 +15,7 @@ pub use frame::{CounterSummary, Frame, FrameSummary, RayKind, Sample};
 use crate::accel::bvh::packet::PACKET_SIZE;
 use crate::accel::{Accel, Counter, Counters, Hit, NoStats, Stats};
 use crate::geometry::spawn::SurfacePoint;
-use crate::geometry::{Intersector, Ray, Watertight};
+use crate::geometry::{Intersector, Ray, Triangle, Watertight};
 use crate::scene::{Camera, Scene};
 use colormap::{Srgb8, to_rgba8, viridis};
 use glam::Vec3;
@@ -220,7 +220,7 @@ fn trace_tile<A: Accel, I: Intersector>(
                 let mut primary = Counters::default();
                 let hit = accel.closest_hit::<I, _>(&ray, &mut primary);
                 let occluded = |r: &Ray, s: &mut Counters| accel.any_hit::<I, _>(r, s);
-                *sample = shade(scene, &mut albedos, &ray, hit, primary, settings, occluded);
+                *sample = shade(&mut albedos, &ray, hit, primary, settings, occluded);
             }
             return FrameSummary::sum_of(out, settings.shadows);
         }
@@ -254,7 +254,7 @@ fn trace_tile<A: Accel, I: Intersector>(
                     lit_pixels.push(pixel);
                     false
                 };
-                out[pixel] = shade(scene, &mut albedos, ray, hit, NoStats, settings, gather);
+                out[pixel] = shade(&mut albedos, ray, hit, NoStats, settings, gather);
             }
             let blockers = &mut hits[..shadows.len()];
             accel.closest_hits::<I>(&shadows, blockers);
@@ -270,7 +270,6 @@ fn trace_tile<A: Accel, I: Intersector>(
 /// A pixel's sample from its primary ray's hit (found with `primary` counting) and, if it
 /// hit, the shadow ray towards the light, which `occluded` traces (or gathers for later).
 fn shade<S: Stats + Into<Counters>>(
-    scene: &Scene,
     albedos: &mut Albedos,
     ray: &Ray,
     hit: Option<Hit>,
@@ -287,7 +286,7 @@ fn shade<S: Stats + Into<Counters>>(
             ..Default::default()
         };
     };
-    let Some(tri) = &scene.triangle(hit.triangle) else {
+    let Some((tri, albedo)) = &albedos.of(hit.triangle) else {
         // A structure built over another scene: nothing to shade.
         return Sample {
             t: f32::INFINITY,
@@ -296,8 +295,7 @@ fn shade<S: Stats + Into<Counters>>(
             ..Default::default()
         };
     };
-    let normal = tri.facing_normal(ray.direction);
-    let albedo = albedos.of(hit.triangle as usize);
+    let (normal, albedo) = (tri.facing_normal(ray.direction), *albedo);
     let mut shadow = S::default();
     let (lit, cos_light) = if settings.shadows {
         let shadow_ray = shadow_ray(tri, normal, &hit, light);
@@ -319,11 +317,13 @@ fn shade<S: Stats + Into<Counters>>(
     }
 }
 
-/// The colour of the object a hit triangle belongs to. Neighbouring pixels mostly hit the
-/// same object, so the object of the last hit is tried before the search over the objects.
+/// The triangle a hit names and the colour of its object. Neighbouring pixels mostly hit
+/// the same object, so the object of the last hit is tried before the search over the
+/// objects (200 002 of them on the island, whose triangles are placed on demand).
 struct Albedos<'a> {
     scene: &'a Scene,
-    last: Option<(std::ops::Range<usize>, Vec3)>,
+    /// The last hit's object: its triangles, its index and its colour.
+    last: Option<(std::ops::Range<usize>, usize, Vec3)>,
 }
 
 impl<'a> Albedos<'a> {
@@ -331,18 +331,21 @@ impl<'a> Albedos<'a> {
         Albedos { scene, last: None }
     }
 
-    fn of(&mut self, triangle: usize) -> Vec3 {
-        if let Some((range, color)) = &self.last
-            && range.contains(&triangle)
-        {
-            return *color;
-        }
-        let Some(o) = self.scene.object_of(triangle) else {
-            return Vec3::splat(0.7);
+    fn of(&mut self, triangle: u64) -> Option<(Triangle, Vec3)> {
+        let i = usize::try_from(triangle).ok()?;
+        let (o, color) = match &self.last {
+            Some((range, o, color)) if range.contains(&i) => (*o, *color),
+            _ => {
+                let Some(o) = self.scene.object_of(i) else {
+                    // A triangle of no object (a flattened scene's only): the grey default.
+                    return Some((self.scene.triangle(triangle)?, Vec3::splat(0.7)));
+                };
+                let object = &self.scene.objects[o];
+                self.last = Some((object.range(), o, object.color));
+                (o, object.color)
+            }
         };
-        let object = &self.scene.objects[o];
-        self.last = Some((object.range(), object.color));
-        object.color
+        Some((self.scene.triangle_of(o, i)?, color))
     }
 }
 

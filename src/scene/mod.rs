@@ -173,10 +173,20 @@ impl Scene {
         if self.is_flattened() {
             return self.triangles.get(i).copied();
         }
-        let o = self.object_of(i)?;
-        let instance = self.instances.get(o)?;
+        self.triangle_of(self.object_of(i)?, i)
+    }
+
+    /// `triangle`, for a caller that knows the triangle's object (`object_of`), without the
+    /// search for it.
+    pub fn triangle_of(&self, object: usize, index: usize) -> Option<Triangle> {
+        if self.is_flattened() {
+            return self.triangles.get(index).copied();
+        }
+        let instance = self.instances.get(object)?;
         let mesh = self.meshes.get(instance.mesh)?;
-        let local = mesh.triangles.get(i - self.objects[o].first)?;
+        let local = mesh
+            .triangles
+            .get(index.checked_sub(self.objects.get(object)?.first)?)?;
         Some(instance.place(local))
     }
 
