@@ -3,7 +3,7 @@
 
 mod common;
 
-use bvhlab::accel::structure::{self, AccelKind, StructureParams};
+use bvhlab::accel::structure::{self, AccelKind, Structure, StructureParams};
 use bvhlab::app::worker::{Command, Overlay, RenderJob, Reply, Worker};
 use bvhlab::render::{Frame, Mode, RenderSettings, colorize, trace, trace_unless};
 use bvhlab::scene::Scene;
@@ -36,18 +36,23 @@ fn assert_same_pixels(a: &Frame, b: &Frame, what: &str) {
     }
 }
 
+/// The structure of `kind` over `scene`, with the default parameters.
+fn built(scene: &Scene, kind: AccelKind) -> Structure {
+    let params = StructureParams {
+        kind,
+        ..Default::default()
+    };
+    structure::build_scene(scene, &params, &AtomicUsize::new(0))
+        .unwrap()
+        .structure
+}
+
 #[test]
 fn an_uncounted_shaded_frame_is_the_counted_frame_pixel_for_pixel() {
     for name in ["cornell", "teapot-in-stadium", "walls-rotated", "island:12"] {
         let scene = Scene::load(name).unwrap();
         for kind in KINDS {
-            let params = StructureParams {
-                kind,
-                ..Default::default()
-            };
-            let s = structure::build_scene(&scene, &params, &AtomicUsize::new(0))
-                .unwrap()
-                .structure;
+            let s = built(&scene, kind);
             let counted = RenderSettings::for_scene(&scene, 77, 45);
             let quick = RenderSettings {
                 counters: false,
@@ -107,13 +112,7 @@ fn packet_shadow_rays_light_the_pixels_the_single_rays_light_on_real_scenes() {
             ..counted
         };
         for kind in [AccelKind::Bvh, AccelKind::Bvh8] {
-            let params = StructureParams {
-                kind,
-                ..Default::default()
-            };
-            let s = structure::build_scene(&scene, &params, &AtomicUsize::new(0))
-                .unwrap()
-                .structure;
+            let s = built(&scene, kind);
             let (a, b) = (trace(&s, &scene, &counted), trace(&s, &scene, &quick));
             let what = format!("{file}, {}", kind.label());
             assert!(a.summary.shadow_rays > 0, "{what}: the view sees the scene");
@@ -125,9 +124,7 @@ fn packet_shadow_rays_light_the_pixels_the_single_rays_light_on_real_scenes() {
 #[test]
 fn a_frame_in_another_mode_comes_uncoloured_and_a_stopped_trace_gives_none() {
     let scene = Scene::load("cornell").unwrap();
-    let s = structure::build_scene(&scene, &StructureParams::default(), &AtomicUsize::new(0))
-        .unwrap()
-        .structure;
+    let s = built(&scene, StructureParams::default().kind);
     let settings = RenderSettings {
         mode: Mode::Normals,
         ..RenderSettings::for_scene(&scene, 40, 30)
