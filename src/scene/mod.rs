@@ -8,16 +8,19 @@ pub mod gltf;
 pub mod instance;
 pub mod island;
 pub mod obj;
+pub mod object_index;
 
 pub use camera::Camera;
 pub use gltf::{GltfError, load_gltf};
 pub use instance::{Instance, Instancing, Mesh, TransformError};
 pub use obj::{ObjError, load_obj};
+pub use object_index::ObjectIndex;
 
 use crate::geometry::{Aabb, Triangle};
 use glam::Vec3;
 use std::borrow::Cow;
 use std::path::Path;
+use std::sync::OnceLock;
 
 /// The most triangles a scene is flattened into (at 40 bytes each, 2 GB).
 pub const MAX_FLATTENED: usize = 50_000_000;
@@ -71,6 +74,8 @@ pub struct Scene {
     pub view: Option<Camera>,
     /// The scene's own point light, if it has one.
     pub light: Option<Vec3>,
+    /// Which object owns a triangle (`object_of`), made at its first use.
+    object_index: OnceLock<ObjectIndex>,
 }
 
 impl Scene {
@@ -84,6 +89,7 @@ impl Scene {
             instances: Vec::new(),
             view: None,
             light: None,
+            object_index: OnceLock::new(),
         }
     }
 
@@ -92,6 +98,7 @@ impl Scene {
         if triangles.is_empty() {
             return;
         }
+        self.object_index = OnceLock::new();
         self.objects.push(Object {
             name: name.into(),
             first: self.triangles.len(),
@@ -124,6 +131,7 @@ impl Scene {
         if count == 0 {
             return;
         }
+        self.object_index = OnceLock::new();
         self.objects.push(Object {
             name: name.into(),
             first: self.placed_triangles(),
@@ -327,8 +335,19 @@ impl Scene {
 
     /// The object that owns triangle `index` (objects are contiguous and ordered).
     pub fn object_of(&self, index: usize) -> Option<usize> {
-        let i = self.objects.partition_point(|o| o.first + o.count <= index);
-        (i < self.objects.len() && self.objects[i].range().contains(&index)).then_some(i)
+        let objects = &self.objects;
+        let owns = |k: usize| objects.get(k).is_some_and(|o| o.range().contains(&index));
+        let found = self
+            .object_index
+            .get_or_init(|| ObjectIndex::new(objects))
+            .candidate(index as u64);
+        if let Some(k) = found.filter(|&k| owns(k)) {
+            return Some(k);
+        }
+        // A triangle of no object, or objects changed by hand since the index was made:
+        // the plain search decides.
+        let k = objects.partition_point(|o| o.first + o.count <= index);
+        owns(k).then_some(k)
     }
 
     /// Loads a scene by built-in name (`cornell`, `soup:5000`, …) or from an OBJ, glTF or
