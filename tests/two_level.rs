@@ -527,8 +527,13 @@ fn moving_instances_rebuilds_the_top_level_only_and_equals_a_full_rebuild() {
     let blases_before: Vec<_> = moved.blases.iter().map(|b| b.nodes.clone()).collect();
     let mut rng = Rng::new(32);
     let mut transforms: Vec<Affine3A> = scene.instances.iter().map(|i| i.transform).collect();
-    for k in [0, 7, 13, 39] {
-        transforms[k] = random_transform(&mut rng, k);
+    for k in [0, 7, 13, 20, 39] {
+        // Instance 20 is only shifted, as a drag in the app shifts one: its references'
+        // boxes are shifted, not placed corner by corner.
+        transforms[k] = match k {
+            20 => Affine3A::from_translation(Vec3::new(0.37, -1.25, 2.5)),
+            _ => random_transform(&mut rng, k),
+        };
         moved.move_instance(k, transforms[k]).unwrap();
     }
     assert_leaves_match(&moved);
@@ -536,7 +541,7 @@ fn moving_instances_rebuilds_the_top_level_only_and_equals_a_full_rebuild() {
     assert_eq!(blases_before, blases_after, "the BLASes stay as they were");
     // Every reference of a moved instance moved with it: its leaf box holds its triangles
     // where they are now.
-    for k in [0, 7, 13, 39] {
+    for k in [0, 7, 13, 20, 39] {
         let placed = Instance::new(scene.instances[k].mesh, transforms[k]).unwrap();
         let mesh = &scene.meshes[placed.mesh].triangles;
         for r in moved.references_of(k) {

@@ -71,6 +71,13 @@ impl Instance {
         self.transform == Affine3A::IDENTITY
     }
 
+    /// Whether the instance only shifts its mesh, neither turning nor scaling it (as an
+    /// object dragged in the app): its boxes then move as they are.
+    #[inline]
+    pub fn is_translation(&self) -> bool {
+        self.transform.matrix3 == Mat3A::IDENTITY
+    }
+
     /// A triangle of the mesh in world space (the very same for the identity, signed zeros
     /// included, as the two-level traversal does not transform rays there).
     pub fn place(&self, t: &Triangle) -> Triangle {
@@ -88,17 +95,30 @@ impl Instance {
         if b.is_empty() {
             return Aabb::EMPTY;
         }
-        let w = Aabb::from_points((0..8).map(|i| {
+        let w = if self.is_translation() {
+            // Each corner coordinate is its own plus the shift, rounded once; rounding
+            // keeps order, so the lowest and highest corners stay the box's: the eight
+            // corners' box, without placing them.
+            let t = glam::Vec3::from(self.transform.translation);
+            Aabb::new(b.min + t, b.max + t)
+        } else {
+            self.corners_box(b)
+        };
+        let magnitude = w.min.abs().max(w.max.abs()) + (w.max - w.min);
+        let pad = magnitude * (16.0 * f32::EPSILON);
+        Aabb::new(w.min - pad, w.max + pad)
+    }
+
+    /// The box of `b`'s eight corners placed by the transform.
+    fn corners_box(&self, b: &Aabb) -> Aabb {
+        Aabb::from_points((0..8).map(|i| {
             let corner = glam::Vec3::new(
                 if i & 1 == 0 { b.min.x } else { b.max.x },
                 if i & 2 == 0 { b.min.y } else { b.max.y },
                 if i & 4 == 0 { b.min.z } else { b.max.z },
             );
             self.transform.transform_point3(corner)
-        }));
-        let magnitude = w.min.abs().max(w.max.abs()) + (w.max - w.min);
-        let pad = magnitude * (16.0 * f32::EPSILON);
-        Aabb::new(w.min - pad, w.max + pad)
+        }))
     }
 }
 
@@ -158,5 +178,40 @@ impl<'a> Instancing<'a> {
 
     pub fn unique_triangles(&self) -> usize {
         self.meshes.iter().map(|m| m.len()).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    /// A shifted box is its eight shifted corners' box, to the bit, signed zeros aside.
+    #[test]
+    fn a_shifted_box_is_its_shifted_corners_box() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            // Values from tiny to huge, of both signs.
+            let m = (state >> 40) as f32 / (1u64 << 24) as f32 - 0.5;
+            m * 10f32.powi((state % 13) as i32 - 6)
+        };
+        for _ in 0..20_000 {
+            let (a, b) = (
+                Vec3::new(next(), next(), next()),
+                Vec3::new(next(), next(), next()),
+            );
+            let boxed = Aabb::new(a.min(b), a.max(b));
+            let shift = Vec3::new(next(), next(), next());
+            let instance = Instance::new(0, Affine3A::from_translation(shift)).unwrap();
+            assert!(instance.is_translation());
+            let corners = instance.corners_box(&boxed);
+            let shifted = Aabb::new(boxed.min + shift, boxed.max + shift);
+            assert_eq!((shifted.min, shifted.max), (corners.min, corners.max));
+        }
+        let turned = Instance::new(0, Affine3A::from_rotation_y(0.3)).unwrap();
+        assert!(!turned.is_translation());
     }
 }

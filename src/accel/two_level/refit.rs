@@ -74,12 +74,11 @@ pub fn refit_references(tlas: &mut Bvh8, index: &TopLevelIndex, moved: &[(usize,
     if leaves.len() * FULL_PASS > tlas.nodes.len() {
         // So many leaves moved that most nodes lie above one: one pass over every node,
         // children before parents, costs less than the paths one by one.
-        for n in (0..tlas.nodes.len()).rev() {
-            let node = tlas.nodes[n];
-            for lane in (0..node.child_count()).filter(|&l| node.is_interior(l)) {
-                let bounds = tlas.nodes[node.child[lane] as usize].bounds();
-                tlas.nodes[n].set_child_bounds(lane, bounds);
-            }
+        // Each node's box is set in its parent's lane once its own lanes are final.
+        for n in (1..tlas.nodes.len()).rev() {
+            let (p, l) = index.parent[n];
+            let bounds = tlas.nodes[n].bounds();
+            tlas.nodes[p as usize].set_child_bounds(l as usize, bounds);
         }
         return;
     }
