@@ -248,6 +248,9 @@ fn trace_tile<A: Accel, I: Intersector>(
             // a closest hit within its segment.
             shadows.clear();
             lit_pixels.clear();
+            for hit in hits.iter().flatten() {
+                albedos.prefetch(hit.triangle);
+            }
             for ((ray, &hit), &pixel) in packet.iter().zip(hits.iter()).zip(&pixels) {
                 let gather = |r: &Ray, _: &mut NoStats| {
                     shadows.push(*r);
@@ -331,21 +334,37 @@ impl<'a> Albedos<'a> {
         Albedos { scene, last: None }
     }
 
+    /// Asks for the memory `of(triangle)` will read. A packet's hits are asked for before
+    /// they are shaded, so that their cache misses (a mesh's triangle, somewhere in the
+    /// island's meshes) overlap instead of coming one after another.
+    fn prefetch(&mut self, triangle: u64) {
+        if let Ok(i) = usize::try_from(triangle)
+            && let Some((o, _)) = self.object(i)
+        {
+            self.scene.prefetch_triangle(o, i);
+        }
+    }
+
     fn of(&mut self, triangle: u64) -> Option<(Triangle, Vec3)> {
         let i = usize::try_from(triangle).ok()?;
-        let (o, color) = match &self.last {
-            Some((range, o, color)) if range.contains(&i) => (*o, *color),
-            _ => {
-                let Some(o) = self.scene.object_of(i) else {
-                    // A triangle of no object (a flattened scene's only): the grey default.
-                    return Some((self.scene.triangle(triangle)?, Vec3::splat(0.7)));
-                };
-                let object = &self.scene.objects[o];
-                self.last = Some((object.range(), o, object.color));
-                (o, object.color)
-            }
+        let Some((o, color)) = self.object(i) else {
+            // A triangle of no object (a flattened scene's only): the grey default.
+            return Some((self.scene.triangle(triangle)?, Vec3::splat(0.7)));
         };
         Some((self.scene.triangle_of(o, i)?, color))
+    }
+
+    /// The object of triangle `i` and its colour.
+    fn object(&mut self, i: usize) -> Option<(usize, Vec3)> {
+        match &self.last {
+            Some((range, o, color)) if range.contains(&i) => Some((*o, *color)),
+            _ => {
+                let o = self.scene.object_of(i)?;
+                let object = &self.scene.objects[o];
+                self.last = Some((object.range(), o, object.color));
+                Some((o, object.color))
+            }
+        }
     }
 }
 

@@ -198,6 +198,30 @@ impl Scene {
         Some(instance.place(local))
     }
 
+    /// Asks for the memory `triangle_of(object, index)` reads (the instance and its mesh's
+    /// triangle, or the stored triangle), ahead of the call: a hint that never fails.
+    pub fn prefetch_triangle(&self, object: usize, index: usize) {
+        use crate::geometry::simd::prefetch;
+        if self.is_flattened() {
+            if let Some(t) = self.triangles.get(index) {
+                prefetch(t);
+            }
+            return;
+        }
+        let Some(instance) = self.instances.get(object) else {
+            return;
+        };
+        prefetch(&instance.transform);
+        let local = self
+            .objects
+            .get(object)
+            .and_then(|o| index.checked_sub(o.first));
+        let mesh = self.meshes.get(instance.mesh);
+        if let Some(t) = mesh.zip(local).and_then(|(m, k)| m.triangles.get(k)) {
+            prefetch(t);
+        }
+    }
+
     /// The scene as meshes and instances: its own, or else each object as one instance of
     /// a mesh of its own triangles (all triangles as one mesh if objects do not cover them
     /// in order). Either way the instances place exactly `triangles`, in order.
