@@ -189,15 +189,9 @@ mod tests {
     /// A shifted box is its eight shifted corners' box, to the bit, signed zeros aside.
     #[test]
     fn a_shifted_box_is_its_shifted_corners_box() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            // Values from tiny to huge, of both signs.
-            let m = (state >> 40) as f32 / (1u64 << 24) as f32 - 0.5;
-            m * 10f32.powi((state % 13) as i32 - 6)
-        };
+        let mut rng = crate::bench::stress::Rng(0x2545_f491_4f6c_dd1d);
+        // Values from tiny to huge, of both signs.
+        let mut next = || (rng.unit() as f32 - 0.5) * 10f32.powi(rng.below(13) as i32 - 6);
         for _ in 0..20_000 {
             let (a, b) = (
                 Vec3::new(next(), next(), next()),

@@ -96,13 +96,8 @@ mod tests {
     /// lanes in use.
     #[test]
     fn bounds_are_the_union_of_the_used_lanes() {
-        let mut state = 0x853c_49e6_748f_ea9bu64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 40) as f32 / (1u64 << 20) as f32 - 8.0
-        };
+        let mut rng = crate::bench::stress::Rng(0x853c_49e6_748f_ea9b);
+        let mut next = || rng.unit() as f32 * 16.0 - 8.0;
         for used in 0..=8 {
             for _ in 0..200 {
                 let mut node = WideNode::<8>::default();
