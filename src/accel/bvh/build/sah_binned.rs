@@ -136,8 +136,25 @@ struct Scratch {
 struct Sweep {
     right_area: Vec<f32>,
     right_count: Vec<u32>,
-    /// The filled buckets of one axis.
+    /// The filled buckets of the three axes, B entries each (`filled_buckets`).
     filled: Vec<u16>,
+}
+
+/// Lists the filled buckets of each axis, lowest first, in `filled[axis · B..]`, and returns
+/// their numbers: one pass over the bins for the three axes, writing every bucket and
+/// advancing past the filled ones, so no branch depends on the counts.
+fn filled_buckets(bins: &[Bin], b: usize, filled: &mut [u16]) -> [usize; 3] {
+    let mut m = [0usize; 3];
+    let (first, rest) = filled.split_at_mut(b);
+    let (second, third) = rest.split_at_mut(b);
+    let lists = [first, second, &mut third[..b]];
+    for k in 0..b {
+        for axis in 0..3 {
+            lists[axis][m[axis]] = k as u16;
+            m[axis] += usize::from(bins[3 * k + axis].count > 0);
+        }
+    }
+    m
 }
 
 thread_local! {
@@ -257,6 +274,8 @@ fn candidates(
                 });
             }
         }
+        // `best` expects every bin empty.
+        s.bins.fill(EMPTY_BIN);
     });
 }
 
@@ -280,30 +299,49 @@ pub fn best(
     let binning = Binning::new(&info.centroids, b);
     let parent_area = info.bounds.surface_area();
     SCRATCH.with_borrow_mut(|s| {
-        s.bins.clear();
-        s.bins.resize(3 * b, EMPTY_BIN);
+        // Every bin is empty between calls (only the filled ones are emptied after use, a
+        // few of the 3B near the leaves): only new ones need setting.
+        if s.bins.len() < 3 * b {
+            s.bins.resize(3 * b, EMPTY_BIN);
+        }
         s.sweep.right_area.resize(b, 0.0);
         s.sweep.right_count.resize(b, 0);
-        binning.fill_parallel(refs, &mut s.bins);
+        s.sweep.filled.resize(3 * b, 0);
+        let bins = &mut s.bins[..3 * b];
+        binning.fill_parallel(refs, bins);
+        let Sweep {
+            right_area,
+            right_count,
+            filled,
+        } = &mut s.sweep;
+        let m = filled_buckets(bins, b, filled);
         let mut per_axis = [AxisBest::default(); 3];
         for (axis, result) in per_axis.iter_mut().enumerate() {
-            *result = best_on_axis(&s.bins, axis, b, parent_area, p, &mut s.sweep);
+            let filled = &filled[axis * b..axis * b + m[axis]];
+            *result = best_on_axis(bins, axis, filled, parent_area, p, right_area, right_count);
         }
-        let (cost, axis, bucket) = pick(&per_axis)?;
-        let side = |range: std::ops::Range<usize>| {
-            range.fold(Box3A::EMPTY, |a, k| a.union(s.bins[3 * k + axis].bounds))
-        };
-        let (left, right) = if sides {
-            (side(0..bucket), side(bucket..b))
-        } else {
-            (Box3A::EMPTY, Box3A::EMPTY)
-        };
-        Some(ObjectSplit {
-            cost,
-            left,
-            right,
-            ..ObjectSplit::new(binning, axis, bucket)
-        })
+        let split = pick(&per_axis).map(|(cost, axis, bucket)| {
+            let side = |range: std::ops::Range<usize>| {
+                range.fold(Box3A::EMPTY, |a, k| a.union(bins[3 * k + axis].bounds))
+            };
+            let (left, right) = if sides {
+                (side(0..bucket), side(bucket..b))
+            } else {
+                (Box3A::EMPTY, Box3A::EMPTY)
+            };
+            ObjectSplit {
+                cost,
+                left,
+                right,
+                ..ObjectSplit::new(binning, axis, bucket)
+            }
+        });
+        for axis in 0..3 {
+            for &k in &filled[axis * b..axis * b + m[axis]] {
+                bins[3 * k as usize + axis] = EMPTY_BIN;
+            }
+        }
+        split
     })
 }
 
@@ -321,19 +359,12 @@ struct AxisBest {
 fn best_on_axis(
     bins: &[Bin],
     axis: usize,
-    b: usize,
+    filled: &[u16],
     parent_area: f32,
     p: &BuildParams,
-    sweep: &mut Sweep,
+    right_area: &mut [f32],
+    right_count: &mut [u32],
 ) -> AxisBest {
-    let Sweep {
-        filled,
-        right_area,
-        right_count,
-    } = sweep;
-    // Reused, not a fresh array: zeroing one per axis and node was a tenth of the sweeps.
-    filled.clear();
-    filled.extend((0..b as u16).filter(|&k| bins[3 * k as usize + axis].count > 0));
     let m = filled.len();
     // right_area[i], right_count[i]: the union of the filled buckets from filled[i] on.
     let (mut acc, mut count) = (Box3A::EMPTY, 0u32);
