@@ -20,7 +20,7 @@ use super::WideBvh;
 use super::leaf::BlockPacker;
 use super::node::{INTERIOR, WideNode};
 use crate::accel::bvh::Bvh;
-use crate::geometry::simd::{BLOCK, SimdLevel, TriangleBlock};
+use crate::geometry::simd::{SimdLevel, TriangleBlock};
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
@@ -52,8 +52,6 @@ struct Costs<const W: usize> {
     leaf: Vec<bool>,
     /// The triangle references under n.
     tris: Vec<u32>,
-    /// The BVH2 leaves under n: bounds the wide nodes and blocks laid out below it.
-    leaves: Vec<u32>,
 }
 
 impl<const W: usize> Costs<W> {
@@ -61,7 +59,6 @@ impl<const W: usize> Costs<W> {
         let nodes = &bvh.nodes;
         let n = nodes.len();
         let mut tris = vec![0u32; n];
-        let mut leaves = vec![0u32; n];
         let mut cost = vec![[0.0f32; W]; n];
         let mut leaf = vec![false; n];
         // Children come after their parents: one backward pass sees children first.
@@ -70,14 +67,12 @@ impl<const W: usize> Costs<W> {
             let area = node.bounds().surface_area();
             if node.is_leaf() {
                 tris[i] = node.count;
-                leaves[i] = 1;
                 cost[i] = [area * p.c_isect * node.count as f32; W];
                 leaf[i] = true;
                 continue;
             }
             let (l, r) = (node.left_first as usize, node.left_first as usize + 1);
             tris[i] = tris[l] + tris[r];
-            leaves[i] = leaves[l] + leaves[r];
             let d = |slots: usize| distribute(&cost[l], &cost[r], slots).0;
             // D(n, W) serves both C(n, 1) and C(n, W): evaluated once.
             let d_w = d(W);
@@ -96,12 +91,7 @@ impl<const W: usize> Costs<W> {
             }
             cost[i] = c;
         }
-        Costs {
-            cost,
-            leaf,
-            tris,
-            leaves,
-        }
+        Costs { cost, leaf, tris }
     }
 }
 
@@ -167,53 +157,22 @@ struct Part<const W: usize> {
 }
 
 impl<const W: usize> Part<W> {
-    /// An empty part with room for the subtrees `slots`, so that it never grows by copying:
-    /// a wide node is a distinct BVH2 node above some of the BVH2 leaves, and a wide leaf
-    /// takes at most one block beyond its triangles' quarter. Room only reserved is never
-    /// touched, so the bound costs no memory traffic.
-    fn with_room(costs: &Costs<W>, slots: &[usize], depth: u32) -> Self {
-        let tris: usize = slots.iter().map(|&s| costs.tris[s] as usize).sum();
-        let leaves: usize = slots.iter().map(|&s| costs.leaves[s] as usize).sum();
-        let blocks = tris.min(tris.div_ceil(BLOCK) + leaves);
-        let mut nodes = Vec::with_capacity(leaves.max(1));
-        nodes.push(WideNode::default());
-        Part {
-            nodes,
-            blocks: Vec::with_capacity(blocks),
-            prim_indices: Vec::with_capacity(blocks * BLOCK),
-            depth,
-        }
-    }
-
-    /// Places the parts after this one, each part's node indices and slots moved by the
-    /// counts before it. The copies run on all threads: they write fresh pages, whose first
-    /// touch costs as much as the copy.
-    fn append_all(&mut self, parts: &[(Part<W>, Cut)]) {
-        self.nodes
-            .reserve(parts.iter().map(|(p, _)| p.nodes.len()).sum());
-        self.blocks
-            .reserve(parts.iter().map(|(p, _)| p.blocks.len()).sum());
-        self.prim_indices
-            .reserve(parts.iter().map(|(p, _)| p.prim_indices.len()).sum());
-        for (part, c) in parts {
-            let (node_base, slot_base) = (self.nodes.len() as u32, self.prim_indices.len() as u32);
-            self.nodes[c.node].child[c.lane] = node_base;
-            self.nodes.par_extend(part.nodes.par_iter().map(|&n| {
-                let mut n = n;
-                for lane in 0..n.child_count() {
-                    n.child[lane] += if n.is_interior(lane) {
-                        node_base
-                    } else {
-                        slot_base
-                    };
-                }
-                n
-            }));
-            self.blocks.par_extend(part.blocks.par_iter().copied());
-            self.prim_indices
-                .par_extend(part.prim_indices.par_iter().copied());
-            self.depth = self.depth.max(part.depth);
-        }
+    /// Places `part` after this one: its node indices and slots move by this one's counts.
+    fn append(&mut self, part: Part<W>) {
+        let (node_base, slot_base) = (self.nodes.len() as u32, self.prim_indices.len() as u32);
+        self.nodes.extend(part.nodes.into_iter().map(|mut n| {
+            for lane in 0..n.child_count() {
+                n.child[lane] += if n.is_interior(lane) {
+                    node_base
+                } else {
+                    slot_base
+                };
+            }
+            n
+        }));
+        self.blocks.extend(part.blocks);
+        self.prim_indices.extend(part.prim_indices);
+        self.depth = self.depth.max(part.depth);
     }
 }
 
@@ -257,7 +216,17 @@ impl<'a, const W: usize> Layout<'a, W> {
                 (layout.lay_out(slots, c.depth).0, c)
             })
             .collect();
-        tree.append_all(&parts);
+        // One copy of each part: the whole tree's room reserved before the first.
+        tree.nodes
+            .reserve(parts.iter().map(|(p, _)| p.nodes.len()).sum());
+        tree.blocks
+            .reserve(parts.iter().map(|(p, _)| p.blocks.len()).sum());
+        tree.prim_indices
+            .reserve(parts.iter().map(|(p, _)| p.prim_indices.len()).sum());
+        for (part, c) in parts {
+            tree.nodes[c.node].child[c.lane] = tree.nodes.len() as u32;
+            tree.append(part);
+        }
         tree
     }
 
@@ -266,11 +235,11 @@ impl<'a, const W: usize> Layout<'a, W> {
     fn lay_out(&self, root_slots: Vec<usize>, depth: u32) -> (Part<W>, Vec<Cut>) {
         let (bvh, costs) = (self.bvh, self.costs);
         let split = bvh.duplicated_references() > 0;
-        // The top of a tree cut into parts is small: room is reserved for whole parts only.
-        let mut part = if self.cut.is_none() {
-            Part::with_room(costs, &root_slots, depth)
-        } else {
-            Part::with_room(costs, &[], depth)
+        let mut part = Part {
+            nodes: vec![WideNode::default()],
+            blocks: Vec::new(),
+            prim_indices: Vec::new(),
+            depth,
         };
         let mut cuts = Vec::new();
         let mut packer = BlockPacker::default();
