@@ -2,7 +2,8 @@
 //! this machine has gives the BVH2's hits bit for bit (triangle, t, u, v), any hit agrees,
 //! counting changes nothing; the slab kernels equal the scalar slab test and the triangle
 //! kernels the scalar watertight test lane for lane; the collapse keeps every box around its
-//! subtree and costs no more than a greedy collapse.
+//! subtree and costs no more than a greedy collapse; the wide trees of the default build are
+//! the ones recorded, on 1 and 2 threads.
 
 mod common;
 

@@ -94,11 +94,6 @@ impl Nodes {
         }
     }
 
-    /// From the root and the children pairs (pair p holds nodes 2p + 1 and 2p + 2).
-    pub fn from_pairs(root: Node, pairs: Vec<NodePair>) -> Self {
-        Nodes { root, pairs }
-    }
-
     pub fn len(&self) -> usize {
         1 + 2 * self.pairs.len()
     }

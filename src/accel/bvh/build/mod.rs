@@ -32,7 +32,7 @@ pub mod treelet;
 
 pub use split_costs::split_costs;
 
-use super::node::{Node, NodePair, Nodes};
+use super::node::{Node, Nodes};
 use super::report::{BuildPhases, BuildReport};
 use super::{Bvh, TraversalOrder};
 use crate::geometry::{Aabb, Triangle};
@@ -441,7 +441,7 @@ fn build_tree(
         if n < PARALLEL_SUBTREE {
             progress.fetch_add(n, Ordering::Relaxed);
         }
-        compact(&slots)
+        Nodes::from_flat(&compact(&slots))
     };
     let recursion = start.elapsed();
     if params.strategy == Strategy::SahBinned {
@@ -579,27 +579,23 @@ fn sah_split_cost(
 }
 
 /// Copies the reachable nodes into depth-first order with each pair of children adjacent,
-/// dropping the unused slots. Parents keep coming before their children. Written straight
-/// into the tree's pairs: a flat copy first cost one more pass and its fresh pages.
-fn compact(slots: &[Node]) -> Nodes {
-    let mut root = slots[0];
-    let mut pairs: Vec<NodePair> = Vec::with_capacity(slots.len() / 2);
-    // (the node's new index, its children's old index), parents before their children.
-    let mut stack = vec![(0usize, root)];
-    while let Some((i, node)) = stack.pop() {
+/// dropping the unused slots. Parents keep coming before their children.
+fn compact(slots: &[Node]) -> Vec<Node> {
+    let mut out = Vec::with_capacity(slots.len());
+    out.push(slots[0]);
+    let mut stack = vec![0usize];
+    while let Some(i) = stack.pop() {
+        let node = out[i];
         if node.is_leaf() {
             continue;
         }
         let old = node.left_first as usize;
-        let new = 2 * pairs.len() + 1;
-        pairs.push(NodePair([slots[old], slots[old + 1]]));
-        if i == 0 {
-            root.left_first = new as u32;
-        } else {
-            pairs[(i - 1) / 2].0[(i - 1) % 2].left_first = new as u32;
-        }
-        stack.push((new + 1, slots[old + 1]));
-        stack.push((new, slots[old]));
+        let new = out.len();
+        out.push(slots[old]);
+        out.push(slots[old + 1]);
+        out[i].left_first = new as u32;
+        stack.push(new + 1);
+        stack.push(new);
     }
-    Nodes::from_pairs(root, pairs)
+    out
 }
