@@ -70,17 +70,10 @@ impl Binning {
             // NaN (a degenerate extent) and negatives go to the first bucket; past the
             // last (rounding at the top of the range) to the last.
             let k = Vec3A::select(c.cmpge(Vec3A::ZERO), c, Vec3A::ZERO).min(last);
-            // SAFETY: every lane of k is finite and in 0..=buckets − 1 (clamped above), so
-            // its truncation is representable.
-            let k: [usize; 3] = unsafe {
-                [
-                    k.x.to_int_unchecked::<u32>() as usize,
-                    k.y.to_int_unchecked::<u32>() as usize,
-                    k.z.to_int_unchecked::<u32>() as usize,
-                ]
-            };
-            for (axis, k) in k.into_iter().enumerate() {
-                let bin = &mut bins[3 * k + axis];
+            for (axis, k) in truncate(k).into_iter().enumerate() {
+                // SAFETY: k ≤ buckets − 1 (clamped above), so 3k + axis < 3 · buckets, the
+                // length of `bins`. Unchecked: this is the build's innermost loop.
+                let bin = unsafe { bins.get_unchecked_mut(3 * k + axis) };
                 bin.count += 1;
                 bin.bounds.grow(lo, hi);
             }
@@ -108,12 +101,60 @@ impl Binning {
     }
 }
 
+/// The three lanes of `k` (finite, in 0..=buckets − 1) truncated to bucket indices, by one
+/// vector conversion where there is one.
+#[inline(always)]
+fn truncate(k: Vec3A) -> [usize; 3] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::_mm_cvttps_epi32;
+        // SAFETY: SSE2 is part of x86_64; the lanes are in range, so no lane saturates.
+        let k: [i32; 4] = unsafe { std::mem::transmute(_mm_cvttps_epi32(k.into())) };
+        [k[0] as usize, k[1] as usize, k[2] as usize]
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    // SAFETY: every lane is finite and in 0..=buckets − 1, so its truncation is
+    // representable.
+    unsafe {
+        [
+            k.x.to_int_unchecked::<u32>() as usize,
+            k.y.to_int_unchecked::<u32>() as usize,
+            k.z.to_int_unchecked::<u32>() as usize,
+        ]
+    }
+}
+
 /// Per-thread buffers, so the many small nodes near the leaves allocate nothing.
 #[derive(Default)]
 struct Scratch {
     bins: Vec<Bin>,
+    sweep: Sweep,
+}
+
+/// The sweeps' buffers.
+#[derive(Default)]
+struct Sweep {
     right_area: Vec<f32>,
     right_count: Vec<u32>,
+    /// The filled buckets of the three axes, B entries each (`filled_buckets`).
+    filled: Vec<u16>,
+}
+
+/// Lists the filled buckets of each axis, lowest first, in `filled[axis · B..]`, and returns
+/// their numbers: one pass over the bins for the three axes, writing every bucket and
+/// advancing past the filled ones, so no branch depends on the counts.
+fn filled_buckets(bins: &[Bin], b: usize, filled: &mut [u16]) -> [usize; 3] {
+    let mut m = [0usize; 3];
+    let (first, rest) = filled.split_at_mut(b);
+    let (second, third) = rest.split_at_mut(b);
+    let lists = [first, second, &mut third[..b]];
+    for k in 0..b {
+        for axis in 0..3 {
+            lists[axis][m[axis]] = k as u16;
+            m[axis] += usize::from(bins[3 * k + axis].count > 0);
+        }
+    }
+    m
 }
 
 thread_local! {
@@ -187,8 +228,8 @@ fn candidates(
     SCRATCH.with_borrow_mut(|s| {
         s.bins.clear();
         s.bins.resize(3 * b, EMPTY_BIN);
-        s.right_area.resize(3 * b, 0.0);
-        s.right_count.resize(3 * b, 0);
+        s.sweep.right_area.resize(3 * b, 0.0);
+        s.sweep.right_count.resize(3 * b, 0);
         binning.fill_parallel(refs, &mut s.bins);
         // Empty buckets change neither side: the sweeps skip their unions and areas.
         let (mut acc, mut count, mut area) = ([Box3A::EMPTY; 3], [0u32; 3], [0.0f32; 3]);
@@ -200,15 +241,15 @@ fn candidates(
                     count[axis] += bin.count;
                     area[axis] = acc[axis].surface_area();
                 }
-                s.right_area[3 * k + axis] = area[axis];
-                s.right_count[3 * k + axis] = count[axis];
+                s.sweep.right_area[3 * k + axis] = area[axis];
+                s.sweep.right_count[3 * k + axis] = count[axis];
             }
         }
         let (mut acc, mut count) = ([Box3A::EMPTY; 3], [0u32; 3]);
         for k in 1..b {
             for axis in 0..3 {
                 let bin = &s.bins[3 * (k - 1) + axis];
-                let right = s.right_count[3 * k + axis];
+                let right = s.sweep.right_count[3 * k + axis];
                 if bin.count > 0 {
                     acc[axis] = acc[axis].union(bin.bounds);
                     count[axis] += bin.count;
@@ -223,7 +264,7 @@ fn candidates(
                         parent_area,
                         acc[axis].surface_area(),
                         count[axis] as usize,
-                        s.right_area[3 * k + axis],
+                        s.sweep.right_area[3 * k + axis],
                         right as usize,
                         p,
                     ),
@@ -233,6 +274,8 @@ fn candidates(
                 });
             }
         }
+        // `best` expects every bin empty.
+        s.bins.fill(EMPTY_BIN);
     });
 }
 
@@ -242,38 +285,63 @@ fn candidates(
 /// same cost, so only the boundaries after filled buckets are evaluated. Near the leaves,
 /// where a node's few primitives fill a few of the B buckets, each axis's sweeps then take
 /// as many steps as there are filled buckets instead of B.
-pub fn best(refs: &[PrimRef], info: &NodeInfo, p: &BuildParams) -> Option<ObjectSplit> {
+///
+/// The children's boxes (`left`, `right`) are only gathered when `sides` asks for them
+/// (the SBVH weighs their overlap); the binned SAH leaves them empty, since its partition
+/// computes the children's bounds anyway.
+pub fn best(
+    refs: &[PrimRef],
+    info: &NodeInfo,
+    p: &BuildParams,
+    sides: bool,
+) -> Option<ObjectSplit> {
     let b = p.buckets as usize;
     let binning = Binning::new(&info.centroids, b);
     let parent_area = info.bounds.surface_area();
     SCRATCH.with_borrow_mut(|s| {
-        s.bins.clear();
-        s.bins.resize(3 * b, EMPTY_BIN);
-        s.right_area.resize(b, 0.0);
-        s.right_count.resize(b, 0);
-        binning.fill_parallel(refs, &mut s.bins);
+        // Every bin is empty between calls (only the filled ones are emptied after use, a
+        // few of the 3B near the leaves): only new ones need setting.
+        if s.bins.len() < 3 * b {
+            s.bins.resize(3 * b, EMPTY_BIN);
+        }
+        s.sweep.right_area.resize(b, 0.0);
+        s.sweep.right_count.resize(b, 0);
+        s.sweep.filled.resize(3 * b, 0);
+        let bins = &mut s.bins[..3 * b];
+        binning.fill_parallel(refs, bins);
+        let Sweep {
+            right_area,
+            right_count,
+            filled,
+        } = &mut s.sweep;
+        let m = filled_buckets(bins, b, filled);
         let mut per_axis = [AxisBest::default(); 3];
         for (axis, result) in per_axis.iter_mut().enumerate() {
-            *result = best_on_axis(
-                &s.bins,
-                axis,
-                b,
-                parent_area,
-                p,
-                &mut s.right_area,
-                &mut s.right_count,
-            );
+            let filled = &filled[axis * b..axis * b + m[axis]];
+            *result = best_on_axis(bins, axis, filled, parent_area, p, right_area, right_count);
         }
-        let (cost, axis, bucket) = pick(&per_axis)?;
-        let side = |range: std::ops::Range<usize>| {
-            range.fold(Box3A::EMPTY, |a, k| a.union(s.bins[3 * k + axis].bounds))
-        };
-        Some(ObjectSplit {
-            cost,
-            left: side(0..bucket),
-            right: side(bucket..b),
-            ..ObjectSplit::new(binning, axis, bucket)
-        })
+        let split = pick(&per_axis).map(|(cost, axis, bucket)| {
+            let side = |range: std::ops::Range<usize>| {
+                range.fold(Box3A::EMPTY, |a, k| a.union(bins[3 * k + axis].bounds))
+            };
+            let (left, right) = if sides {
+                (side(0..bucket), side(bucket..b))
+            } else {
+                (Box3A::EMPTY, Box3A::EMPTY)
+            };
+            ObjectSplit {
+                cost,
+                left,
+                right,
+                ..ObjectSplit::new(binning, axis, bucket)
+            }
+        });
+        for axis in 0..3 {
+            for &k in &filled[axis * b..axis * b + m[axis]] {
+                bins[3 * k as usize + axis] = EMPTY_BIN;
+            }
+        }
+        split
     })
 }
 
@@ -291,19 +359,13 @@ struct AxisBest {
 fn best_on_axis(
     bins: &[Bin],
     axis: usize,
-    b: usize,
+    filled: &[u16],
     parent_area: f32,
     p: &BuildParams,
     right_area: &mut [f32],
     right_count: &mut [u32],
 ) -> AxisBest {
-    let mut filled = [0u16; super::MAX_BUCKETS as usize];
-    let mut m = 0;
-    for k in 0..b {
-        filled[m] = k as u16;
-        m += usize::from(bins[3 * k + axis].count > 0);
-    }
-    let filled = &filled[..m];
+    let m = filled.len();
     // right_area[i], right_count[i]: the union of the filled buckets from filled[i] on.
     let (mut acc, mut count) = (Box3A::EMPTY, 0u32);
     for (i, &k) in filled.iter().enumerate().rev() {
@@ -378,7 +440,7 @@ pub fn split(
     // Only the nodes near the root are timed: reading the clock at each of the ~10^5
     // small nodes took a few per cent of the build.
     let start = (n >= PARALLEL_PASS).then(Instant::now);
-    let best = best(refs, info, p);
+    let best = best(refs, info, p, false);
     if let Some(start) = start {
         clock.add_binning(start.elapsed());
     }
@@ -504,7 +566,7 @@ mod tests {
                         scan = Some(c);
                     }
                 });
-                let found = best(&refs, &info, &p);
+                let found = best(&refs, &info, &p, true);
                 assert_eq!(
                     found.map(|f| (f.axis, f.boundary[f.axis], f.cost.to_bits())),
                     scan.map(|c| (c.axis, c.k as f32, c.cost.to_bits())),
@@ -548,7 +610,7 @@ mod tests {
             if no_split_pays(&refs, &info, &p) {
                 decided += 1;
                 let area = info.bounds.surface_area();
-                if let Some(b) = best(&refs, &info, &p) {
+                if let Some(b) = best(&refs, &info, &p, false) {
                     assert!(!sah_worth_splitting(n, b.cost, area, &p), "case {case}");
                 }
             }

@@ -234,7 +234,7 @@ impl Builder<'_> {
         let object = if info.centroid_axis().1 {
             None
         } else {
-            sah_binned::best(refs, info, p)
+            sah_binned::best(refs, info, p, true)
         };
         // The overlap of the object split's children; with no object split the references
         // all share one centroid and overlap completely.

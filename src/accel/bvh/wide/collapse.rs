@@ -74,7 +74,9 @@ impl<const W: usize> Costs<W> {
             let (l, r) = (node.left_first as usize, node.left_first as usize + 1);
             tris[i] = tris[l] + tris[r];
             let d = |slots: usize| distribute(&cost[l], &cost[r], slots).0;
-            let as_node = area * p.c_trav + d(W);
+            // D(n, W) serves both C(n, 1) and C(n, W): evaluated once.
+            let d_w = d(W);
+            let as_node = area * p.c_trav + d_w;
             let as_leaf = if tris[i] <= p.max_leaf_size {
                 area * p.c_isect * tris[i] as f32
             } else {
@@ -84,7 +86,8 @@ impl<const W: usize> Costs<W> {
             leaf[i] = as_leaf <= as_node;
             c[0] = as_leaf.min(as_node);
             for slots in 2..=W {
-                c[slots - 1] = c[slots - 2].min(d(slots));
+                let d_slots = if slots == W { d_w } else { d(slots) };
+                c[slots - 1] = c[slots - 2].min(d_slots);
             }
             cost[i] = c;
         }
