@@ -9,20 +9,31 @@
 //! every network sorts them exactly as the insertion sort does, ±0 included. Entered
 //! children never have a NaN entry.
 
-/// The order key of the child in `lane` whose box the ray enters at `entry`: the entry's
-/// bits made to sort as the distances do (±0 made one by adding +0, negative values with
-/// their bits flipped), then the lane, higher lanes first.
+/// The bits of an entry distance made to sort as the distances do: ±0 made one by adding
+/// +0, negative values with their bits flipped, the sign bit set on the others.
+#[inline(always)]
+pub(crate) fn ordered(entry: f32) -> u32 {
+    let bits = (entry + 0.0).to_bits();
+    bits ^ ((((bits as i32) >> 31) as u32) | 0x8000_0000)
+}
+
+/// The order key of the child in `lane` whose box the ray enters at a distance with
+/// `ordered` bits: the distance, then the lane, higher lanes first.
+#[inline(always)]
+pub(crate) fn key_of_ordered(ordered: u32, lane: u32) -> u64 {
+    (u64::from(ordered) << 32) | u64::from(!lane)
+}
+
+/// The order key of the child in `lane` whose box the ray enters at `entry`.
 #[inline(always)]
 pub(crate) fn key(entry: f32, lane: u32) -> u64 {
-    let bits = (entry + 0.0).to_bits();
-    let ordered = bits ^ ((((bits as i32) >> 31) as u32) | 0x8000_0000);
-    (u64::from(ordered) << 32) | u64::from(u32::MAX - lane)
+    key_of_ordered(ordered(entry), lane)
 }
 
 /// The lane a key was made for, below `W`.
 #[inline(always)]
 pub(crate) fn lane_of<const W: usize>(key: u64) -> usize {
-    (u32::MAX - key as u32) as usize % W
+    (!(key as u32)) as usize % W
 }
 
 /// Leaves the smaller of `v[i]` and `v[j]` at `i`.

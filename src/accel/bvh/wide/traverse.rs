@@ -10,7 +10,9 @@
 
 use super::leaf::Leaf;
 use super::node::INTERIOR;
-use super::order::{key, lane_of, nearest_first3, nearest_first4, nearest_first8};
+use super::order::{
+    key, key_of_ordered, lane_of, nearest_first3, nearest_first4, nearest_first8, ordered,
+};
 use super::stack::{Entry, Stack};
 use super::{Subtree, WideBvh, WideNode};
 use crate::accel::bvh::packet::PACKET_SIZE;
@@ -146,9 +148,11 @@ impl<const W: usize> WideBvh<W> {
                         // Three to W children: ordered by their keys in registers, pushed
                         // farthest first (a replay records the pushes and the sort on the
                         // stack).
+                        // Every lane's distance bits at once (the loop is vectorised).
+                        let bits: [u32; W] = std::array::from_fn(|i| ordered(entry[i]));
                         let key_of = |m: u32| {
                             let i = m.trailing_zeros();
-                            key(entry[i as usize % W], i)
+                            key_of_ordered(bits[i as usize % W], i)
                         };
                         let mut push = |k: u64| {
                             let e = lane(lane_of::<W>(k) as u32);
@@ -244,7 +248,7 @@ impl<const W: usize> WideBvh<W> {
         data: &I::RayData,
         stats: &mut S,
     ) -> bool {
-        let tmax = ray.tmax * T_SCALE;
+        let mut tmax = ray.tmax * T_SCALE;
         let mut storage = MaybeUninit::uninit();
         let mut stack = Stack::new(&mut storage);
         let mut entry = [0.0f32; W];
@@ -306,6 +310,12 @@ impl<const W: usize> WideBvh<W> {
             if unsafe { self.leaf_any_called::<K, I, S>(leaf, data, ray, stats) } {
                 return true;
             }
+            // The interval's end passes through an opaque copy after each leaf, as the best
+            // hit's does in the closest-hit walk: the compiler then keeps the node test's
+            // constants in vector registers through the loop and reloads them after the
+            // leaf's call, instead of reading them from the stack at every node (measured:
+            // 49 instructions a node test before, 39 after).
+            tmax = std::hint::black_box(tmax);
             match stack.pop() {
                 None => return false,
                 Some(e) => {
