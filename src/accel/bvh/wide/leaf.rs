@@ -199,7 +199,7 @@ impl<const W: usize> WideBvh<W> {
     /// # Safety
     /// The CPU supports K's instruction set.
     #[inline(always)]
-    unsafe fn block_any<K: TriangleKernel, I: Intersector, S: Stats>(
+    pub(super) unsafe fn block_any<K: TriangleKernel, I: Intersector, S: Stats>(
         &self,
         b: usize,
         used: u32,

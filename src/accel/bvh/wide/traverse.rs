@@ -306,8 +306,19 @@ impl<const W: usize> WideBvh<W> {
                 first: cur.child,
                 count: cur.count,
             };
-            // SAFETY: as in `closest_with`.
-            if unsafe { self.leaf_any_called::<K, I, S>(leaf, data, ray, stats) } {
+            // A leaf in one block is tested right here: in the any-hit walk that costs the
+            // node loop one instruction of register pressure and saves the call's 26
+            // (measured; the closest-hit walk, whose loop holds more, lost as much at its
+            // nodes as it saved at its leaves, and calls). Larger leaves, and a replay's
+            // leaves, are called.
+            // SAFETY (both arms): as in `closest_with`.
+            let hit = match leaf.single_block() {
+                Some((b, used)) if !S::RECORDING => unsafe {
+                    self.block_any::<K, I, S>(b, used, data, ray, stats)
+                },
+                _ => unsafe { self.leaf_any_called::<K, I, S>(leaf, data, ray, stats) },
+            };
+            if hit {
                 return true;
             }
             // The interval's end passes through an opaque copy after each leaf, as the best
