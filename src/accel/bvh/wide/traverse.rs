@@ -258,9 +258,7 @@ impl<const W: usize> WideBvh<W> {
             entry: ray.tmin,
         };
         loop {
-            // Down through interior nodes to a leaf. This loop calls nothing, so the ray's
-            // slab constants stay in vector registers; the leaf's call (which may use every
-            // vector register) is outside it.
+            // Down through interior nodes to a leaf, which is tested after this loop.
             while cur.count == INTERIOR {
                 stats.node_visit();
                 record(stats, || self.visit_step(cur));
