@@ -98,6 +98,78 @@ fn wide_trees_equal_the_bvh2_on_every_builtin_scene() {
     }
 }
 
+/// Any hit of segments that end before, at and past each ray's closest hit, in a tree that
+/// has both leaves in one block of four (tested by the straight one-block path, inlined in
+/// the any-hit walk) and leaves over more blocks (the loop over blocks).
+fn assert_segments_agree<const W: usize>(b2: &Bvh, rays: &[Ray], what: &str)
+where
+    WideBvh<W>: Accel,
+{
+    // Steps that cost more than triangle tests make larger leaves.
+    let params = CollapseParams {
+        c_trav: 8.0,
+        ..CollapseParams::default()
+    };
+    let mut wide = WideBvh::<W>::collapse(b2, &params);
+    let leaves = wide.nodes.iter().flat_map(|n| {
+        (0..n.child_count())
+            .filter(|&l| !n.is_interior(l))
+            .map(|l| (n.child[l] as usize, n.count[l] as usize))
+    });
+    let (one, more): (Vec<_>, Vec<_>) =
+        leaves.partition(|&(first, count)| first % BLOCK + count <= BLOCK);
+    assert!(
+        !one.is_empty() && !more.is_empty(),
+        "{what}: BVH{W} needs both kinds of leaves"
+    );
+    let mut segments = 0;
+    for level in SimdLevel::available() {
+        wide.set_simd(level).unwrap();
+        for ray in rays {
+            let Some(hit) = b2.closest_hit::<Watertight, _>(ray, &mut NoStats) else {
+                continue;
+            };
+            for end in [
+                hit.t * 0.5,
+                hit.t.next_down(),
+                hit.t,
+                hit.t.next_up(),
+                hit.t * 2.0,
+            ] {
+                let segment = Ray::segment(ray.origin, ray.direction, ray.tmin, end);
+                let expected = b2.any_hit::<Watertight, _>(&segment, &mut NoStats);
+                let got = wide.any_hit::<Watertight, _>(&segment, &mut NoStats);
+                assert_eq!(
+                    got,
+                    expected,
+                    "{what}: BVH{W} {}: {segment:?}",
+                    level.label()
+                );
+                let counted = wide.any_hit::<Watertight, _>(&segment, &mut Counters::default());
+                assert_eq!(counted, got, "{what}: counting changed {segment:?}");
+                segments += usize::from(expected);
+            }
+        }
+    }
+    assert!(segments > 0, "{what}: no segment was occluded");
+}
+
+#[test]
+fn any_hit_of_segments_equals_the_bvh2s_in_every_kind_of_leaf() {
+    for seed in 0..2 {
+        let tris = soup(3000, seed + 40);
+        let rays = rays(&bounds(&tris), 1500, seed + 50);
+        let params = BuildParams {
+            c_trav: 8.0,
+            ..BuildParams::with_strategy(Strategy::SahBinned)
+        };
+        let b2 = bvh::build(&tris, &params).expect("build").0;
+        let what = format!("soup {seed}");
+        assert_segments_agree::<4>(&b2, &rays, &what);
+        assert_segments_agree::<8>(&b2, &rays, &what);
+    }
+}
+
 #[test]
 fn wide_trees_survive_degenerate_inputs() {
     for (what, tris) in degenerate_cases() {

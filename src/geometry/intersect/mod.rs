@@ -43,6 +43,10 @@ pub trait Intersector: Copy + Default + Send + Sync + 'static {
     /// without one a packet's leaves test ray by ray.
     const PACKET_TEST: bool = false;
 
+    /// Whether `intersect_block` tests blocks itself, handing back only rare lanes; without
+    /// it every lane goes to `intersect`.
+    const BLOCK_TEST: bool = false;
+
     /// The four triangles of a wide leaf's block at once with the SIMD kernel `K`, where the
     /// test has a block form that gives its own answers bit for bit; lanes it leaves to
     /// `intersect` are marked `retest`. By default every lane is: the test runs lane by lane.

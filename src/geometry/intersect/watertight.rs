@@ -22,6 +22,9 @@ pub struct Shear {
     pub k: [usize; 3],
     /// (−d_kx / d_kz, −d_ky / d_kz, 1 / d_kz).
     pub s: Vec3,
+    /// The origin in the permuted axes (o_kx, o_ky, o_kz): a block test broadcasts each
+    /// straight from here, once per ray picked.
+    pub o: [f32; 3],
 }
 
 /// The axes of the ray's coordinate system: kz is the direction's largest component, kx and
@@ -50,15 +53,18 @@ impl Intersector for Watertight {
     type RayData = Shear;
     const NAME: &'static str = "watertight";
     const PACKET_TEST: bool = true;
+    const BLOCK_TEST: bool = true;
 
     #[inline(always)]
     fn prepare(ray: &Ray) -> Shear {
         let [kx, ky, kz] = shear_axes(ray.direction);
         // An array is indexed by address; a vector's index is a branch per axis.
         let d = ray.direction.to_array();
+        let o = ray.origin.to_array();
         Shear {
             k: [kx, ky, kz],
             s: Vec3::new(-d[kx] / d[kz], -d[ky] / d[kz], 1.0 / d[kz]),
+            o: [o[kx], o[ky], o[kz]],
         }
     }
 

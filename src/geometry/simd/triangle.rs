@@ -80,7 +80,8 @@ impl BlockHits {
     };
 }
 
-/// The watertight test of one ray against a block, one kernel per instruction set.
+/// The watertight test of one ray against a block, one kernel per instruction set. The ray
+/// enters through its `Shear`, which holds its origin in the permuted axes.
 pub trait TriangleKernel: super::KernelLevel {
     /// # Safety
     /// The CPU supports the kernel's instruction set (`SimdLevel::supported`).
@@ -98,13 +99,13 @@ impl TriangleKernel for Portable {
     unsafe fn watertight(
         block: &TriangleBlock,
         shear: &Shear,
-        ray: &Ray,
+        _ray: &Ray,
         tmin: f32,
         tmax: f32,
     ) -> BlockHits {
         let [kx, ky, kz] = shear.k;
         let s = shear.s;
-        let o = ray.origin;
+        let o = shear.o;
         let mut out = BlockHits {
             hit: 0,
             retest: 0,
@@ -113,7 +114,7 @@ impl TriangleKernel for Portable {
         for i in 0..BLOCK {
             let rel = |k: usize| {
                 let p = &block.v[k];
-                Vec3::new(p[kx][i] - o[kx], p[ky][i] - o[ky], p[kz][i] - o[kz])
+                Vec3::new(p[kx][i] - o[0], p[ky][i] - o[1], p[kz][i] - o[2])
             };
             let (a, b, c) = (rel(0), rel(1), rel(2));
             let (ax, ay) = (a.x + s.x * a.z, a.y + s.y * a.z);
@@ -160,13 +161,11 @@ impl TriangleKernel for Portable {
 /// is only ever read in hit or handed-back lanes.
 #[cfg(target_arch = "x86_64")]
 macro_rules! watertight_m128 {
-    ($block:expr, $shear:expr, $ray:expr, $tmin:expr, $tmax:expr) => {{
-        let (block, shear, ray) = ($block, $shear, $ray);
+    ($block:expr, $shear:expr, $tmin:expr, $tmax:expr) => {{
+        let (block, shear) = ($block, $shear);
         let [kx, ky, kz] = shear.k;
-        // The origin as an array: its coordinates are then picked by address, not by
-        // a chain of branches per axis, and stay out of the loop over a leaf's blocks.
-        let o = ray.origin.to_array();
-        let (ox, oy, oz) = (_mm_set1_ps(o[kx]), _mm_set1_ps(o[ky]), _mm_set1_ps(o[kz]));
+        // The origin in the permuted axes, picked once per ray (`Shear::o`).
+        let [ox, oy, oz] = shear.o.map(|c| _mm_set1_ps(c));
         let (sx, sy, sz) = (
             _mm_set1_ps(shear.s.x),
             _mm_set1_ps(shear.s.y),
@@ -308,11 +307,11 @@ mod x86 {
     use super::*;
     use std::arch::x86_64::*;
 
-    triangle_kernel!(Sse41, |block, shear, ray, tmin, tmax| {
+    triangle_kernel!(Sse41, |block, shear, _ray, tmin, tmax| {
         // SAFETY: the caller guarantees SSE4.1; the block's rows are 16-byte aligned arrays
         // of four lanes, and the stores write into arrays of four.
         unsafe {
-            let (t, u, v, hit, retest) = watertight_m128!(block, shear, ray, tmin, tmax);
+            let (t, u, v, hit, retest) = watertight_m128!(block, shear, tmin, tmax);
             let mut out = BlockHits {
                 hit: _mm_movemask_ps(hit) as u32,
                 retest: _mm_movemask_ps(retest) as u32,

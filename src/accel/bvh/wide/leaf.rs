@@ -26,16 +26,30 @@ pub(super) struct Leaf {
 }
 
 impl Leaf {
-    /// The leaf's blocks, each with the mask of the lanes holding its triangles.
+    /// The leaf's blocks, each with the mask of the lanes holding its triangles: all four
+    /// but in the first block (lanes from `first` on) and the last (lanes before the end).
     #[inline(always)]
     pub(super) fn blocks(self) -> impl Iterator<Item = (usize, u32)> {
+        const ALL: u32 = (1 << BLOCK) - 1;
         let first = self.first as usize;
         let end = first + self.count as usize;
-        (first / BLOCK..end.div_ceil(BLOCK)).map(move |b| {
-            let lo = first.max(b * BLOCK) - b * BLOCK;
-            let hi = end.min(b * BLOCK + BLOCK) - b * BLOCK;
-            (b, ((1u32 << hi) - 1) & !((1u32 << lo) - 1))
+        let (first_block, end_block) = (first / BLOCK, end.div_ceil(BLOCK));
+        let head = ALL << (first % BLOCK) & ALL;
+        let tail = ALL >> ((BLOCK - end % BLOCK) % BLOCK);
+        (first_block..end_block).map(move |b| {
+            let head = if b == first_block { head } else { ALL };
+            let tail = if b + 1 == end_block { tail } else { ALL };
+            (b, head & tail)
         })
+    }
+
+    /// The block and lanes of a leaf that lies in one block (a leaf of four triangles or
+    /// fewer, the commonest): the leaf test then needs no loop over blocks.
+    #[inline(always)]
+    pub(super) fn single_block(self) -> Option<(usize, u32)> {
+        let lane = self.first as usize % BLOCK;
+        (lane + self.count as usize <= BLOCK)
+            .then(|| (self.first as usize / BLOCK, ((1 << self.count) - 1) << lane))
     }
 
     /// Whether the slots span exactly the blocks the count needs.
@@ -112,22 +126,46 @@ impl<const W: usize> WideBvh<W> {
         if S::RECORDING {
             return self.leaf_recorded::<I, S>(leaf, data, ray, Some(best), stats);
         }
+        // SAFETY (both calls): the caller guarantees K's instruction set.
+        if let Some((b, used)) = leaf.single_block() {
+            return unsafe { self.block_closest::<K, I, S>(b, used, data, ray, best, stats) };
+        }
         let mut found = false;
         for (b, used) in leaf.blocks() {
-            let block = &self.blocks[b];
-            for _ in 0..used.count_ones() {
-                stats.triangle_test();
-            }
-            // SAFETY: the caller guarantees K's instruction set.
-            let h = unsafe { I::intersect_block::<K>(data, ray, block, ray.tmin, best.limit) };
-            let mut lanes = (h.hit | h.retest) & used;
-            while lanes != 0 {
-                let lane = lanes.trailing_zeros() as usize;
-                lanes &= lanes - 1;
-                if let Some(hit) = lane_hit::<I>(&h, block, lane, data, ray, best.limit) {
-                    best.offer(hit, self.prim_indices[b * BLOCK + lane]);
-                    found = true;
-                }
+            found |= unsafe { self.block_closest::<K, I, S>(b, used, data, ray, best, stats) };
+        }
+        found
+    }
+
+    /// The lanes `used` of block `b` against the ray, keeping the best hit; whether one was
+    /// found.
+    ///
+    /// # Safety
+    /// The CPU supports K's instruction set.
+    #[inline(always)]
+    unsafe fn block_closest<K: TriangleKernel, I: Intersector, S: Stats>(
+        &self,
+        b: usize,
+        used: u32,
+        data: &I::RayData,
+        ray: &Ray,
+        best: &mut BestHit,
+        stats: &mut S,
+    ) -> bool {
+        let block = &self.blocks[b];
+        for _ in 0..used.count_ones() {
+            stats.triangle_test();
+        }
+        // SAFETY: the caller guarantees K's instruction set.
+        let h = unsafe { I::intersect_block::<K>(data, ray, block, ray.tmin, best.limit) };
+        let mut lanes = (h.hit | h.retest) & used;
+        let mut found = false;
+        while lanes != 0 {
+            let lane = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
+            if let Some(hit) = lane_hit::<I>(&h, block, lane, data, ray, best.limit) {
+                best.offer(hit, self.prim_indices[b * BLOCK + lane]);
+                found = true;
             }
         }
         found
@@ -148,24 +186,47 @@ impl<const W: usize> WideBvh<W> {
         if S::RECORDING {
             return self.leaf_recorded::<I, S>(leaf, data, ray, None, stats);
         }
-        for (b, used) in leaf.blocks() {
-            let block = &self.blocks[b];
-            for _ in 0..used.count_ones() {
-                stats.triangle_test();
-            }
-            // SAFETY: the caller guarantees K's instruction set.
-            let h = unsafe { I::intersect_block::<K>(data, ray, block, ray.tmin, ray.tmax) };
-            if h.hit & used != 0 {
+        // SAFETY (both calls): the caller guarantees K's instruction set.
+        if let Some((b, used)) = leaf.single_block() {
+            return unsafe { self.block_any::<K, I, S>(b, used, data, ray, stats) };
+        }
+        leaf.blocks()
+            .any(|(b, used)| unsafe { self.block_any::<K, I, S>(b, used, data, ray, stats) })
+    }
+
+    /// Whether the ray hits any of the lanes `used` of block `b` within (tmin, tmax).
+    ///
+    /// # Safety
+    /// The CPU supports K's instruction set.
+    #[inline(always)]
+    pub(super) unsafe fn block_any<K: TriangleKernel, I: Intersector, S: Stats>(
+        &self,
+        b: usize,
+        used: u32,
+        data: &I::RayData,
+        ray: &Ray,
+        stats: &mut S,
+    ) -> bool {
+        let block = &self.blocks[b];
+        for _ in 0..used.count_ones() {
+            stats.triangle_test();
+        }
+        // SAFETY: the caller guarantees K's instruction set.
+        let h = unsafe { I::intersect_block::<K>(data, ray, block, ray.tmin, ray.tmax) };
+        if h.hit & used != 0 {
+            return true;
+        }
+        let mut lanes = h.retest & used;
+        while lanes != 0 {
+            let lane = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
+            let hit = if I::BLOCK_TEST {
+                retest::<I>(block, lane, data, ray, ray.tmax)
+            } else {
+                I::intersect(data, ray, &block.triangle(lane), ray.tmin, ray.tmax)
+            };
+            if hit.is_some() {
                 return true;
-            }
-            let mut lanes = h.retest & used;
-            while lanes != 0 {
-                let lane = lanes.trailing_zeros() as usize;
-                lanes &= lanes - 1;
-                let tri = block.triangle(lane);
-                if I::intersect(data, ray, &tri, ray.tmin, ray.tmax).is_some() {
-                    return true;
-                }
             }
         }
         false
@@ -359,11 +420,71 @@ fn lane_hit<I: Intersector>(
     limit: f32,
 ) -> Option<TriangleHit> {
     if h.retest >> lane & 1 == 1 {
-        return I::intersect(data, ray, &block.triangle(lane), ray.tmin, limit);
+        return if I::BLOCK_TEST {
+            retest::<I>(block, lane, data, ray, limit)
+        } else {
+            I::intersect(data, ray, &block.triangle(lane), ray.tmin, limit)
+        };
     }
     (h.t[lane] < limit).then(|| TriangleHit {
         t: h.t[lane],
         u: h.u[lane],
         v: h.v[lane],
     })
+}
+
+/// The scalar test of a lane a block test hands back: rare, and kept out of line so that
+/// its registers do not crowd the block test's.
+#[cold]
+#[inline(never)]
+fn retest<I: Intersector>(
+    block: &TriangleBlock,
+    lane: usize,
+    data: &I::RayData,
+    ray: &Ray,
+    limit: f32,
+) -> Option<TriangleHit> {
+    I::intersect(data, ray, &block.triangle(lane), ray.tmin, limit)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each block's mask as the slots say: the lanes of that block between first and end.
+    fn by_slots(leaf: Leaf) -> Vec<(usize, u32)> {
+        let (first, end) = (leaf.first as usize, (leaf.first + leaf.count) as usize);
+        (first / BLOCK..end.div_ceil(BLOCK))
+            .map(|b| {
+                let lanes = (0..BLOCK).filter(|&l| (first..end).contains(&(b * BLOCK + l)));
+                (b, lanes.fold(0, |m, l| m | 1 << l))
+            })
+            .collect()
+    }
+
+    #[test]
+    fn block_masks_hold_exactly_the_leafs_slots() {
+        for first in 0..12 {
+            for count in 0..20 {
+                let leaf = Leaf { first, count };
+                assert_eq!(
+                    leaf.blocks().collect::<Vec<_>>(),
+                    by_slots(leaf),
+                    "first {first}, count {count}"
+                );
+                // A leaf in one block is that block's lanes (none for an empty leaf).
+                match leaf.single_block() {
+                    Some((b, used)) if used != 0 => {
+                        assert_eq!(
+                            by_slots(leaf),
+                            vec![(b, used)],
+                            "first {first}, count {count}"
+                        )
+                    }
+                    Some(_) => assert_eq!(count, 0),
+                    None => assert!(by_slots(leaf).len() > 1, "first {first}, count {count}"),
+                }
+            }
+        }
+    }
 }

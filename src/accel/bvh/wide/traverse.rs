@@ -10,9 +10,11 @@
 
 use super::leaf::Leaf;
 use super::node::INTERIOR;
-use super::order::{Lane, nearest_first3, nearest_first4};
+use super::order::{
+    key, key_of_ordered, lane_of, nearest_first3, nearest_first4, nearest_first8, ordered,
+};
 use super::stack::{Entry, Stack};
-use super::{Subtree, WideBvh};
+use super::{Subtree, WideBvh, WideNode};
 use crate::accel::bvh::packet::PACKET_SIZE;
 use crate::accel::bvh::traverse::T_SCALE;
 use crate::accel::replay::{Child, Level, Order, Step, Visited};
@@ -119,16 +121,16 @@ impl<const W: usize> WideBvh<W> {
                 };
                 record(stats, || self.children_step(cur.child, mask, &entry, order));
                 if mask != 0 {
+                    // Lanes are below W, a power of two: `% W` spares the bounds checks.
                     let lane = |i: u32| Entry {
-                        child: node.child[i as usize],
-                        count: node.count[i as usize],
-                        entry: entry[i as usize],
+                        child: node.child[i as usize % W],
+                        count: node.count[i as usize % W],
+                        entry: entry[i as usize % W],
                     };
                     if mask & (mask - 1) == 0 {
                         cur = lane(mask.trailing_zeros());
                         continue;
                     }
-                    let mut n = 0;
                     let second = mask & (mask - 1);
                     let third = second & (second - 1);
                     if ORDERED && third == 0 {
@@ -142,34 +144,47 @@ impl<const W: usize> WideBvh<W> {
                         cur = near;
                         continue;
                     }
-                    let fourth = third & (third - 1);
-                    if ORDERED && !S::RECORDING && (fourth & fourth.wrapping_sub(1)) == 0 {
-                        // Three or four children: sorted in registers, pushed farthest
-                        // first (a replay records the pushes and the sort on the stack).
-                        let at = |m: u32| Lane {
-                            child: lane(m.trailing_zeros()),
-                            lane: m.trailing_zeros(),
+                    if ORDERED && !S::RECORDING {
+                        // Three to W children: ordered by their keys in registers, pushed
+                        // farthest first (a replay records the pushes and the sort on the
+                        // stack).
+                        // Every lane's distance bits at once (the loop is vectorised).
+                        let bits: [u32; W] = std::array::from_fn(|i| ordered(entry[i]));
+                        let key_of = |m: u32| {
+                            let i = m.trailing_zeros();
+                            key_of_ordered(bits[i as usize % W], i)
                         };
-                        let mut push = |l: Lane| {
-                            self.prefetch_entry(l.child);
-                            stack.push(l.child);
+                        let mut push = |k: u64| {
+                            let e = lane(lane_of::<W>(k) as u32);
+                            self.prefetch_entry(e);
+                            stack.push(e);
                         };
-                        cur = if fourth == 0 {
-                            let [a, b, c] = nearest_first3([at(mask), at(second), at(third)]);
+                        let fourth = third & (third - 1);
+                        let nearest = if fourth == 0 {
+                            let [a, b, c] =
+                                nearest_first3([key_of(mask), key_of(second), key_of(third)]);
                             push(c);
                             push(b);
-                            a.child
-                        } else {
-                            let [a, b, c, d] =
-                                nearest_first4([at(mask), at(second), at(third), at(fourth)]);
+                            a
+                        } else if fourth & (fourth - 1) == 0 {
+                            let [a, b, c, d] = nearest_first4([
+                                key_of(mask),
+                                key_of(second),
+                                key_of(third),
+                                key_of(fourth),
+                            ]);
                             push(d);
                             push(c);
                             push(b);
-                            a.child
+                            a
+                        } else {
+                            self.push_many(node, mask, &entry, &mut stack)
                         };
+                        cur = lane(lane_of::<W>(nearest) as u32);
                         continue;
                     }
                     if ORDERED {
+                        let mut n = 0;
                         while mask != 0 {
                             record(stats, || push_step(lane(mask.trailing_zeros())));
                             self.prefetch_entry(lane(mask.trailing_zeros()));
@@ -233,7 +248,7 @@ impl<const W: usize> WideBvh<W> {
         data: &I::RayData,
         stats: &mut S,
     ) -> bool {
-        let tmax = ray.tmax * T_SCALE;
+        let mut tmax = ray.tmax * T_SCALE;
         let mut storage = MaybeUninit::uninit();
         let mut stack = Stack::new(&mut storage);
         let mut entry = [0.0f32; W];
@@ -243,18 +258,10 @@ impl<const W: usize> WideBvh<W> {
             entry: ray.tmin,
         };
         loop {
-            stats.node_visit();
-            record(stats, || self.visit_step(cur));
-            if cur.count != INTERIOR {
-                let leaf = Leaf {
-                    first: cur.child,
-                    count: cur.count,
-                };
-                // SAFETY: as in `closest_with`.
-                if unsafe { self.leaf_any_called::<K, I, S>(leaf, data, ray, stats) } {
-                    return true;
-                }
-            } else {
+            // Down through interior nodes to a leaf, which is tested after this loop.
+            while cur.count == INTERIOR {
+                stats.node_visit();
+                record(stats, || self.visit_step(cur));
                 let node = &self.nodes[cur.child as usize];
                 if S::COUNTING {
                     stats.box_tests(node.child_count() as u32);
@@ -265,29 +272,59 @@ impl<const W: usize> WideBvh<W> {
                 record(stats, || {
                     self.children_step(cur.child, mask, &entry, Order::AnyHit)
                 });
+                let lane = |i: usize| Entry {
+                    child: node.child[i % W],
+                    count: node.count[i % W],
+                    entry: entry[i % W],
+                };
                 if mask != 0 {
-                    let i = mask.trailing_zeros() as usize;
+                    let first = mask.trailing_zeros() as usize;
                     mask &= mask - 1;
                     while mask != 0 {
-                        let j = mask.trailing_zeros() as usize;
+                        let e = lane(mask.trailing_zeros() as usize);
                         mask &= mask - 1;
-                        let e = Entry {
-                            child: node.child[j],
-                            count: node.count[j],
-                            entry: entry[j],
-                        };
                         record(stats, || push_step(e));
                         self.prefetch_entry(e);
                         stack.push(e);
                     }
-                    cur = Entry {
-                        child: node.child[i],
-                        count: node.count[i],
-                        entry: entry[i],
-                    };
+                    cur = lane(first);
                     continue;
                 }
+                match stack.pop() {
+                    None => return false,
+                    Some(e) => {
+                        record(stats, || pop_step(e));
+                        cur = e;
+                    }
+                }
             }
+            stats.node_visit();
+            record(stats, || self.visit_step(cur));
+            let leaf = Leaf {
+                first: cur.child,
+                count: cur.count,
+            };
+            // A leaf in one block is tested right here: in the any-hit walk that costs the
+            // node loop one instruction of register pressure and saves the call's 26
+            // (measured; the closest-hit walk, whose loop holds more, lost as much at its
+            // nodes as it saved at its leaves, and calls). Larger leaves, and a replay's
+            // leaves, are called.
+            // SAFETY (both arms): as in `closest_with`.
+            let hit = match leaf.single_block() {
+                Some((b, used)) if !S::RECORDING => unsafe {
+                    self.block_any::<K, I, S>(b, used, data, ray, stats)
+                },
+                _ => unsafe { self.leaf_any_called::<K, I, S>(leaf, data, ray, stats) },
+            };
+            if hit {
+                return true;
+            }
+            // The interval's end passes through an opaque copy after each leaf, as the best
+            // hit's does in the closest-hit walk: the compiler then keeps the node test's
+            // constants in vector registers through the loop and reloads them after the
+            // leaf's call, instead of reading them from the stack at every node (measured:
+            // 49 instructions a node test before, 39 after).
+            tmax = std::hint::black_box(tmax);
             match stack.pop() {
                 None => return false,
                 Some(e) => {
@@ -300,6 +337,43 @@ impl<const W: usize> WideBvh<W> {
 }
 
 impl<const W: usize> WideBvh<W> {
+    /// Five to eight entered children (`mask`) of `node`: ordered by the network of eight,
+    /// the farther ones pushed farthest first; returns the nearest's key. Out of line: the
+    /// eight keys need more registers than the loop can spare, which it would otherwise
+    /// spill at every node, and the case is rare.
+    #[inline(never)]
+    fn push_many(
+        &self,
+        node: &WideNode<W>,
+        mask: u32,
+        entry: &[f32; W],
+        stack: &mut Stack<'_>,
+    ) -> u64 {
+        const { assert!(W <= 8) };
+        // Every lane's key, `u64::MAX` (last) where the ray misses: the array then stays in
+        // registers.
+        let keys: [u64; 8] = std::array::from_fn(|i| {
+            if i < W && mask >> i & 1 == 1 {
+                key(entry[i % W], i as u32)
+            } else {
+                u64::MAX
+            }
+        });
+        let sorted = nearest_first8(keys);
+        let n = (mask.count_ones() as usize).min(8);
+        for &k in sorted[1..n].iter().rev() {
+            let i = lane_of::<W>(k);
+            let e = Entry {
+                child: node.child[i],
+                count: node.count[i],
+                entry: entry[i],
+            };
+            self.prefetch_entry(e);
+            stack.push(e);
+        }
+        sorted[0]
+    }
+
     /// Prefetches a child as it is pushed, so its data arrives while its siblings are
     /// visited (a child visited at once gains little, and is not prefetched).
     #[inline(always)]
