@@ -18,7 +18,7 @@ mod traverse;
 pub use leaf::LeafReference;
 pub use outline::{BlasEntry, InstanceOutline, ReferenceLocator};
 pub use rebraid::Reference;
-pub use refit::TopLevelIndex;
+pub use refit::{MovedReference, TopLevelIndex};
 
 use super::bvh::wide::{CollapseParams, UnsupportedSimd};
 use super::bvh::{self, BuildError, Bvh8, Subtree};
@@ -259,21 +259,23 @@ impl TwoLevel {
     pub fn move_instance(&mut self, i: usize, transform: Affine3A) -> Result<(), MoveError> {
         let instance = self.instances.get_mut(i).ok_or(MoveError::NoInstance(i))?;
         let old = std::mem::replace(instance, Instance::new(instance.mesh, transform)?);
-        // The new boxes of the instance's references: in parallel for one opened into many.
-        let moved: Vec<(usize, Aabb)> = self
+        // The new boxes of the instance's references, and where each sits in the TLAS:
+        // in parallel for one opened into many, as each is a few reads far apart.
+        let instance = self.instances[i];
+        let moved: Vec<MovedReference> = self
             .references_of(i)
             .into_par_iter()
             .with_min_len(1024)
-            .map(|r| {
-                (
-                    r,
-                    self.references[r].world_box(&self.instances, &self.blases),
-                )
+            .map(|r| MovedReference {
+                bounds: self.references[r].world_box(&self.instances, &self.blases),
+                slot: self.top_index.slot_of(r),
+                reference: r as u32,
+                leaf_slot: self.top_index.leaf_slot_of(r).map(|k| k as u32),
             })
             .collect();
         if moved
             .iter()
-            .any(|(_, w)| !(w.min.is_finite() && w.max.is_finite()))
+            .any(|m| !(m.bounds.min.is_finite() && m.bounds.max.is_finite()))
         {
             // Moved out of range (a box beyond f32): the instance stays where it was.
             self.instances[i] = old;
@@ -282,10 +284,10 @@ impl TwoLevel {
         // An empty mesh's instance has no reference: the TLAS does not depend on it.
         refit::refit_references(&mut self.tlas, &self.top_index, &moved);
         // Its leaf slots carry its new inverse.
-        let instance = self.instances[i];
-        for &(r, _) in &moved {
-            if let Some(k) = self.top_index.leaf_slot_of(r) {
-                self.leaves[k] = LeafReference::new(&self.references[r], &instance);
+        for m in &moved {
+            if let Some(k) = m.leaf_slot {
+                let reference = &self.references[m.reference as usize];
+                self.leaves[k as usize] = LeafReference::new(reference, &instance);
             }
         }
         Ok(())

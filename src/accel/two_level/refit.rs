@@ -60,18 +60,25 @@ impl TopLevelIndex {
     }
 }
 
-/// Puts the new world boxes of the references in `moved` (reference, box) into `tlas` and
-/// widens or shrinks every box above them. `index` must have been made for `tlas`.
-pub fn refit_references(tlas: &mut Bvh8, index: &TopLevelIndex, moved: &[(usize, Aabb)]) {
+/// A moved instance's reference: its new world box, and where the TLAS holds it
+/// (`slot_of`) and its leaf slot (`leaf_slot_of`), looked up with the box.
+#[derive(Clone, Copy, Debug)]
+pub struct MovedReference {
+    pub bounds: Aabb,
+    pub slot: Option<(u32, u8)>,
+    pub reference: u32,
+    pub leaf_slot: Option<u32>,
+}
+
+/// Puts the new world boxes of the references in `moved` into `tlas` and widens or shrinks
+/// every box above them. `index` must have been made for `tlas`.
+pub fn refit_references(tlas: &mut Bvh8, index: &TopLevelIndex, moved: &[MovedReference]) {
     // One reference a leaf, as built: its box is the leaf's.
-    let leaves: Vec<((u32, u8), Aabb)> = moved
-        .iter()
-        .filter_map(|&(r, b)| Some((index.slot_of(r)?, b)))
-        .collect();
-    for &((node, lane), bounds) in &leaves {
+    let leaves = || moved.iter().filter_map(|m| Some((m.slot?, m.bounds)));
+    for ((node, lane), bounds) in leaves() {
         tlas.nodes[node as usize].set_child_bounds(lane as usize, bounds);
     }
-    if leaves.len() * FULL_PASS > tlas.nodes.len() {
+    if moved.len() * FULL_PASS > tlas.nodes.len() {
         // So many leaves moved that most nodes lie above one: one pass over every node,
         // children before parents, costs less than the paths one by one.
         // Each node's box is set in its parent's lane once its own lanes are final.
@@ -84,7 +91,7 @@ pub fn refit_references(tlas: &mut Bvh8, index: &TopLevelIndex, moved: &[(usize,
     }
     // Nodes whose boxes changed: their parents' lanes are set from them, deepest first
     // (children come after their parents, so the largest index first).
-    let mut changed: BTreeSet<u32> = leaves.iter().map(|((node, _), _)| *node).collect();
+    let mut changed: BTreeSet<u32> = leaves().map(|((node, _), _)| node).collect();
     while let Some(node) = changed.pop_last() {
         if node == 0 {
             continue;
