@@ -338,12 +338,13 @@ fn bvh_parameters(ui: &mut egui::Ui, s: &mut super::settings::Settings) {
     if s.accel == AccelKind::TwoLevel {
         ui.add(
             egui::Slider::new(&mut s.rebraid, 0.0..=MAX_REBRAID)
+                .logarithmic(true)
                 .text("re-braiding budget per instance"),
         )
         .on_hover_text(
             "the top level opens the largest instances into references to their BLAS's \
              subtrees, up to this many extra references per instance, counting at least \
-             4096 instances (0 = whole instances)",
+             40 960 instances (0 = whole instances)",
         );
     }
     ui.add(

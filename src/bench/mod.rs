@@ -579,10 +579,10 @@ impl BenchResult {
             })),
         });
         // (Set here: one more key in the macro above exceeds its recursion limit.)
-        json["overlap_penalty"] = b.overlap_penalty.into();
+        json["overlap_penalty"] = as_typed(b.overlap_penalty).into();
         // The two levels' top-level references and their budget.
         if self.params.kind == AccelKind::TwoLevel {
-            json["rebraid"] = b.rebraid.into();
+            json["rebraid"] = as_typed(b.rebraid).into();
             let references = r
                 .details
                 .iter()
@@ -610,4 +610,10 @@ impl BenchResult {
 
 fn round3(x: f64) -> f64 {
     (x * 1000.0).round() / 1000.0
+}
+
+/// A parameter as the user typed it: the f64 nearest the f32's shortest decimal (0.1, not
+/// 0.10000000149011612).
+fn as_typed(x: f32) -> f64 {
+    x.to_string().parse().unwrap_or(x as f64)
 }

@@ -125,7 +125,7 @@ pub struct BuildParams {
     pub presplit: f32,
     /// Two levels: partial re-braiding. The top level may open instances into references to
     /// their BLAS's subtrees, up to this many extra references per instance (counting at
-    /// least 4096 instances; `two_level::rebraid`). 0 turns it off: one reference per
+    /// least 40 960 instances; `two_level::rebraid`). 0 turns it off: one reference per
     /// instance.
     pub rebraid: f32,
 }
@@ -163,8 +163,8 @@ pub const MAX_SPLIT_BUDGET: f32 = 16.0;
 /// The largest overlap penalty κ the SBVH accepts.
 pub const MAX_OVERLAP_PENALTY: f32 = 16.0;
 /// The two levels' re-braiding budget by default, and at most (extra references per
-/// instance).
-pub const DEFAULT_REBRAID: f32 = 1.0;
+/// instance; `two_level::rebraid::SMALL_SCENE` says why a tenth).
+pub const DEFAULT_REBRAID: f32 = 0.1;
 pub const MAX_REBRAID: f32 = 16.0;
 
 impl BuildParams {
