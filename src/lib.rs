@@ -20,5 +20,6 @@ pub mod accel;
 pub mod app;
 pub mod bench;
 pub mod geometry;
+pub mod huge_pages;
 pub mod render;
 pub mod scene;

@@ -14,6 +14,10 @@ macro_rules! out {
 
 mod cli;
 
+/// The trees' large arrays on huge pages (`bvhlab::huge_pages`).
+#[global_allocator]
+static ALLOCATOR: bvhlab::huge_pages::HugePages = bvhlab::huge_pages::HugePages;
+
 #[derive(Parser)]
 #[command(
     name = "bvhlab",
