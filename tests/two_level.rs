@@ -1277,46 +1277,84 @@ fn rays_are_carried_into_object_space_exactly_as_the_instance_does() {
 
 #[test]
 fn packets_through_identity_instances_hit_what_single_rays_hit() {
-    // Each object of a built-in scene is an identity instance: a packet's ray entering one
-    // makes its slab and shear data from the BLAS ray, the single ray reuses the world
-    // ray's; both must be the same, signs of zero components included.
-    let scene = Scene::load("cornell").unwrap();
-    let built = structure::build_scene(
-        &scene,
-        &two_level_params(TraversalOrder::FrontToBack),
-        &Default::default(),
-    )
-    .unwrap()
-    .structure;
-    let b = scene.bounds();
-    let mut rays = tiles_of(
-        &scene,
-        b.center() + Vec3::new(0.1, 0.2, 0.9) * b.diagonal(),
-        32,
-        24,
-    );
-    // Axis-parallel rays from inside, with +0.0 and −0.0 components.
-    let c = b.center();
-    for d in [
-        Vec3::X,
-        Vec3::NEG_X,
-        Vec3::Y,
-        Vec3::NEG_Y,
-        Vec3::Z,
-        Vec3::NEG_Z,
-    ] {
-        let negative_zeros = Vec3::select(d.cmpeq(Vec3::ZERO), Vec3::splat(-0.0), d);
-        rays.push(Ray::new(c, d));
-        rays.push(Ray::new(c, negative_zeros));
+    // Each object of a built-in scene is an identity instance: a packet entering one walks
+    // on into its BLAS as a packet (the BVH8's packet walk from the reference's subtree,
+    // each ray limited by its best hit in the BLASes before), where a single ray walks it
+    // alone with the world ray's slab and shear data. Both must give the same hits, signs
+    // of zero components included, at every re-braiding budget (whole BLASes, and
+    // subtrees down to leaves), with every slab kernel, and with an intersector that has
+    // no packet form (the BLAS leaves then test ray by ray).
+    use bvhlab::geometry::MollerTrumbore;
+    use bvhlab::geometry::simd::SimdLevel;
+    for name in ["cornell", "teapot-in-stadium", "walls-rotated", "soup:3000"] {
+        let scene = Scene::load(name).unwrap();
+        let b = scene.bounds();
+        let mut rays = tiles_of(
+            &scene,
+            b.center() + Vec3::new(0.1, 0.2, 0.9) * b.diagonal(),
+            32,
+            24,
+        );
+        rays.extend(tiles_of(
+            &scene,
+            b.center() - Vec3::new(0.3, 0.05, 0.1) * b.diagonal(),
+            24,
+            16,
+        ));
+        // Axis-parallel rays from inside, with +0.0 and −0.0 components.
+        let c = b.center();
+        for d in [
+            Vec3::X,
+            Vec3::NEG_X,
+            Vec3::Y,
+            Vec3::NEG_Y,
+            Vec3::Z,
+            Vec3::NEG_Z,
+        ] {
+            let negative_zeros = Vec3::select(d.cmpeq(Vec3::ZERO), Vec3::splat(-0.0), d);
+            rays.push(Ray::new(c, d));
+            rays.push(Ray::new(c, negative_zeros));
+        }
+        for rebraid in BUDGETS {
+            let mut built = structure::build_scene(
+                &scene,
+                &rebraided(TraversalOrder::FrontToBack, rebraid),
+                &Default::default(),
+            )
+            .unwrap()
+            .structure;
+            let mut levels = vec![SimdLevel::Portable];
+            levels.extend(SimdLevel::available());
+            for level in levels {
+                built.set_simd(level).unwrap();
+                let label = format!("{name}, budget {rebraid}, {}", level.label());
+                let single: Vec<_> = rays
+                    .iter()
+                    .map(|r| built.closest_hit::<Watertight, _>(r, &mut NoStats))
+                    .collect();
+                let hits = single.iter().filter(|h| h.is_some()).count();
+                assert!(hits > rays.len() / 10, "{label}: {hits} hits");
+                let single_mt: Vec<_> = rays
+                    .iter()
+                    .map(|r| built.closest_hit::<MollerTrumbore, _>(r, &mut NoStats))
+                    .collect();
+                for chunk in [64, 13] {
+                    let mut packets = vec![None; rays.len()];
+                    let mut packets_mt = vec![None; rays.len()];
+                    for ((r, h), h_mt) in rays
+                        .chunks(chunk)
+                        .zip(packets.chunks_mut(chunk))
+                        .zip(packets_mt.chunks_mut(chunk))
+                    {
+                        built.closest_hits::<Watertight>(r, h);
+                        built.closest_hits::<MollerTrumbore>(r, h_mt);
+                    }
+                    for k in 0..rays.len() {
+                        assert_eq!(packets[k], single[k], "{label}: ray {k} {:?}", rays[k]);
+                        assert_eq!(packets_mt[k], single_mt[k], "{label}: ray {k}");
+                    }
+                }
+            }
+        }
     }
-    let single: Vec<_> = rays
-        .iter()
-        .map(|r| built.closest_hit::<Watertight, _>(r, &mut NoStats))
-        .collect();
-    assert!(single.iter().filter(|h| h.is_some()).count() > rays.len() / 10);
-    let mut packets = vec![None; rays.len()];
-    for (r, h) in rays.chunks(64).zip(packets.chunks_mut(64)) {
-        built.closest_hits::<Watertight>(r, h);
-    }
-    assert_eq!(packets, single);
 }

@@ -12,8 +12,10 @@
 //! reference's subtree) was measured on the island's view and cost more: 38 % more
 //! instructions when four or more rays entered together, and slower at every threshold up
 //! to 16 rays, as the terrain's references are small subtrees and the crowns' cards part the
-//! rays at once. A child entered by at most `HYBRID_RAYS` rays is finished ray by ray with
-//! the single-ray walk.
+//! rays at once. An identity instance's rays, though, need no carrying: the world packet is
+//! already in its space, so it walks on into the BLAS with the BVH8's packet walk (sponza's
+//! objects loaded as instances). A child entered by at most `HYBRID_RAYS` rays is finished
+//! ray by ray with the single-ray walk.
 //!
 //! The hits are exactly those of `closest_hit` ray by ray: every ray tests each box with its
 //! own slab test and enters every reference whose box it reaches before its best hit, and
@@ -23,27 +25,19 @@ use super::TwoLevel;
 use crate::accel::bvh::traverse::T_SCALE;
 use crate::accel::bvh::wide::node::INTERIOR;
 use crate::accel::bvh::wide::packet::{
-    HYBRID_RAYS, Pending, each_ray, enter_children, next_pending,
+    HYBRID_RAYS, PacketKernels, Pending, each_ray, enter_children, next_pending,
 };
 use crate::accel::bvh::wide::stack::Stack;
 use crate::accel::{BestHit, Hit, NoStats};
-use crate::geometry::simd::{
-    IntervalSlab, PACKET_RAYS, PacketSlab, RayLoad, RayPacket, TriangleKernel, WideInterval,
-    WideRay, WideSlab,
-};
+use crate::geometry::intersect::TriangleHit;
+use crate::geometry::simd::{PACKET_RAYS, PacketShear, RayPacket, WideInterval, WideRay};
 use crate::geometry::{Intersector, Ray};
 use std::mem::MaybeUninit;
 
-/// The kernels the top level's packet walk uses.
-pub(super) trait TopPacketKernels:
-    WideSlab<8> + IntervalSlab<8> + TriangleKernel + RayLoad + PacketSlab
-{
-}
+/// The kernels the packet walk of both levels uses.
+pub(super) trait TopPacketKernels: PacketKernels<8> {}
 
-impl<K> TopPacketKernels for K where
-    K: WideSlab<8> + IntervalSlab<8> + TriangleKernel + RayLoad + PacketSlab
-{
-}
+impl<K> TopPacketKernels for K where K: PacketKernels<8> {}
 
 impl TwoLevel {
     /// The closest hit of each ray of `rays` (at most `PACKET_RAYS`).
@@ -66,42 +60,70 @@ impl TwoLevel {
         // Incremented whenever some ray's limit shrinks.
         let mut found = 0u32;
         let interval = WideInterval::of_packet(&soa);
+        // Each ray's shear for the packet triangle test, made at the first identity
+        // instance the packet enters together (`None` inside: the intersector has no
+        // packet form).
+        let mut shear: Option<Option<PacketShear>> = None;
         let (mut packet_tmax, mut tmax_found) = (f32::INFINITY, u32::MAX);
         let mut storage = MaybeUninit::uninit();
         let mut stack = Stack::<Pending>::new(&mut storage);
         let mut cur = Pending::root(soa.rays);
         'walk: loop {
             if cur.rays.count_ones() <= HYBRID_RAYS || cur.child.count != INTERIOR {
-                // A leaf, or a child few rays entered: each ray on its own.
+                // A leaf's references (an identity instance's walked by the packet), or a
+                // child few rays entered: each ray on its own.
                 let mut improved = 0u64;
-                for i in each_ray(cur.rays) {
-                    let ray = &rays[i];
-                    let before = best[i].t;
-                    if cur.child.count == INTERIOR {
-                        let prepared = (&WideRay::new(ray), &I::prepare(ray));
-                        self.closest_from::<K, I, NoStats, true>(
-                            cur.child,
-                            ray,
-                            prepared,
-                            &mut best[i],
-                            &mut NoStats,
-                        );
-                    } else {
-                        // Into a leaf's references: the world ray's data only serve an
-                        // identity instance, and are made there.
-                        for k in cur.child.child..cur.child.child + cur.child.count {
-                            self.enter_closest::<K, I, NoStats, true>(
-                                k as usize,
+                if cur.child.count == INTERIOR {
+                    improved |=
+                        each_ray_alone(cur.rays, rays, &mut best, &mut soa, &|ray, best| {
+                            let prepared = (&WideRay::new(ray), &I::prepare(ray));
+                            self.closest_from::<K, I, NoStats, true>(
+                                cur.child,
                                 ray,
-                                None,
-                                &mut best[i],
+                                prepared,
+                                best,
                                 &mut NoStats,
                             );
+                        });
+                } else {
+                    for k in cur.child.child..cur.child.child + cur.child.count {
+                        let k = k as usize;
+                        if self.leaves[k].is_identity() && cur.rays.count_ones() > HYBRID_RAYS {
+                            // The world rays are the instance's: the packet walks on into
+                            // its BLAS.
+                            let shear = shear.get_or_insert_with(|| {
+                                // SAFETY: as above.
+                                I::PACKET_TEST.then(|| unsafe { PacketShear::new::<K>(&soa) })
+                            });
+                            // SAFETY: as above.
+                            improved |= unsafe {
+                                self.enter_closest_packet::<K, I>(
+                                    k,
+                                    cur.rays,
+                                    rays,
+                                    (&mut soa, shear.as_ref(), interval.as_ref()),
+                                    &mut best,
+                                )
+                            };
+                        } else {
+                            // The world ray's data only serve an identity instance, and
+                            // are made there.
+                            improved |= each_ray_alone(
+                                cur.rays,
+                                rays,
+                                &mut best,
+                                &mut soa,
+                                &|ray, best| {
+                                    self.enter_closest::<K, I, NoStats, true>(
+                                        k,
+                                        ray,
+                                        None,
+                                        best,
+                                        &mut NoStats,
+                                    );
+                                },
+                            );
                         }
-                    }
-                    if best[i].t != before {
-                        soa.tmax[i] = best[i].t * T_SCALE;
-                        improved |= 1 << i;
                     }
                 }
                 if improved != 0 {
@@ -137,4 +159,62 @@ impl TwoLevel {
             *o = b.hit();
         }
     }
+
+    /// The packet rays of `mask` into the reference in TLAS leaf slot `k`, an identity
+    /// instance's, together: the BVH8's packet walk from the reference's subtree, each ray
+    /// searching up to its best hit so far. Offers the hits to `best` under their flattened
+    /// numbers and shrinks the rays' box-test limits; returns the rays that found one.
+    ///
+    /// # Safety
+    /// The CPU supports K's instruction set.
+    #[inline(always)]
+    unsafe fn enter_closest_packet<K: TopPacketKernels, I: Intersector>(
+        &self,
+        k: usize,
+        mask: u64,
+        rays: &[Ray],
+        (soa, shear, interval): (&mut RayPacket, Option<&PacketShear>, Option<&WideInterval>),
+        best: &mut [BestHit; PACKET_RAYS],
+    ) -> u64 {
+        let leaf = &self.leaves[k];
+        let blas = &self.blases[leaf.blas as usize];
+        let limit = std::array::from_fn(|i| best[i].limit);
+        // SAFETY: the caller guarantees K's instruction set.
+        let found = unsafe {
+            blas.closest_packet_from::<K, I>(leaf.subtree, mask, rays, soa, shear, interval, &limit)
+        };
+        let first = self.first_triangle[leaf.instance() as usize];
+        for i in each_ray(found.found) {
+            let hit = TriangleHit {
+                t: found.t[i],
+                u: found.u[i],
+                v: found.v[i],
+            };
+            best[i].offer(hit, first + u64::from(found.triangle[i]));
+            soa.tmax[i] = best[i].t * T_SCALE;
+        }
+        found.found
+    }
+}
+
+/// Each ray of `mask` on its own (`walk`), from its best hit so far; its box-test limit
+/// follows a closer hit. Returns the rays that found one.
+#[inline(always)]
+fn each_ray_alone(
+    mask: u64,
+    rays: &[Ray],
+    best: &mut [BestHit; PACKET_RAYS],
+    soa: &mut RayPacket,
+    walk: &impl Fn(&Ray, &mut BestHit),
+) -> u64 {
+    let mut improved = 0;
+    for i in each_ray(mask) {
+        let before = best[i].t;
+        walk(&rays[i], &mut best[i]);
+        if best[i].t != before {
+            soa.tmax[i] = best[i].t * T_SCALE;
+            improved |= 1 << i;
+        }
+    }
+    improved
 }

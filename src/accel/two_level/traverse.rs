@@ -22,9 +22,33 @@ use crate::accel::stats::{count_locally, record};
 use crate::accel::{Accel, BestHit, Hit, Stats, TraversalOrder};
 use crate::geometry::intersect::TriangleHit;
 use crate::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab};
-use crate::geometry::simd::{PACKET_RAYS, SimdLevel, TriangleKernel, WideRay};
+use crate::geometry::simd::{PACKET_RAYS, SimdLevel, TriangleKernel, WideRay, prefetch};
 use crate::geometry::{Intersector, Ray};
 use std::mem::MaybeUninit;
+
+/// Starts loading the first node of a reference's subtree (its four lines) or its leaf's
+/// first triangle block while the ray is carried into the instance's space: a BLAS walk
+/// begins with a cache miss, as the references a ray enters lie far apart.
+#[inline(always)]
+fn prefetch_subtree(blas: &crate::accel::bvh::Bvh8, start: crate::accel::bvh::Subtree) {
+    const LINE: usize = 64;
+    if start.is_leaf() {
+        let block = start.child as usize / crate::geometry::simd::BLOCK;
+        let p = blas.blocks.as_ptr().wrapping_add(block).cast::<u8>();
+        prefetch(p);
+        prefetch(p.wrapping_add(LINE));
+        prefetch(p.wrapping_add(std::mem::size_of::<crate::geometry::simd::TriangleBlock>() - 1));
+    } else {
+        let p = blas
+            .nodes
+            .as_ptr()
+            .wrapping_add(start.child as usize)
+            .cast::<u8>();
+        for line in 0..std::mem::size_of::<crate::accel::bvh::wide::WideNode<8>>() / LINE {
+            prefetch(p.wrapping_add(line * LINE));
+        }
+    }
+}
 
 impl TwoLevel {
     /// Walks the subtree of the reference in TLAS leaf slot `k` with the world ray `ray`,
@@ -54,6 +78,7 @@ impl TwoLevel {
         record(stats, || Step::Instance { instance: i });
         let blas = &self.blases[leaf.blas as usize];
         let start = leaf.subtree;
+        prefetch_subtree(blas, start);
         let local = Ray {
             tmax: best.limit,
             ..match leaf.is_identity() {
@@ -96,6 +121,7 @@ impl TwoLevel {
         record(stats, || Step::Instance { instance: i });
         let blas = &self.blases[leaf.blas as usize];
         let start = leaf.subtree;
+        prefetch_subtree(blas, start);
         if leaf.is_identity() {
             return blas.occluded_prepared::<K, I, S>(start, ray, wray, data, stats);
         }

@@ -24,10 +24,10 @@
 //! lane the same operations), and of hits at equal distances the lowest triangle index wins
 //! (`BestHit`), so the order of the visit does not matter.
 
-use super::WideBvh;
 use super::leaf::Leaf;
 use super::node::{INTERIOR, WideNode};
 use super::stack::{Entry, Stack};
+use super::{Subtree, WideBvh};
 use crate::accel::bvh::traverse::T_SCALE;
 use crate::accel::{BestHit, Hit, NoStats};
 use crate::geometry::intersect::TriangleHit;
@@ -203,10 +203,10 @@ struct Packet<'a> {
     rays: &'a [Ray],
     /// The rays as arrays, with each ray's box-test limit: its best distance widened by
     /// the rounding of the box test.
-    soa: RayPacket,
+    soa: &'a mut RayPacket,
     best: PacketBest,
     /// Each ray's shear, when the intersector is the watertight test.
-    shear: Option<PacketShear>,
+    shear: Option<&'a PacketShear>,
     /// The last triangle's answers left to one-ray-at-a-time decisions.
     hits: PacketHits,
     /// Incremented whenever some ray's limit shrinks.
@@ -216,7 +216,12 @@ struct Packet<'a> {
 impl Packet<'_> {
     /// Ray `i`'s best hit as `BestHit` keeps it (for the single-ray code).
     fn best_hit(&self, i: usize) -> BestHit {
-        let mut b = BestHit::new(&self.rays[i]);
+        // Before a hit here the ray ends at its limit: its tmax, or, under the two levels,
+        // just past its best hit in the BLASes walked before this one.
+        let mut b = BestHit::new(&Ray {
+            tmax: self.best.limit[i],
+            ..self.rays[i]
+        });
         if self.best.found >> i & 1 == 1 {
             let h = TriangleHit {
                 t: self.best.t[i],
@@ -269,27 +274,99 @@ impl<const W: usize> WideBvh<W> {
         let rays = &rays[..n];
         // SAFETY: a tree only selects a kernel its CPU supports (`set_simd`), and the entry
         // points are compiled for it.
-        let (soa, shear) = unsafe {
+        let (mut soa, shear) = unsafe {
             let soa = RayPacket::load::<K>(rays, T_SCALE);
             // The watertight test has a form that tests one triangle against many rays.
             let shear = I::PACKET_TEST.then(|| PacketShear::new::<K>(&soa));
             (soa, shear)
         };
+        // Rays from one origin into one octant: the interval test culls children first.
+        let interval = WideInterval::of_packet(&soa);
+        let mut p = Packet {
+            rays,
+            shear: shear.as_ref(),
+            best: PacketBest::new(&soa),
+            soa: &mut soa,
+            hits: PacketHits::default(),
+            found: 0,
+        };
+        let root = Pending::root(p.soa.rays);
+        // SAFETY: as above.
+        unsafe { self.walk::<K, I>(root, &mut p, interval.as_ref()) };
+        let best = &p.best;
+        for (i, o) in out[..n].iter_mut().enumerate() {
+            *o = (best.found >> i & 1 == 1).then(|| Hit {
+                t: best.t[i],
+                u: best.u[i],
+                v: best.v[i],
+                triangle: best.triangle[i].into(),
+            });
+        }
+    }
+
+    /// The closest hits in subtree `start` of the packet rays of `mask`, rays already in
+    /// this tree's space (under the two levels, an identity instance's BLAS), each searched
+    /// up to its own `limit` (exclusive, as `BestHit::limit`). The rays' box-test limits in
+    /// `soa` shrink with the hits found. Returns the hits found here, numbered as in this
+    /// tree; `found` marks the rays that have one.
+    ///
+    /// # Safety
+    /// The CPU supports K's instruction set.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) unsafe fn closest_packet_from<K: PacketKernels<W>, I: Intersector>(
+        &self,
+        start: Subtree,
+        mask: u64,
+        rays: &[Ray],
+        soa: &mut RayPacket,
+        shear: Option<&PacketShear>,
+        interval: Option<&WideInterval>,
+        limit: &[f32; PACKET_RAYS],
+    ) -> PacketBest {
         let mut p = Packet {
             rays,
             shear,
-            best: PacketBest::new(&soa),
+            best: PacketBest {
+                t: *limit,
+                limit: *limit,
+                ..PacketBest::new(soa)
+            },
             soa,
             hits: PacketHits::default(),
             found: 0,
         };
-        // Rays from one origin into one octant: the interval test culls children first.
-        let interval = WideInterval::of_packet(&p.soa);
+        let start = Pending {
+            child: Entry {
+                child: start.child,
+                count: start.count,
+                entry: f32::NEG_INFINITY,
+            },
+            ..Pending::root(mask)
+        };
+        // SAFETY: the caller guarantees K's instruction set.
+        unsafe { self.walk::<K, I>(start, &mut p, interval) };
+        p.best
+    }
+
+    /// The packet's walk from `start` until no child is left that a ray enters before its
+    /// best hit.
+    ///
+    /// # Safety
+    /// The CPU supports K's instruction set.
+    #[inline(always)]
+    unsafe fn walk<K: PacketKernels<W>, I: Intersector>(
+        &self,
+        start: Pending,
+        p: &mut Packet<'_>,
+        interval: Option<&WideInterval>,
+    ) {
+        let rays = p.rays;
         // The largest box-test limit of the packet, and the hit count it was taken at.
         let (mut packet_tmax, mut tmax_found) = (f32::INFINITY, u32::MAX);
         let mut storage = MaybeUninit::uninit();
         let mut stack = Stack::<Pending>::new(&mut storage);
-        let mut cur = Pending::root(p.soa.rays);
+        let mut cur = start;
         'walk: loop {
             if cur.rays.count_ones() <= HYBRID_RAYS {
                 for i in each_ray(cur.rays) {
@@ -308,7 +385,7 @@ impl<const W: usize> WideBvh<W> {
             } else if cur.child.count == INTERIOR {
                 let index = cur.child.child as usize;
                 let node = &self.nodes[index];
-                let cull = interval.as_ref().map(|iv| {
+                let cull = interval.map(|iv| {
                     if tmax_found != p.found {
                         packet_tmax = p.soa.largest_tmax();
                         tmax_found = p.found;
@@ -318,7 +395,7 @@ impl<const W: usize> WideBvh<W> {
                 // SAFETY: a tree only selects a kernel its CPU supports (`set_simd`), and the
                 // entry points are compiled for it.
                 let nearest = unsafe {
-                    enter_children::<K, W>(node, index, &p.soa, cur.rays, cull, p.found, &mut stack)
+                    enter_children::<K, W>(node, index, p.soa, cur.rays, cull, p.found, &mut stack)
                 };
                 if let Some(nearest) = nearest {
                     cur = nearest;
@@ -331,7 +408,7 @@ impl<const W: usize> WideBvh<W> {
                 };
                 if p.shear.is_some() {
                     // SAFETY: as above.
-                    unsafe { self.leaf_packet::<K, I>(leaf, cur.rays, &mut p) };
+                    unsafe { self.leaf_packet::<K, I>(leaf, cur.rays, p) };
                 } else {
                     for i in each_ray(cur.rays) {
                         let ray = &rays[i];
@@ -352,19 +429,10 @@ impl<const W: usize> WideBvh<W> {
             }
             // The next child some ray still enters before its best hit.
             // SAFETY: as above.
-            match unsafe { next_pending::<K, W>(&self.nodes, &p.soa, p.found, &mut stack) } {
+            match unsafe { next_pending::<K, W>(&self.nodes, p.soa, p.found, &mut stack) } {
                 Some(next) => cur = next,
                 None => break 'walk,
             }
-        }
-        let best = &p.best;
-        for (i, o) in out[..n].iter_mut().enumerate() {
-            *o = (best.found >> i & 1 == 1).then(|| Hit {
-                t: best.t[i],
-                u: best.u[i],
-                v: best.v[i],
-                triangle: best.triangle[i].into(),
-            });
         }
     }
 
@@ -380,7 +448,7 @@ impl<const W: usize> WideBvh<W> {
         rays: u64,
         p: &mut Packet<'_>,
     ) {
-        let Some(shear) = &p.shear else { return };
+        let Some(shear) = p.shear else { return };
         let mut improved = 0;
         for (b, used) in leaf.blocks() {
             let block = &self.blocks[b];
@@ -403,7 +471,7 @@ impl<const W: usize> WideBvh<W> {
                             index,
                             kz,
                             shear,
-                            &p.soa,
+                            p.soa,
                             &mut p.best,
                             active,
                             &mut p.hits,
