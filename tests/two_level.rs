@@ -1140,6 +1140,29 @@ fn sponza_as_instances_hits_what_the_flattened_bvh8_hits() {
     }
 }
 
+/// The two levels over `scene` at every re-braiding budget, with every slab kernel.
+fn each_configuration(
+    scene: &Scene,
+    mut f: impl FnMut(f32, bvhlab::geometry::simd::SimdLevel, &Structure),
+) {
+    use bvhlab::geometry::simd::SimdLevel;
+    for rebraid in BUDGETS {
+        let mut built = structure::build_scene(
+            scene,
+            &rebraided(TraversalOrder::FrontToBack, rebraid),
+            &Default::default(),
+        )
+        .unwrap()
+        .structure;
+        let mut levels = vec![SimdLevel::Portable];
+        levels.extend(SimdLevel::available());
+        for level in levels {
+            built.set_simd(level).unwrap();
+            f(rebraid, level, &built);
+        }
+    }
+}
+
 /// 8 × 8 tiles of a camera's rays, as the renderer sends them: one origin per packet.
 fn tiles_of(scene: &Scene, eye: Vec3, w: u32, h: u32) -> Vec<Ray> {
     let rays = bvhlab::scene::Camera::new(eye, scene.bounds().center()).rays(w, h);
@@ -1161,7 +1184,6 @@ fn tiles_of(scene: &Scene, eye: Vec3, w: u32, h: u32) -> Vec<Ray> {
 /// at every re-braiding budget and with every slab kernel, packets cut short included.
 #[test]
 fn packets_of_the_two_levels_hit_what_single_rays_hit() {
-    use bvhlab::geometry::simd::SimdLevel;
     let scene = instanced_scene(60, 61);
     let b = scene.bounds();
     let mut sets = vec![
@@ -1180,44 +1202,32 @@ fn packets_of_the_two_levels_hit_what_single_rays_hit() {
         common::rays(&b, 1000, 62),
     ];
     sets.push(rays_at_triangles(&scene, 500, 63));
-    for rebraid in BUDGETS {
-        let mut built = structure::build_scene(
-            &scene,
-            &rebraided(TraversalOrder::FrontToBack, rebraid),
-            &Default::default(),
-        )
-        .unwrap()
-        .structure;
-        let mut levels = vec![SimdLevel::Portable];
-        levels.extend(SimdLevel::available());
-        for level in levels {
-            built.set_simd(level).unwrap();
-            for rays in &sets {
-                let single: Vec<_> = rays
-                    .iter()
-                    .map(|r| built.closest_hit::<Watertight, _>(r, &mut NoStats))
-                    .collect();
-                let hits = single.iter().filter(|h| h.is_some()).count();
-                assert!(hits > rays.len() / 10, "{hits} of {}", rays.len());
-                // Whole packets, and packets of 13 rays (a packet shorter than 64).
-                for chunk in [64, 13] {
-                    let mut packets = vec![None; rays.len()];
-                    for (r, h) in rays.chunks(chunk).zip(packets.chunks_mut(chunk)) {
-                        built.closest_hits::<Watertight>(r, h);
-                    }
-                    for (k, (p, s)) in packets.iter().zip(&single).enumerate() {
-                        assert_eq!(
-                            p,
-                            s,
-                            "ray {k} {:?}, budget {rebraid}, {}",
-                            rays[k],
-                            level.label()
-                        );
-                    }
+    each_configuration(&scene, |rebraid, level, built| {
+        for rays in &sets {
+            let single: Vec<_> = rays
+                .iter()
+                .map(|r| built.closest_hit::<Watertight, _>(r, &mut NoStats))
+                .collect();
+            let hits = single.iter().filter(|h| h.is_some()).count();
+            assert!(hits > rays.len() / 10, "{hits} of {}", rays.len());
+            // Whole packets, and packets of 13 rays (a packet shorter than 64).
+            for chunk in [64, 13] {
+                let mut packets = vec![None; rays.len()];
+                for (r, h) in rays.chunks(chunk).zip(packets.chunks_mut(chunk)) {
+                    built.closest_hits::<Watertight>(r, h);
+                }
+                for (k, (p, s)) in packets.iter().zip(&single).enumerate() {
+                    assert_eq!(
+                        p,
+                        s,
+                        "ray {k} {:?}, budget {rebraid}, {}",
+                        rays[k],
+                        level.label()
+                    );
                 }
             }
         }
-    }
+    });
 }
 
 #[test]
@@ -1285,7 +1295,6 @@ fn packets_through_identity_instances_hit_what_single_rays_hit() {
     // subtrees down to leaves), with every slab kernel, and with an intersector that has
     // no packet form (the BLAS leaves then test ray by ray).
     use bvhlab::geometry::MollerTrumbore;
-    use bvhlab::geometry::simd::SimdLevel;
     for name in ["cornell", "teapot-in-stadium", "walls-rotated", "soup:3000"] {
         let scene = Scene::load(name).unwrap();
         let b = scene.bounds();
@@ -1315,46 +1324,34 @@ fn packets_through_identity_instances_hit_what_single_rays_hit() {
             rays.push(Ray::new(c, d));
             rays.push(Ray::new(c, negative_zeros));
         }
-        for rebraid in BUDGETS {
-            let mut built = structure::build_scene(
-                &scene,
-                &rebraided(TraversalOrder::FrontToBack, rebraid),
-                &Default::default(),
-            )
-            .unwrap()
-            .structure;
-            let mut levels = vec![SimdLevel::Portable];
-            levels.extend(SimdLevel::available());
-            for level in levels {
-                built.set_simd(level).unwrap();
-                let label = format!("{name}, budget {rebraid}, {}", level.label());
-                let single: Vec<_> = rays
-                    .iter()
-                    .map(|r| built.closest_hit::<Watertight, _>(r, &mut NoStats))
-                    .collect();
-                let hits = single.iter().filter(|h| h.is_some()).count();
-                assert!(hits > rays.len() / 10, "{label}: {hits} hits");
-                let single_mt: Vec<_> = rays
-                    .iter()
-                    .map(|r| built.closest_hit::<MollerTrumbore, _>(r, &mut NoStats))
-                    .collect();
-                for chunk in [64, 13] {
-                    let mut packets = vec![None; rays.len()];
-                    let mut packets_mt = vec![None; rays.len()];
-                    for ((r, h), h_mt) in rays
-                        .chunks(chunk)
-                        .zip(packets.chunks_mut(chunk))
-                        .zip(packets_mt.chunks_mut(chunk))
-                    {
-                        built.closest_hits::<Watertight>(r, h);
-                        built.closest_hits::<MollerTrumbore>(r, h_mt);
-                    }
-                    for k in 0..rays.len() {
-                        assert_eq!(packets[k], single[k], "{label}: ray {k} {:?}", rays[k]);
-                        assert_eq!(packets_mt[k], single_mt[k], "{label}: ray {k}");
-                    }
+        each_configuration(&scene, |rebraid, level, built| {
+            let label = format!("{name}, budget {rebraid}, {}", level.label());
+            let single: Vec<_> = rays
+                .iter()
+                .map(|r| built.closest_hit::<Watertight, _>(r, &mut NoStats))
+                .collect();
+            let hits = single.iter().filter(|h| h.is_some()).count();
+            assert!(hits > rays.len() / 10, "{label}: {hits} hits");
+            let single_mt: Vec<_> = rays
+                .iter()
+                .map(|r| built.closest_hit::<MollerTrumbore, _>(r, &mut NoStats))
+                .collect();
+            for chunk in [64, 13] {
+                let mut packets = vec![None; rays.len()];
+                let mut packets_mt = vec![None; rays.len()];
+                for ((r, h), h_mt) in rays
+                    .chunks(chunk)
+                    .zip(packets.chunks_mut(chunk))
+                    .zip(packets_mt.chunks_mut(chunk))
+                {
+                    built.closest_hits::<Watertight>(r, h);
+                    built.closest_hits::<MollerTrumbore>(r, h_mt);
+                }
+                for k in 0..rays.len() {
+                    assert_eq!(packets[k], single[k], "{label}: ray {k} {:?}", rays[k]);
+                    assert_eq!(packets_mt[k], single_mt[k], "{label}: ray {k}");
                 }
             }
-        }
+        });
     }
 }
