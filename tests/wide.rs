@@ -7,7 +7,7 @@
 
 mod common;
 
-use bvhlab::accel::bvh::wide::CollapseParams;
+use bvhlab::accel::bvh::wide::{CollapseParams, LaneKind, Lanes, NodeWidth};
 use bvhlab::accel::bvh::{self, BuildParams, Bvh, Strategy, TraversalOrder, WideBvh};
 use bvhlab::accel::{Accel, Counters, Hit, NoStats};
 use bvhlab::geometry::aabb::{SlabRay, slab_entry};
@@ -35,6 +35,7 @@ fn bvh2(tris: &[Triangle], strategy: Strategy) -> Bvh {
 /// Every kernel and order of a W-wide collapse of `b2` against `b2` itself.
 fn assert_wide_equals_bvh2<const W: usize>(b2: &Bvh, rays: &[Ray], what: &str)
 where
+    Lanes<W>: NodeWidth,
     WideBvh<W>: Accel,
 {
     let mut wide = WideBvh::<W>::collapse(b2, &CollapseParams::default());
@@ -103,6 +104,7 @@ fn wide_trees_equal_the_bvh2_on_every_builtin_scene() {
 /// the any-hit walk) and leaves over more blocks (the loop over blocks).
 fn assert_segments_agree<const W: usize>(b2: &Bvh, rays: &[Ray], what: &str)
 where
+    Lanes<W>: NodeWidth,
     WideBvh<W>: Accel,
 {
     // Steps that cost more than triangle tests make larger leaves.
@@ -114,7 +116,7 @@ where
     let leaves = wide.nodes.iter().flat_map(|n| {
         (0..n.child_count())
             .filter(|&l| !n.is_interior(l))
-            .map(|l| (n.child[l] as usize, n.count[l] as usize))
+            .map(|l| (n.child[l].index() as usize, n.leaf_count(l) as usize))
     });
     let (one, more): (Vec<_>, Vec<_>) =
         leaves.partition(|&(first, count)| first % BLOCK + count <= BLOCK);
@@ -568,6 +570,7 @@ fn refit_then_trace_equals_rebuild_then_trace() {
     use bvhlab::accel::bvh::refit::RefitIndex;
     fn check<const W: usize>(seed: u64)
     where
+        Lanes<W>: NodeWidth,
         WideBvh<W>: Accel,
     {
         let mut rng = Rng::new(seed);
@@ -622,7 +625,10 @@ fn refit_then_trace_equals_rebuild_then_trace() {
 #[test]
 fn parallel_refit_is_exact() {
     use bvhlab::accel::bvh::refit::RefitIndex;
-    fn check<const W: usize>(seed: u64) {
+    fn check<const W: usize>(seed: u64)
+    where
+        Lanes<W>: NodeWidth,
+    {
         let mut tris = soup(50_000, seed);
         let b2 = bvh2(&tris, Strategy::SahBinned);
         let mut full = WideBvh::<W>::collapse(&b2, &CollapseParams::default());
@@ -670,6 +676,7 @@ fn parallel_refit_is_exact() {
 fn wide_packets_equal_single_rays() {
     fn check<const W: usize>(b2: &Bvh, rays: &[Ray], what: &str)
     where
+        Lanes<W>: NodeWidth,
         WideBvh<W>: Accel,
     {
         let mut wide = WideBvh::<W>::collapse(b2, &CollapseParams::default());
@@ -712,7 +719,10 @@ fn wide_packets_equal_single_rays() {
 #[test]
 fn partial_refits_report_the_sah_cost_of_the_tree() {
     use bvhlab::accel::bvh::refit::RefitIndex;
-    fn check<const W: usize>(seed: u64) {
+    fn check<const W: usize>(seed: u64)
+    where
+        Lanes<W>: NodeWidth,
+    {
         let mut tris = soup(5_000, seed);
         let b2 = bvh2(&tris, Strategy::SahBinned);
         let mut tree = WideBvh::<W>::collapse(&b2, &CollapseParams::default());
@@ -751,8 +761,14 @@ fn partial_refits_report_the_sah_cost_of_the_tree() {
 }
 
 /// FNV-1a over a wide tree's nodes (boxes, children, counts), leaf blocks, slots and depth:
-/// any change to the tree changes it.
-fn fingerprint<const W: usize>(w: &WideBvh<W>) -> u64 {
+/// any change to the tree changes it. Each node's lanes are read through their kind and
+/// hashed as the rows of the unpacked layout held them (a row of children, node indices or
+/// first slots, then a row of counts, `u32::MAX` for an interior child, 0 for an unused
+/// lane), so the recorded values name the same trees whatever the lanes' packing.
+fn fingerprint<const W: usize>(w: &WideBvh<W>) -> u64
+where
+    Lanes<W>: NodeWidth,
+{
     let mut h = 0xcbf2_9ce4_8422_2325u64;
     let mut eat = |x: u32| {
         for b in x.to_le_bytes() {
@@ -761,7 +777,13 @@ fn fingerprint<const W: usize>(w: &WideBvh<W>) -> u64 {
     };
     for n in &w.nodes {
         n.bounds.iter().flatten().for_each(|x| eat(x.to_bits()));
-        n.child.iter().chain(&n.count).for_each(|&x| eat(x));
+        let unpacked = |l: usize| match n.lane_kind(l) {
+            LaneKind::Unused => (0, 0),
+            LaneKind::Interior(c) => (c, u32::MAX),
+            LaneKind::Leaf { first, count } => (first, count),
+        };
+        (0..W).for_each(|l| eat(unpacked(l).0));
+        (0..W).for_each(|l| eat(unpacked(l).1));
     }
     for b in &w.blocks {
         b.v.iter()

@@ -21,7 +21,6 @@
 
 use super::TwoLevel;
 use crate::accel::bvh::traverse::T_SCALE;
-use crate::accel::bvh::wide::node::INTERIOR;
 use crate::accel::bvh::wide::packet::{
     HYBRID_RAYS, Pending, each_ray, enter_children, next_pending,
 };
@@ -71,13 +70,13 @@ impl TwoLevel {
         let mut stack = Stack::<Pending>::new(&mut storage);
         let mut cur = Pending::root(soa.rays);
         'walk: loop {
-            if cur.rays.count_ones() <= HYBRID_RAYS || cur.child.count != INTERIOR {
+            if cur.rays.count_ones() <= HYBRID_RAYS || cur.child.child.is_leaf() {
                 // A leaf, or a child few rays entered: each ray on its own.
                 let mut improved = 0u64;
                 for i in each_ray(cur.rays) {
                     let ray = &rays[i];
                     let before = best[i].t;
-                    if cur.child.count == INTERIOR {
+                    if !cur.child.child.is_leaf() {
                         let prepared = (&WideRay::new(ray), &I::prepare(ray));
                         self.closest_from::<K, I, NoStats, true>(
                             cur.child,
@@ -89,7 +88,7 @@ impl TwoLevel {
                     } else {
                         // Into a leaf's references: the world ray's data only serve an
                         // identity instance, and are made there.
-                        for k in cur.child.child..cur.child.child + cur.child.count {
+                        for k in cur.child.child.slots() {
                             self.enter_closest::<K, I, NoStats, true>(
                                 k as usize,
                                 ray,
@@ -108,7 +107,7 @@ impl TwoLevel {
                     found += 1;
                 }
             } else {
-                let index = cur.child.child as usize;
+                let index = cur.child.child.node_index();
                 let node = &self.tlas.nodes[index];
                 let cull = interval.as_ref().map(|iv| {
                     if tmax_found != found {

@@ -15,7 +15,7 @@
 
 use super::TwoLevel;
 use crate::accel::bvh::traverse::T_SCALE;
-use crate::accel::bvh::wide::node::INTERIOR;
+use crate::accel::bvh::wide::node::Subtree;
 use crate::accel::bvh::wide::stack::{Entry, Stack};
 use crate::accel::replay::{Level, Order, Step};
 use crate::accel::stats::{count_locally, record};
@@ -119,8 +119,7 @@ impl TwoLevel {
         let data = I::prepare(ray);
         let mut best = BestHit::new(ray);
         let root = Entry {
-            child: 0,
-            count: INTERIOR,
+            child: Subtree::ROOT,
             entry: ray.tmin,
         };
         self.closest_from::<K, I, S, ORDERED>(root, ray, (&wray, &data), &mut best, stats);
@@ -151,11 +150,9 @@ impl TwoLevel {
         let mut cur = start;
         loop {
             stats.top_node_visit();
-            record(stats, || {
-                tlas.visit_step_at(cur.child, cur.count, Level::Top)
-            });
-            if cur.count != INTERIOR {
-                for k in cur.child..cur.child + cur.count {
+            record(stats, || tlas.visit_step_at(cur.child, Level::Top));
+            if cur.child.is_leaf() {
+                for k in cur.child.slots() {
                     self.enter_closest::<K, I, S, ORDERED>(
                         k as usize,
                         ray,
@@ -166,7 +163,7 @@ impl TwoLevel {
                 }
                 box_tmax = best.t * T_SCALE;
             } else {
-                let node = &tlas.nodes[cur.child as usize];
+                let node = &tlas.nodes[cur.child.node_index()];
                 if S::COUNTING {
                     stats.top_box_tests(node.child_count() as u32);
                 }
@@ -182,7 +179,6 @@ impl TwoLevel {
                 record(stats, || tlas.children_step(cur.child, mask, &entry, order));
                 let lane = |i: u32| Entry {
                     child: node.child[i as usize],
-                    count: node.count[i as usize],
                     entry: entry[i as usize],
                 };
                 if mask != 0 && mask & (mask - 1) == 0 {
@@ -242,23 +238,20 @@ impl TwoLevel {
         let mut stack = Stack::new(&mut storage);
         let mut entry = [0.0f32; 8];
         let mut cur = Entry {
-            child: 0,
-            count: INTERIOR,
+            child: Subtree::ROOT,
             entry: ray.tmin,
         };
         loop {
             stats.top_node_visit();
-            record(stats, || {
-                tlas.visit_step_at(cur.child, cur.count, Level::Top)
-            });
-            if cur.count != INTERIOR {
-                for k in cur.child..cur.child + cur.count {
+            record(stats, || tlas.visit_step_at(cur.child, Level::Top));
+            if cur.child.is_leaf() {
+                for k in cur.child.slots() {
                     if self.enter_any::<K, I, S>(k as usize, ray, (&wray, &data), stats) {
                         return true;
                     }
                 }
             } else {
-                let node = &tlas.nodes[cur.child as usize];
+                let node = &tlas.nodes[cur.child.node_index()];
                 if S::COUNTING {
                     stats.top_box_tests(node.child_count() as u32);
                 }
@@ -273,7 +266,6 @@ impl TwoLevel {
                     mask &= mask - 1;
                     stack.push(Entry {
                         child: node.child[j],
-                        count: node.count[j],
                         entry: entry[j],
                     });
                 }
