@@ -172,6 +172,61 @@ fn any_hit_of_segments_equals_the_bvh2s_in_every_kind_of_leaf() {
     }
 }
 
+/// BVH2 leaves larger than a lane holds (`--max-leaf` above `MAX_LEAF_COUNT`, up to the
+/// largest a build allows) become subtrees of leaves of at most `MAX_LEAF_COUNT`: the tree
+/// validates, no lane holds more, and every kernel and order gives the BVH2's hits bit for
+/// bit, the walks through a leaf's subtree included; a refit keeps them.
+#[test]
+fn leaves_larger_than_a_lane_holds_become_subtrees_of_leaves() {
+    use bvhlab::accel::bvh::wide::node::MAX_LEAF_COUNT;
+    for (spec, max_leaf) in [("soup:3000", 64), ("sphere:6000", 500), ("same-centroid:3000", 4096)] {
+        let scene = Scene::load(spec).unwrap();
+        let tris = &scene.triangles;
+        let params = BuildParams {
+            max_leaf_size: max_leaf,
+            // Steps far dearer than triangle tests: the build keeps leaves as large as it may.
+            c_trav: 1000.0,
+            ..BuildParams::with_strategy(Strategy::SahBinned)
+        };
+        let b2 = bvh::build(tris, &params).expect("build").0;
+        let largest = b2.nodes.iter().filter(|n| n.is_leaf()).map(|n| n.count).max();
+        assert!(largest > Some(MAX_LEAF_COUNT), "{spec}: leaves of {largest:?}");
+        let mut rays = rays(&bounds(tris), 1500, 11);
+        rays.extend(view_rays(&scene, 24, 18));
+        assert_wide_equals_bvh2::<4>(&b2, &rays, spec);
+        assert_wide_equals_bvh2::<8>(&b2, &rays, spec);
+        fn lanes_fit<const W: usize>(b2: &Bvh, max_leaf: u32, spec: &str)
+        where
+            Lanes<W>: NodeWidth,
+        {
+            let p = CollapseParams {
+                max_leaf_size: max_leaf,
+                ..CollapseParams::default()
+            };
+            let mut wide = WideBvh::<W>::collapse(b2, &p);
+            wide.validate().unwrap_or_else(|e| panic!("{spec} BVH{W}: {e}"));
+            let counts = wide.nodes.iter().flat_map(|n| n.child.iter().map(|c| c.count()));
+            assert!(counts.clone().all(|c| c <= MAX_LEAF_COUNT), "{spec} BVH{W}");
+            assert!(counts.clone().any(|c| c > 8), "{spec} BVH{W}: no leaf past 8");
+            let before = wide.sah_cost(1.0, 1.0);
+            wide.refit(&b2_scene(b2), 1.0, 1.0).unwrap();
+            wide.validate().unwrap_or_else(|e| panic!("{spec} BVH{W} refit: {e}"));
+            assert_eq!(wide.sah_cost(1.0, 1.0), before, "{spec} BVH{W}: refit moved a box");
+        }
+        lanes_fit::<4>(&b2, max_leaf, spec);
+        lanes_fit::<8>(&b2, max_leaf, spec);
+    }
+}
+
+/// The scene triangles a BVH2 was built over, in scene order (from its leaf-order copies).
+fn b2_scene(b2: &Bvh) -> Vec<Triangle> {
+    let mut scene = vec![Triangle::new(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO); b2.triangle_count];
+    for (t, &i) in b2.triangles.iter().zip(&b2.prim_indices) {
+        scene[i as usize] = *t;
+    }
+    scene
+}
+
 #[test]
 fn wide_trees_survive_degenerate_inputs() {
     for (what, tris) in degenerate_cases() {

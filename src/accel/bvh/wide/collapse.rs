@@ -479,6 +479,25 @@ mod tests {
         }
     }
 
+    /// A BVH2 of more references than the lanes' indices can address is refused with an
+    /// error, before any node is laid out (the references here are zeros the allocator
+    /// hands out untouched, so the test costs no memory traffic).
+    #[test]
+    fn a_tree_past_the_lane_indices_is_an_error() {
+        let scene = builtin::by_name("soup:100").unwrap().unwrap();
+        let (mut b2, _) = bvh::build(&scene.triangles, &BuildParams::default()).unwrap();
+        for n in [MAX_REFERENCES + 1, 4 * MAX_REFERENCES] {
+            b2.prim_indices = vec![0; n];
+            let got = WideBvh::<8>::collapse_timed(&b2, &CollapseParams::default());
+            assert_eq!(got.err(), Some(BuildError::TooManyForWide(n)));
+            let got = WideBvh::<4>::collapse_timed(&b2, &CollapseParams::default());
+            let message = got.err().unwrap().to_string();
+            assert!(message.contains(&MAX_REFERENCES.to_string()), "{message}");
+        }
+        // The largest slot and node index such a tree could need still fits a lane.
+        assert!(4 * MAX_REFERENCES - 1 <= MAX_INDEX as usize);
+    }
+
     /// Laying the tree out in parts, at any cut, gives the tree laid out in one piece: the
     /// same nodes, boxes and leaves, only stored in another order.
     #[test]
