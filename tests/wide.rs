@@ -179,7 +179,11 @@ fn any_hit_of_segments_equals_the_bvh2s_in_every_kind_of_leaf() {
 #[test]
 fn leaves_larger_than_a_lane_holds_become_subtrees_of_leaves() {
     use bvhlab::accel::bvh::wide::node::MAX_LEAF_COUNT;
-    for (spec, max_leaf) in [("soup:3000", 64), ("sphere:6000", 500), ("same-centroid:3000", 4096)] {
+    for (spec, max_leaf) in [
+        ("soup:3000", 64),
+        ("sphere:6000", 500),
+        ("same-centroid:3000", 4096),
+    ] {
         let scene = Scene::load(spec).unwrap();
         let tris = &scene.triangles;
         let params = BuildParams {
@@ -189,8 +193,16 @@ fn leaves_larger_than_a_lane_holds_become_subtrees_of_leaves() {
             ..BuildParams::with_strategy(Strategy::SahBinned)
         };
         let b2 = bvh::build(tris, &params).expect("build").0;
-        let largest = b2.nodes.iter().filter(|n| n.is_leaf()).map(|n| n.count).max();
-        assert!(largest > Some(MAX_LEAF_COUNT), "{spec}: leaves of {largest:?}");
+        let largest = b2
+            .nodes
+            .iter()
+            .filter(|n| n.is_leaf())
+            .map(|n| n.count)
+            .max();
+        assert!(
+            largest > Some(MAX_LEAF_COUNT),
+            "{spec}: leaves of {largest:?}"
+        );
         let mut rays = rays(&bounds(tris), 1500, 11);
         rays.extend(view_rays(&scene, 24, 18));
         assert_wide_equals_bvh2::<4>(&b2, &rays, spec);
@@ -204,14 +216,26 @@ fn leaves_larger_than_a_lane_holds_become_subtrees_of_leaves() {
                 ..CollapseParams::default()
             };
             let mut wide = WideBvh::<W>::collapse(b2, &p);
-            wide.validate().unwrap_or_else(|e| panic!("{spec} BVH{W}: {e}"));
-            let counts = wide.nodes.iter().flat_map(|n| n.child.iter().map(|c| c.count()));
+            wide.validate()
+                .unwrap_or_else(|e| panic!("{spec} BVH{W}: {e}"));
+            let counts = wide
+                .nodes
+                .iter()
+                .flat_map(|n| n.child.iter().map(|c| c.count()));
             assert!(counts.clone().all(|c| c <= MAX_LEAF_COUNT), "{spec} BVH{W}");
-            assert!(counts.clone().any(|c| c > 8), "{spec} BVH{W}: no leaf past 8");
+            assert!(
+                counts.clone().any(|c| c > 8),
+                "{spec} BVH{W}: no leaf past 8"
+            );
             let before = wide.sah_cost(1.0, 1.0);
             wide.refit(&b2_scene(b2), 1.0, 1.0).unwrap();
-            wide.validate().unwrap_or_else(|e| panic!("{spec} BVH{W} refit: {e}"));
-            assert_eq!(wide.sah_cost(1.0, 1.0), before, "{spec} BVH{W}: refit moved a box");
+            wide.validate()
+                .unwrap_or_else(|e| panic!("{spec} BVH{W} refit: {e}"));
+            assert_eq!(
+                wide.sah_cost(1.0, 1.0),
+                before,
+                "{spec} BVH{W}: refit moved a box"
+            );
         }
         lanes_fit::<4>(&b2, max_leaf, spec);
         lanes_fit::<8>(&b2, max_leaf, spec);

@@ -90,7 +90,7 @@ impl TwoLevel {
                         // identity instance, and are made there.
                         for k in cur.child.child.slots() {
                             self.enter_closest::<K, I, NoStats, true>(
-                                k as usize,
+                                k,
                                 ray,
                                 None,
                                 &mut best[i],

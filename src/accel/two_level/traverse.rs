@@ -153,13 +153,7 @@ impl TwoLevel {
             record(stats, || tlas.visit_step_at(cur.child, Level::Top));
             if cur.child.is_leaf() {
                 for k in cur.child.slots() {
-                    self.enter_closest::<K, I, S, ORDERED>(
-                        k as usize,
-                        ray,
-                        Some((wray, data)),
-                        best,
-                        stats,
-                    );
+                    self.enter_closest::<K, I, S, ORDERED>(k, ray, Some((wray, data)), best, stats);
                 }
                 box_tmax = best.t * T_SCALE;
             } else {
@@ -246,7 +240,7 @@ impl TwoLevel {
             record(stats, || tlas.visit_step_at(cur.child, Level::Top));
             if cur.child.is_leaf() {
                 for k in cur.child.slots() {
-                    if self.enter_any::<K, I, S>(k as usize, ray, (&wray, &data), stats) {
+                    if self.enter_any::<K, I, S>(k, ray, (&wray, &data), stats) {
                         return true;
                     }
                 }
