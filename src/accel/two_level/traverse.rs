@@ -15,7 +15,7 @@
 
 use super::TwoLevel;
 use crate::accel::bvh::traverse::T_SCALE;
-use crate::accel::bvh::wide::node::Subtree;
+use crate::accel::bvh::wide::node::{Subtree, WideNode};
 use crate::accel::bvh::wide::stack::{Entry, Stack};
 use crate::accel::replay::{Level, Order, Step};
 use crate::accel::stats::{count_locally, record};
@@ -157,7 +157,7 @@ impl TwoLevel {
                 }
                 box_tmax = best.t * T_SCALE;
             } else {
-                let node = &tlas.nodes[cur.child.node_index()];
+                let node = WideNode::of_row(&tlas.nodes, cur.child);
                 if S::COUNTING {
                     stats.top_box_tests(node.child_count() as u32);
                 }
@@ -245,7 +245,7 @@ impl TwoLevel {
                     }
                 }
             } else {
-                let node = &tlas.nodes[cur.child.node_index()];
+                let node = WideNode::of_row(&tlas.nodes, cur.child);
                 if S::COUNTING {
                     stats.top_box_tests(node.child_count() as u32);
                 }

@@ -22,7 +22,9 @@
 
 use super::WideBvh;
 use super::leaf::BlockPacker;
-use super::node::{LaneKind, Lanes, MAX_INDEX, MAX_LEAF_COUNT, NodeWidth, Subtree, WideNode};
+use super::node::{
+    LaneKind, Lanes, MAX_INDEX, MAX_LEAF_COUNT, MAX_NODE, NodeWidth, ROWS, Subtree, WideNode,
+};
 use crate::accel::bvh::{BuildError, Bvh};
 use crate::geometry::simd::{SimdLevel, TriangleBlock};
 use crate::geometry::{Aabb, Triangle};
@@ -113,12 +115,14 @@ fn distribute<const W: usize>(left: &[f32; W], right: &[f32; W], slots: usize) -
 }
 
 /// The most triangle references a wide tree is collapsed from: each takes at most four
-/// slots (a leaf leaves at most three lanes of its last block free) and the tree has fewer
-/// nodes than references, so every node index and slot fits a lane's `INDEX_BITS`.
-pub const MAX_REFERENCES: usize = (MAX_INDEX as usize + 1) / 4;
+/// slots (a leaf leaves at most three lanes of its last block free), and the tree has
+/// fewer nodes than references (each node has two lanes or more), so every slot and every
+/// node's first row fits a lane's `INDEX_BITS`.
+pub const MAX_REFERENCES: usize = (MAX_INDEX as usize + 1) / ROWS as usize;
 
-// Every scene the built-in generators make fits.
-const _: () = assert!(MAX_REFERENCES >= crate::scene::builtin::MAX_TRIANGLES);
+const _: () = assert!(4 * MAX_REFERENCES <= MAX_INDEX as usize + 1);
+// Scenes of tens of millions of triangles (3.8 · 10^7) collapse.
+const _: () = assert!(MAX_REFERENCES >= 30_000_000);
 
 impl<const W: usize> WideBvh<W>
 where
@@ -316,7 +320,7 @@ where
                 } else {
                     if self.cut.is_some_and(|c| costs.tris[s] <= c) {
                         // The part's first node, once the parts are placed.
-                        node.child[lane] = Subtree::node(MAX_INDEX);
+                        node.child[lane] = Subtree::node(MAX_NODE);
                         cuts.push(Cut {
                             node: index,
                             lane,
@@ -494,8 +498,9 @@ mod tests {
             let message = got.err().unwrap().to_string();
             assert!(message.contains(&MAX_REFERENCES.to_string()), "{message}");
         }
-        // The largest slot and node index such a tree could need still fits a lane.
+        // The largest slot and node such a tree could need still fits a lane.
         assert!(4 * MAX_REFERENCES - 1 <= MAX_INDEX as usize);
+        assert!(MAX_REFERENCES - 1 <= MAX_NODE as usize);
     }
 
     /// Laying the tree out in parts, at any cut, gives the tree laid out in one piece: the

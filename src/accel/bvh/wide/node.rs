@@ -18,14 +18,19 @@ pub const INDEX_BITS: u32 = 32 - COUNT_BITS;
 /// The largest triangle count a lane holds; the collapse lays out a larger BVH2 leaf as a
 /// small subtree of leaves of at most this many.
 pub const MAX_LEAF_COUNT: u32 = (1 << COUNT_BITS) - 2;
-/// The largest node index or slot a lane holds (the collapse checks the tree fits first).
+/// The largest value of a lane's low bits (the collapse checks the tree fits first).
 pub const MAX_INDEX: u32 = (1 << INDEX_BITS) - 1;
+/// Rows of a node: six of box planes, one of lane words.
+pub const ROWS: u32 = 7;
+/// The largest node index a lane holds: an interior child's word counts rows, not nodes.
+pub const MAX_NODE: u32 = MAX_INDEX / ROWS;
 
 // The collapse's default leaves (at most 8 triangles) fit the count field.
 const _: () = assert!(MAX_LEAF_COUNT >= 8);
 
 /// What a lane of a wide node points to, packed into one word: an interior child (high
-/// bits 0, low bits the node's index: the word is the index) or a leaf (high bits its
+/// bits 0, low bits the row where the node starts, its index · `ROWS`: the walk finds the
+/// node with a shift of the word, not a multiply by 224) or a leaf (high bits its
 /// triangle count + 1, low bits its first slot in leaf order). An unused lane holds a leaf
 /// of no triangles, which a ray that enters its empty box (a degenerate ray) tests at no
 /// cost. A traversal can start at any subtree as at the root.
@@ -62,10 +67,10 @@ impl Subtree {
     /// The word of an unused lane: a leaf of no triangles.
     pub const UNUSED: Subtree = Subtree(1 << INDEX_BITS);
 
-    /// The interior child `index` (at most `MAX_INDEX`).
+    /// The interior child `index` (at most `MAX_NODE`).
     pub fn node(index: u32) -> Subtree {
-        assert!(index <= MAX_INDEX, "node {index} is past {MAX_INDEX}");
-        Subtree(index)
+        assert!(index <= MAX_NODE, "node {index} is past {MAX_NODE}");
+        Subtree(index * ROWS)
     }
 
     /// The leaf of `count` triangles (1..=`MAX_LEAF_COUNT`) from slot `first` on.
@@ -88,9 +93,16 @@ impl Subtree {
         self.0 > MAX_INDEX
     }
 
-    /// An interior child's node index: its word itself, no bits to clear.
+    /// An interior child's node index.
     #[inline(always)]
     pub fn node_index(self) -> usize {
+        debug_assert!(!self.is_leaf());
+        (self.0 / ROWS) as usize
+    }
+
+    /// An interior child's first row: its word itself, no bits to clear.
+    #[inline(always)]
+    pub fn node_row(self) -> usize {
         debug_assert!(!self.is_leaf());
         self.0 as usize
     }
@@ -98,7 +110,10 @@ impl Subtree {
     /// The node's index (an interior child) or the first slot (a leaf).
     #[inline(always)]
     pub fn index(self) -> u32 {
-        self.0 & MAX_INDEX
+        match self.is_leaf() {
+            true => self.0 & MAX_INDEX,
+            false => self.0 / ROWS,
+        }
     }
 
     /// The leaf's triangle count; 0 for an interior child.
@@ -253,6 +268,24 @@ where
             .count()
     }
 
+    /// The node an interior lane's word names in `nodes`, found from the word's row
+    /// count by a shift (a multiply by a node's size would lengthen every step of a walk).
+    #[inline(always)]
+    pub fn of_row(nodes: &[WideNode<W>], child: Subtree) -> &WideNode<W> {
+        let row = child.node_row();
+        assert!(row + ROWS as usize <= nodes.len() * ROWS as usize);
+        // SAFETY: the row's node lies inside `nodes` (checked above); a node is exactly
+        // `ROWS` rows with no padding (asserted sizes) and aligned to one row, so any row
+        // is a node's start as far as alignment goes, and every bit pattern is a node's.
+        unsafe {
+            &*nodes
+                .as_ptr()
+                .cast::<[f32; W]>()
+                .add(row)
+                .cast::<WideNode<W>>()
+        }
+    }
+
     /// The union of the children's boxes: each row's least (or greatest) value over all
     /// lanes, as an unused lane's empty box changes neither.
     pub fn bounds(&self) -> Aabb {
@@ -318,7 +351,7 @@ mod tests {
                 assert!(s.is_leaf());
                 assert_eq!(s.slots(), first as usize..(first + count) as usize);
             }
-            if first > 0 {
+            if first > 0 && first <= MAX_NODE {
                 let s = Subtree::node(first);
                 assert_eq!(s.kind(), LaneKind::Interior(first));
                 assert!(!s.is_leaf() && s.count() == 0);
@@ -353,7 +386,7 @@ mod tests {
     #[test]
     #[should_panic(expected = "is past")]
     fn a_node_past_the_index_field_is_refused() {
-        Subtree::node(MAX_INDEX + 1);
+        Subtree::node(MAX_NODE + 1);
     }
 
     /// Rows of a node never straddle a cache line, wherever the node lies in its array.

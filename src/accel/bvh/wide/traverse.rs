@@ -104,7 +104,7 @@ where
                     box_tmax = best.t * T_SCALE;
                 }
             } else {
-                let node = &self.nodes[cur.child.node_index()];
+                let node = WideNode::of_row(&self.nodes, cur.child);
                 if S::COUNTING {
                     stats.box_tests(node.child_count() as u32);
                 }
@@ -258,7 +258,7 @@ where
             while !cur.child.is_leaf() {
                 stats.node_visit();
                 record(stats, || self.visit_step(cur));
-                let node = &self.nodes[cur.child.node_index()];
+                let node = WideNode::of_row(&self.nodes, cur.child);
                 if S::COUNTING {
                     stats.box_tests(node.child_count() as u32);
                 }
