@@ -13,7 +13,8 @@ use std::ops::Range;
 /// High bits of a lane's word: 0 for an interior child, one more than its triangle count
 /// for a leaf.
 pub const COUNT_BITS: u32 = 4;
-/// Low bits of a lane's word: the child node's index, or the leaf's first slot.
+/// Low bits of a lane's word: the child node's first row (index · `ROWS`), or the leaf's
+/// first slot.
 pub const INDEX_BITS: u32 = 32 - COUNT_BITS;
 /// The largest triangle count a lane holds; the collapse lays out a larger BVH2 leaf as a
 /// small subtree of leaves of at most this many.
@@ -39,7 +40,7 @@ const _: () = assert!(MAX_LEAF_COUNT >= 8);
 pub struct Subtree(u32);
 
 /// Subtrees in order of index (node or first slot), a leaf before the node of the same
-/// index: references sorted by subtree keep the order they had before the packing.
+/// index, whatever the packing of their words.
 impl Ord for Subtree {
     fn cmp(&self, other: &Self) -> std::cmp::Ordering {
         let key = |s: &Subtree| (s.index(), if s.is_leaf() { s.count() } else { u32::MAX });
