@@ -4,7 +4,7 @@
 //! BVH4 and BVH8, single-ray traversal of each, and the wide trees' refit of 10^6 triangles.
 //! `cargo bench --bench kernels` (add a name to filter, e.g. `cargo bench --bench kernels slab`).
 
-use bvhlab::accel::bvh::wide::CollapseParams;
+use bvhlab::accel::bvh::wide::{CollapseParams, Lanes, NodeWidth};
 use bvhlab::accel::bvh::{self, BuildParams, Bvh, WideBvh};
 use bvhlab::accel::{Accel, NoStats};
 use bvhlab::geometry::aabb::{SlabRay, slab_entry};
@@ -225,7 +225,10 @@ fn build_bvh2_binned_sah(b: Bencher) {
 }
 
 #[divan::bench(consts = [4, 8], sample_count = 20)]
-fn collapse<const W: usize>(b: Bencher) {
+fn collapse<const W: usize>(b: Bencher)
+where
+    Lanes<W>: NodeWidth,
+{
     let f = fixture();
     b.bench_local(|| WideBvh::<W>::collapse(black_box(&f.bvh2), &CollapseParams::default()));
 }
@@ -248,6 +251,7 @@ fn traverse_bvh2(b: Bencher) {
 #[divan::bench(consts = [4, 8], sample_count = 20)]
 fn traverse_wide<const W: usize>(b: Bencher)
 where
+    Lanes<W>: NodeWidth,
     WideBvh<W>: Accel,
 {
     let wide = WideBvh::<W>::collapse(&fixture().bvh2, &CollapseParams::default());
@@ -258,7 +262,10 @@ where
 /// threads: rayon's pool): a random soup, whose scene order is unrelated to the tree's (the
 /// triangles are gathered from all over memory), and a sphere mesh, whose order is coherent.
 #[divan::bench(consts = [4, 8], args = ["soup:1000000", "sphere:1000000"], sample_count = 10)]
-fn refit_wide_1m<const W: usize>(b: Bencher, scene: &str) {
+fn refit_wide_1m<const W: usize>(b: Bencher, scene: &str)
+where
+    Lanes<W>: NodeWidth,
+{
     let scene = Scene::load(scene).expect("built-in scene");
     let b2 = bvh::build(&scene.triangles, &BuildParams::default())
         .unwrap()

@@ -1256,7 +1256,7 @@ fn rays_are_carried_into_object_space_exactly_as_the_instance_does() {
         .unwrap();
         let reference = Reference {
             instance: k as u32,
-            subtree: Subtree { child: 7, count: 2 },
+            subtree: Subtree::leaf(7, 2),
             triangles: 2,
         };
         let leaf = LeafReference::new(&reference, &instance);

@@ -7,7 +7,7 @@
 
 mod common;
 
-use bvhlab::accel::bvh::wide::CollapseParams;
+use bvhlab::accel::bvh::wide::{CollapseParams, LaneKind, Lanes, NodeWidth};
 use bvhlab::accel::bvh::{self, BuildParams, Bvh, Strategy, TraversalOrder, WideBvh};
 use bvhlab::accel::{Accel, Counters, Hit, NoStats};
 use bvhlab::geometry::aabb::{SlabRay, slab_entry};
@@ -35,6 +35,7 @@ fn bvh2(tris: &[Triangle], strategy: Strategy) -> Bvh {
 /// Every kernel and order of a W-wide collapse of `b2` against `b2` itself.
 fn assert_wide_equals_bvh2<const W: usize>(b2: &Bvh, rays: &[Ray], what: &str)
 where
+    Lanes<W>: NodeWidth,
     WideBvh<W>: Accel,
 {
     let mut wide = WideBvh::<W>::collapse(b2, &CollapseParams::default());
@@ -103,6 +104,7 @@ fn wide_trees_equal_the_bvh2_on_every_builtin_scene() {
 /// the any-hit walk) and leaves over more blocks (the loop over blocks).
 fn assert_segments_agree<const W: usize>(b2: &Bvh, rays: &[Ray], what: &str)
 where
+    Lanes<W>: NodeWidth,
     WideBvh<W>: Accel,
 {
     // Steps that cost more than triangle tests make larger leaves.
@@ -114,7 +116,7 @@ where
     let leaves = wide.nodes.iter().flat_map(|n| {
         (0..n.child_count())
             .filter(|&l| !n.is_interior(l))
-            .map(|l| (n.child[l] as usize, n.count[l] as usize))
+            .map(|l| (n.child[l].index() as usize, n.leaf_count(l) as usize))
     });
     let (one, more): (Vec<_>, Vec<_>) =
         leaves.partition(|&(first, count)| first % BLOCK + count <= BLOCK);
@@ -168,6 +170,85 @@ fn any_hit_of_segments_equals_the_bvh2s_in_every_kind_of_leaf() {
         assert_segments_agree::<4>(&b2, &rays, &what);
         assert_segments_agree::<8>(&b2, &rays, &what);
     }
+}
+
+/// BVH2 leaves larger than a lane holds (`--max-leaf` above `MAX_LEAF_COUNT`, up to the
+/// largest a build allows) become subtrees of leaves of at most `MAX_LEAF_COUNT`: the tree
+/// validates, no lane holds more, and every kernel and order gives the BVH2's hits bit for
+/// bit, the walks through a leaf's subtree included; a refit keeps them.
+#[test]
+fn leaves_larger_than_a_lane_holds_become_subtrees_of_leaves() {
+    use bvhlab::accel::bvh::wide::node::MAX_LEAF_COUNT;
+    for (spec, max_leaf) in [
+        ("soup:3000", 64),
+        ("sphere:6000", 500),
+        ("same-centroid:3000", 4096),
+    ] {
+        let scene = Scene::load(spec).unwrap();
+        let tris = &scene.triangles;
+        let params = BuildParams {
+            max_leaf_size: max_leaf,
+            // Steps far dearer than triangle tests: the build keeps leaves as large as it may.
+            c_trav: 1000.0,
+            ..BuildParams::with_strategy(Strategy::SahBinned)
+        };
+        let b2 = bvh::build(tris, &params).expect("build").0;
+        let largest = b2
+            .nodes
+            .iter()
+            .filter(|n| n.is_leaf())
+            .map(|n| n.count)
+            .max();
+        assert!(
+            largest > Some(MAX_LEAF_COUNT),
+            "{spec}: leaves of {largest:?}"
+        );
+        let mut rays = rays(&bounds(tris), 1500, 11);
+        rays.extend(view_rays(&scene, 24, 18));
+        assert_wide_equals_bvh2::<4>(&b2, &rays, spec);
+        assert_wide_equals_bvh2::<8>(&b2, &rays, spec);
+        fn lanes_fit<const W: usize>(b2: &Bvh, max_leaf: u32, spec: &str)
+        where
+            Lanes<W>: NodeWidth,
+        {
+            let p = CollapseParams {
+                max_leaf_size: max_leaf,
+                ..CollapseParams::default()
+            };
+            let mut wide = WideBvh::<W>::collapse(b2, &p);
+            wide.validate()
+                .unwrap_or_else(|e| panic!("{spec} BVH{W}: {e}"));
+            let counts = wide
+                .nodes
+                .iter()
+                .flat_map(|n| n.child.iter().map(|c| c.count()));
+            assert!(counts.clone().all(|c| c <= MAX_LEAF_COUNT), "{spec} BVH{W}");
+            assert!(
+                counts.clone().any(|c| c > 8),
+                "{spec} BVH{W}: no leaf past 8"
+            );
+            let before = wide.sah_cost(1.0, 1.0);
+            wide.refit(&b2_scene(b2), 1.0, 1.0).unwrap();
+            wide.validate()
+                .unwrap_or_else(|e| panic!("{spec} BVH{W} refit: {e}"));
+            assert_eq!(
+                wide.sah_cost(1.0, 1.0),
+                before,
+                "{spec} BVH{W}: refit moved a box"
+            );
+        }
+        lanes_fit::<4>(&b2, max_leaf, spec);
+        lanes_fit::<8>(&b2, max_leaf, spec);
+    }
+}
+
+/// The scene triangles a BVH2 was built over, in scene order (from its leaf-order copies).
+fn b2_scene(b2: &Bvh) -> Vec<Triangle> {
+    let mut scene = vec![Triangle::new(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO); b2.triangle_count];
+    for (t, &i) in b2.triangles.iter().zip(&b2.prim_indices) {
+        scene[i as usize] = *t;
+    }
+    scene
 }
 
 #[test]
@@ -568,6 +649,7 @@ fn refit_then_trace_equals_rebuild_then_trace() {
     use bvhlab::accel::bvh::refit::RefitIndex;
     fn check<const W: usize>(seed: u64)
     where
+        Lanes<W>: NodeWidth,
         WideBvh<W>: Accel,
     {
         let mut rng = Rng::new(seed);
@@ -622,7 +704,10 @@ fn refit_then_trace_equals_rebuild_then_trace() {
 #[test]
 fn parallel_refit_is_exact() {
     use bvhlab::accel::bvh::refit::RefitIndex;
-    fn check<const W: usize>(seed: u64) {
+    fn check<const W: usize>(seed: u64)
+    where
+        Lanes<W>: NodeWidth,
+    {
         let mut tris = soup(50_000, seed);
         let b2 = bvh2(&tris, Strategy::SahBinned);
         let mut full = WideBvh::<W>::collapse(&b2, &CollapseParams::default());
@@ -670,6 +755,7 @@ fn parallel_refit_is_exact() {
 fn wide_packets_equal_single_rays() {
     fn check<const W: usize>(b2: &Bvh, rays: &[Ray], what: &str)
     where
+        Lanes<W>: NodeWidth,
         WideBvh<W>: Accel,
     {
         let mut wide = WideBvh::<W>::collapse(b2, &CollapseParams::default());
@@ -712,7 +798,10 @@ fn wide_packets_equal_single_rays() {
 #[test]
 fn partial_refits_report_the_sah_cost_of_the_tree() {
     use bvhlab::accel::bvh::refit::RefitIndex;
-    fn check<const W: usize>(seed: u64) {
+    fn check<const W: usize>(seed: u64)
+    where
+        Lanes<W>: NodeWidth,
+    {
         let mut tris = soup(5_000, seed);
         let b2 = bvh2(&tris, Strategy::SahBinned);
         let mut tree = WideBvh::<W>::collapse(&b2, &CollapseParams::default());
@@ -751,8 +840,14 @@ fn partial_refits_report_the_sah_cost_of_the_tree() {
 }
 
 /// FNV-1a over a wide tree's nodes (boxes, children, counts), leaf blocks, slots and depth:
-/// any change to the tree changes it.
-fn fingerprint<const W: usize>(w: &WideBvh<W>) -> u64 {
+/// any change to the tree changes it. Each node's lanes are read through their kind and
+/// hashed as the rows of the unpacked layout held them (a row of children, node indices or
+/// first slots, then a row of counts, `u32::MAX` for an interior child, 0 for an unused
+/// lane), so the recorded values name the same trees whatever the lanes' packing.
+fn fingerprint<const W: usize>(w: &WideBvh<W>) -> u64
+where
+    Lanes<W>: NodeWidth,
+{
     let mut h = 0xcbf2_9ce4_8422_2325u64;
     let mut eat = |x: u32| {
         for b in x.to_le_bytes() {
@@ -761,7 +856,13 @@ fn fingerprint<const W: usize>(w: &WideBvh<W>) -> u64 {
     };
     for n in &w.nodes {
         n.bounds.iter().flatten().for_each(|x| eat(x.to_bits()));
-        n.child.iter().chain(&n.count).for_each(|&x| eat(x));
+        let unpacked = |l: usize| match n.lane_kind(l) {
+            LaneKind::Unused => (0, 0),
+            LaneKind::Interior(c) => (c, u32::MAX),
+            LaneKind::Leaf { first, count } => (first, count),
+        };
+        (0..W).for_each(|l| eat(unpacked(l).0));
+        (0..W).for_each(|l| eat(unpacked(l).1));
     }
     for b in &w.blocks {
         b.v.iter()

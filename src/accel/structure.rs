@@ -9,6 +9,7 @@
 
 use super::bvh::refit::{RefitError, RefitIndex, RefitReport};
 use super::bvh::wide::{CollapseParams, UnsupportedSimd};
+use super::bvh::wide::{Lanes, NodeWidth};
 use super::bvh::{self, BuildError, BuildReport, Bvh, Bvh4, Bvh8, WideBvh};
 use super::grid::{self, Grid, GridError, GridParams};
 use super::kdtree::{self, KdError, KdParams, KdTree};
@@ -544,7 +545,10 @@ fn build_wide<const W: usize>(
     params: &StructureParams,
     progress: &AtomicUsize,
     wrap: fn(WideBvh<W>) -> Structure,
-) -> Result<Built, StructureError> {
+) -> Result<Built, StructureError>
+where
+    Lanes<W>: NodeWidth,
+{
     let (bvh2, bvh_report) = bvh::build_with_progress(triangles, &params.bvh, progress)?;
     let start = Instant::now();
     let collapse = CollapseParams {
@@ -552,7 +556,7 @@ fn build_wide<const W: usize>(
         c_isect: params.bvh.c_isect,
         max_leaf_size: params.bvh.max_leaf_size,
     };
-    let (mut wide, collapse_phases) = WideBvh::<W>::collapse_timed(&bvh2, &collapse);
+    let (mut wide, collapse_phases) = WideBvh::<W>::collapse_timed(&bvh2, &collapse)?;
     let collapse_time = start.elapsed();
     wide.order = params.order;
     let leaves = wide.leaf_count();
@@ -562,7 +566,7 @@ fn build_wide<const W: usize>(
         .flat_map(|n| {
             (0..n.child_count())
                 .filter(|&l| !n.is_interior(l))
-                .map(|l| n.count[l])
+                .map(|l| n.leaf_count(l))
         })
         .max()
         .unwrap_or(0) as usize;

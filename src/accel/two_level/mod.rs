@@ -116,8 +116,9 @@ pub fn build(
         .enumerate()
         .map(|(m, triangles)| {
             bvh::build_with_progress(triangles, params, progress)
-                .map(|(blas, _)| {
-                    Bvh8::collapse(&blas, &collapse_params(params, params.max_leaf_size))
+                .and_then(|(blas, _)| {
+                    Bvh8::collapse_timed(&blas, &collapse_params(params, params.max_leaf_size))
+                        .map(|(blas, _)| blas)
                 })
                 .map_err(|e| match e {
                     // Name the triangle as the flattened scene numbers it, where it is placed.
@@ -226,7 +227,7 @@ fn build_tlas(
         BuildError::NonFinite(b) => BuildError::NonFinite(references[b].instance as usize),
         e => e,
     })?;
-    let mut tlas = Bvh8::collapse(&tlas2, &collapse_params(params, 1));
+    let (mut tlas, _) = Bvh8::collapse_timed(&tlas2, &collapse_params(params, 1))?;
     tlas.blocks = Vec::new();
     Ok((tlas, references))
 }
@@ -418,7 +419,7 @@ impl TwoLevel {
                 b.nodes.iter().flat_map(|n| {
                     (0..n.child_count())
                         .filter(|&l| !n.is_interior(l))
-                        .map(|l| n.count[l])
+                        .map(|l| n.leaf_count(l))
                 })
             })
             .max()

@@ -139,8 +139,8 @@ impl TwoLevel {
                 Some(BlasEntry {
                     tlas_leaf: *leaf_of.get(&(r as u32))?,
                     blas_node: match s.is_leaf() {
-                        true => *leaf_index.get(&(s.child, s.count))?,
-                        false => *wide_index.get(s.child as usize)?,
+                        true => *leaf_index.get(&(s.index(), s.count()))?,
+                        false => *wide_index.get(s.index() as usize)?,
                     },
                 })
             })
@@ -213,7 +213,7 @@ impl TwoLevel {
         let local = (t - self.first_triangle[i]) as usize;
         let (mut node, lane) = *parents.leaf_of_triangle.get(local)?;
         let blas = &self.blases[self.instances[i].mesh];
-        let mut subtree = Subtree::of_lane(&blas.nodes[node as usize], lane as usize);
+        let mut subtree = blas.nodes[node as usize].child[lane as usize];
         loop {
             // The instance's references are sorted by subtree.
             if let Ok(k) = names.binary_search_by_key(&subtree, |r| r.subtree) {
@@ -222,10 +222,7 @@ impl TwoLevel {
             if subtree == Subtree::ROOT {
                 return None;
             }
-            subtree = Subtree {
-                child: node,
-                count: Subtree::ROOT.count,
-            };
+            subtree = Subtree::node(node);
             node = parents.parent.get(node as usize).copied().unwrap_or(0);
         }
     }
@@ -245,12 +242,12 @@ impl BlasParents {
         let mut parent = vec![0u32; blas.nodes.len()];
         for (n, node) in blas.nodes.iter().enumerate().rev() {
             for lane in 0..node.child_count() {
-                let c = node.child[lane] as usize;
-                if node.is_interior(lane) {
-                    parent[c] = n as u32;
-                } else {
-                    for &t in &blas.prim_indices[c..c + node.count[lane] as usize] {
-                        leaf_of_triangle[t as usize] = (n as u32, lane as u8);
+                match node.interior(lane) {
+                    Some(c) => parent[c] = n as u32,
+                    None => {
+                        for &t in &blas.prim_indices[node.child[lane].slots()] {
+                            leaf_of_triangle[t as usize] = (n as u32, lane as u8);
+                        }
                     }
                 }
             }

@@ -23,7 +23,6 @@
 
 use super::TwoLevel;
 use crate::accel::bvh::traverse::T_SCALE;
-use crate::accel::bvh::wide::node::INTERIOR;
 use crate::accel::bvh::wide::packet::{
     HYBRID_RAYS, PacketKernels, Pending, each_ray, enter_children, next_pending,
 };
@@ -69,11 +68,11 @@ impl TwoLevel {
         let mut stack = Stack::<Pending>::new(&mut storage);
         let mut cur = Pending::root(soa.rays);
         'walk: loop {
-            if cur.rays.count_ones() <= HYBRID_RAYS || cur.child.count != INTERIOR {
+            if cur.rays.count_ones() <= HYBRID_RAYS || cur.child.child.is_leaf() {
                 // A leaf's references (an identity instance's walked by the packet), or a
                 // child few rays entered: each ray on its own.
                 let mut improved = 0u64;
-                if cur.child.count == INTERIOR {
+                if !cur.child.child.is_leaf() {
                     improved |=
                         each_ray_alone(cur.rays, rays, &mut best, &mut soa, &|ray, best| {
                             let prepared = (&WideRay::new(ray), &I::prepare(ray));
@@ -86,8 +85,7 @@ impl TwoLevel {
                             );
                         });
                 } else {
-                    for k in cur.child.child..cur.child.child + cur.child.count {
-                        let k = k as usize;
+                    for k in cur.child.child.slots() {
                         if self.leaves[k].is_identity() && cur.rays.count_ones() > HYBRID_RAYS {
                             // The world rays are the instance's: the packet walks on into
                             // its BLAS.
@@ -130,7 +128,7 @@ impl TwoLevel {
                     found += 1;
                 }
             } else {
-                let index = cur.child.child as usize;
+                let index = cur.child.child.node_index();
                 let node = &self.tlas.nodes[index];
                 let cull = interval.as_ref().map(|iv| {
                     if tmax_found != found {

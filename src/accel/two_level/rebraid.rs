@@ -67,7 +67,7 @@ impl Reference {
 pub fn placed_box(instance: &Instance, blas: &Bvh8, subtree: Subtree) -> Aabb {
     let object = match subtree.is_leaf() {
         true => leaf_box(blas, subtree),
-        false => blas.nodes[subtree.child as usize].bounds(),
+        false => blas.nodes[subtree.node_index()].bounds(),
     };
     if instance.is_identity() {
         return object;
@@ -81,7 +81,7 @@ pub fn placed_box(instance: &Instance, blas: &Bvh8, subtree: Subtree) -> Aabb {
     // On the stack, not the heap: a drag places each of an opened instance's references
     // again, 150 254 of them for the island's terrain.
     let mut stack = [(0usize, 0u32); PLACED_BOX_STACK];
-    stack[0] = (subtree.child as usize, 1);
+    stack[0] = (subtree.node_index(), 1);
     let mut len = 1;
     let mut world = Aabb::EMPTY;
     while len > 0 {
@@ -89,8 +89,8 @@ pub fn placed_box(instance: &Instance, blas: &Bvh8, subtree: Subtree) -> Aabb {
         let (n, depth) = stack[len];
         let node = &blas.nodes[n];
         for lane in 0..node.child_count() {
-            if node.is_interior(lane) && depth < WORLD_BOX_DEPTH {
-                stack[len] = (node.child[lane] as usize, depth + 1);
+            if let Some(c) = node.interior(lane).filter(|_| depth < WORLD_BOX_DEPTH) {
+                stack[len] = (c, depth + 1);
                 len += 1;
             } else {
                 world = world.union(instance.world_bounds(&node.child_bounds(lane)));
@@ -107,8 +107,8 @@ const PLACED_BOX_STACK: usize = 7 * WORLD_BOX_DEPTH as usize + 8;
 /// A leaf subtree's box in its mesh's space: its triangles' (for a split triangle, the
 /// whole triangle's, which holds its part).
 fn leaf_box(blas: &Bvh8, leaf: Subtree) -> Aabb {
-    (leaf.child..leaf.child + leaf.count).fold(Aabb::EMPTY, |b, slot| {
-        b.union(blas.slot_triangle(slot as usize).bounds())
+    leaf.slots().fold(Aabb::EMPTY, |b, slot| {
+        b.union(blas.slot_triangle(slot).bounds())
     })
 }
 
@@ -193,19 +193,19 @@ fn open_largest(blases: &[Bvh8], instances: &[Instance], placed: &mut Vec<Placed
         let r = placed[k].reference;
         let instance = &instances[r.instance as usize];
         let blas = &blases[instance.mesh];
-        let lanes = blas.nodes[r.subtree.child as usize].child_count();
+        let lanes = blas.nodes[r.subtree.node_index()].child_count();
         if placed.len() + lanes - 1 > budget {
             break;
         }
-        let node = &blas.nodes[r.subtree.child as usize];
+        let node = &blas.nodes[r.subtree.node_index()];
         for (n, subtree) in blas.subtree_children(r.subtree).enumerate() {
             let child = Placed {
                 reference: Reference {
                     instance: r.instance,
                     subtree,
                     triangles: match subtree.is_leaf() {
-                        true => subtree.count,
-                        false => under[instance.mesh][subtree.child as usize],
+                        true => subtree.count(),
+                        false => under[instance.mesh][subtree.node_index()],
                     },
                 },
                 bounds: rough_box(instance, node, n),

@@ -27,11 +27,10 @@ impl TopLevelIndex {
         let mut parent = vec![(u32::MAX, 0u8); tlas.nodes.len()];
         for (n, node) in tlas.nodes.iter().enumerate() {
             for lane in 0..node.child_count() {
-                let c = node.child[lane] as usize;
-                if node.is_interior(lane) {
+                if let Some(c) = node.interior(lane) {
                     parent[c] = (n as u32, lane as u8);
                 } else {
-                    for k in c..c + node.count[lane] as usize {
+                    for k in node.child[lane].slots() {
                         let r = tlas.prim_indices[k] as usize;
                         slot[r] = (n as u32, lane as u8);
                         leaf_slot[r] = k as u32;

@@ -15,7 +15,7 @@
 
 use super::TwoLevel;
 use crate::accel::bvh::traverse::T_SCALE;
-use crate::accel::bvh::wide::node::INTERIOR;
+use crate::accel::bvh::wide::node::{Subtree, WideNode};
 use crate::accel::bvh::wide::stack::{Entry, Stack};
 use crate::accel::replay::{Level, Order, Step};
 use crate::accel::stats::{count_locally, record};
@@ -26,27 +26,31 @@ use crate::geometry::simd::{PACKET_RAYS, SimdLevel, TriangleKernel, WideRay, pre
 use crate::geometry::{Intersector, Ray};
 use std::mem::MaybeUninit;
 
-/// Starts loading the first node of a reference's subtree (its four lines) or its leaf's
+/// Starts loading the first node of a reference's subtree (its lines) or its leaf's
 /// first triangle block while the ray is carried into the instance's space: a BLAS walk
 /// begins with a cache miss, as the references a ray enters lie far apart.
 #[inline(always)]
 fn prefetch_subtree(blas: &crate::accel::bvh::Bvh8, start: crate::accel::bvh::Subtree) {
     const LINE: usize = 64;
     if start.is_leaf() {
-        let block = start.child as usize / crate::geometry::simd::BLOCK;
+        let block = start.index() as usize / crate::geometry::simd::BLOCK;
         let p = blas.blocks.as_ptr().wrapping_add(block).cast::<u8>();
         prefetch(p);
         prefetch(p.wrapping_add(LINE));
         prefetch(p.wrapping_add(std::mem::size_of::<crate::geometry::simd::TriangleBlock>() - 1));
     } else {
+        // A node's rows start anywhere in a line: its first byte's line, the next three,
+        // and its last byte's.
+        let size = std::mem::size_of::<crate::accel::bvh::wide::WideNode<8>>();
         let p = blas
             .nodes
             .as_ptr()
-            .wrapping_add(start.child as usize)
+            .wrapping_add(start.node_index())
             .cast::<u8>();
-        for line in 0..std::mem::size_of::<crate::accel::bvh::wide::WideNode<8>>() / LINE {
+        for line in 0..size.div_ceil(LINE) {
             prefetch(p.wrapping_add(line * LINE));
         }
+        prefetch(p.wrapping_add(size - 1));
     }
 }
 
@@ -145,8 +149,7 @@ impl TwoLevel {
         let data = I::prepare(ray);
         let mut best = BestHit::new(ray);
         let root = Entry {
-            child: 0,
-            count: INTERIOR,
+            child: Subtree::ROOT,
             entry: ray.tmin,
         };
         self.closest_from::<K, I, S, ORDERED>(root, ray, (&wray, &data), &mut best, stats);
@@ -177,22 +180,14 @@ impl TwoLevel {
         let mut cur = start;
         loop {
             stats.top_node_visit();
-            record(stats, || {
-                tlas.visit_step_at(cur.child, cur.count, Level::Top)
-            });
-            if cur.count != INTERIOR {
-                for k in cur.child..cur.child + cur.count {
-                    self.enter_closest::<K, I, S, ORDERED>(
-                        k as usize,
-                        ray,
-                        Some((wray, data)),
-                        best,
-                        stats,
-                    );
+            record(stats, || tlas.visit_step_at(cur.child, Level::Top));
+            if cur.child.is_leaf() {
+                for k in cur.child.slots() {
+                    self.enter_closest::<K, I, S, ORDERED>(k, ray, Some((wray, data)), best, stats);
                 }
                 box_tmax = best.t * T_SCALE;
             } else {
-                let node = &tlas.nodes[cur.child as usize];
+                let node = WideNode::of_row(&tlas.nodes, cur.child);
                 if S::COUNTING {
                     stats.top_box_tests(node.child_count() as u32);
                 }
@@ -208,7 +203,6 @@ impl TwoLevel {
                 record(stats, || tlas.children_step(cur.child, mask, &entry, order));
                 let lane = |i: u32| Entry {
                     child: node.child[i as usize],
-                    count: node.count[i as usize],
                     entry: entry[i as usize],
                 };
                 if mask != 0 && mask & (mask - 1) == 0 {
@@ -268,23 +262,20 @@ impl TwoLevel {
         let mut stack = Stack::new(&mut storage);
         let mut entry = [0.0f32; 8];
         let mut cur = Entry {
-            child: 0,
-            count: INTERIOR,
+            child: Subtree::ROOT,
             entry: ray.tmin,
         };
         loop {
             stats.top_node_visit();
-            record(stats, || {
-                tlas.visit_step_at(cur.child, cur.count, Level::Top)
-            });
-            if cur.count != INTERIOR {
-                for k in cur.child..cur.child + cur.count {
-                    if self.enter_any::<K, I, S>(k as usize, ray, (&wray, &data), stats) {
+            record(stats, || tlas.visit_step_at(cur.child, Level::Top));
+            if cur.child.is_leaf() {
+                for k in cur.child.slots() {
+                    if self.enter_any::<K, I, S>(k, ray, (&wray, &data), stats) {
                         return true;
                     }
                 }
             } else {
-                let node = &tlas.nodes[cur.child as usize];
+                let node = WideNode::of_row(&tlas.nodes, cur.child);
                 if S::COUNTING {
                     stats.top_box_tests(node.child_count() as u32);
                 }
@@ -299,7 +290,6 @@ impl TwoLevel {
                     mask &= mask - 1;
                     stack.push(Entry {
                         child: node.child[j],
-                        count: node.count[j],
                         entry: entry[j],
                     });
                 }

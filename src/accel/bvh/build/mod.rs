@@ -254,6 +254,11 @@ pub enum BuildError {
     NonFinite(usize),
     #[error("{0} triangles is more than a BVH with 32-bit indices can hold")]
     TooMany(usize),
+    #[error(
+        "{0} triangle references is more than a wide BVH's lanes can address (at most {max})",
+        max = crate::accel::bvh::wide::collapse::MAX_REFERENCES
+    )]
+    TooManyForWide(usize),
 }
 
 /// Beyond this depth every strategy splits at the object median, which halves the count:

@@ -15,12 +15,19 @@
 //! measured slower (conference: 15–30 % fewer Mrays/s), since the larger leaves' boxes cull
 //! less. Triangles are copied in the order of the wide leaves into blocks of four (`leaf`),
 //! so each leaf's triangles are contiguous whatever builder made the BVH2.
+//!
+//! A lane holds a leaf of at most `MAX_LEAF_COUNT` triangles (its count shares the lane's
+//! word with its first slot); a larger BVH2 leaf (`--max-leaf` above it) is laid out as a
+//! small subtree of such leaves, in leaf order.
 
 use super::WideBvh;
 use super::leaf::BlockPacker;
-use super::node::{INTERIOR, WideNode};
-use crate::accel::bvh::Bvh;
+use super::node::{
+    LaneKind, Lanes, MAX_INDEX, MAX_LEAF_COUNT, MAX_NODE, NodeWidth, ROWS, Subtree, WideNode,
+};
+use crate::accel::bvh::{BuildError, Bvh};
 use crate::geometry::simd::{SimdLevel, TriangleBlock};
+use crate::geometry::{Aabb, Triangle};
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
@@ -107,10 +114,30 @@ fn distribute<const W: usize>(left: &[f32; W], right: &[f32; W], slots: usize) -
     best
 }
 
-impl<const W: usize> WideBvh<W> {
+/// The most triangle references a wide tree is collapsed from: each takes at most four
+/// slots (a leaf leaves at most three lanes of its last block free), and the tree has
+/// fewer nodes than references (each node has two lanes or more), so every slot and every
+/// node's first row fits a lane's `INDEX_BITS`.
+pub const MAX_REFERENCES: usize = (MAX_INDEX as usize + 1) / ROWS as usize;
+
+const _: () = assert!(4 * MAX_REFERENCES <= MAX_INDEX as usize + 1);
+// Scenes of tens of millions of triangles (3.8 · 10^7) collapse.
+const _: () = assert!(MAX_REFERENCES >= 30_000_000);
+
+impl<const W: usize> WideBvh<W>
+where
+    Lanes<W>: NodeWidth,
+{
     /// The wide tree of minimal SAH cost over the same leaves' triangles as `bvh`.
+    ///
+    /// # Panics
+    /// If `bvh` holds more than `MAX_REFERENCES` references (`collapse_timed` returns the
+    /// error instead).
     pub fn collapse(bvh: &Bvh, params: &CollapseParams) -> Self {
-        Self::collapse_timed(bvh, params).0
+        match Self::collapse_timed(bvh, params) {
+            Ok((tree, _)) => tree,
+            Err(e) => panic!("{e}"),
+        }
     }
 
     /// The collapse, with the time of its two phases: the dynamic program's cost table, and
@@ -120,7 +147,14 @@ impl<const W: usize> WideBvh<W> {
     /// of at most `part_size` triangles, which are then laid out as parts of their own, side
     /// by side, and placed after it. Where the cut falls depends on the triangle count
     /// alone, so the tree is the same for any number of threads.
-    pub fn collapse_timed(bvh: &Bvh, params: &CollapseParams) -> (Self, CollapsePhases) {
+    pub fn collapse_timed(
+        bvh: &Bvh,
+        params: &CollapseParams,
+    ) -> Result<(Self, CollapsePhases), BuildError> {
+        let references = bvh.prim_indices.len();
+        if references > MAX_REFERENCES {
+            return Err(BuildError::TooManyForWide(references));
+        }
         let start = Instant::now();
         let costs = Costs::<W>::new(bvh, params);
         let table = start.elapsed();
@@ -136,7 +170,7 @@ impl<const W: usize> WideBvh<W> {
             depth: tree.depth,
         };
         let layout = start.elapsed();
-        (out, CollapsePhases { table, layout })
+        Ok((out, CollapsePhases { table, layout }))
     }
 }
 
@@ -148,7 +182,10 @@ fn part_size(triangles: usize) -> Option<u32> {
 
 /// A part of the wide tree laid out as if it were a whole tree: its first node is its root,
 /// its leaves' slots start at 0.
-struct Part<const W: usize> {
+struct Part<const W: usize>
+where
+    Lanes<W>: NodeWidth,
+{
     nodes: Vec<WideNode<W>>,
     blocks: Vec<TriangleBlock>,
     prim_indices: Vec<u32>,
@@ -156,16 +193,19 @@ struct Part<const W: usize> {
     depth: u32,
 }
 
-impl<const W: usize> Part<W> {
+impl<const W: usize> Part<W>
+where
+    Lanes<W>: NodeWidth,
+{
     /// Places `part` after this one: its node indices and slots move by this one's counts.
     fn append(&mut self, part: Part<W>) {
         let (node_base, slot_base) = (self.nodes.len() as u32, self.prim_indices.len() as u32);
         self.nodes.extend(part.nodes.into_iter().map(|mut n| {
             for lane in 0..n.child_count() {
-                n.child[lane] += if n.is_interior(lane) {
-                    node_base
-                } else {
-                    slot_base
+                n.child[lane] = match n.lane_kind(lane) {
+                    LaneKind::Interior(c) => Subtree::node(c + node_base),
+                    LaneKind::Leaf { first, count } => Subtree::leaf(first + slot_base, count),
+                    LaneKind::Unused => Subtree::UNUSED,
                 };
             }
             n
@@ -187,13 +227,19 @@ struct Cut {
 
 /// What laying out a part needs: the BVH2, the collapse's choices, and where to cut.
 #[derive(Clone, Copy)]
-struct Layout<'a, const W: usize> {
+struct Layout<'a, const W: usize>
+where
+    Lanes<W>: NodeWidth,
+{
     bvh: &'a Bvh,
     costs: &'a Costs<W>,
     cut: Option<u32>,
 }
 
-impl<'a, const W: usize> Layout<'a, W> {
+impl<'a, const W: usize> Layout<'a, W>
+where
+    Lanes<W>: NodeWidth,
+{
     /// The whole wide tree: its top laid out down to the cuts, then the parts below the cuts
     /// in parallel, placed after the top in the order of their cuts.
     fn lay_out_tree(bvh: &'a Bvh, costs: &'a Costs<W>, cut: Option<u32>) -> Part<W> {
@@ -224,7 +270,7 @@ impl<'a, const W: usize> Layout<'a, W> {
         tree.prim_indices
             .reserve(parts.iter().map(|(p, _)| p.prim_indices.len()).sum());
         for (part, c) in parts {
-            tree.nodes[c.node].child[c.lane] = tree.nodes.len() as u32;
+            tree.nodes[c.node].child[c.lane] = Subtree::node(tree.nodes.len() as u32);
             tree.append(part);
         }
         tree
@@ -265,12 +311,16 @@ impl<'a, const W: usize> Layout<'a, W> {
                         }
                         tris.push((bvh.triangles[t], id));
                     }
-                    node.child[lane] =
-                        packer.place(&mut part.blocks, &mut part.prim_indices, &tris);
-                    node.count[lane] = tris.len() as u32;
+                    let clip = split.then(|| bvh.nodes[s].bounds());
+                    let (leaf, bounds) = part.place_leaf(&mut packer, &tris, clip, depth + 1);
+                    node.child[lane] = leaf;
+                    if let Some(b) = bounds {
+                        node.set_child_bounds(lane, b);
+                    }
                 } else {
-                    node.count[lane] = INTERIOR;
                     if self.cut.is_some_and(|c| costs.tris[s] <= c) {
+                        // The part's first node, once the parts are placed.
+                        node.child[lane] = Subtree::node(MAX_NODE);
                         cuts.push(Cut {
                             node: index,
                             lane,
@@ -281,7 +331,7 @@ impl<'a, const W: usize> Layout<'a, W> {
                     }
                     let child = part.nodes.len();
                     part.nodes.push(WideNode::default());
-                    node.child[lane] = child as u32;
+                    node.child[lane] = Subtree::node(child as u32);
                     let mut s2 = Vec::with_capacity(W);
                     open(bvh, costs, s, W, &mut s2);
                     work.push((child, s2, depth + 1));
@@ -290,6 +340,51 @@ impl<'a, const W: usize> Layout<'a, W> {
             part.nodes[index] = node;
         }
         (part, cuts)
+    }
+}
+
+impl<const W: usize> Part<W>
+where
+    Lanes<W>: NodeWidth,
+{
+    /// Places a leaf's triangles (in leaf order) and returns its lane's word. A leaf of more
+    /// than `MAX_LEAF_COUNT` becomes a subtree of leaves of at most that many, up to W to a
+    /// node, whose box (returned with it) is the union of theirs: each the box of its
+    /// triangles, within `clip` (the BVH2 leaf's box, where references were split).
+    fn place_leaf(
+        &mut self,
+        packer: &mut BlockPacker,
+        tris: &[(Triangle, u32)],
+        clip: Option<Aabb>,
+        depth: u32,
+    ) -> (Subtree, Option<Aabb>) {
+        let n = tris.len() as u32;
+        if n <= MAX_LEAF_COUNT {
+            let first = packer.place(&mut self.blocks, &mut self.prim_indices, tris);
+            return (Subtree::leaf(first, n), None);
+        }
+        self.depth = self.depth.max(depth);
+        // Leaves under each lane: W^(levels − 1) of them, levels as few as hold them all.
+        let leaves = n.div_ceil(MAX_LEAF_COUNT) as usize;
+        let mut per_lane = 1;
+        while per_lane * W < leaves {
+            per_lane *= W;
+        }
+        let index = self.nodes.len();
+        self.nodes.push(WideNode::default());
+        let mut node = WideNode::<W>::default();
+        for (lane, group) in tris.chunks(per_lane * MAX_LEAF_COUNT as usize).enumerate() {
+            let (child, bounds) = self.place_leaf(packer, group, clip, depth + 1);
+            let bounds = bounds.unwrap_or_else(|| {
+                let b = group.iter().fold(Aabb::EMPTY, |b, t| b.union(t.0.bounds()));
+                clip.map_or(b, |c| Aabb::new(b.min.max(c.min), b.max.min(c.max)))
+            });
+            node.child[lane] = child;
+            node.set_child_bounds(lane, bounds);
+        }
+        let bounds = node.bounds();
+        self.nodes[index] = node;
+        (Subtree::node(index as u32), Some(bounds))
     }
 }
 
@@ -362,7 +457,10 @@ mod tests {
 
     /// The subtree under `lane` of node `n`, written out depth first: boxes, counts and the
     /// scene triangles of each leaf, with no node index or slot in it.
-    fn canonical<const W: usize>(t: &WideBvh<W>, n: usize, out: &mut Vec<u64>) {
+    fn canonical<const W: usize>(t: &WideBvh<W>, n: usize, out: &mut Vec<u64>)
+    where
+        Lanes<W>: NodeWidth,
+    {
         let node = &t.nodes[n];
         out.push(node.child_count() as u64);
         for lane in 0..node.child_count() {
@@ -374,15 +472,35 @@ mod tests {
                     .chain(&b.max.to_array())
                     .map(|x| x.to_bits() as u64),
             );
-            out.push(node.count[lane] as u64);
-            if node.is_interior(lane) {
-                canonical(t, node.child[lane] as usize, out);
-            } else {
-                let first = node.child[lane] as usize;
-                let slots = first..first + node.count[lane] as usize;
-                out.extend(slots.map(|s| t.prim_indices[s] as u64));
+            out.push(node.leaf_count(lane) as u64);
+            match node.interior(lane) {
+                Some(c) => canonical(t, c, out),
+                None => {
+                    let slots = node.child[lane].slots();
+                    out.extend(slots.map(|s| t.prim_indices[s] as u64));
+                }
             }
         }
+    }
+
+    /// A BVH2 of more references than the lanes' indices can address is refused with an
+    /// error, before any node is laid out (the references here are zeros the allocator
+    /// hands out untouched, so the test costs no memory traffic).
+    #[test]
+    fn a_tree_past_the_lane_indices_is_an_error() {
+        let scene = builtin::by_name("soup:100").unwrap().unwrap();
+        let (mut b2, _) = bvh::build(&scene.triangles, &BuildParams::default()).unwrap();
+        for n in [MAX_REFERENCES + 1, 4 * MAX_REFERENCES] {
+            b2.prim_indices = vec![0; n];
+            let got = WideBvh::<8>::collapse_timed(&b2, &CollapseParams::default());
+            assert_eq!(got.err(), Some(BuildError::TooManyForWide(n)));
+            let got = WideBvh::<4>::collapse_timed(&b2, &CollapseParams::default());
+            let message = got.err().unwrap().to_string();
+            assert!(message.contains(&MAX_REFERENCES.to_string()), "{message}");
+        }
+        // The largest slot and node such a tree could need still fits a lane.
+        assert!(4 * MAX_REFERENCES - 1 <= MAX_INDEX as usize);
+        assert!(MAX_REFERENCES - 1 <= MAX_NODE as usize);
     }
 
     /// Laying the tree out in parts, at any cut, gives the tree laid out in one piece: the

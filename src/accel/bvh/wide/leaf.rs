@@ -6,7 +6,8 @@
 //! against the best hit as it shrinks, lane by lane in leaf order, and a lane the block test
 //! hands back (`retest`) is tested by the scalar test with the best hit of that moment.
 
-use super::WideBvh;
+use super::node::Subtree;
+use super::{Lanes, NodeWidth, WideBvh};
 use crate::accel::replay::Step;
 use crate::accel::stats::record;
 use crate::accel::{BestHit, Stats};
@@ -26,6 +27,15 @@ pub(super) struct Leaf {
 }
 
 impl Leaf {
+    /// The leaf a lane's word names.
+    #[inline(always)]
+    pub(super) fn of(child: Subtree) -> Leaf {
+        Leaf {
+            first: child.index(),
+            count: child.leaf_count(),
+        }
+    }
+
     /// The leaf's blocks, each with the mask of the lanes holding its triangles: all four
     /// but in the first block (lanes from `first` on) and the last (lanes before the end).
     #[inline(always)]
@@ -109,7 +119,10 @@ impl BlockPacker {
     }
 }
 
-impl<const W: usize> WideBvh<W> {
+impl<const W: usize> WideBvh<W>
+where
+    Lanes<W>: NodeWidth,
+{
     /// The leaf's triangles against the ray, keeping the best hit; whether one was found.
     ///
     /// # Safety
@@ -238,7 +251,10 @@ impl<const W: usize> WideBvh<W> {
 /// constants out of theirs at every node; called, it leaves the node loop small.
 macro_rules! leaf_entry_points {
     ($closest:ident, $any:ident, $kernel:ty, $features:literal) => {
-        impl<const W: usize> WideBvh<W> {
+        impl<const W: usize> WideBvh<W>
+        where
+            Lanes<W>: NodeWidth,
+        {
             #[target_feature(enable = $features)]
             #[inline(never)]
             fn $closest<I: Intersector, S: Stats>(
@@ -291,7 +307,10 @@ leaf_entry_points!(
     "avx512f,avx512vl"
 );
 
-impl<const W: usize> WideBvh<W> {
+impl<const W: usize> WideBvh<W>
+where
+    Lanes<W>: NodeWidth,
+{
     /// `leaf_closest` through the out-of-line copy compiled for K's instruction set (the
     /// match is decided when the traversal is compiled).
     ///
@@ -351,12 +370,15 @@ impl<const W: usize> WideBvh<W> {
     /// block test does not wait for it. Interior children are not prefetched: a node's rows
     /// are loaded together at its test, and the hardware fetches neighbouring lines.
     #[inline(always)]
-    pub(super) fn prefetch_child(&self, child: u32, count: u32) {
+    pub(super) fn prefetch_child(&self, child: Subtree) {
         const LINE: usize = 64;
-        if count != super::node::INTERIOR {
+        if child.is_leaf() {
             // A block (144 bytes, 16-byte aligned) touches at most three lines: those of its
             // first byte, of the byte a line further and of its last byte.
-            let p = self.blocks.as_ptr().wrapping_add(child as usize / BLOCK);
+            let p = self
+                .blocks
+                .as_ptr()
+                .wrapping_add(child.index() as usize / BLOCK);
             let p = p.cast::<u8>();
             prefetch(p);
             prefetch(p.wrapping_add(LINE));
@@ -365,7 +387,10 @@ impl<const W: usize> WideBvh<W> {
     }
 }
 
-impl<const W: usize> WideBvh<W> {
+impl<const W: usize> WideBvh<W>
+where
+    Lanes<W>: NodeWidth,
+{
     /// A replay's leaf: each used lane by the scalar test (whose hits the block test equals
     /// bit for bit), in lane order, one recorded step each. Closest hit with `best`, any
     /// hit (stopping after the block that hits, as the block test does) without.

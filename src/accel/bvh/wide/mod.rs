@@ -19,7 +19,7 @@ pub mod traverse;
 
 pub use collapse::CollapseParams;
 pub use leaf::PADDING;
-pub use node::WideNode;
+pub use node::{LaneKind, Lanes, NodeWidth, Subtree, WideNode};
 
 use super::TraversalOrder;
 use crate::accel::{Outline, OutlineNode};
@@ -27,7 +27,10 @@ use crate::geometry::simd::{BLOCK, SimdLevel, TriangleBlock};
 use crate::geometry::{Aabb, Triangle};
 
 #[derive(Clone, Debug)]
-pub struct WideBvh<const W: usize> {
+pub struct WideBvh<const W: usize>
+where
+    Lanes<W>: NodeWidth,
+{
     /// Node 0 is the root; every node's interior children come after it.
     pub nodes: Vec<WideNode<W>>,
     /// The leaves' triangles in blocks of four (slot = block · 4 + lane), each leaf's slots
@@ -55,7 +58,10 @@ pub(crate) struct LaneSums {
 }
 
 impl LaneSums {
-    pub(crate) fn of<const W: usize>(nodes: &[WideNode<W>]) -> Self {
+    pub(crate) fn of<const W: usize>(nodes: &[WideNode<W>]) -> Self
+    where
+        Lanes<W>: NodeWidth,
+    {
         let mut sums = LaneSums::default();
         for n in nodes {
             sums.add(n);
@@ -74,22 +80,31 @@ impl LaneSums {
             / root_area
     }
 
-    pub(crate) fn add<const W: usize>(&mut self, node: &WideNode<W>) {
+    pub(crate) fn add<const W: usize>(&mut self, node: &WideNode<W>)
+    where
+        Lanes<W>: NodeWidth,
+    {
         self.sum(node, 1.0);
     }
 
     /// Takes a node's lanes out of the sums (before its boxes change).
-    pub(crate) fn take<const W: usize>(&mut self, node: &WideNode<W>) {
+    pub(crate) fn take<const W: usize>(&mut self, node: &WideNode<W>)
+    where
+        Lanes<W>: NodeWidth,
+    {
         self.sum(node, -1.0);
     }
 
-    fn sum<const W: usize>(&mut self, node: &WideNode<W>, sign: f64) {
+    fn sum<const W: usize>(&mut self, node: &WideNode<W>, sign: f64)
+    where
+        Lanes<W>: NodeWidth,
+    {
         for lane in 0..node.child_count() {
             let area = sign * node.child_bounds(lane).surface_area() as f64;
             if node.is_interior(lane) {
                 self.interior_area += area;
             } else {
-                self.leaf_area_triangles += area * node.count[lane] as f64;
+                self.leaf_area_triangles += area * node.leaf_count(lane) as f64;
             }
         }
     }
@@ -98,40 +113,14 @@ impl LaneSums {
 pub type Bvh4 = WideBvh<4>;
 pub type Bvh8 = WideBvh<8>;
 
-/// A subtree of a wide BVH, named as its parent's lane names it: an interior node
-/// (`count` = `INTERIOR`, `child` its node index) or a leaf (`child` its first slot, `count`
-/// its triangles). A traversal can start at any subtree as at the root.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct Subtree {
-    pub child: u32,
-    pub count: u32,
-}
-
-impl Subtree {
-    /// The whole tree: node 0.
-    pub const ROOT: Subtree = Subtree {
-        child: 0,
-        count: node::INTERIOR,
-    };
-
-    /// The subtree lane `lane` of `node` points to.
-    pub fn of_lane<const W: usize>(node: &WideNode<W>, lane: usize) -> Subtree {
-        Subtree {
-            child: node.child[lane],
-            count: node.count[lane],
-        }
-    }
-
-    pub fn is_leaf(self) -> bool {
-        self.count != node::INTERIOR
-    }
-}
-
 #[derive(Debug, thiserror::Error, PartialEq)]
 #[error("this CPU has no {} instructions (it has: {})", .0.label(), SimdLevel::available().iter().map(|l| l.label()).collect::<Vec<_>>().join(", "))]
 pub struct UnsupportedSimd(pub SimdLevel);
 
-impl<const W: usize> WideBvh<W> {
+impl<const W: usize> WideBvh<W>
+where
+    Lanes<W>: NodeWidth,
+{
     /// Chooses the slab kernel; an instruction set this CPU lacks is an error and changes
     /// nothing.
     pub fn set_simd(&mut self, level: SimdLevel) -> Result<(), UnsupportedSimd> {
@@ -152,8 +141,8 @@ impl<const W: usize> WideBvh<W> {
     pub fn leaf_count(&self) -> usize {
         self.nodes
             .iter()
-            .flat_map(|n| n.count.iter())
-            .filter(|&&c| c != 0 && c != node::INTERIOR)
+            .flat_map(|n| n.child.iter())
+            .filter(|&&c| c.is_leaf() && c != Subtree::UNUSED)
             .count()
     }
 
@@ -187,12 +176,12 @@ impl<const W: usize> WideBvh<W> {
         let mut owned = vec![false; slots];
         for (i, node) in self.nodes.iter().enumerate() {
             let used = node.child_count();
-            if node.count[used..].iter().any(|&c| c != 0) {
+            if node.child[used..].iter().any(|&c| c != Subtree::UNUSED) {
                 return Err(format!("node {i} has a used lane after an unused one"));
             }
             for lane in 0..used {
                 let b = node.child_bounds(lane);
-                let c = node.child[lane] as usize;
+                let c = node.child[lane].index() as usize;
                 let (inside, split) = if node.is_interior(lane) {
                     if c <= i || c >= self.nodes.len() {
                         return Err(format!("node {i} lane {lane} points to node {c}"));
@@ -201,9 +190,9 @@ impl<const W: usize> WideBvh<W> {
                 } else {
                     let leaf = leaf::Leaf {
                         first: c as u32,
-                        count: node.count[lane],
+                        count: node.leaf_count(lane),
                     };
-                    let range = c..c + node.count[lane] as usize;
+                    let range = node.child[lane].slots();
                     if range.end > slots || !leaf.is_compact() {
                         return Err(format!("node {i} lane {lane}: leaf {range:?} of {slots}"));
                     }
@@ -259,9 +248,9 @@ impl<const W: usize> WideBvh<W> {
 
     /// The subtrees below `s` (its node's lanes; none for a leaf).
     pub fn subtree_children(&self, s: Subtree) -> impl Iterator<Item = Subtree> + '_ {
-        let node = &self.nodes[if s.is_leaf() { 0 } else { s.child as usize }];
+        let node = &self.nodes[if s.is_leaf() { 0 } else { s.index() as usize }];
         let lanes = if s.is_leaf() { 0 } else { node.child_count() };
-        (0..lanes).map(move |l| Subtree::of_lane(node, l))
+        node.child[..lanes].iter().copied()
     }
 
     /// The slots of the leaves under `s`, leaf by leaf, depth first.
@@ -270,7 +259,7 @@ impl<const W: usize> WideBvh<W> {
         let mut stack = vec![s];
         while let Some(s) = stack.pop() {
             if s.is_leaf() {
-                out.extend(s.child as usize..(s.child + s.count) as usize);
+                out.extend(s.slots());
             } else {
                 stack.extend(self.subtree_children(s));
             }
@@ -298,9 +287,9 @@ impl<const W: usize> WideBvh<W> {
         for n in (0..self.nodes.len()).rev() {
             let node = &self.nodes[n];
             under[n] = (0..node.child_count())
-                .map(|l| match node.is_interior(l) {
-                    true => under[node.child[l] as usize],
-                    false => node.count[l],
+                .map(|l| match node.lane_kind(l) {
+                    LaneKind::Interior(c) => under[c as usize],
+                    _ => node.leaf_count(l),
                 })
                 .sum();
         }
@@ -316,9 +305,9 @@ impl<const W: usize> WideBvh<W> {
         while let Some(wide) = queue.pop_front() {
             let w = &self.nodes[wide];
             for lane in 0..w.child_count() {
-                if w.is_interior(lane) {
-                    index[w.child[lane] as usize] = next;
-                    queue.push_back(w.child[lane] as usize);
+                if let Some(c) = w.interior(lane) {
+                    index[c] = next;
+                    queue.push_back(c);
                 }
                 next += 1;
             }
@@ -344,9 +333,9 @@ impl<const W: usize> WideBvh<W> {
             let w = &self.nodes[wide];
             let first = nodes.len();
             for lane in 0..w.child_count() {
-                let interior = w.is_interior(lane);
-                if interior {
-                    queue.push_back((nodes.len(), w.child[lane] as usize));
+                let interior = w.interior(lane);
+                if let Some(c) = interior {
+                    queue.push_back((nodes.len(), c));
                 }
                 nodes.push(OutlineNode {
                     bounds: w.child_bounds(lane),
@@ -354,11 +343,7 @@ impl<const W: usize> WideBvh<W> {
                     parent: at as u32,
                     first_child: 0,
                     child_count: 0,
-                    refs: if interior {
-                        (0, 0)
-                    } else {
-                        (w.child[lane], w.count[lane])
-                    },
+                    refs: w.leaf(lane).unwrap_or((0, 0)),
                     plane: None,
                 });
             }

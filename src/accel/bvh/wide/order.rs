@@ -94,6 +94,7 @@ pub(crate) fn nearest_first8(mut v: [u64; 8]) -> [u64; 8] {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::accel::bvh::wide::node::Subtree;
     use crate::accel::bvh::wide::stack::{Entry, STACK_SIZE, Stack};
     use std::mem::MaybeUninit;
 
@@ -104,14 +105,13 @@ mod tests {
         for (i, &entry) in entries.iter().enumerate() {
             // The child names the lane, so the orders can be compared.
             stack.push(Entry {
-                child: i as u32,
-                count: 0,
+                child: Subtree::node(i as u32),
                 entry,
             });
         }
         stack.sort_top(entries.len());
         std::iter::from_fn(|| stack.pop())
-            .map(|e| e.child as usize)
+            .map(|e| e.child.node_index())
             .collect()
     }
 

@@ -24,10 +24,10 @@
 //! lane the same operations), and of hits at equal distances the lowest triangle index wins
 //! (`BestHit`), so the order of the visit does not matter.
 
+use super::WideBvh;
 use super::leaf::Leaf;
-use super::node::{INTERIOR, WideNode};
+use super::node::{Lanes, NodeWidth, Subtree, WideNode};
 use super::stack::{Entry, Stack};
-use super::{Subtree, WideBvh};
 use crate::accel::bvh::traverse::T_SCALE;
 use crate::accel::{BestHit, Hit, NoStats};
 use crate::geometry::intersect::TriangleHit;
@@ -75,8 +75,7 @@ impl Pending {
     pub(crate) fn root(rays: u64) -> Self {
         Pending {
             child: Entry {
-                child: 0,
-                count: INTERIOR,
+                child: Subtree::ROOT,
                 entry: f32::NEG_INFINITY,
             },
             rays,
@@ -103,7 +102,10 @@ pub(crate) unsafe fn enter_children<K: PacketSlab + IntervalSlab<W>, const W: us
     cull: Option<(&WideInterval, f32)>,
     found: u32,
     stack: &mut Stack<Pending>,
-) -> Option<Pending> {
+) -> Option<Pending>
+where
+    Lanes<W>: NodeWidth,
+{
     // The children some ray enters, with their rays and nearest entry.
     let mut entered = [(0.0f32, 0u64, 0usize); W];
     let mut k = 0;
@@ -139,7 +141,6 @@ pub(crate) unsafe fn enter_children<K: PacketSlab + IntervalSlab<W>, const W: us
     let pending = |&(d, hit, lane): &(f32, u64, usize)| Pending {
         child: Entry {
             child: node.child[lane],
-            count: node.count[lane],
             entry: d,
         },
         rays: hit,
@@ -164,7 +165,10 @@ pub(crate) unsafe fn next_pending<K: PacketSlab, const W: usize>(
     soa: &RayPacket,
     found: u32,
     stack: &mut Stack<Pending>,
-) -> Option<Pending> {
+) -> Option<Pending>
+where
+    Lanes<W>: NodeWidth,
+{
     loop {
         let mut next = stack.pop()?;
         if next.found != found {
@@ -181,7 +185,10 @@ pub(crate) unsafe fn next_pending<K: PacketSlab, const W: usize>(
 }
 
 #[inline(always)]
-pub(crate) fn planes<const W: usize>(node: &WideNode<W>, lane: usize) -> BoxPlanes {
+pub(crate) fn planes<const W: usize>(node: &WideNode<W>, lane: usize) -> BoxPlanes
+where
+    Lanes<W>: NodeWidth,
+{
     std::array::from_fn(|row| node.bounds[row][lane])
 }
 
@@ -259,7 +266,10 @@ impl Packet<'_> {
     }
 }
 
-impl<const W: usize> WideBvh<W> {
+impl<const W: usize> WideBvh<W>
+where
+    Lanes<W>: NodeWidth,
+{
     /// The closest hit of each ray of `rays` (at most `PACKET_RAYS`).
     #[inline(always)]
     pub(super) fn trace_packet<K: PacketKernels<W>, I: Intersector>(
@@ -338,8 +348,7 @@ impl<const W: usize> WideBvh<W> {
         };
         let start = Pending {
             child: Entry {
-                child: start.child,
-                count: start.count,
+                child: start,
                 entry: f32::NEG_INFINITY,
             },
             ..Pending::root(mask)
@@ -382,8 +391,8 @@ impl<const W: usize> WideBvh<W> {
                     );
                     p.set_best_hit(i, &best);
                 }
-            } else if cur.child.count == INTERIOR {
-                let index = cur.child.child as usize;
+            } else if !cur.child.child.is_leaf() {
+                let index = cur.child.child.node_index();
                 let node = &self.nodes[index];
                 let cull = interval.map(|iv| {
                     if tmax_found != p.found {
@@ -402,10 +411,7 @@ impl<const W: usize> WideBvh<W> {
                     continue 'walk;
                 }
             } else {
-                let leaf = Leaf {
-                    first: cur.child.child,
-                    count: cur.child.count,
-                };
+                let leaf = Leaf::of(cur.child.child);
                 if p.shear.is_some() {
                     // SAFETY: as above.
                     unsafe { self.leaf_packet::<K, I>(leaf, cur.rays, p) };

@@ -5,7 +5,7 @@
 use super::LaneSums;
 use super::WideBvh;
 use super::leaf::PADDING;
-use super::node::WideNode;
+use super::node::{Lanes, NodeWidth, WideNode};
 use crate::accel::bvh::refit::{RefitError, RefitIndex, RefitReport, slots_of};
 use crate::geometry::simd::{BLOCK, TriangleBlock};
 use crate::geometry::{Aabb, Triangle};
@@ -14,13 +14,15 @@ use rayon::prelude::*;
 /// Below this many triangles a refit runs on one thread (spawning costs more).
 const PARALLEL_REFIT: usize = 1 << 15;
 
-impl<const W: usize> WideBvh<W> {
+impl<const W: usize> WideBvh<W>
+where
+    Lanes<W>: NodeWidth,
+{
     /// The leaf lanes' boxes of `node`, from the triangle blocks.
     fn refit_leaves(node: &mut WideNode<W>, blocks: &[TriangleBlock]) {
         for lane in 0..node.child_count() {
             if !node.is_interior(lane) {
-                let first = node.child[lane] as usize;
-                let b = (first..first + node.count[lane] as usize).fold(Aabb::EMPTY, |b, slot| {
+                let b = node.child[lane].slots().fold(Aabb::EMPTY, |b, slot| {
                     b.union(blocks[slot / BLOCK].triangle(slot % BLOCK).bounds())
                 });
                 node.set_child_bounds(lane, b);
@@ -33,8 +35,8 @@ impl<const W: usize> WideBvh<W> {
         let (head, tail) = self.nodes.split_at_mut(i + 1);
         let node = &mut head[i];
         for lane in 0..node.child_count() {
-            if node.is_interior(lane) {
-                let child = node.child[lane] as usize - (i + 1);
+            if let Some(c) = node.interior(lane) {
+                let child = c - (i + 1);
                 node.set_child_bounds(lane, tail[child].bounds());
             }
         }
@@ -140,7 +142,7 @@ struct Costs {
 }
 
 impl Costs {
-    /// The cost weight of a lane holding `count` (a leaf's triangles, or `INTERIOR`).
+    /// The cost weight of a lane: an interior child's, or a leaf's of `count` triangles.
     fn of(self, interior: bool, count: u32) -> f64 {
         if interior {
             self.trav
@@ -169,7 +171,10 @@ impl std::ops::Add for RefitSums {
 
 /// The tree as the refit's tasks share it: raw pointers, because parallel tasks write
 /// different nodes and different lanes of the same block array.
-struct SharedTree<'a, const W: usize> {
+struct SharedTree<'a, const W: usize>
+where
+    Lanes<W>: NodeWidth,
+{
     nodes: *mut WideNode<W>,
     blocks: *mut TriangleBlock,
     indices: &'a [u32],
@@ -178,9 +183,12 @@ struct SharedTree<'a, const W: usize> {
 
 // SAFETY: the pointers are only written at nodes and block lanes owned by one task (see
 // `refit_subtree`).
-unsafe impl<const W: usize> Sync for SharedTree<'_, W> {}
+unsafe impl<const W: usize> Sync for SharedTree<'_, W> where Lanes<W>: NodeWidth {}
 
-impl<const W: usize> SharedTree<'_, W> {
+impl<const W: usize> SharedTree<'_, W>
+where
+    Lanes<W>: NodeWidth,
+{
     /// Refits node `i`'s subtree and returns its lane sums; subtrees start as parallel tasks
     /// while `parallel_depth` > 0.
     ///
@@ -194,8 +202,7 @@ impl<const W: usize> SharedTree<'_, W> {
         let mut child_sums = [RefitSums::default(); W];
         if parallel_depth > 0 {
             let interior: Vec<(usize, usize)> = (0..lanes)
-                .filter(|&l| node.is_interior(l))
-                .map(|l| (l, node.child[l] as usize))
+                .filter_map(|l| Some((l, node.interior(l)?)))
                 .collect();
             let sums: Vec<RefitSums> = interior
                 .par_iter()
@@ -207,25 +214,23 @@ impl<const W: usize> SharedTree<'_, W> {
             }
         } else {
             for (l, sum) in child_sums.iter_mut().enumerate().take(lanes) {
-                if node.is_interior(l) {
+                if let Some(c) = node.interior(l) {
                     // SAFETY: as above.
-                    *sum = unsafe { self.refit_subtree(node.child[l] as usize, 0, costs) };
+                    *sum = unsafe { self.refit_subtree(c, 0, costs) };
                 }
             }
         }
         let mut sums = RefitSums::default();
         for (l, child) in child_sums.iter().enumerate().take(lanes) {
             let old = node.child_bounds(l).surface_area() as f64;
-            let new = if node.is_interior(l) {
+            let new = match node.interior(l) {
                 // SAFETY: the child's task has finished; nothing else writes it.
-                unsafe { &*self.nodes.add(node.child[l] as usize) }.bounds()
-            } else {
-                let first = node.child[l] as usize;
+                Some(c) => unsafe { &*self.nodes.add(c) }.bounds(),
                 // SAFETY: this leaf lane's slots belong to no other lane.
-                unsafe { self.refill_leaf(first..first + node.count[l] as usize) }
+                None => unsafe { self.refill_leaf(node.child[l].slots()) },
             };
             node.set_child_bounds(l, new);
-            let weight = costs.of(node.is_interior(l), node.count[l]);
+            let weight = costs.of(node.is_interior(l), node.leaf_count(l));
             sums = sums
                 + *child
                 + RefitSums {
@@ -275,18 +280,19 @@ unsafe fn set_lane(block: *mut TriangleBlock, lane: usize, tri: &Triangle) {
 
 impl RefitIndex {
     /// The index of a wide tree: a slot's "leaf" is the wide node whose lane holds it.
-    pub fn for_wide<const W: usize>(tree: &WideBvh<W>) -> Self {
+    pub fn for_wide<const W: usize>(tree: &WideBvh<W>) -> Self
+    where
+        Lanes<W>: NodeWidth,
+    {
         let n = tree.prim_indices.len();
         let (first_slot, slots) = slots_of(&tree.prim_indices, tree.triangle_count);
         let mut leaf_of = vec![0u32; n];
         let mut parent = vec![u32::MAX; tree.nodes.len()];
         for (i, node) in tree.nodes.iter().enumerate() {
             for lane in 0..node.child_count() {
-                let c = node.child[lane] as usize;
-                if node.is_interior(lane) {
-                    parent[c] = i as u32;
-                } else {
-                    leaf_of[c..c + node.count[lane] as usize].fill(i as u32);
+                match node.interior(lane) {
+                    Some(c) => parent[c] = i as u32,
+                    None => leaf_of[node.child[lane].slots()].fill(i as u32),
                 }
             }
         }

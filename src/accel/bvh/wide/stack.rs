@@ -2,21 +2,34 @@
 //! children still to visit with their entry distances, left uninitialised, the top few
 //! sorted nearest first.
 
-use crate::accel::bvh::build::MAX_DEPTH;
+use super::node::{MAX_LEAF_COUNT, Subtree};
+use crate::accel::bvh::build::{MAX_DEPTH, MAX_LEAF_SIZE};
 use std::mem::MaybeUninit;
 
-/// A child still to visit: a node (`count == INTERIOR`) or a leaf's triangles, and the
-/// distance at which the ray enters its box.
+/// A child still to visit, as its parent's lane names it (a node, or a leaf's triangles),
+/// and the distance at which the ray enters its box.
 #[derive(Clone, Copy)]
 pub(crate) struct Entry {
-    pub child: u32,
-    pub count: u32,
+    pub child: Subtree,
     pub entry: f32,
 }
 
 /// Each level leaves at most W − 1 ≤ 7 children on the stack, and no wide tree is deeper
-/// than the BVH2 it was collapsed from.
-pub(crate) const STACK_SIZE: usize = 7 * MAX_DEPTH + 1;
+/// than the BVH2 it was collapsed from but for the levels a leaf larger than a lane holds
+/// adds (`collapse`).
+pub(crate) const STACK_SIZE: usize = 7 * (MAX_DEPTH + LARGE_LEAF_LEVELS) + 1;
+
+/// The levels of the subtree a BVH2 leaf of `MAX_LEAF_SIZE` triangles becomes, four lanes
+/// to a node (the narrowest tree, so the deepest).
+const LARGE_LEAF_LEVELS: usize = {
+    let leaves = MAX_LEAF_SIZE.div_ceil(MAX_LEAF_COUNT) as usize;
+    let (mut levels, mut held) = (0, 1);
+    while held < leaves {
+        held *= 4;
+        levels += 1;
+    }
+    levels
+};
 
 /// The traversal stack, left uninitialised: a BVH8 stack is 8 KiB, and clearing it for
 /// every ray would cost more than many rays' whole traversal. Its storage is a local of the

@@ -9,12 +9,11 @@
 //! blocks one triangle test (the block tests them at once; `leaf`).
 
 use super::leaf::Leaf;
-use super::node::INTERIOR;
 use super::order::{
     key, key_of_ordered, lane_of, nearest_first3, nearest_first4, nearest_first8, ordered,
 };
 use super::stack::{Entry, Stack};
-use super::{Subtree, WideBvh, WideNode};
+use super::{Lanes, NodeWidth, Subtree, WideBvh, WideNode};
 use crate::accel::bvh::packet::PACKET_SIZE;
 use crate::accel::bvh::traverse::T_SCALE;
 use crate::accel::replay::{Child, Level, Order, Step, Visited};
@@ -25,7 +24,10 @@ use crate::geometry::simd::{IntervalSlab, SimdLevel, TriangleKernel, WideRay};
 use crate::geometry::{Intersector, Ray};
 use std::mem::MaybeUninit;
 
-impl<const W: usize> WideBvh<W> {
+impl<const W: usize> WideBvh<W>
+where
+    Lanes<W>: NodeWidth,
+{
     #[inline(always)]
     fn closest_with<
         K: WideSlab<W> + TriangleKernel,
@@ -62,8 +64,7 @@ impl<const W: usize> WideBvh<W> {
     ) -> Option<Hit> {
         let mut best = BestHit::new(ray);
         let root = Entry {
-            child: start.child,
-            count: start.count,
+            child: start,
             entry: ray.tmin,
         };
         self.closest_from::<K, I, S, ORDERED>(root, wray, data, ray, &mut best, stats);
@@ -95,18 +96,15 @@ impl<const W: usize> WideBvh<W> {
         loop {
             stats.node_visit();
             record(stats, || self.visit_step(cur));
-            if cur.count != INTERIOR {
-                let leaf = Leaf {
-                    first: cur.child,
-                    count: cur.count,
-                };
+            if cur.child.is_leaf() {
+                let leaf = Leaf::of(cur.child);
                 // SAFETY: a tree only selects a kernel its CPU supports (`set_simd`), and
                 // the entry points below are compiled for it.
                 if unsafe { self.leaf_closest_called::<K, I, S>(leaf, data, ray, best, stats) } {
                     box_tmax = best.t * T_SCALE;
                 }
             } else {
-                let node = &self.nodes[cur.child as usize];
+                let node = WideNode::of_row(&self.nodes, cur.child);
                 if S::COUNTING {
                     stats.box_tests(node.child_count() as u32);
                 }
@@ -124,7 +122,6 @@ impl<const W: usize> WideBvh<W> {
                     // Lanes are below W, a power of two: `% W` spares the bounds checks.
                     let lane = |i: u32| Entry {
                         child: node.child[i as usize % W],
-                        count: node.count[i as usize % W],
                         entry: entry[i as usize % W],
                     };
                     if mask & (mask - 1) == 0 {
@@ -253,16 +250,15 @@ impl<const W: usize> WideBvh<W> {
         let mut stack = Stack::new(&mut storage);
         let mut entry = [0.0f32; W];
         let mut cur = Entry {
-            child: start.child,
-            count: start.count,
+            child: start,
             entry: ray.tmin,
         };
         loop {
             // Down through interior nodes to a leaf, which is tested after this loop.
-            while cur.count == INTERIOR {
+            while !cur.child.is_leaf() {
                 stats.node_visit();
                 record(stats, || self.visit_step(cur));
-                let node = &self.nodes[cur.child as usize];
+                let node = WideNode::of_row(&self.nodes, cur.child);
                 if S::COUNTING {
                     stats.box_tests(node.child_count() as u32);
                 }
@@ -274,7 +270,6 @@ impl<const W: usize> WideBvh<W> {
                 });
                 let lane = |i: usize| Entry {
                     child: node.child[i % W],
-                    count: node.count[i % W],
                     entry: entry[i % W],
                 };
                 if mask != 0 {
@@ -300,10 +295,7 @@ impl<const W: usize> WideBvh<W> {
             }
             stats.node_visit();
             record(stats, || self.visit_step(cur));
-            let leaf = Leaf {
-                first: cur.child,
-                count: cur.count,
-            };
+            let leaf = Leaf::of(cur.child);
             // A leaf in one block is tested right here: in the any-hit walk that costs the
             // node loop one instruction of register pressure and saves the call's 26
             // (measured; the closest-hit walk, whose loop holds more, lost as much at its
@@ -336,7 +328,10 @@ impl<const W: usize> WideBvh<W> {
     }
 }
 
-impl<const W: usize> WideBvh<W> {
+impl<const W: usize> WideBvh<W>
+where
+    Lanes<W>: NodeWidth,
+{
     /// Five to eight entered children (`mask`) of `node`: ordered by the network of eight,
     /// the farther ones pushed farthest first; returns the nearest's key. Out of line: the
     /// eight keys need more registers than the loop can spare, which it would otherwise
@@ -365,7 +360,6 @@ impl<const W: usize> WideBvh<W> {
             let i = lane_of::<W>(k);
             let e = Entry {
                 child: node.child[i],
-                count: node.count[i],
                 entry: entry[i],
             };
             self.prefetch_entry(e);
@@ -378,7 +372,7 @@ impl<const W: usize> WideBvh<W> {
     /// visited (a child visited at once gains little, and is not prefetched).
     #[inline(always)]
     fn prefetch_entry(&self, e: Entry) {
-        self.prefetch_child(e.child, e.count);
+        self.prefetch_child(e.child);
     }
 }
 
@@ -386,64 +380,67 @@ impl<const W: usize> WideBvh<W> {
 // by its first triangle slot.
 fn push_step(e: Entry) -> Step {
     Step::Push {
-        node: e.child,
-        leaf: e.count != INTERIOR,
+        node: e.child.index(),
+        leaf: e.child.is_leaf(),
         entry: e.entry,
     }
 }
 
 fn pop_step(e: Entry) -> Step {
     Step::Pop {
-        node: e.child,
-        leaf: e.count != INTERIOR,
+        node: e.child.index(),
+        leaf: e.child.is_leaf(),
         entry: Some(e.entry),
     }
 }
 
 fn skip_step(e: Entry, best: f32) -> Step {
     Step::Skip {
-        node: e.child,
-        leaf: e.count != INTERIOR,
+        node: e.child.index(),
+        leaf: e.child.is_leaf(),
         entry: e.entry,
         best,
     }
 }
 
-impl<const W: usize> WideBvh<W> {
+impl<const W: usize> WideBvh<W>
+where
+    Lanes<W>: NodeWidth,
+{
     /// The box of a child to visit: the root's, or that of the lane that holds it.
     fn visit_step(&self, e: Entry) -> Step {
-        self.visit_step_at(e.child, e.count, Level::Single)
+        self.visit_step_at(e.child, Level::Single)
     }
 
-    /// The visit of the child `child` with leaf count `count` (`INTERIOR` for a node), as
-    /// the lanes name them, at `level` of a two-level structure.
-    pub(crate) fn visit_step_at(&self, child: u32, count: u32, level: Level) -> Step {
-        let leaf = count != INTERIOR;
-        let bounds = if child == 0 && !leaf {
+    /// The visit of the child `child` as the lanes name it, at `level` of a two-level
+    /// structure.
+    pub(crate) fn visit_step_at(&self, child: Subtree, level: Level) -> Step {
+        let leaf = child.is_leaf();
+        let bounds = if child == Subtree::ROOT {
             self.nodes[0].bounds()
         } else {
             self.nodes
                 .iter()
                 .flat_map(|n| (0..n.child_count()).map(move |l| (n, l)))
-                .find(|&(n, l)| n.child[l] == child && n.count[l] == count)
+                .find(|&(n, l)| n.child[l] == child)
                 .map_or(crate::geometry::Aabb::EMPTY, |(n, l)| n.child_bounds(l))
         };
         let what = if leaf { Visited::Leaf } else { Visited::Node };
-        Step::visit(child as usize, what, level, bounds)
+        Step::visit(child.index() as usize, what, level, bounds)
     }
 
-    /// The children of node `index` in lane order: where the ray enters those in `mask`.
+    /// The children of node `parent` in lane order: where the ray enters those in `mask`.
     pub(crate) fn children_step(
         &self,
-        index: u32,
+        parent: Subtree,
         mask: u32,
         entry: &[f32; W],
         order: Order,
     ) -> Step {
-        let node = &self.nodes[index as usize];
+        let node = &self.nodes[parent.node_index()];
         let children: Vec<Child> = (0..node.child_count())
             .map(|l| Child {
-                node: node.child[l],
+                node: node.child[l].index(),
                 leaf: !node.is_interior(l),
                 entry: (mask >> l & 1 == 1).then_some(entry[l]),
             })
@@ -475,6 +472,7 @@ macro_rules! entry_points {
     ($closest:ident, $occluded:ident, $packets:ident, $kernel:ty, $features:literal) => {
         impl<const W: usize> WideBvh<W>
         where
+            Lanes<W>: NodeWidth,
             $kernel: super::packet::PacketKernels<W>,
         {
             #[target_feature(enable = $features)]
@@ -528,6 +526,7 @@ entry_points!(
 
 impl<const W: usize> WideBvh<W>
 where
+    Lanes<W>: NodeWidth,
     Portable: WideSlab<W> + IntervalSlab<W>,
     Sse41: WideSlab<W> + IntervalSlab<W>,
     Avx2: WideSlab<W> + IntervalSlab<W>,
@@ -604,6 +603,7 @@ where
 
 impl<const W: usize> Accel for WideBvh<W>
 where
+    Lanes<W>: NodeWidth,
     Portable: WideSlab<W> + IntervalSlab<W>,
     Sse41: WideSlab<W> + IntervalSlab<W>,
     Avx2: WideSlab<W> + IntervalSlab<W>,
