@@ -14,6 +14,7 @@
 //! so an instance opened into several references that the ray reaches counts once for each.
 
 use super::TwoLevel;
+use crate::accel::bvh::Bvh8;
 use crate::accel::bvh::traverse::T_SCALE;
 use crate::accel::bvh::wide::node::{Subtree, WideNode};
 use crate::accel::bvh::wide::stack::{Entry, Stack};
@@ -22,7 +23,9 @@ use crate::accel::stats::{count_locally, record};
 use crate::accel::{Accel, BestHit, Hit, Stats, TraversalOrder};
 use crate::geometry::intersect::TriangleHit;
 use crate::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab};
-use crate::geometry::simd::{PACKET_RAYS, SimdLevel, TriangleKernel, WideRay, prefetch};
+use crate::geometry::simd::{
+    BLOCK, PACKET_RAYS, SimdLevel, TriangleBlock, TriangleKernel, WideRay, prefetch,
+};
 use crate::geometry::{Intersector, Ray};
 use std::mem::MaybeUninit;
 
@@ -30,18 +33,18 @@ use std::mem::MaybeUninit;
 /// first triangle block while the ray is carried into the instance's space: a BLAS walk
 /// begins with a cache miss, as the references a ray enters lie far apart.
 #[inline(always)]
-fn prefetch_subtree(blas: &crate::accel::bvh::Bvh8, start: crate::accel::bvh::Subtree) {
+fn prefetch_subtree(blas: &Bvh8, start: Subtree) {
     const LINE: usize = 64;
     if start.is_leaf() {
-        let block = start.index() as usize / crate::geometry::simd::BLOCK;
+        let block = start.index() as usize / BLOCK;
         let p = blas.blocks.as_ptr().wrapping_add(block).cast::<u8>();
         prefetch(p);
         prefetch(p.wrapping_add(LINE));
-        prefetch(p.wrapping_add(std::mem::size_of::<crate::geometry::simd::TriangleBlock>() - 1));
+        prefetch(p.wrapping_add(std::mem::size_of::<TriangleBlock>() - 1));
     } else {
         // A node's rows start anywhere in a line: its first byte's line, the next three,
         // and its last byte's.
-        let size = std::mem::size_of::<crate::accel::bvh::wide::WideNode<8>>();
+        let size = std::mem::size_of::<WideNode<8>>();
         let p = blas
             .nodes
             .as_ptr()
