@@ -33,15 +33,10 @@ use crate::geometry::simd::{PACKET_RAYS, PacketShear, RayPacket, WideInterval, W
 use crate::geometry::{Intersector, Ray};
 use std::mem::MaybeUninit;
 
-/// The kernels the packet walk of both levels uses.
-pub(super) trait TopPacketKernels: PacketKernels<8> {}
-
-impl<K> TopPacketKernels for K where K: PacketKernels<8> {}
-
 impl TwoLevel {
     /// The closest hit of each ray of `rays` (at most `PACKET_RAYS`).
     #[inline(always)]
-    pub(super) fn trace_packet<K: TopPacketKernels, I: Intersector>(
+    pub(super) fn trace_packet<K: PacketKernels<8>, I: Intersector>(
         &self,
         rays: &[Ray],
         out: &mut [Option<Hit>],
@@ -166,7 +161,7 @@ impl TwoLevel {
     /// # Safety
     /// The CPU supports K's instruction set.
     #[inline(always)]
-    unsafe fn enter_closest_packet<K: TopPacketKernels, I: Intersector>(
+    unsafe fn enter_closest_packet<K: PacketKernels<8>, I: Intersector>(
         &self,
         k: usize,
         mask: u64,
