@@ -62,3 +62,75 @@ fn embree_finds_the_hits_bvhlab_finds() {
         }
     }
 }
+
+/// Embree's two levels name the same triangles of the flattened scene as bvhlab does: a
+/// wrong transform layout or instance numbering in the bindings shows up as hits on other
+/// triangles. Rotations, non-uniform scales, mirrors and an empty mesh.
+#[test]
+fn embree_instances_hit_the_triangles_of_the_flattened_scene() {
+    use bvhlab::scene::instance::{Instance, Mesh};
+    use glam::{Affine3A, Quat, Vec3};
+    let mut scene = Scene::new("instanced");
+    let mesh = |name: &str, triangles| Mesh {
+        name: name.into(),
+        triangles,
+    };
+    scene.meshes = vec![
+        mesh("sphere", Scene::load("sphere:2000").unwrap().triangles),
+        mesh("cornell", Scene::load("cornell").unwrap().triangles),
+        mesh("nothing", Vec::new()),
+    ];
+    for k in 0..60 {
+        let f = k as f32;
+        let mut scale = Vec3::new(1.0 + (k % 3) as f32, 1.0, 0.5 + (k % 4) as f32 * 0.5);
+        if k % 5 == 0 {
+            scale.x = -scale.x;
+        }
+        let rotation = Quat::from_axis_angle(Vec3::new(f.sin(), 1.0, f.cos()).normalize(), f);
+        let at = Vec3::new((k % 8) as f32 * 4.0, (k / 8) as f32 * 4.0, (k % 3) as f32);
+        let transform = Affine3A::from_scale_rotation_translation(scale * 0.1, rotation, at);
+        let instance = Instance::new(k % 3, transform).unwrap();
+        scene.push_instance(format!("instance {k}"), Vec3::ONE, instance);
+    }
+    assert!(scene.triangles.len() > 40_000);
+    let (bvh, _) =
+        bvhlab::accel::bvh::build(&scene.triangles, &BuildParams::default()).expect("builds");
+    let embree = Embree::build_instanced(&scene.instancing(), 2).expect("Embree builds");
+    // Rays at triangles' centroids from around the scene (so most hit), and the usual mix.
+    let b = scene.bounds();
+    let mut rays: Vec<Ray> = (0..3000)
+        .map(|i| {
+            let f = i as f32;
+            let target = scene.triangles[i * 7919 % scene.triangles.len()].centroid();
+            let around = Vec3::new(f.sin(), (1.3 * f).cos(), (0.7 * f).sin()).normalize();
+            let origin = b.center() + around * b.diagonal();
+            Ray::new(origin, target - origin)
+        })
+        .collect();
+    rays.extend(common::rays(&b, 1000, 7));
+    let (mut hits, mut other_triangle, mut disagree) = (0, 0, 0);
+    for ray in &rays {
+        let ours = bvh.closest_hit::<Watertight, _>(ray, &mut NoStats);
+        let theirs = embree.closest_hit::<Watertight, _>(ray, &mut NoStats);
+        match (ours, theirs) {
+            (None, None) => {}
+            (Some(a), Some(b)) if (a.t - b.t).abs() <= 1e-4 * a.t.abs().max(1.0) => {
+                hits += 1;
+                other_triangle += usize::from(a.triangle != b.triangle);
+            }
+            _ => disagree += 1,
+        }
+        let occluded = embree.any_hit::<Watertight, _>(ray, &mut NoStats);
+        disagree += usize::from(occluded != theirs.is_some());
+    }
+    assert!(
+        hits * 4 >= rays.len(),
+        "only {hits} of {} rays hit",
+        rays.len()
+    );
+    assert!(
+        disagree * 200 <= rays.len() && other_triangle * 200 <= hits,
+        "{disagree} of {} rays disagree, {other_triangle} of {hits} hits name another triangle",
+        rays.len()
+    );
+}

@@ -9,6 +9,7 @@
 
 use super::{Accel, Hit, Stats};
 use crate::geometry::{Intersector, Ray, Triangle};
+use crate::scene::instance::Instancing;
 use std::ffi::{c_char, c_uint, c_void};
 use std::time::{Duration, Instant};
 
@@ -21,10 +22,12 @@ mod ffi {
     pub type Geometry = *mut c_void;
 
     pub const GEOMETRY_TYPE_TRIANGLE: c_uint = 0;
+    pub const GEOMETRY_TYPE_INSTANCE: c_uint = 121;
     pub const BUFFER_TYPE_INDEX: c_uint = 0;
     pub const BUFFER_TYPE_VERTEX: c_uint = 1;
     pub const FORMAT_UINT3: c_uint = 0x5003;
     pub const FORMAT_FLOAT3: c_uint = 0x9003;
+    pub const FORMAT_FLOAT3X4_COLUMN_MAJOR: c_uint = 0x9234;
     pub const BUILD_QUALITY_MEDIUM: c_uint = 1;
     pub const INVALID_GEOMETRY_ID: c_uint = u32::MAX;
     pub const CONTEXT_FLAG_INCOHERENT: c_uint = 0;
@@ -121,6 +124,13 @@ mod ffi {
             byte_stride: usize,
             item_count: usize,
         ) -> *mut c_void;
+        pub fn rtcSetGeometryInstancedScene(geometry: Geometry, scene: Scene);
+        pub fn rtcSetGeometryTransform(
+            geometry: Geometry,
+            time_step: c_uint,
+            format: c_uint,
+            transform: *const c_void,
+        );
         pub fn rtcCommitGeometry(geometry: Geometry);
         pub fn rtcAttachGeometry(scene: Scene, geometry: Geometry) -> c_uint;
         pub fn rtcReleaseGeometry(geometry: Geometry);
@@ -137,10 +147,16 @@ mod ffi {
 }
 
 /// An Embree device and scene over a copy of the triangles, built with Embree's default
-/// (medium quality) BVH.
+/// (medium quality) BVH; for an instanced scene, Embree's own two levels: a scene per unique
+/// mesh and a top-level scene of instance geometries.
 pub struct Embree {
     device: ffi::Device,
     scene: ffi::Scene,
+    /// The unique meshes' scenes of an instanced build (empty for one flattened mesh).
+    meshes: Vec<ffi::Scene>,
+    /// The flattened number of each instance's first triangle, so that a hit names the
+    /// same triangle as bvhlab's two levels do (empty for one flattened mesh).
+    first_triangle: Vec<u64>,
     /// How long the build took: filling Embree's buffers and committing the scene.
     pub build_time: Duration,
 }
@@ -150,66 +166,150 @@ unsafe impl Send for Embree {}
 unsafe impl Sync for Embree {}
 
 impl Embree {
+    /// An empty device and top-level scene with `threads` build threads.
+    fn device(threads: usize) -> Result<Self, String> {
+        let config = format!("threads={threads}\0");
+        // SAFETY: a plain call with a NUL-terminated configuration string.
+        let device = unsafe { ffi::rtcNewDevice(config.as_ptr().cast()) };
+        if device.is_null() {
+            return Err("Embree: rtcNewDevice failed".into());
+        }
+        // SAFETY: the device was checked above; the scene is released in `Drop`.
+        let scene = unsafe { ffi::rtcNewScene(device) };
+        Ok(Embree {
+            device,
+            scene,
+            meshes: Vec::new(),
+            first_triangle: Vec::new(),
+            build_time: Duration::ZERO,
+        })
+    }
+
     /// Builds the scene with `threads` build threads; an error if Embree refuses.
     pub fn build(triangles: &[Triangle], threads: usize) -> Result<Self, String> {
-        let config = format!("threads={threads}\0");
-        // SAFETY: plain calls into Embree's C API with valid pointers and the sizes given;
-        // each returned handle is checked before use and released in `Drop`.
-        unsafe {
-            let device = ffi::rtcNewDevice(config.as_ptr().cast());
-            if device.is_null() {
-                return Err("Embree: rtcNewDevice failed".into());
-            }
-            let start = Instant::now();
-            let scene = ffi::rtcNewScene(device);
-            let mut this = Embree {
-                device,
-                scene,
-                build_time: Duration::ZERO,
+        let mut this = Self::device(threads)?;
+        let start = Instant::now();
+        this.commit_mesh(this.scene, triangles)?;
+        this.build_time = start.elapsed();
+        this.check("the build")?;
+        Ok(this)
+    }
+
+    /// Builds Embree's two levels over the same meshes and instances as bvhlab's
+    /// (`Instancing`): one scene per unique mesh, committed once, and a top-level scene with
+    /// an instance geometry per instance, whose id is the instance's index.
+    pub fn build_instanced(scene: &Instancing, threads: usize) -> Result<Self, String> {
+        let mut this = Self::device(threads)?;
+        let start = Instant::now();
+        for mesh in &scene.meshes {
+            // SAFETY: the device is live; the scene is kept in `meshes` and released in `Drop`.
+            let s = unsafe { ffi::rtcNewScene(this.device) };
+            this.meshes.push(s);
+            this.commit_mesh(s, mesh)?;
+        }
+        let mut first = 0u64;
+        for (i, instance) in scene.instances.iter().enumerate() {
+            let Some(&mesh) = this.meshes.get(instance.mesh) else {
+                return Err(format!("Embree: instance {i} names no mesh"));
             };
-            ffi::rtcSetSceneBuildQuality(scene, ffi::BUILD_QUALITY_MEDIUM);
-            let geometry = ffi::rtcNewGeometry(device, ffi::GEOMETRY_TYPE_TRIANGLE);
-            let n = triangles.len();
-            let vertices = ffi::rtcSetNewGeometryBuffer(
-                geometry,
-                ffi::BUFFER_TYPE_VERTEX,
-                0,
-                ffi::FORMAT_FLOAT3,
-                12,
-                3 * n,
-            ) as *mut f32;
-            let indices = ffi::rtcSetNewGeometryBuffer(
-                geometry,
-                ffi::BUFFER_TYPE_INDEX,
-                0,
-                ffi::FORMAT_UINT3,
-                12,
-                n,
-            ) as *mut u32;
-            if vertices.is_null() || indices.is_null() {
-                ffi::rtcReleaseGeometry(geometry);
-                return Err(format!(
-                    "Embree: no buffers for {n} triangles (error {})",
-                    ffi::rtcGetDeviceError(device)
-                ));
-            }
-            let vertices = std::slice::from_raw_parts_mut(vertices, 9 * n);
-            let indices = std::slice::from_raw_parts_mut(indices, 3 * n);
-            for (i, tri) in triangles.iter().enumerate() {
-                for (k, v) in tri.v.iter().enumerate() {
-                    vertices[9 * i + 3 * k..9 * i + 3 * k + 3].copy_from_slice(&v.to_array());
-                    indices[3 * i + k] = (3 * i + k) as u32;
+            // Columns x, y, z and the translation: Embree's FLOAT3X4_COLUMN_MAJOR.
+            let transform = instance.transform.to_cols_array();
+            // SAFETY: the geometry is checked before use and released after attaching (the
+            // scene holds its own reference); the transform is read during the call.
+            let id = unsafe {
+                let g = ffi::rtcNewGeometry(this.device, ffi::GEOMETRY_TYPE_INSTANCE);
+                if g.is_null() {
+                    return Err(format!("Embree: no instance geometry for instance {i}"));
                 }
+                ffi::rtcSetGeometryInstancedScene(g, mesh);
+                ffi::rtcSetGeometryTransform(
+                    g,
+                    0,
+                    ffi::FORMAT_FLOAT3X4_COLUMN_MAJOR,
+                    transform.as_ptr().cast(),
+                );
+                ffi::rtcCommitGeometry(g);
+                let id = ffi::rtcAttachGeometry(this.scene, g);
+                ffi::rtcReleaseGeometry(g);
+                id
+            };
+            if id as usize != i {
+                return Err(format!("Embree: instance {i} was given the id {id}"));
             }
-            ffi::rtcCommitGeometry(geometry);
-            ffi::rtcAttachGeometry(scene, geometry);
-            ffi::rtcReleaseGeometry(geometry);
+            this.first_triangle.push(first);
+            first += scene.meshes[instance.mesh].len() as u64;
+        }
+        // SAFETY: the top-level scene is live; its instances' scenes are committed.
+        unsafe { ffi::rtcCommitScene(this.scene) };
+        this.build_time = start.elapsed();
+        this.check("the instanced build")?;
+        Ok(this)
+    }
+
+    /// Puts `triangles` into `scene` as one triangle geometry and commits it (an empty mesh
+    /// stays an empty scene).
+    fn commit_mesh(&self, scene: ffi::Scene, triangles: &[Triangle]) -> Result<(), String> {
+        let n = triangles.len();
+        // SAFETY: plain calls into Embree's C API with valid pointers and the sizes given;
+        // each returned handle is checked before use.
+        unsafe {
+            ffi::rtcSetSceneBuildQuality(scene, ffi::BUILD_QUALITY_MEDIUM);
+            if n > 0 {
+                let geometry = ffi::rtcNewGeometry(self.device, ffi::GEOMETRY_TYPE_TRIANGLE);
+                let vertices = ffi::rtcSetNewGeometryBuffer(
+                    geometry,
+                    ffi::BUFFER_TYPE_VERTEX,
+                    0,
+                    ffi::FORMAT_FLOAT3,
+                    12,
+                    3 * n,
+                ) as *mut f32;
+                let indices = ffi::rtcSetNewGeometryBuffer(
+                    geometry,
+                    ffi::BUFFER_TYPE_INDEX,
+                    0,
+                    ffi::FORMAT_UINT3,
+                    12,
+                    n,
+                ) as *mut u32;
+                if vertices.is_null() || indices.is_null() {
+                    ffi::rtcReleaseGeometry(geometry);
+                    return Err(format!(
+                        "Embree: no buffers for {n} triangles (error {})",
+                        ffi::rtcGetDeviceError(self.device)
+                    ));
+                }
+                let vertices = std::slice::from_raw_parts_mut(vertices, 9 * n);
+                let indices = std::slice::from_raw_parts_mut(indices, 3 * n);
+                for (i, tri) in triangles.iter().enumerate() {
+                    for (k, v) in tri.v.iter().enumerate() {
+                        vertices[9 * i + 3 * k..9 * i + 3 * k + 3].copy_from_slice(&v.to_array());
+                        indices[3 * i + k] = (3 * i + k) as u32;
+                    }
+                }
+                ffi::rtcCommitGeometry(geometry);
+                ffi::rtcAttachGeometry(scene, geometry);
+                ffi::rtcReleaseGeometry(geometry);
+            }
             ffi::rtcCommitScene(scene);
-            this.build_time = start.elapsed();
-            match ffi::rtcGetDeviceError(device) {
-                0 => Ok(this),
-                e => Err(format!("Embree: the build failed (error {e})")),
-            }
+        }
+        self.check("a mesh's build")
+    }
+
+    /// An error naming `what` if Embree reports one.
+    fn check(&self, what: &str) -> Result<(), String> {
+        // SAFETY: the device is live.
+        match unsafe { ffi::rtcGetDeviceError(self.device) } {
+            0 => Ok(()),
+            e => Err(format!("Embree: {what} failed (error {e})")),
+        }
+    }
+
+    /// The flattened triangle number of Embree's hit on `prim` of instance `instance`.
+    fn triangle(&self, instance: c_uint, prim: c_uint) -> u64 {
+        match self.first_triangle.get(instance as usize) {
+            Some(&first) => first + u64::from(prim),
+            None => u64::from(prim),
         }
     }
 
@@ -256,7 +356,7 @@ impl Embree {
                 t: rh.ray.tfar[i],
                 u: rh.hit.u[i],
                 v: rh.hit.v[i],
-                triangle: u64::from(rh.hit.prim_id[i]),
+                triangle: self.triangle(rh.hit.inst_id[0][i], rh.hit.prim_id[i]),
             });
         }
     }
@@ -267,6 +367,9 @@ impl Drop for Embree {
         // SAFETY: the handles came from Embree and are released once.
         unsafe {
             ffi::rtcReleaseScene(self.scene);
+            for &mesh in &self.meshes {
+                ffi::rtcReleaseScene(mesh);
+            }
             ffi::rtcReleaseDevice(self.device);
         }
     }
@@ -292,7 +395,7 @@ impl Accel for Embree {
             t: rh.ray.tfar,
             u: rh.hit.u,
             v: rh.hit.v,
-            triangle: u64::from(rh.hit.prim_id),
+            triangle: self.triangle(rh.hit.inst_id[0], rh.hit.prim_id),
         })
     }
 

@@ -3,7 +3,7 @@
 //! instance keeps its inverse, which carries rays into the mesh's own space.
 
 use crate::geometry::{Aabb, Triangle};
-use glam::{Affine3A, Mat3A};
+use glam::{Affine3A, Mat3A, Vec3A};
 
 /// Triangles in their own (object) space, placed in the scene by instances.
 #[derive(Clone, Debug, PartialEq)]
@@ -109,8 +109,38 @@ impl Instance {
         Aabb::new(w.min - pad, w.max + pad)
     }
 
-    /// The box of `b`'s eight corners placed by the transform.
+    /// The box of `b`'s eight corners placed by the transform. A corner is placed as
+    /// `transform_point3` places it, x·x_axis + y·y_axis + z·z_axis + translation summed in
+    /// that order; the six products and the four sums of x and y terms are shared by the
+    /// corners, so this is the same box, bit for bit, for a third of the arithmetic (a top
+    /// level places up to 64 BLAS boxes per instance: 1.3 · 10^7 for the island).
     fn corners_box(&self, b: &Aabb) -> Aabb {
+        let m = &self.transform.matrix3;
+        let t = self.transform.translation;
+        let xs = [m.x_axis * b.min.x, m.x_axis * b.max.x];
+        let ys = [m.y_axis * b.min.y, m.y_axis * b.max.y];
+        let zs = [m.z_axis * b.min.z, m.z_axis * b.max.z];
+        // With finite terms no sum is NaN, and the vector min and max then agree with
+        // `f32::min` and `f32::max`, which `Aabb` uses (they differ only on NaN).
+        if xs.iter().chain(&ys).chain(&zs).all(|v| v.is_finite()) && t.is_finite() {
+            let (mut lo, mut hi) = (Vec3A::INFINITY, Vec3A::NEG_INFINITY);
+            for x in xs {
+                for y in ys {
+                    let xy = x + y;
+                    for z in zs {
+                        let p = xy + z + t;
+                        lo = lo.min(p);
+                        hi = hi.max(p);
+                    }
+                }
+            }
+            return Aabb::new(lo.into(), hi.into());
+        }
+        self.corners_box_one_by_one(b)
+    }
+
+    /// `corners_box`, placing each corner on its own: what it must equal.
+    fn corners_box_one_by_one(&self, b: &Aabb) -> Aabb {
         Aabb::from_points((0..8).map(|i| {
             let corner = glam::Vec3::new(
                 if i & 1 == 0 { b.min.x } else { b.max.x },
@@ -201,11 +231,58 @@ mod tests {
             let shift = Vec3::new(next(), next(), next());
             let instance = Instance::new(0, Affine3A::from_translation(shift)).unwrap();
             assert!(instance.is_translation());
-            let corners = instance.corners_box(&boxed);
+            let corners = instance.corners_box_one_by_one(&boxed);
             let shifted = Aabb::new(boxed.min + shift, boxed.max + shift);
             assert_eq!((shifted.min, shifted.max), (corners.min, corners.max));
         }
         let turned = Instance::new(0, Affine3A::from_rotation_y(0.3)).unwrap();
         assert!(!turned.is_translation());
+    }
+
+    /// The corners placed with shared products and sums give the box of the corners placed
+    /// one by one, for rotations, scales, shears and mirrors, boxes from tiny to huge, and
+    /// placements that overflow f32 (where the shared form steps aside).
+    #[test]
+    fn corners_placed_together_give_the_corners_placed_one_by_one() {
+        let mut rng = crate::bench::stress::Rng(0x9e37_79b9_7f4a_7c15);
+        let mut next = |range: i32| {
+            (rng.unit() as f32 - 0.5) * 10f32.powi(rng.below(2 * range as u64 + 1) as i32 - range)
+        };
+        let mut overflowed = 0;
+        for k in 0..20_000 {
+            let range = if k % 10 == 0 { 37 } else { 6 };
+            let m = Mat3A::from_cols(
+                Vec3A::new(next(3), next(3), next(3)),
+                Vec3A::new(next(3), next(3), next(3)),
+                Vec3A::new(next(3), next(3), next(3)),
+            );
+            let t = Vec3A::new(next(range), next(range), next(range));
+            let Ok(instance) =
+                Instance::new(0, Affine3A::from_mat3_translation(m.into(), t.into()))
+            else {
+                continue;
+            };
+            let (a, b) = (
+                Vec3::new(next(range), next(range), next(range)),
+                Vec3::new(next(range), next(range), next(range)),
+            );
+            let boxed = Aabb::new(a.min(b), a.max(b));
+            let (fast, exact) = (
+                instance.corners_box(&boxed),
+                instance.corners_box_one_by_one(&boxed),
+            );
+            overflowed += usize::from(!(exact.min.is_finite() && exact.max.is_finite()));
+            // Equal values (a zero's sign aside), or NaN in both.
+            let same =
+                |a: Vec3, b: Vec3| (0..3).all(|i| a[i] == b[i] || (a[i].is_nan() && b[i].is_nan()));
+            assert!(
+                same(fast.min, exact.min) && same(fast.max, exact.max),
+                "{instance:?} {boxed:?}: {fast:?} against {exact:?}"
+            );
+        }
+        assert!(
+            overflowed > 0,
+            "no placement overflowed: the fallback went untested"
+        );
     }
 }
