@@ -26,3 +26,10 @@ pub const fn gamma(n: i32) -> f32 {
     let ne = n as f32 * MACHINE_EPSILON;
     ne / (1.0 - ne)
 }
+
+/// The relative error a watertight hit's f32 t is trusted to: a hit whose error bound is
+/// larger (a thin triangle, a grazing ray) is placed in f64 instead. Traversals enter every
+/// box up to the best t widened by this (`T_SCALE`), so a triangle whose computed t is
+/// below the best one is never skipped because its box begins beyond it: in a fan of
+/// coplanar triangles the f32 t of each can lie 10–20 ulps from the plane's.
+pub const HIT_T_ERROR: f32 = 1.0 / 65536.0;

@@ -11,11 +11,12 @@ use crate::accel::replay::{Child, Level, Order, Step, Visited, entered};
 use crate::accel::stats::record;
 use crate::accel::{Accel, BestHit, Hit, Stats, TraversalOrder};
 use crate::geometry::aabb::{SlabRay, slab_entry};
-use crate::geometry::{Intersector, Ray, gamma};
+use crate::geometry::{HIT_T_ERROR, Intersector, Ray, gamma};
 
-/// A box is entered at most this relative rounding error before its computed entry
-/// distance; boxes are compared with the best t scaled by it so no tie is lost to rounding.
-pub(crate) const T_SCALE: f32 = 1.0 + 2.0 * gamma(3);
+/// Boxes are compared with the best t scaled by this, so that no hit is lost to rounding: a
+/// box is entered at most 2γ(3) (relative) before its computed entry distance, and a
+/// triangle's exact t is within `HIT_T_ERROR` of its computed one.
+pub(crate) const T_SCALE: f32 = 1.0 + 2.0 * gamma(3) + 2.0 * HIT_T_ERROR;
 
 /// The stack never holds more than one entry per level.
 pub(crate) const STACK_SIZE: usize = MAX_DEPTH + 1;
