@@ -409,21 +409,20 @@ mod tests {
     /// the last of the equal values in leaf order says.
     fn grid_soup(n: usize, seed: u64) -> Vec<Triangle> {
         let mut rng = Rng(seed);
-        let mut coord = |base: i64| {
-            let c = (base + rng.below(2) as i64) as f32;
-            if c == 0.0 && rng.below(2) == 0 {
-                -0.0
-            } else {
-                c
-            }
+        let mut triangle = || {
+            let base: [i64; 3] = std::array::from_fn(|_| rng.below(9) as i64 - 4);
+            let mut coord = |axis: usize| {
+                let c = (base[axis] + rng.below(2) as i64) as f32;
+                if c == 0.0 && rng.below(2) == 0 {
+                    -0.0
+                } else {
+                    c
+                }
+            };
+            let mut v = || Vec3::new(coord(0), coord(1), coord(2));
+            Triangle::new(v(), v(), v())
         };
-        (0..n)
-            .map(|_| {
-                let base: [i64; 3] = std::array::from_fn(|_| rng.below(9) as i64 - 4);
-                let mut v = || Vec3::new(coord(base[0]), coord(base[1]), coord(base[2]));
-                Triangle::new(v(), v(), v())
-            })
-            .collect()
+        (0..n).map(|_| triangle()).collect()
     }
 
     /// The refit as it was first written, one lane and one triangle at a time: each slot's
