@@ -9,7 +9,7 @@ use super::node::{Lanes, NodeWidth, WideNode};
 use crate::accel::bvh::refit::{RefitError, RefitIndex, RefitReport, slots_of};
 use crate::geometry::simd::{BLOCK, TriangleBlock, prefetch};
 use crate::geometry::{Aabb, Triangle};
-use glam::{Vec3, Vec4};
+use glam::{Mat4, Vec3, Vec4};
 use rayon::prelude::*;
 
 /// Below this many triangles a refit runs on one thread (spawning costs more).
@@ -193,16 +193,22 @@ fn fill_blocks(blocks: &mut [TriangleBlock], indices: &[u32], scene: &[Triangle]
                     prefetch(scene.as_ptr().wrapping_add(t as usize));
                 }
             }
-            let tris: [Triangle; BLOCK] =
+            let tris: [&Triangle; BLOCK] =
                 std::array::from_fn(|lane| match indices[b * BLOCK + lane] {
-                    PADDING => PADDING_TRIANGLE,
-                    t => scene[t as usize],
+                    PADDING => &PADDING_TRIANGLE,
+                    t => &scene[t as usize],
                 });
-            *block = TriangleBlock {
-                v: std::array::from_fn(|k| {
-                    std::array::from_fn(|axis| std::array::from_fn(|lane| tris[lane].v[k][axis]))
-                }),
-            };
+            // Vertex k of the four triangles, one per column, transposed: its x, y and z
+            // rows (shuffles move the floats' bits unchanged, NaN included).
+            let mut v = [[[0.0; BLOCK]; 3]; 3];
+            for (k, rows) in v.iter_mut().enumerate() {
+                let [t0, t1, t2, t3] = tris.map(|t| t.v[k].extend(0.0));
+                let m = Mat4::from_cols(t0, t1, t2, t3).transpose();
+                for (axis, row) in rows.iter_mut().enumerate() {
+                    *row = m.col(axis).to_array();
+                }
+            }
+            *block = TriangleBlock { v };
         }
     };
     if blocks.len() * BLOCK >= PARALLEL_REFIT {
@@ -216,6 +222,15 @@ fn fill_blocks(blocks: &mut [TriangleBlock], indices: &[u32], scene: &[Triangle]
             .zip(indices.chunks(FILL_CHUNK * BLOCK))
             .for_each(fill);
     }
+}
+
+/// The box of one lane's triangle, as `Triangle::bounds` folds its vertices.
+#[inline(always)]
+fn lane_box(block: &TriangleBlock, lane: usize) -> (Vec4, Vec4) {
+    let [p0, p1, p2] = block
+        .v
+        .map(|p| Vec4::new(p[0][lane], p[1][lane], p[2][lane], 0.0));
+    (p0.min(p1).min(p2), p0.max(p1).max(p2))
 }
 
 /// The box of the lanes `lanes` (a range within 0..BLOCK) of a block, as the union of
@@ -316,11 +331,19 @@ where
             if word.is_leaf() {
                 let (mut lo, mut hi) = (Vec4::INFINITY, Vec4::NEG_INFINITY);
                 let slots = word.slots();
-                for b in slots.start / BLOCK..slots.end.div_ceil(BLOCK) {
-                    let start = slots.start.max(b * BLOCK) - b * BLOCK;
-                    let end = slots.end.min(b * BLOCK + BLOCK) - b * BLOCK;
-                    let (l2, h2) = lanes_box(&self.blocks[b], start..end);
-                    (lo, hi) = (lo.min(l2), hi.max(h2));
+                if slots.len() <= 2 {
+                    // Most leaves hold one or two triangles: cheaper one lane at a time.
+                    for slot in slots {
+                        let (l2, h2) = lane_box(&self.blocks[slot / BLOCK], slot % BLOCK);
+                        (lo, hi) = (lo.min(l2), hi.max(h2));
+                    }
+                } else {
+                    for b in slots.start / BLOCK..slots.end.div_ceil(BLOCK) {
+                        let start = slots.start.max(b * BLOCK) - b * BLOCK;
+                        let end = slots.end.min(b * BLOCK + BLOCK) - b * BLOCK;
+                        let (l2, h2) = lanes_box(&self.blocks[b], start..end);
+                        (lo, hi) = (lo.min(l2), hi.max(h2));
+                    }
                 }
                 set(l, lo, hi);
             }
