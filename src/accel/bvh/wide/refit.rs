@@ -48,7 +48,8 @@ where
     /// four triangles gathered (prefetched a few blocks ahead, since a leaf's triangles lie
     /// anywhere in scene order) and written whole, so the pass streams and splits evenly
     /// between threads. Then the nodes, children before parents: a leaf lane bounds its
-    /// blocks four lanes at a time, an interior lane takes its child's box, and the SAH cost
+    /// triangles from the blocks (one or two lane by lane, more four lanes at a time), an
+    /// interior lane takes its child's box, and the SAH cost
     /// before and after is summed in the same pass (each lane's old box is read before it
     /// is overwritten). Subtrees near the root run as parallel tasks.
     pub fn refit(
@@ -237,9 +238,9 @@ fn lane_box(block: &TriangleBlock, lane: usize) -> (Vec4, Vec4) {
 /// their triangles' boxes in lane order gives it. Four lanes at a time: each lane's
 /// triangle box (v0, v1, v2 folded as `Triangle::bounds` folds them), the other lanes set
 /// to the empty box's planes (a padding lane's NaN must not count), then the four lanes
-/// folded in pairs that keep their order: `min(a, b)` is `a < b ? a : b`, which is
-/// associative (it keeps the last of equal values, so +0 and −0 come out as in a fold
-/// lane by lane), so the result is the one-by-one union's, bit for bit.
+/// folded in pairs that keep their order: `min(a, b)` is `a < b ? a : b`, which on
+/// numbers (not NaN) is associative (it keeps the last of equal values, so +0 and −0 come
+/// out as in a fold lane by lane), so the result is the one-by-one union's, bit for bit.
 #[inline(always)]
 fn lanes_box(block: &TriangleBlock, lanes: std::ops::Range<usize>) -> (Vec4, Vec4) {
     let lane = Vec4::new(0.0, 1.0, 2.0, 3.0);
