@@ -7,8 +7,9 @@ use super::WideBvh;
 use super::leaf::PADDING;
 use super::node::{Lanes, NodeWidth, WideNode};
 use crate::accel::bvh::refit::{RefitError, RefitIndex, RefitReport, slots_of};
-use crate::geometry::simd::{BLOCK, TriangleBlock};
+use crate::geometry::simd::{BLOCK, TriangleBlock, prefetch};
 use crate::geometry::{Aabb, Triangle};
+use glam::{Mat4, Vec3, Vec4};
 use rayon::prelude::*;
 
 /// Below this many triangles a refit runs on one thread (spawning costs more).
@@ -43,11 +44,14 @@ where
     }
 
     /// Takes the moved triangles (`scene` in scene order, the count the tree was built over)
-    /// and updates every box in one pass, children before parents: a leaf lane copies its
-    /// triangles into their block lanes and bounds them while they are in registers, an
-    /// interior lane takes its child's box. The SAH cost before and after is summed in the
-    /// same pass (each lane's old box is read before it is overwritten), so a refit reads
-    /// the nodes once and the triangles once. Subtrees near the root run as parallel tasks.
+    /// and updates every box, in two passes. First the blocks, in slot order: each block's
+    /// four triangles gathered (prefetched a few blocks ahead, since a leaf's triangles lie
+    /// anywhere in scene order) and written whole, so the pass streams and splits evenly
+    /// between threads. Then the nodes, children before parents: a leaf lane bounds its
+    /// triangles from the blocks (one or two lane by lane, more four lanes at a time), an
+    /// interior lane takes its child's box, and the SAH cost
+    /// before and after is summed in the same pass (each lane's old box is read before it
+    /// is overwritten). Subtrees near the root run as parallel tasks.
     pub fn refit(
         &mut self,
         scene: &[Triangle],
@@ -60,6 +64,7 @@ where
                 given: scene.len(),
             });
         }
+        fill_blocks(&mut self.blocks, &self.prim_indices, scene);
         let root_before = self.nodes[0].bounds().surface_area() as f64;
         let costs = Costs {
             trav: c_trav as f64,
@@ -67,14 +72,12 @@ where
         };
         let tree = SharedTree {
             nodes: self.nodes.as_mut_ptr(),
-            blocks: self.blocks.as_mut_ptr(),
-            indices: &self.prim_indices,
-            scene,
+            blocks: &self.blocks,
         };
         let parallel_depth = if scene.len() >= PARALLEL_REFIT { 4 } else { 0 };
-        // SAFETY: every node but the root has exactly one parent lane and every slot exactly
-        // one leaf lane (what `validate` checks), so the tasks of `refit_subtree` write
-        // disjoint nodes and disjoint block lanes; `self` stays borrowed for the whole pass.
+        // SAFETY: every node but the root has exactly one parent lane (what `validate`
+        // checks), so the tasks of `refit_subtree` write disjoint nodes; `self.nodes` stays
+        // borrowed for the whole pass.
         let sums = unsafe { tree.refit_subtree(0, parallel_depth, costs) };
         let root_after = self.nodes[0].bounds().surface_area() as f64;
         let sah = |root: f64, lanes: f64| {
@@ -169,20 +172,127 @@ impl std::ops::Add for RefitSums {
     }
 }
 
-/// The tree as the refit's tasks share it: raw pointers, because parallel tasks write
-/// different nodes and different lanes of the same block array.
+/// Blocks filled per task of the block pass: a few hundred tasks for 10^6 triangles.
+const FILL_CHUNK: usize = 1024;
+
+/// How many blocks ahead of the one being filled its triangles are asked for: enough to
+/// cover the latency of a gather from anywhere in the scene.
+const FILL_AHEAD: usize = 32;
+
+/// The triangle of a padding lane: NaN, as the collapse leaves it.
+const PADDING_TRIANGLE: Triangle = Triangle { v: [Vec3::NAN; 3] };
+
+/// Writes every block from the scene, in parallel over runs of blocks: each block's four
+/// triangles gathered by their slots' indices (a padding lane stays NaN) and transposed
+/// into the block's rows, which are written whole.
+fn fill_blocks(blocks: &mut [TriangleBlock], indices: &[u32], scene: &[Triangle]) {
+    let fill = |(blocks, indices): (&mut [TriangleBlock], &[u32])| {
+        for (b, block) in blocks.iter_mut().enumerate() {
+            let ahead = (b + FILL_AHEAD) * BLOCK;
+            for &t in indices.get(ahead..ahead + BLOCK).unwrap_or_default() {
+                if t != PADDING {
+                    prefetch(scene.as_ptr().wrapping_add(t as usize));
+                }
+            }
+            let tris: [&Triangle; BLOCK] =
+                std::array::from_fn(|lane| match indices[b * BLOCK + lane] {
+                    PADDING => &PADDING_TRIANGLE,
+                    t => &scene[t as usize],
+                });
+            // Vertex k of the four triangles, one per column, transposed: its x, y and z
+            // rows (shuffles move the floats' bits unchanged, NaN included).
+            let mut v = [[[0.0; BLOCK]; 3]; 3];
+            for (k, rows) in v.iter_mut().enumerate() {
+                let [t0, t1, t2, t3] = tris.map(|t| t.v[k].extend(0.0));
+                let m = Mat4::from_cols(t0, t1, t2, t3).transpose();
+                for (axis, row) in rows.iter_mut().enumerate() {
+                    *row = m.col(axis).to_array();
+                }
+            }
+            *block = TriangleBlock { v };
+        }
+    };
+    if blocks.len() * BLOCK >= PARALLEL_REFIT {
+        blocks
+            .par_chunks_mut(FILL_CHUNK)
+            .zip(indices.par_chunks(FILL_CHUNK * BLOCK))
+            .for_each(fill);
+    } else {
+        blocks
+            .chunks_mut(FILL_CHUNK)
+            .zip(indices.chunks(FILL_CHUNK * BLOCK))
+            .for_each(fill);
+    }
+}
+
+/// The box of one lane's triangle, as `Triangle::bounds` folds its vertices.
+#[inline(always)]
+fn lane_box(block: &TriangleBlock, lane: usize) -> (Vec4, Vec4) {
+    let [p0, p1, p2] = block
+        .v
+        .map(|p| Vec4::new(p[0][lane], p[1][lane], p[2][lane], 0.0));
+    (p0.min(p1).min(p2), p0.max(p1).max(p2))
+}
+
+/// The box of the lanes `lanes` (a range within 0..BLOCK) of a block, as the union of
+/// their triangles' boxes in lane order gives it. Four lanes at a time: each lane's
+/// triangle box (v0, v1, v2 folded as `Triangle::bounds` folds them), the other lanes set
+/// to the empty box's planes (a padding lane's NaN must not count), then the four lanes
+/// folded in pairs that keep their order: `min(a, b)` is `a < b ? a : b`, which on
+/// numbers (not NaN) is associative (it keeps the last of equal values, so +0 and −0 come
+/// out as in a fold lane by lane), so the result is the one-by-one union's, bit for bit.
+#[inline(always)]
+fn lanes_box(block: &TriangleBlock, lanes: std::ops::Range<usize>) -> (Vec4, Vec4) {
+    let lane = Vec4::new(0.0, 1.0, 2.0, 3.0);
+    let used =
+        lane.cmpge(Vec4::splat(lanes.start as f32)) & lane.cmplt(Vec4::splat(lanes.end as f32));
+    let row = |k: usize, axis: usize| Vec4::from_array(block.v[k][axis]);
+    // Lane 0 of the result: ((l0, l1), (l2, l3)) folded by `f`.
+    let fold = |v: Vec4, f: fn(Vec4, Vec4) -> Vec4| {
+        let v = f(v, Vec4::new(v.y, v.x, v.w, v.z));
+        f(v, Vec4::new(v.z, v.w, v.x, v.y)).x
+    };
+    let least = |axis| {
+        let m = row(0, axis).min(row(1, axis)).min(row(2, axis));
+        fold(Vec4::select(used, m, Vec4::INFINITY), Vec4::min)
+    };
+    let greatest = |axis| {
+        let m = row(0, axis).max(row(1, axis)).max(row(2, axis));
+        fold(Vec4::select(used, m, Vec4::NEG_INFINITY), Vec4::max)
+    };
+    (
+        Vec4::new(least(0), least(1), least(2), 0.0),
+        Vec4::new(greatest(0), greatest(1), greatest(2), 0.0),
+    )
+}
+
+/// The surface area of every lane's box, four lanes at a time, as `Aabb::surface_area`
+/// computes it (an empty box has area 0).
+#[inline(always)]
+fn lane_areas<const W: usize>(rows: &[[f32; W]; 6]) -> [f32; W] {
+    let mut areas = [0.0; W];
+    for c in (0..W).step_by(4) {
+        let row = |r: usize| Vec4::from_slice(&rows[r][c..c + 4]);
+        let (lo, hi) = ([row(0), row(1), row(2)], [row(3), row(4), row(5)]);
+        let empty = lo[0].cmpgt(hi[0]) | lo[1].cmpgt(hi[1]) | lo[2].cmpgt(hi[2]);
+        let e = |axis: usize| Vec4::select(empty, Vec4::ZERO, hi[axis] - lo[axis]);
+        let (x, y, z) = (e(0), e(1), e(2));
+        (2.0 * (x * y + y * z + z * x)).write_to_slice(&mut areas[c..c + 4]);
+    }
+    areas
+}
+
+/// The tree as the refit's tasks share it: the nodes through a raw pointer, because
+/// parallel tasks write different nodes of one array; the blocks, already filled, are read.
 struct SharedTree<'a, const W: usize>
 where
     Lanes<W>: NodeWidth,
 {
     nodes: *mut WideNode<W>,
-    blocks: *mut TriangleBlock,
-    indices: &'a [u32],
-    scene: &'a [Triangle],
+    blocks: &'a [TriangleBlock],
 }
 
-// SAFETY: the pointers are only written at nodes and block lanes owned by one task (see
-// `refit_subtree`).
+// SAFETY: the pointer is only written at nodes owned by one task (see `refit_subtree`).
 unsafe impl<const W: usize> Sync for SharedTree<'_, W> where Lanes<W>: NodeWidth {}
 
 impl<const W: usize> SharedTree<'_, W>
@@ -190,91 +300,96 @@ where
     Lanes<W>: NodeWidth,
 {
     /// Refits node `i`'s subtree and returns its lane sums; subtrees start as parallel tasks
-    /// while `parallel_depth` > 0.
+    /// while `parallel_depth` > 0. The leaf lanes are bounded first and the children taken
+    /// last to first: the order the collapse laid their blocks and nodes out in, so both
+    /// are read in ascending addresses.
     ///
     /// # Safety
-    /// No other task may touch `i`'s subtree, its nodes or its leaves' slots.
+    /// No other task may touch `i`'s subtree.
     unsafe fn refit_subtree(&self, i: usize, parallel_depth: u32, costs: Costs) -> RefitSums {
         // SAFETY: node `i` is this task's alone (the caller's contract).
         let node = unsafe { &mut *self.nodes.add(i) };
         let lanes = node.child_count();
-        // Children's sums first: every interior child is refitted before its box is read.
-        let mut child_sums = [RefitSums::default(); W];
-        if parallel_depth > 0 {
-            let interior: Vec<(usize, usize)> = (0..lanes)
-                .filter_map(|l| Some((l, node.interior(l)?)))
-                .collect();
-            let sums: Vec<RefitSums> = interior
-                .par_iter()
-                // SAFETY: distinct children own disjoint subtrees.
-                .map(|&(_, c)| unsafe { self.refit_subtree(c, parallel_depth - 1, costs) })
-                .collect();
-            for (&(l, _), s) in interior.iter().zip(sums) {
-                child_sums[l] = s;
-            }
-        } else {
-            for (l, sum) in child_sums.iter_mut().enumerate().take(lanes) {
-                if let Some(c) = node.interior(l) {
-                    // SAFETY: as above.
-                    *sum = unsafe { self.refit_subtree(c, 0, costs) };
+        let words = node.child;
+        // The children's rows are on their way while the leaves are bounded.
+        for word in &words[..lanes] {
+            if !word.is_leaf() {
+                let child = self.nodes.wrapping_add(word.node_index()).cast::<u8>();
+                for line in (0..size_of::<WideNode<W>>()).step_by(64) {
+                    prefetch(child.wrapping_add(line));
                 }
             }
         }
+        let old = lane_areas(&node.bounds);
+        let mut rows = node.bounds;
+        let mut set = |l: usize, lo: Vec4, hi: Vec4| {
+            for axis in 0..3 {
+                rows[axis][l] = lo[axis];
+                rows[axis + 3][l] = hi[axis];
+            }
+        };
+        for (l, word) in words[..lanes].iter().enumerate() {
+            if word.is_leaf() {
+                let (mut lo, mut hi) = (Vec4::INFINITY, Vec4::NEG_INFINITY);
+                let slots = word.slots();
+                if slots.len() <= 2 {
+                    // Most leaves hold one or two triangles: cheaper one lane at a time.
+                    for slot in slots {
+                        let (l2, h2) = lane_box(&self.blocks[slot / BLOCK], slot % BLOCK);
+                        (lo, hi) = (lo.min(l2), hi.max(h2));
+                    }
+                } else {
+                    for b in slots.start / BLOCK..slots.end.div_ceil(BLOCK) {
+                        let start = slots.start.max(b * BLOCK) - b * BLOCK;
+                        let end = slots.end.min(b * BLOCK + BLOCK) - b * BLOCK;
+                        let (l2, h2) = lanes_box(&self.blocks[b], start..end);
+                        (lo, hi) = (lo.min(l2), hi.max(h2));
+                    }
+                }
+                set(l, lo, hi);
+            }
+        }
+        // Children's sums next: every interior child is refitted before its box is read.
+        let mut child_sums = [RefitSums::default(); W];
+        let interior = (0..lanes).rev().filter(|&l| !words[l].is_leaf());
+        if parallel_depth > 0 {
+            let interior: Vec<usize> = interior.collect();
+            let sums: Vec<RefitSums> = interior
+                .par_iter()
+                // SAFETY: distinct children own disjoint subtrees.
+                .map(|&l| unsafe {
+                    self.refit_subtree(words[l].node_index(), parallel_depth - 1, costs)
+                })
+                .collect();
+            for (&l, s) in interior.iter().zip(sums) {
+                child_sums[l] = s;
+            }
+        } else {
+            for l in interior {
+                // SAFETY: as above.
+                child_sums[l] = unsafe { self.refit_subtree(words[l].node_index(), 0, costs) };
+            }
+        }
+        for (l, word) in words[..lanes].iter().enumerate() {
+            if !word.is_leaf() {
+                // SAFETY: the child's task has finished; nothing else writes it.
+                let b = unsafe { &*self.nodes.add(word.node_index()) }.bounds();
+                set(l, b.min.extend(0.0), b.max.extend(0.0));
+            }
+        }
+        node.bounds = rows;
+        let new = lane_areas(&rows);
         let mut sums = RefitSums::default();
         for (l, child) in child_sums.iter().enumerate().take(lanes) {
-            let old = node.child_bounds(l).surface_area() as f64;
-            let new = match node.interior(l) {
-                // SAFETY: the child's task has finished; nothing else writes it.
-                Some(c) => unsafe { &*self.nodes.add(c) }.bounds(),
-                // SAFETY: this leaf lane's slots belong to no other lane.
-                None => unsafe { self.refill_leaf(node.child[l].slots()) },
-            };
-            node.set_child_bounds(l, new);
-            let weight = costs.of(node.is_interior(l), node.leaf_count(l));
+            let weight = costs.of(!words[l].is_leaf(), words[l].count());
             sums = sums
                 + *child
                 + RefitSums {
-                    before: weight * old,
-                    after: weight * new.surface_area() as f64,
+                    before: weight * old[l] as f64,
+                    after: weight * new[l] as f64,
                 };
         }
         sums
-    }
-
-    /// Copies a leaf's triangles from the scene into their block lanes and returns their box.
-    ///
-    /// # Safety
-    /// The slots must be this leaf's alone.
-    unsafe fn refill_leaf(&self, slots: std::ops::Range<usize>) -> Aabb {
-        let mut b = Aabb::EMPTY;
-        for slot in slots {
-            let t = self.indices[slot];
-            if t == PADDING {
-                continue;
-            }
-            let tri = &self.scene[t as usize];
-            // SAFETY: lane `slot % BLOCK` of this block is written by this leaf only; other
-            // lanes of the block are not touched (`set_lane` writes one lane's floats).
-            unsafe { set_lane(self.blocks.add(slot / BLOCK), slot % BLOCK, tri) };
-            b = b.union(tri.bounds());
-        }
-        b
-    }
-}
-
-/// Writes one lane of a block through a raw pointer, touching no other lane's floats.
-///
-/// # Safety
-/// `block` must point into the live block array, and no one else may access this lane.
-unsafe fn set_lane(block: *mut TriangleBlock, lane: usize, tri: &Triangle) {
-    // SAFETY: the caller's contract; `addr_of_mut!` makes no reference to the whole block,
-    // and its `v` is 3 · 3 · BLOCK contiguous floats (vertex, axis, lane).
-    let floats = unsafe { std::ptr::addr_of_mut!((*block).v) } as *mut f32;
-    for (k, p) in tri.v.iter().enumerate() {
-        for (axis, value) in [p.x, p.y, p.z].into_iter().enumerate() {
-            // SAFETY: k < 3, axis < 3, lane < BLOCK: inside the block, in this lane.
-            unsafe { floats.add((k * 3 + axis) * BLOCK + lane).write(value) };
-        }
     }
 }
 
@@ -304,5 +419,144 @@ impl RefitIndex {
             queued: vec![false; tree.nodes.len()],
             lane_sums: None,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::bvh::{self, BuildParams};
+    use crate::bench::stress::Rng;
+
+    /// Triangles on a coarse grid, so that many share their least and greatest planes, with
+    /// every zero coordinate given a random sign: a box of several of them is +0 or −0 as
+    /// the last of the equal values in leaf order says.
+    fn grid_soup(n: usize, seed: u64) -> Vec<Triangle> {
+        let mut rng = Rng(seed);
+        let mut triangle = || {
+            let base: [i64; 3] = std::array::from_fn(|_| rng.below(9) as i64 - 4);
+            let mut coord = |axis: usize| {
+                let c = (base[axis] + rng.below(2) as i64) as f32;
+                if c == 0.0 && rng.below(2) == 0 {
+                    -0.0
+                } else {
+                    c
+                }
+            };
+            let mut v = || Vec3::new(coord(0), coord(1), coord(2));
+            Triangle::new(v(), v(), v())
+        };
+        (0..n).map(|_| triangle()).collect()
+    }
+
+    /// The refit as it was first written, one lane and one triangle at a time: each slot's
+    /// lane set from the scene, each leaf's box the union of its triangles' boxes in slot
+    /// order, the lane sums added children first as `refit` adds them.
+    fn reference<const W: usize>(t: &mut WideBvh<W>, scene: &[Triangle], costs: Costs) -> (f64, f64)
+    where
+        Lanes<W>: NodeWidth,
+    {
+        fn walk<const W: usize>(
+            t: &mut WideBvh<W>,
+            i: usize,
+            scene: &[Triangle],
+            costs: Costs,
+        ) -> RefitSums
+        where
+            Lanes<W>: NodeWidth,
+        {
+            let lanes = t.nodes[i].child_count();
+            let mut child = [RefitSums::default(); W];
+            for (l, sums) in child.iter_mut().enumerate().take(lanes) {
+                if let Some(c) = t.nodes[i].interior(l) {
+                    *sums = walk(t, c, scene, costs);
+                }
+            }
+            let mut sums = RefitSums::default();
+            for (l, child) in child.iter().enumerate().take(lanes) {
+                let node = &t.nodes[i];
+                let old = node.child_bounds(l).surface_area() as f64;
+                let new = match node.interior(l) {
+                    Some(c) => t.nodes[c].bounds(),
+                    None => node.child[l].slots().fold(Aabb::EMPTY, |b, slot| {
+                        b.union(scene[t.prim_indices[slot] as usize].bounds())
+                    }),
+                };
+                let weight = costs.of(node.is_interior(l), node.leaf_count(l));
+                t.nodes[i].set_child_bounds(l, new);
+                sums = sums
+                    + *child
+                    + RefitSums {
+                        before: weight * old,
+                        after: weight * new.surface_area() as f64,
+                    };
+            }
+            sums
+        }
+        for (slot, &index) in t.prim_indices.iter().enumerate() {
+            if index != PADDING {
+                t.blocks[slot / BLOCK].set(slot % BLOCK, &scene[index as usize]);
+            }
+        }
+        let root_before = t.nodes[0].bounds().surface_area() as f64;
+        let sums = walk(t, 0, scene, costs);
+        let root_after = t.nodes[0].bounds().surface_area() as f64;
+        let sah = |root: f64, lanes: f64| (costs.trav * root + lanes) / root;
+        (sah(root_before, sums.before), sah(root_after, sums.after))
+    }
+
+    /// The full refit (parallel, blocks written whole, leaves bounded four lanes at a time)
+    /// gives the one-by-one refit's boxes, blocks (padding lanes' NaN included) and SAH
+    /// costs bit for bit, signs of zero included.
+    #[test]
+    fn full_refit_equals_the_lane_by_lane_refit_bit_for_bit() {
+        fn check<const W: usize>(seed: u64)
+        where
+            Lanes<W>: NodeWidth,
+        {
+            let n = PARALLEL_REFIT + 5000;
+            let built = grid_soup(n, seed);
+            let b2 = bvh::build(&built, &BuildParams::default()).unwrap().0;
+            let mut fast = WideBvh::<W>::collapse(&b2, &super::super::CollapseParams::default());
+            let mut slow = fast.clone();
+            let moved = grid_soup(n, seed + 1);
+            let costs = Costs {
+                trav: 1.0,
+                isect: 2.0,
+            };
+            let report = fast.refit(&moved, 1.0, 2.0).unwrap();
+            let (before, after) = reference(&mut slow, &moved, costs);
+            let bits = |t: &WideBvh<W>| {
+                let nodes = t.nodes.iter().flat_map(|n| {
+                    let rows = n.bounds.iter().flatten().map(|f| f.to_bits());
+                    rows.chain(n.child.iter().map(|c| c.word()))
+                        .collect::<Vec<_>>()
+                });
+                let blocks = t
+                    .blocks
+                    .iter()
+                    .flat_map(|b| b.v.iter().flatten().flatten().map(|f| f.to_bits()));
+                nodes.chain(blocks).collect::<Vec<u32>>()
+            };
+            assert!(
+                bits(&fast) == bits(&slow),
+                "BVH{W}: the refits' bits differ"
+            );
+            assert_eq!(
+                (report.sah_before.to_bits(), report.sah_after.to_bits()),
+                (before.to_bits(), after.to_bits()),
+                "BVH{W}"
+            );
+            // The scene does hold boxes bounded by −0 on one side.
+            let negative_zero = fast.nodes.iter().flat_map(|n| n.bounds.iter().flatten());
+            assert!(
+                negative_zero
+                    .filter(|f| f.to_bits() == (-0.0f32).to_bits())
+                    .count()
+                    > 10
+            );
+        }
+        check::<4>(3);
+        check::<8>(4);
     }
 }
