@@ -25,8 +25,8 @@ static ALLOCATOR: bvhlab::huge_pages::HugePages = bvhlab::huge_pages::HugePages;
     about = "How bounding volume hierarchies make ray–scene queries fast: render, inspect and benchmark.",
     long_about = "How bounding volume hierarchies make ray–scene queries fast: render, inspect and \
                   benchmark.\n\nWithout a command, opens the explorer app.\n\nScenes are built-in names (cornell, teapot-in-stadium, \
-                  grass, walls, walls-rotated, same-centroid, same-bbox, soup, sphere; most take a \
-                  size as NAME:N, e.g. soup:50000) or paths to .obj, .gltf or .glb files."
+                  grass, walls, walls-rotated, same-centroid, same-bbox, soup, sphere, island; most take a \
+                  size as NAME:N, e.g. soup:50000 or island:1000) or paths to .obj, .gltf or .glb files."
 )]
 struct Cli {
     #[command(subcommand)]

@@ -650,3 +650,110 @@ fn the_stats_panel_says_counting_until_the_counted_pass_arrives() {
     );
     assert_eq!(now.rgba, shown.rgba, "the image does not change");
 }
+
+/// An island under the two levels: the status bar counts the placed triangles (the scene
+/// stores none of them) and the build panel says how the scene is instanced, with the
+/// memory a flattened copy would take, as `bvhlab stats` does.
+#[test]
+fn an_instanced_scene_shows_its_placed_triangles_and_flattened_size() {
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(1400.0, 900.0))
+        .with_max_steps(16)
+        .build_eframe(|cc| {
+            BvhLabApp::new(
+                cc,
+                bvhlab::app::Launch {
+                    scene: Some("island:1".into()),
+                    accel: Some(bvhlab::accel::AccelKind::TwoLevel),
+                    fresh: true,
+                    ..Default::default()
+                },
+            )
+        });
+    settle(&mut h);
+    let scene = h.state().scene.clone().expect("the island loaded");
+    assert!(
+        scene.triangles.is_empty(),
+        "the island stores no placed triangle"
+    );
+    let placed = scene.placed_triangles();
+    assert!(placed > 0);
+    h.get_by_label_contains(&format!(": {placed} triangles, 3 objects"));
+    let rows = scene.instancing_rows();
+    assert_eq!(
+        rows.len(),
+        4,
+        "instances, unique and instanced triangles, flattened copy"
+    );
+    for (k, v) in rows {
+        h.get_by_label(&format!("scene {k}"));
+        assert!(h.query_all_by_label(&v).next().is_some(), "{k}: {v} shown");
+    }
+    assert!(h.query_all_by_label(&placed.to_string()).next().is_some());
+}
+
+/// A .glb dropped on the window loads as the scene, its mesh placed by two nodes, and a
+/// dropped broken .gltf shows its error naming the node, keeping the scene.
+#[test]
+fn dropping_a_gltf_on_the_window_loads_its_instances() {
+    use common::gltf::{GltfBuilder, UNSIGNED_SHORT, temp_dir, write_json};
+    let mut h = app("cornell");
+    let mut b = GltfBuilder::default();
+    let p = b.positions(&[
+        glam::Vec3::new(-1.0, -1.0, 0.0),
+        glam::Vec3::new(1.0, -1.0, 0.0),
+        glam::Vec3::new(1.0, 1.0, 0.0),
+        glam::Vec3::new(-1.0, 1.0, 0.0),
+    ]);
+    let i = b.indices(&[0, 1, 2, 0, 2, 3], UNSIGNED_SHORT);
+    let mesh = b.mesh(&[(p, Some(i))]);
+    let left =
+        b.node(serde_json::json!({"mesh": mesh, "name": "left", "translation": [-2.0, 0.0, 0.0]}));
+    let right =
+        b.node(serde_json::json!({"mesh": mesh, "name": "right", "scale": [1.0, 2.0, 1.0]}));
+    b.roots.extend([left, right]);
+    let dir = temp_dir("app-drop");
+    let glb = b.write_glb(&dir, "quads");
+    let drop = |h: &mut Harness<'static, BvhLabApp>, path: &std::path::Path| {
+        h.input_mut()
+            .dropped_files
+            .push(std::sync::Arc::new(DroppedPath(path.to_path_buf())));
+        h.run_steps(1);
+        settle(h);
+    };
+    drop(&mut h, &glb);
+    let app = h.state();
+    assert_eq!(app.load_error, None);
+    let scene = app.scene.clone().expect("a scene");
+    assert_eq!(
+        scene.placed_triangles(),
+        4,
+        "two quads replaced the Cornell box"
+    );
+    assert_eq!((scene.instances.len(), scene.meshes.len()), (2, 1));
+    assert!(
+        app.shown
+            .as_ref()
+            .is_some_and(|s| s.frame.summary.primary_hits > 0)
+    );
+    // The right quad's node made singular: an error naming the file and node.
+    let mut doc = b.document(Some(format!(
+        "data:application/octet-stream;base64,{}",
+        common::gltf::base64(&b.bin)
+    )));
+    doc["nodes"][right]["scale"] = serde_json::json!([1.0, 0.0, 1.0]);
+    let bad = write_json(&dir, "singular", &doc);
+    drop(&mut h, &bad);
+    let app = h.state();
+    let error = app.load_error.clone().expect("an error is shown");
+    assert!(
+        error.contains("singular.gltf") && error.contains("'right'") && error.contains("singular"),
+        "{error}"
+    );
+    assert_eq!(
+        app.scene.as_ref().unwrap().placed_triangles(),
+        4,
+        "the quads stay"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -615,3 +615,77 @@ fn sah_scatter_gathers_scenes_in_one_csv() {
     assert_eq!(std::fs::read_to_string(&csv).unwrap(), "not a scatter\n");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The two levels' heatmaps count the two levels' work: asked of a flat structure they are
+/// an error, not a black image; with the two levels they are drawn.
+#[test]
+fn two_level_heatmaps_need_the_two_levels() {
+    let dir = std::env::temp_dir().join(format!("bvhlab-heat-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for mode in ["top-nodes", "bottom-nodes", "instances"] {
+        let out_png = dir.join(format!("{mode}.png")).display().to_string();
+        let small = ["--width", "16", "--height", "12", "--out", &out_png];
+        for accel in [None, Some("bvh"), Some("kdtree")] {
+            let mut args = vec!["render", "--scene", "cornell", "--mode", mode];
+            args.extend(accel.map(|a| ["--accel", a]).iter().flatten());
+            args.extend(small);
+            let out = bvhlab(&args);
+            assert!(!out.status.success(), "{mode} {accel:?}");
+            let err = String::from_utf8_lossy(&out.stderr);
+            assert!(
+                err.contains(&format!("--mode {mode}")) && err.contains("--accel two-level"),
+                "{err}"
+            );
+        }
+        let mut args = vec!["render", "--scene", "cornell", "--mode", mode];
+        args.extend(["--accel", "two-level"]);
+        args.extend(small);
+        let out = bvhlab(&args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        assert!(std::path::Path::new(&out_png).exists());
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `bench` on the two levels prints each level's build time, as --json has them.
+#[test]
+fn bench_prints_the_blas_and_tlas_build_times() {
+    let mut args = vec!["bench", "--scene", "cornell", "--accel", "two-level"];
+    args.extend(SMALL_BENCH);
+    let out = bvhlab(&args);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let line = text
+        .lines()
+        .find(|l| l.contains("of which BLAS builds"))
+        .unwrap_or_else(|| panic!("no BLAS/TLAS line: {text}"));
+    assert!(
+        line.contains("ms, TLAS build") && line.ends_with(" ms"),
+        "{line}"
+    );
+    let mut args = vec!["bench", "--scene", "cornell", "--accel", "bvh"];
+    args.extend(SMALL_BENCH);
+    let text = String::from_utf8(bvhlab(&args).stdout).unwrap();
+    assert!(
+        !text.contains("BLAS"),
+        "a flat structure has no levels: {text}"
+    );
+}
+
+/// An island too large is refused for its instances, not for a triangle count it never
+/// stores.
+#[test]
+fn island_size_is_bounded_by_its_instances() {
+    let out = bvhlab(&["stats", "--scene", "island:100000000"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("at most 2000000 instances"), "{err}");
+}

@@ -704,7 +704,10 @@ impl BvhLabApp {
         let ctx = ctx.clone();
         std::thread::spawn(move || {
             let file = rfd::FileDialog::new()
-                .add_filter("Scenes (OBJ, glTF)", &["obj", "OBJ", "gltf", "glb"])
+                .add_filter(
+                    "Scenes (OBJ, glTF)",
+                    &["obj", "OBJ", "gltf", "GLTF", "glb", "GLB"],
+                )
                 .pick_file();
             if let (Some(f), Ok(mut s)) = (file, slot.lock()) {
                 *s = Some(f);

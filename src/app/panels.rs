@@ -126,10 +126,11 @@ pub fn status_bar(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         ui.horizontal(|ui| {
             match &app.scene {
                 Some(s) => {
+                    // The placed triangles: an instanced scene need not store them.
                     ui.label(format!(
                         "{}: {} triangles, {} objects",
                         s.name,
-                        s.triangles.len(),
+                        s.placed_triangles(),
                         s.objects.len()
                     ));
                 }
@@ -813,11 +814,20 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     }
     ui.heading("Build");
     if let Some(r) = &app.report {
+        // A scene with instances of its own first says how it is instanced, as `bvhlab
+        // stats` does: the instanced triangles and the memory a flattened copy would take.
+        let scene_rows = app
+            .scene
+            .as_ref()
+            .map(|s| s.instancing_rows())
+            .unwrap_or_default()
+            .into_iter()
+            .map(|(k, v)| (format!("scene {k}"), v));
         egui::Grid::new("report")
             .num_columns(2)
             .striped(true)
             .show(ui, |ui| {
-                for (k, v) in r.rows() {
+                for (k, v) in scene_rows.chain(r.rows()) {
                     if k.starts_with("leaf sizes") {
                         continue;
                     }

@@ -429,34 +429,6 @@ pub fn parse_vec3(s: &str) -> Result<Vec3, String> {
     Ok(Vec3::new(f(x)?, f(y)?, f(z)?))
 }
 
-/// An instanced scene's counts as table rows: instances, unique and instanced triangles,
-/// and the memory a flattened copy would take (none for a scene without instances).
-pub fn instancing_rows(scene: &Scene) -> Vec<(String, String)> {
-    if scene.instances.is_empty() {
-        return Vec::new();
-    }
-    let instancing = scene.instancing();
-    let gib = scene.flattened_bytes() as f64 / (1u64 << 30) as f64;
-    vec![
-        ("instances".into(), instancing.instances.len().to_string()),
-        (
-            "unique triangles".into(),
-            instancing.unique_triangles().to_string(),
-        ),
-        (
-            "instanced triangles".into(),
-            instancing.instanced_triangles().to_string(),
-        ),
-        (
-            "flattened copy".into(),
-            format!(
-                "{gib:.2} GiB ({} bytes per triangle)",
-                bvhlab::scene::FLAT_BYTES_PER_TRIANGLE
-            ),
-        ),
-    ]
-}
-
 pub fn load_scene(spec: &str) -> Result<Scene> {
     Scene::load(spec).with_context(|| format!("cannot load scene '{spec}'"))
 }

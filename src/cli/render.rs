@@ -1,12 +1,12 @@
 //! `bvhlab render`: a scene through the CPU ray tracer into a PNG.
 
 use super::compare::CompareViewArg;
-use super::{BuildArgs, IntersectorArg, ModeArg, ViewArgs, check_size, load_scene};
+use super::{AccelArg, BuildArgs, IntersectorArg, ModeArg, ViewArgs, check_size, load_scene};
 use anyhow::{Context, Result, bail};
 use bvhlab::accel::Counter;
 use bvhlab::render::{self, Mode, RayKind, RenderSettings};
 use bvhlab::with_intersector;
-use clap::Args;
+use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 
 #[derive(Args)]
@@ -102,6 +102,22 @@ pub fn run(args: RenderArgs) -> Result<()> {
             flags,
             args.compare_view,
             &out,
+        );
+    }
+    // A flat structure has no levels: its top-level and instance counts are all zero, a
+    // black heatmap that would look like a measurement.
+    let two_level_mode = matches!(
+        args.mode,
+        ModeArg::TopNodes | ModeArg::BottomNodes | ModeArg::Instances
+    );
+    let accel = args.build.accel_to_trace(&scene);
+    if two_level_mode && accel != AccelArg::TwoLevel {
+        bail!(
+            "--mode {} counts the two levels' work, which {} does not have: add --accel two-level",
+            args.mode
+                .to_possible_value()
+                .map_or_else(String::new, |v| v.get_name().to_string()),
+            accel.kind()?.title()
         );
     }
     let built = args.build.build_to_trace(&scene)?;

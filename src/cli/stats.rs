@@ -1,6 +1,6 @@
 //! `bvhlab stats`: the build report of a structure as a table.
 
-use super::{BuildArgs, instancing_rows, load_scene};
+use super::{BuildArgs, load_scene};
 use anyhow::Result;
 use clap::Args;
 
@@ -17,7 +17,8 @@ pub fn run(args: StatsArgs) -> Result<()> {
     let scene = load_scene(&args.scene)?;
     let report = args.build.build(&scene)?.report;
     out!("scene: {} ({} objects)", scene.name, scene.objects.len());
-    let rows: Vec<_> = instancing_rows(&scene)
+    let rows: Vec<_> = scene
+        .instancing_rows()
         .into_iter()
         .map(|(k, v)| (format!("scene {k}"), v))
         .chain(report.rows())

@@ -159,6 +159,32 @@ impl Scene {
         self.placed_triangles() as u64 * FLAT_BYTES_PER_TRIANGLE
     }
 
+    /// An instanced scene's counts as table rows: instances, unique and instanced triangles,
+    /// and the memory a flattened copy would take (none for a scene without instances).
+    /// `bvhlab stats`, `bvhlab bench` and the app's build panel show the same rows.
+    pub fn instancing_rows(&self) -> Vec<(String, String)> {
+        if self.instances.is_empty() {
+            return Vec::new();
+        }
+        let instancing = self.instancing();
+        let gib = self.flattened_bytes() as f64 / (1u64 << 30) as f64;
+        vec![
+            ("instances".into(), instancing.instances.len().to_string()),
+            (
+                "unique triangles".into(),
+                instancing.unique_triangles().to_string(),
+            ),
+            (
+                "instanced triangles".into(),
+                instancing.instanced_triangles().to_string(),
+            ),
+            (
+                "flattened copy".into(),
+                format!("{gib:.2} GiB ({FLAT_BYTES_PER_TRIANGLE} bytes per triangle)"),
+            ),
+        ]
+    }
+
     /// The world-space triangles, flattened now if they are not stored and fit in
     /// `MAX_FLATTENED` (a clear error instead of allocating billions).
     pub fn flattened(&self) -> Result<Cow<'_, [Triangle]>, FlattenError> {
