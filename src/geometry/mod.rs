@@ -27,9 +27,11 @@ pub const fn gamma(n: i32) -> f32 {
     ne / (1.0 - ne)
 }
 
-/// The relative error a watertight hit's f32 t is trusted to: a hit whose error bound is
-/// larger (a thin triangle, a grazing ray) is placed in f64 instead. Traversals enter every
-/// box up to the best t widened by this (`T_SCALE`), so a triangle whose computed t is
-/// below the best one is never skipped because its box begins beyond it: in a fan of
-/// coplanar triangles the f32 t of each can lie 10–20 ulps from the plane's.
-pub const HIT_T_ERROR: f32 = 1.0 / 65536.0;
+/// How far (relative) box culling reaches past the best hit's f32 t. A hit's f32 t can lie
+/// 10–20 ulps from the plane's true distance (a slanted ray through long, thin triangles),
+/// so a triangle whose computed t is below the best one may sit in a box whose computed
+/// entry is above it: on stacked coplanar triangles in an axis-aligned plane, a walk that
+/// stopped at the best t itself skipped such boxes and named another triangle than brute
+/// force. Traversals enter every box up to the best t widened by this (`T_SCALE`); it is
+/// far above the error of any but ill-conditioned hits (a grazing ray, a sliver).
+pub const HIT_T_ERROR: f32 = 1.0 / 16384.0;

@@ -15,7 +15,8 @@ use crate::geometry::{HIT_T_ERROR, Intersector, Ray, gamma};
 
 /// Boxes are compared with the best t scaled by this, so that no hit is lost to rounding: a
 /// box is entered at most 2γ(3) (relative) before its computed entry distance, and a
-/// triangle's exact t is within `HIT_T_ERROR` of its computed one.
+/// triangle's exact t is within `HIT_T_ERROR` of its computed one but for ill-conditioned
+/// hits.
 pub(crate) const T_SCALE: f32 = 1.0 + 2.0 * gamma(3) + 2.0 * HIT_T_ERROR;
 
 /// The stack never holds more than one entry per level.

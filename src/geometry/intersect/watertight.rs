@@ -10,7 +10,7 @@
 use super::reference::gamma64;
 use super::{Intersector, TriangleHit};
 use crate::geometry::simd::triangle::{BlockHits, TriangleBlock, TriangleKernel};
-use crate::geometry::{HIT_T_ERROR, Ray, Triangle, gamma};
+use crate::geometry::{Ray, Triangle, gamma};
 use glam::{DVec3, Vec3};
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -122,6 +122,9 @@ impl Intersector for Watertight {
         let (az, bz, cz) = (s.z * a.z, s.z * b.z, s.z * c.z);
         let inv_det = 1.0 / det;
         let mut t = (e0 * az + e1 * bz + e2 * cz) * inv_det;
+        if !(t > tmin && t < tmax) {
+            return None;
+        }
         // The rounding error of t (pbrt-v4 §6.8.4). The sheared x and y are q_x + s_x·q_z
         // with |s_x| ≤ 1, so their error is bounded with |q_z| (pbrt uses the scaled z,
         // too small when the direction is longer than 1).
@@ -136,21 +139,16 @@ impl Intersector for Watertight {
         let max_e = e0.abs().max(e1.abs()).max(e2.abs());
         let delta_t =
             3.0 * (gamma(3) * max_e * max_z + delta_e * max_z + delta_z * max_e) * inv_det.abs();
-        if t * HIT_T_ERROR <= delta_t {
-            // f32 cannot place this hit to `HIT_T_ERROR`, and where t <= delta_t cannot tell
-            // it from the surface the ray starts on. pbrt rejects such hits, which avoids
-            // self-intersection but also loses real hits close to long thin triangles (whose
-            // f32 t error is large), letting rays through closed meshes. f64 decides
-            // instead: its error is ~10^-16 of the same terms. The interval is checked on
-            // the t returned, never on the f32 one, so that whether a hit is found does not
-            // depend on which triangle set the interval's end (the order of the tests).
+        if t <= delta_t {
+            // f32 cannot tell this hit from the surface the ray starts on. pbrt rejects it,
+            // which avoids self-intersection but also loses real hits close to long thin
+            // triangles (whose f32 t error is large), letting rays through closed meshes.
+            // f64 decides instead: its error is ~10^-16 of the same terms.
             let t64 = plane_distance_f64(ray, tri)?;
             if !(t64 > tmin as f64 && t64 < tmax as f64) {
                 return None;
             }
             t = t64 as f32;
-        } else if !(t > tmin && t < tmax) {
-            return None;
         }
         Some(TriangleHit {
             t,

@@ -15,8 +15,8 @@
 
 use super::ray_packet::{DIR, ORIGIN, PACKET_RAYS, RayLoad, RayPacket, TMAX, TMIN};
 use super::slab::{Avx2, Avx512, Portable, Sse41};
+use crate::geometry::gamma;
 use crate::geometry::intersect::shear_axes_of;
-use crate::geometry::{HIT_T_ERROR, gamma};
 use glam::Vec3;
 
 /// The packet's rays in the watertight test's terms: each ray's shear as structures of
@@ -225,9 +225,7 @@ impl PacketTriangleKernel for Portable {
             let (az, bz, cz) = (s.z * a.z, s.z * b.z, s.z * c.z);
             let inv_det = 1.0 / det;
             let t = (e0 * az + e1 * bz + e2 * cz) * inv_det;
-            let in_triangle = !outside && det != 0.0;
-            let (tmin, limit) = (p.ray[TMIN][i], best.limit[i]);
-            let inside = in_triangle && t > tmin && t < limit;
+            let inside = !outside && det != 0.0 && t > p.ray[TMIN][i] && t < best.limit[i];
             let max_z = az.abs().max(bz.abs()).max(cz.abs());
             let max_qz = a.z.abs().max(b.z.abs()).max(c.z.abs());
             let max_x = ax.abs().max(bx.abs()).max(cx.abs());
@@ -240,14 +238,10 @@ impl PacketTriangleKernel for Portable {
             let delta_t = 3.0
                 * (gamma(3) * max_e * max_z + delta_e * max_z + delta_z * max_e)
                 * inv_det.abs();
-            let near = t * HIT_T_ERROR <= delta_t;
+            let near = t <= delta_t;
             let (u, v) = (e1 * inv_det, e2 * inv_det);
             let hit = inside && !near && !zero;
-            // As in the block test: a near hit that may lie in the interval is the scalar
-            // test's to decide on its f64 t.
-            let may_be_inside =
-                in_triangle && t - 2.0 * delta_t < limit && t + 2.0 * delta_t > tmin;
-            let retest = zero || (may_be_inside && near);
+            let retest = zero || (inside && near);
             if hit && t < best.t[i] {
                 best.t[i] = t;
                 best.limit[i] = t.next_up();
@@ -328,12 +322,16 @@ macro_rules! watertight_rays {
             $add($add($mul(e0, az), $mul(e1, bz)), $mul(e2, cz)),
             inv_det,
         );
-        let (tmin, tmax) = (
-            $load(p.ray[TMIN][at..].as_ptr()),
-            $load(limit[at..].as_ptr()),
+        let inside = $mandnot!(
+            outside,
+            $mand!(
+                $neq!(det, zero),
+                $mand!(
+                    $gt!(t, $load(p.ray[TMIN][at..].as_ptr())),
+                    $lt!(t, $load(limit[at..].as_ptr()))
+                )
+            )
         );
-        let in_triangle = $mandnot!(outside, $neq!(det, zero));
-        let inside = $mand!(in_triangle, $mand!($gt!(t, tmin), $lt!(t, tmax)));
         // The rounding error of t, as the scalar test bounds it.
         macro_rules! max3 {
             ($a:expr, $b:expr, $c:expr) => {
@@ -366,16 +364,9 @@ macro_rules! watertight_rays {
             ),
             $abs!(inv_det),
         );
-        let near = $le!($mul(t, $set1(HIT_T_ERROR)), delta_t);
+        let near = $le!(t, delta_t);
         let hit = $mandnot!($mor!(near, on_edge), inside);
-        // A near lane whose t may lie in the interval goes back to the scalar test, which
-        // decides it on its f64 t.
-        let slack = $add(delta_t, delta_t);
-        let may_be_inside = $mand!(
-            in_triangle,
-            $mand!($lt!($sub(t, slack), tmax), $gt!($add(t, slack), tmin))
-        );
-        let retest = $mor!(on_edge, $mand!(may_be_inside, near));
+        let retest = $mor!(on_edge, $mand!(inside, near));
         (t, $mul(e1, inv_det), $mul(e2, inv_det), hit, retest)
     }};
 }

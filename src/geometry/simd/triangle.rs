@@ -9,7 +9,7 @@
 
 use super::slab::{Avx2, Avx512, Portable, Sse41};
 use crate::geometry::intersect::Shear;
-use crate::geometry::{HIT_T_ERROR, Ray, Triangle, gamma};
+use crate::geometry::{Ray, Triangle, gamma};
 use glam::Vec3;
 
 /// Triangles per block: one 128-bit vector of f32.
@@ -129,8 +129,7 @@ impl TriangleKernel for Portable {
             let (az, bz, cz) = (s.z * a.z, s.z * b.z, s.z * c.z);
             let inv_det = 1.0 / det;
             let t = (e0 * az + e1 * bz + e2 * cz) * inv_det;
-            let in_triangle = !outside && det != 0.0;
-            let inside = in_triangle && t > tmin && t < tmax;
+            let inside = !outside && det != 0.0 && t > tmin && t < tmax;
             let max_z = az.abs().max(bz.abs()).max(cz.abs());
             let max_qz = a.z.abs().max(b.z.abs()).max(c.z.abs());
             let max_x = ax.abs().max(bx.abs()).max(cx.abs());
@@ -143,15 +142,12 @@ impl TriangleKernel for Portable {
             let delta_t = 3.0
                 * (gamma(3) * max_e * max_z + delta_e * max_z + delta_z * max_e)
                 * inv_det.abs();
-            let near = t * HIT_T_ERROR <= delta_t;
+            let near = t <= delta_t;
             out.t[i] = t;
             out.u[i] = e1 * inv_det;
             out.v[i] = e2 * inv_det;
             out.hit |= u32::from(inside && !near && !zero) << i;
-            // The scalar test decides a near hit on its f64 t: every one whose t may lie in
-            // the interval goes back to it.
-            let may_be_inside = in_triangle && t - 2.0 * delta_t < tmax && t + 2.0 * delta_t > tmin;
-            out.retest |= u32::from(zero || (may_be_inside && near)) << i;
+            out.retest |= u32::from(zero || (inside && near)) << i;
         }
         out
     }
@@ -226,14 +222,20 @@ macro_rules! watertight_m128 {
             ),
             inv_det,
         );
-        let in_triangle = _mm_andnot_ps(outside, det_nonzero);
-        let inside = _mm_and_ps(
-            in_triangle,
+        let inside = _mm_andnot_ps(
+            outside,
             _mm_and_ps(
-                _mm_cmpgt_ps(t, _mm_set1_ps($tmin)),
-                _mm_cmplt_ps(t, _mm_set1_ps($tmax)),
+                _mm_cmpneq_ps(det, zero),
+                _mm_and_ps(
+                    _mm_cmpgt_ps(t, _mm_set1_ps($tmin)),
+                    _mm_cmplt_ps(t, _mm_set1_ps($tmax)),
+                ),
             ),
         );
+        // No lane within the interval nor on an edge: the error bound decides nothing.
+        if _mm_movemask_ps(_mm_or_ps(inside, on_edge)) == 0 {
+            return BlockHits::MISS;
+        }
         // The rounding error of t, as the scalar test bounds it.
         let sign = _mm_set1_ps(-0.0);
         let abs = |x| _mm_andnot_ps(sign, x);
@@ -270,19 +272,9 @@ macro_rules! watertight_m128 {
             ),
             abs(inv_det),
         );
-        let near = _mm_cmple_ps(_mm_mul_ps(t, _mm_set1_ps(HIT_T_ERROR)), delta_t);
+        let near = _mm_cmple_ps(t, delta_t);
         let hit = _mm_andnot_ps(_mm_or_ps(near, on_edge), inside);
-        // A near lane whose t may lie in the interval goes back to the scalar test, which
-        // decides it on its f64 t.
-        let slack = _mm_add_ps(delta_t, delta_t);
-        let may_be_inside = _mm_and_ps(
-            in_triangle,
-            _mm_and_ps(
-                _mm_cmplt_ps(_mm_sub_ps(t, slack), _mm_set1_ps($tmax)),
-                _mm_cmpgt_ps(_mm_add_ps(t, slack), _mm_set1_ps($tmin)),
-            ),
-        );
-        let retest = _mm_or_ps(on_edge, _mm_and_ps(may_be_inside, near));
+        let retest = _mm_or_ps(on_edge, _mm_and_ps(inside, near));
         (
             t,
             _mm_mul_ps(e1, inv_det),
