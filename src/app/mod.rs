@@ -76,6 +76,9 @@ pub struct BvhLabApp {
     worker: Worker,
     persist: bool,
     pub scene: Option<Arc<Scene>>,
+    /// The scene's instancing rows for the build panel (`Scene::instancing_rows`), made
+    /// once at load: they count every instance, too much work for every frame.
+    pub scene_rows: Vec<(String, String)>,
     pub load_error: Option<String>,
     pub report: Option<StructureReport>,
     /// The BVH's own report (SAH cost, leaf sizes) when the structure is a BVH.
@@ -186,6 +189,7 @@ impl BvhLabApp {
             worker,
             persist: !launch.fresh,
             scene: None,
+            scene_rows: Vec::new(),
             load_error: None,
             report: None,
             bvh_report: None,
@@ -269,6 +273,11 @@ impl BvhLabApp {
                         self.settings.add_recent(&spec);
                     }
                     self.settings.scene = spec;
+                    self.scene_rows = scene
+                        .instancing_rows()
+                        .into_iter()
+                        .map(|(k, v)| (format!("scene {k}"), v))
+                        .collect();
                     self.scene = Some(scene);
                     self.load_error = None;
                     self.selection = None;

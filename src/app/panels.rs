@@ -816,13 +816,7 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     if let Some(r) = &app.report {
         // A scene with instances of its own first says how it is instanced, as `bvhlab
         // stats` does: the instanced triangles and the memory a flattened copy would take.
-        let scene_rows = app
-            .scene
-            .as_ref()
-            .map(|s| s.instancing_rows())
-            .unwrap_or_default()
-            .into_iter()
-            .map(|(k, v)| (format!("scene {k}"), v));
+        let scene_rows = app.scene_rows.iter().cloned();
         egui::Grid::new("report")
             .num_columns(2)
             .striped(true)
