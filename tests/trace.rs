@@ -5,7 +5,7 @@ mod common;
 
 use bvhlab::accel::bvh::{BuildParams, build};
 use bvhlab::accel::{Accel, NoStats};
-use bvhlab::geometry::rayfile::{self, RayFileError};
+use bvhlab::geometry::rayfile::{self, HitFormat, RayFileError};
 use bvhlab::geometry::{Ray, Watertight};
 use bvhlab::scene::Scene;
 use glam::Vec3;
@@ -90,21 +90,21 @@ fn trace_writes_closest_hits_and_occlusion_in_input_order() {
             "{}",
             String::from_utf8_lossy(&out.stderr)
         );
-        let hits = rayfile::decode_hits(&std::fs::read(&hits_path).unwrap());
+        let hits = rayfile::decode_hits(&std::fs::read(&hits_path).unwrap(), HitFormat::U32);
         assert_eq!(hits.len(), rays.len());
         for (ray, &(t, tri)) in rays.iter().zip(&hits) {
             let expected = bvh.closest_hit::<Watertight, _>(ray, &mut NoStats);
-            let got = (tri != rayfile::MISS).then_some(bvhlab::accel::Hit {
+            let got = (tri != u64::from(rayfile::MISS)).then_some(bvhlab::accel::Hit {
                 t,
                 u: 0.0,
                 v: 0.0,
-                triangle: tri.into(),
+                triangle: tri,
             });
             assert!(
                 common::same_hit(got, expected),
                 "{accel}: {ray:?}: {got:?} vs {expected:?}"
             );
-            if tri == rayfile::MISS {
+            if tri == u64::from(rayfile::MISS) {
                 assert_eq!(t, f32::INFINITY);
             } else {
                 assert!((tri as usize) < scene.triangles.len());
@@ -171,10 +171,10 @@ fn trace_counts_triangles_in_obj_file_order() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let hits = rayfile::decode_hits(&std::fs::read(&hits_path).unwrap());
+    let hits = rayfile::decode_hits(&std::fs::read(&hits_path).unwrap(), HitFormat::U32);
     assert_eq!(
         hits,
-        vec![(1.0, 1), (1.0, 2), (f32::INFINITY, rayfile::MISS)]
+        vec![(1.0, 1), (1.0, 2), (f32::INFINITY, u64::from(rayfile::MISS))]
     );
 }
 
@@ -210,4 +210,140 @@ fn trace_rejects_truncated_and_invalid_ray_files() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("ray 1: direction is zero"), "{err}");
+}
+
+#[test]
+fn hit_files_number_triangles_in_64_bits_when_32_do_not_reach() {
+    // The default island places 1.76 × 10^10 triangles: its hits need 64-bit numbers.
+    let scene = bvhlab::scene::builtin::by_name("island").unwrap().unwrap();
+    assert!(scene.placed_triangles() as u64 > u64::from(u32::MAX));
+    let b = scene.bounds();
+    // Straight down onto the island's middle, where trees stand on the terrain.
+    let rays: Vec<Ray> = (0..400)
+        .map(|i| {
+            let (x, z) = ((i % 20) as f32 / 20.0, (i / 20) as f32 / 20.0);
+            let p = b.min + (b.max - b.min) * Vec3::new(0.3 + 0.4 * x, 1.0, 0.3 + 0.4 * z);
+            Ray::new(p + Vec3::Y, Vec3::NEG_Y)
+        })
+        .collect();
+    let rays_path = temp("island-rays.bin");
+    std::fs::write(&rays_path, rayfile::encode_rays(&rays)).unwrap();
+    let hits_path = temp("island-hits.bin");
+    let trace = |extra: &[&str]| {
+        let mut args = vec![
+            "trace",
+            "--scene",
+            "island",
+            "--rays",
+            rays_path.to_str().unwrap(),
+            "--out",
+            hits_path.to_str().unwrap(),
+            "--threads",
+            "2",
+        ];
+        args.extend_from_slice(extra);
+        bvhlab(&args)
+    };
+    let out = trace(&[]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).contains("64-bit triangle numbers"));
+    let bytes = std::fs::read(&hits_path).unwrap();
+    assert_eq!(bytes.len(), rays.len() * HitFormat::U64.record_bytes());
+    let hits = rayfile::decode_hits(&bytes, HitFormat::U64);
+    let params = bvhlab::accel::structure::StructureParams::of_kind(
+        bvhlab::accel::structure::AccelKind::TwoLevel,
+    );
+    let built =
+        bvhlab::accel::structure::build_scene(&scene, &params, &Default::default()).unwrap();
+    let mut beyond_32_bits = 0;
+    for (ray, &(t, tri)) in rays.iter().zip(&hits) {
+        let expected = built
+            .structure
+            .closest_hit::<Watertight, _>(ray, &mut NoStats);
+        let got = (tri != rayfile::MISS_U64).then_some(bvhlab::accel::Hit {
+            t,
+            u: 0.0,
+            v: 0.0,
+            triangle: tri,
+        });
+        assert!(
+            common::same_hit(got, expected),
+            "{ray:?}: {got:?} vs {expected:?}"
+        );
+        beyond_32_bits += usize::from(tri != rayfile::MISS_U64 && tri > u64::from(u32::MAX));
+    }
+    assert!(beyond_32_bits > 40, "{beyond_32_bits} hits beyond 32 bits");
+    // Asked for 32 bits, the island is refused before anything is traced.
+    std::fs::remove_file(&hits_path).unwrap();
+    let out = trace(&["--hit-bits", "32"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("17570287050 triangles") && err.contains("--hit-bits 64"),
+        "{err}"
+    );
+    assert!(!hits_path.exists());
+}
+
+#[test]
+fn a_64_bit_hit_file_holds_the_32_bit_files_hits() {
+    let rays: Vec<Ray> = (0..64)
+        .map(|i| Ray::new(Vec3::new(i as f32 * 0.1 - 3.0, 1.0, -10.0), Vec3::Z))
+        .collect();
+    let rays_path = temp("wide-rays.bin");
+    std::fs::write(&rays_path, rayfile::encode_rays(&rays)).unwrap();
+    let mut files = Vec::new();
+    for bits in ["32", "64"] {
+        let hits_path = temp(&format!("wide-hits-{bits}.bin"));
+        let out = bvhlab(&[
+            "trace",
+            "--scene",
+            "cornell",
+            "--rays",
+            rays_path.to_str().unwrap(),
+            "--out",
+            hits_path.to_str().unwrap(),
+            "--hit-bits",
+            bits,
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        files.push(std::fs::read(&hits_path).unwrap());
+    }
+    let narrow = rayfile::decode_hits(&files[0], HitFormat::U32);
+    let wide = rayfile::decode_hits(&files[1], HitFormat::U64);
+    assert_eq!(files[1].len(), 12 * rays.len());
+    assert_eq!(narrow.len(), wide.len());
+    let mut hits = 0;
+    for (&(t32, tri32), &(t64, tri64)) in narrow.iter().zip(&wide) {
+        assert_eq!(t32.to_bits(), t64.to_bits());
+        if tri32 == u64::from(rayfile::MISS) {
+            assert_eq!(tri64, rayfile::MISS_U64);
+        } else {
+            assert_eq!(tri32, tri64);
+            hits += 1;
+        }
+    }
+    assert!(hits > 0 && hits < rays.len(), "{hits}");
+    // --hit-bits numbers closest hits; occlusion files have no triangle numbers.
+    let out = bvhlab(&[
+        "trace",
+        "--scene",
+        "cornell",
+        "--rays",
+        rays_path.to_str().unwrap(),
+        "--out",
+        temp("wide-any.bin").to_str().unwrap(),
+        "--any",
+        "--hit-bits",
+        "64",
+    ]);
+    assert!(!out.status.success());
 }

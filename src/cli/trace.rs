@@ -3,11 +3,12 @@
 //! input order; the formats are those of `bvhlab::geometry::rayfile`.
 
 use super::{BuildArgs, IntersectorArg, load_scene, thread_pool};
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use bvhlab::accel::{Accel, NoStats};
-use bvhlab::geometry::{Intersector, Ray, rayfile};
+use bvhlab::geometry::rayfile::{self, HitFormat};
+use bvhlab::geometry::{Intersector, Ray};
 use bvhlab::with_intersector;
-use clap::Args;
+use clap::{Args, ValueEnum};
 use rayon::prelude::*;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -16,8 +17,11 @@ use std::time::Instant;
 #[command(long_about = "Trace a file of rays against a scene.\n\n\
         rays.bin: per ray 8 little-endian f32: ox oy oz dx dy dz tmin tmax (hits with t in \
         the open interval (tmin, tmax), t in units of the unnormalised direction).\n\
-        hits.bin: per ray, in input order, f32 t (+inf on a miss) then u32 triangle index \
-        (0xFFFFFFFF on a miss); triangles are counted in OBJ file order after triangulation.\n\
+        hits.bin: per ray, in input order, f32 t (+inf on a miss) then the triangle's number \
+        as a u32 (0xFFFFFFFF on a miss), 8 bytes a ray; for a scene that places more \
+        triangles than 32 bits number (instancing, `island`), or with --hit-bits 64, as a \
+        u64 (all ones on a miss), 12 bytes a ray. Triangles are counted in OBJ file order \
+        after triangulation, an instanced scene's as in its flattened copy.\n\
         With --any: one byte per ray, 1 occluded, 0 not.\n\
         A file whose size is not a multiple of 32 bytes, or any ray with a NaN or infinite \
         value or a zero direction, is an error naming the rays.")]
@@ -37,11 +41,38 @@ pub struct TraceArgs {
     /// Ray–triangle test.
     #[arg(long, value_enum, default_value_t = IntersectorArg::Watertight)]
     pub intersector: IntersectorArg,
+    /// Bits of a triangle's number in the hit file (default: 32, or 64 for a scene that
+    /// places more triangles than 32 bits number).
+    #[arg(long, value_enum, conflicts_with = "any")]
+    pub hit_bits: Option<HitBits>,
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
     #[command(flatten)]
     pub build: BuildArgs,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+pub enum HitBits {
+    #[value(name = "32")]
+    U32,
+    #[value(name = "64")]
+    U64,
+}
+
+/// The hit file's format for a scene placing `triangles`: the one asked for, if it numbers
+/// them all, else the smallest that does.
+fn hit_format(asked: Option<HitBits>, triangles: u64) -> Result<HitFormat> {
+    let fits = HitFormat::for_triangles(triangles);
+    match asked {
+        None => Ok(fits),
+        Some(HitBits::U64) => Ok(HitFormat::U64),
+        Some(HitBits::U32) if fits == HitFormat::U32 => Ok(HitFormat::U32),
+        Some(HitBits::U32) => bail!(
+            "the scene places {triangles} triangles, more than a 32-bit hit file numbers; \
+             use --hit-bits 64"
+        ),
+    }
 }
 
 pub fn run(args: TraceArgs) -> Result<()> {
@@ -50,22 +81,28 @@ pub fn run(args: TraceArgs) -> Result<()> {
     let rays = rayfile::decode_rays(&bytes)
         .with_context(|| format!("bad ray file {}", args.rays.display()))?;
     let scene = load_scene(&args.scene)?;
+    let format = hit_format(args.hit_bits, scene.placed_triangles() as u64)?;
     let pool = thread_pool(args.threads)?;
     let start = Instant::now();
     let (output, answered) = pool.install(|| -> Result<(Vec<u8>, usize)> {
         let built = args.build.build_to_trace(&scene)?;
         let s = &built.structure;
-        with_intersector!(args.intersector.kind(), I => trace_all::<_, I>(s, &rays, args.any))
+        with_intersector!(args.intersector.kind(), I => trace_all::<_, I>(s, &rays, args.any, format))
     })?;
     let elapsed = start.elapsed();
     std::fs::write(&args.out, &output)
         .with_context(|| format!("cannot write {}", args.out.display()))?;
+    let answers = if args.any {
+        "occluded".to_string()
+    } else {
+        format!("hits, {}-bit triangle numbers", format.bits())
+    };
     out!(
         "wrote {}: {} rays, {} {} ({} triangles, {}), {:.1} ms including the build",
         args.out.display(),
         rays.len(),
         answered,
-        if args.any { "occluded" } else { "hits" },
+        answers,
         scene.placed_triangles(),
         args.intersector.kind().label(),
         elapsed.as_secs_f64() * 1e3
@@ -78,6 +115,7 @@ fn trace_all<A: Accel, I: Intersector>(
     accel: &A,
     rays: &[Ray],
     any: bool,
+    format: HitFormat,
 ) -> Result<(Vec<u8>, usize)> {
     if any {
         let occluded: Vec<bool> = rays
@@ -92,6 +130,6 @@ fn trace_all<A: Accel, I: Intersector>(
             .map(|r| accel.closest_hit::<I, _>(r, &mut NoStats))
             .collect();
         let count = hits.iter().filter(|h| h.is_some()).count();
-        Ok((rayfile::encode_hits(&hits)?, count))
+        Ok((rayfile::encode_hits(&hits, format)?, count))
     }
 }

@@ -1,15 +1,18 @@
 //! The binary ray and hit files of `bvhlab trace`: rays as 8 little-endian f32 (origin,
-//! direction, tmin, tmax), hits as f32 t (+∞ on a miss) and u32 triangle (0xFFFFFFFF), in
-//! input order; occlusion as one byte per ray.
+//! direction, tmin, tmax); hits in input order as f32 t (+∞ on a miss) and the triangle's
+//! number, in 32 bits (`HitFormat::U32`, all ones on a miss) or, for a scene that places
+//! more triangles than 32 bits count (instancing), in 64 (`HitFormat::U64`); occlusion as
+//! one byte per ray.
 
 use super::Ray;
 use crate::accel::Hit;
 use glam::Vec3;
 
 pub const RAY_BYTES: usize = 32;
-pub const HIT_BYTES: usize = 8;
-/// The triangle index of a miss.
+/// The triangle index of a miss in a 32-bit hit file.
 pub const MISS: u32 = u32::MAX;
+/// The triangle index of a miss in a 64-bit hit file.
+pub const MISS_U64: u64 = u64::MAX;
 /// At most this many invalid rays are listed in an error.
 const LISTED: usize = 10;
 
@@ -110,35 +113,84 @@ pub fn encode_rays(rays: &[Ray]) -> Vec<u8> {
     out
 }
 
+/// How a hit file numbers triangles: 32 bits (8 bytes a ray) or 64 bits (12 bytes a ray).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HitFormat {
+    U32,
+    U64,
+}
+
+impl HitFormat {
+    /// The smaller format that numbers every triangle of a scene placing `triangles`
+    /// (the 32-bit miss marker is not a triangle's number).
+    pub fn for_triangles(triangles: u64) -> HitFormat {
+        if triangles <= u64::from(MISS) {
+            HitFormat::U32
+        } else {
+            HitFormat::U64
+        }
+    }
+
+    /// Bytes of one ray's hit: the f32 t and the triangle's number.
+    pub fn record_bytes(self) -> usize {
+        match self {
+            HitFormat::U32 => 8,
+            HitFormat::U64 => 12,
+        }
+    }
+
+    pub fn bits(self) -> u32 {
+        match self {
+            HitFormat::U32 => 32,
+            HitFormat::U64 => 64,
+        }
+    }
+}
+
 /// A hit the hit file cannot hold: it numbers triangles in 32 bits.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
 #[error("a hit on triangle {0}, beyond the 32-bit numbers of the hit file")]
 pub struct HitIndexTooLarge(pub u64);
 
-pub fn encode_hits(hits: &[Option<Hit>]) -> Result<Vec<u8>, HitIndexTooLarge> {
-    let mut out = Vec::with_capacity(hits.len() * HIT_BYTES);
+pub fn encode_hits(hits: &[Option<Hit>], format: HitFormat) -> Result<Vec<u8>, HitIndexTooLarge> {
+    let mut out = Vec::with_capacity(hits.len() * format.record_bytes());
     for h in hits {
-        let (t, tri) = match h {
-            None => (f32::INFINITY, MISS),
-            Some(h) => match u32::try_from(h.triangle) {
-                Ok(tri) if tri != MISS => (h.t, tri),
-                _ => return Err(HitIndexTooLarge(h.triangle)),
-            },
-        };
+        let t = h.map_or(f32::INFINITY, |h| h.t);
         out.extend_from_slice(&t.to_le_bytes());
-        out.extend_from_slice(&tri.to_le_bytes());
+        match format {
+            HitFormat::U32 => {
+                let tri = match h {
+                    None => MISS,
+                    Some(h) => match u32::try_from(h.triangle) {
+                        Ok(tri) if tri != MISS => tri,
+                        _ => return Err(HitIndexTooLarge(h.triangle)),
+                    },
+                };
+                out.extend_from_slice(&tri.to_le_bytes());
+            }
+            HitFormat::U64 => {
+                let tri = h.map_or(MISS_U64, |h| h.triangle);
+                out.extend_from_slice(&tri.to_le_bytes());
+            }
+        }
     }
     Ok(out)
 }
 
-/// Decodes a hit file into (t, triangle index) pairs.
-pub fn decode_hits(bytes: &[u8]) -> Vec<(f32, u32)> {
+/// Decodes a hit file into (t, triangle number) pairs; a miss keeps its format's marker
+/// (`MISS` or `MISS_U64`). A trailing partial record is ignored.
+pub fn decode_hits(bytes: &[u8], format: HitFormat) -> Vec<(f32, u64)> {
     bytes
-        .chunks_exact(HIT_BYTES)
+        .chunks_exact(format.record_bytes())
         .map(|c| {
             let t = f32::from_le_bytes([c[0], c[1], c[2], c[3]]);
-            let i = u32::from_le_bytes([c[4], c[5], c[6], c[7]]);
-            (t, i)
+            let tri = match format {
+                HitFormat::U32 => u32::from_le_bytes([c[4], c[5], c[6], c[7]]).into(),
+                HitFormat::U64 => {
+                    u64::from_le_bytes([c[4], c[5], c[6], c[7], c[8], c[9], c[10], c[11]])
+                }
+            };
+            (t, tri)
         })
         .collect()
 }
