@@ -161,7 +161,7 @@ fn rebraid_sets_the_two_levels_references_and_bad_budgets_are_errors() {
         "{text}"
     );
     assert!(
-        text.contains("instances opened; budget 0.1 × max("),
+        text.contains("instances opened, extra references ≤ 0.1 × max("),
         "{text}"
     );
     let out = bvhlab(&[

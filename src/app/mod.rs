@@ -158,6 +158,12 @@ impl BvhLabApp {
             }
             _ => Settings::default(),
         };
+        if launch.fresh {
+            // eframe restores egui's memory (panel widths, open sections) before the app
+            // exists: a fresh start, and every screenshot, begins from the defaults, so a
+            // panel widened in an earlier session does not shape the picture.
+            cc.egui_ctx.memory_mut(|m| *m = egui::Memory::default());
+        }
         if let Some(scene) = &launch.scene {
             settings.scene = scene.clone();
         }
@@ -680,6 +686,10 @@ impl eframe::App for BvhLabApp {
             }
             screenshot::Action::None => {}
         }
+    }
+
+    fn persist_egui_memory(&self) -> bool {
+        self.persist
     }
 
     fn save(&mut self, storage: &mut dyn eframe::Storage) {

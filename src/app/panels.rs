@@ -18,6 +18,9 @@ use eframe::egui::{self, RichText};
 use egui_plot::{Bar, BarChart, Line, Plot, PlotPoints};
 use std::sync::atomic::Ordering;
 
+/// The widest a column of the build report grows before its values wrap.
+const REPORT_VALUE_WIDTH: f32 = 180.0;
+
 pub fn top_bar(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     egui::Panel::top("top").show(ui, |ui| {
         ui.horizontal(|ui| {
@@ -817,16 +820,19 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         // A scene with instances of its own first says how it is instanced, as `bvhlab
         // stats` does: the instanced triangles and the memory a flattened copy would take.
         let scene_rows = app.scene_rows.iter().cloned();
+        // Long values (the island's re-braiding budget) wrap within their column instead
+        // of widening the panel and squeezing the view.
         egui::Grid::new("report")
             .num_columns(2)
             .striped(true)
+            .max_col_width(REPORT_VALUE_WIDTH)
             .show(ui, |ui| {
                 for (k, v) in scene_rows.chain(r.rows()) {
                     if k.starts_with("leaf sizes") {
                         continue;
                     }
                     ui.label(k);
-                    ui.label(v);
+                    ui.add(egui::Label::new(v).wrap());
                     ui.end_row();
                 }
             });

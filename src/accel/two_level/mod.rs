@@ -399,7 +399,7 @@ impl TwoLevel {
             .filter(|&i| !self.references_of(i).is_empty())
             .count();
         format!(
-            "{} of {} instances opened; budget {f} × max({placed}, {}) extra references",
+            "{} of {} instances opened, extra references ≤ {f} × max({placed}, {})",
             placed - whole,
             placed,
             rebraid::SMALL_SCENE
