@@ -172,6 +172,7 @@ fn every_builder_with_split_references_matches_brute_force_on_every_builtin_scen
             sbvh(),
             presplit(Strategy::LbvhTreelet, 0.3),
             presplit(Strategy::Lbvh, 0.3),
+            presplit(Strategy::SahBinned, 0.3),
         ] {
             let mut bvh = built(&scene.triangles, &p);
             assert_matches_brute_force(&mut bvh, &brute, &rays, &format!("{name} {p:?}"));
@@ -389,6 +390,10 @@ fn the_report_counts_duplicated_references() {
     row("overlap threshold α");
     assert_eq!(row("overlap penalty κ"), "0");
     row("split budget");
+    assert_eq!(row("buckets B"), "16");
+    // Where the build's time went: the recursion (with the clipping) and the leaf order.
+    let phase = |name: &str| report.phases.times.iter().any(|(p, _)| p == name);
+    assert!(phase("splits (whole recursion)") && phase("leaf order"));
     let (_, pre) = build(&tris, &presplit(Strategy::Lbvh, 0.5)).unwrap();
     assert!(pre.duplicated_references() > 0);
     assert!(pre.phases.times.iter().any(|(p, _)| p == "pre-splitting"));
