@@ -328,6 +328,33 @@ fn degenerate_inputs_build_valid_trees_and_trace() {
 }
 
 #[test]
+fn validation_finds_a_split_triangle_its_boxes_do_not_cover() {
+    // One reference per leaf, so a leaf box bounds exactly one piece of a triangle.
+    let tris = Scene::load("walls-rotated").unwrap().triangles;
+    let p = BuildParams {
+        max_leaf_size: 1,
+        ..sbvh()
+    };
+    let bvh = built(&tris, &p);
+    let mut references = vec![0; tris.len()];
+    for &t in &bvh.prim_indices {
+        references[t as usize] += 1;
+    }
+    let leaf = (0..bvh.nodes.len())
+        .find(|&i| {
+            let n = bvh.nodes[i];
+            n.is_leaf() && references[bvh.prim_indices[n.prim_range().start] as usize] > 1
+        })
+        .expect("a leaf holding a piece of a split triangle");
+    // Shrink that piece's box to its lowest corner: the piece is left uncovered.
+    let mut broken = bvh.clone();
+    let b = broken.nodes[leaf].bounds();
+    broken.nodes[leaf].set_bounds(Aabb::new(b.min, b.min));
+    let err = broken.validate(1).expect_err("an uncovered piece");
+    assert!(err.contains("lies in none of its"), "{err}");
+}
+
+#[test]
 fn refits_of_split_trees_stay_valid_and_match_brute_force() {
     let mut rng = Rng::new(5);
     for p in [sbvh(), presplit(Strategy::LbvhTreelet, 1.0)] {
