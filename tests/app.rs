@@ -117,6 +117,68 @@ fn the_overlap_penalty_slider_rebuilds_the_sbvh_with_it() {
 }
 
 #[test]
+fn the_sbvh_report_counts_its_duplicated_references() {
+    let mut h = app("walls-rotated:60");
+    h.get_by_label("SBVH (spatial splits)").click();
+    settle(&mut h);
+    let r = h.state().bvh_report.clone().expect("rebuilt");
+    assert_eq!(r.params.strategy, Strategy::Sbvh);
+    let duplicated = r.duplicated_references();
+    assert!(duplicated > 0, "the turned walls' references are split");
+    // The stats panel gives the count (and its share of the triangles) beside its label.
+    assert!(h.query_by_label("duplicated references").is_some());
+    assert!(
+        h.get_all_by_label_contains(&format!("{duplicated} (+"))
+            .count()
+            >= 1,
+        "{duplicated} shown"
+    );
+}
+
+#[test]
+fn out_of_range_build_parameters_are_brought_into_range_and_built() {
+    let mut h = app("soup:3000");
+    h.get_by_label("LBVH + treelets").click();
+    settle(&mut h);
+    // Values no slider can set (a settings file from elsewhere might hold them): each
+    // parameter's slider brings its value into range, and the tree is built with those.
+    {
+        let s = &mut h.state_mut().settings;
+        s.treelet_size = 10;
+        s.treelet_rounds = 1000;
+        s.split_alpha = f32::NAN;
+        s.split_budget = -1.0;
+        s.presplit = f32::INFINITY;
+    }
+    settle(&mut h);
+    let app = h.state();
+    assert_eq!(app.build_error, None);
+    let r = app.bvh_report.clone().expect("built");
+    assert_eq!(r.params.strategy, Strategy::LbvhTreelet);
+    assert!(r.params.validate().is_ok(), "{:?}", r.params);
+    assert_eq!(r.params.treelet_size, 9);
+    assert_eq!(r.phases.sah_after_round.len(), 16, "at most 16 rounds");
+    assert!(app.shown.is_some());
+}
+
+#[test]
+fn the_walls_angle_slider_loads_the_walls_turned_that_far() {
+    let mut h = app("walls-rotated:20");
+    h.get_by_role_and_label(egui::accesskit::Role::Slider, "walls turned")
+        .set_value_accesskit(10.0);
+    settle(&mut h);
+    let app = h.state();
+    assert_eq!(app.load_error, None);
+    let scene = app.scene.clone().expect("a scene");
+    let expected = bvhlab::scene::Scene::load("walls-rotated@10:20").unwrap();
+    assert_eq!(scene.name, expected.name);
+    assert_eq!(scene.triangles, expected.triangles, "the walls turned 10°");
+    // And the structure was rebuilt over them.
+    let r = app.bvh_report.clone().expect("built");
+    assert_eq!(r.triangles, expected.triangles.len());
+}
+
+#[test]
 fn stepping_levels_changes_the_overlay() {
     let mut h = app("cornell");
     let plain = h.state().shown.clone().expect("frame").rgba.clone();

@@ -451,6 +451,49 @@ fn the_overlap_penalty_reaches_the_sbvh_and_bad_values_are_errors() {
 }
 
 #[test]
+fn negative_budgets_name_their_flag_and_presplit_says_where_it_applies() {
+    // `--flag -1`, as a user types it, reaches the parameter check (not "unexpected
+    // argument '-1'").
+    for (flag, name) in [
+        ("--split-budget", "split budget"),
+        ("--presplit", "presplit budget"),
+        ("--split-alpha", "overlap threshold α"),
+        ("--c-trav", "C_trav"),
+    ] {
+        let out = bvhlab(&[
+            "stats",
+            "--scene",
+            "soup:50",
+            "--builder",
+            "sbvh",
+            flag,
+            "-1",
+        ]);
+        assert!(!out.status.success(), "{flag} -1 accepted");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.contains(name), "{flag}: {stderr}");
+    }
+    // A pre-split budget for a builder that does not take one is said to be unused.
+    let note = "--presplit applies to lbvh, lbvh-treelet and sah-binned";
+    let stats = |builder: &str| {
+        let out = bvhlab(&[
+            "stats",
+            "--scene",
+            "soup:50",
+            "--builder",
+            builder,
+            "--presplit",
+            "0.3",
+        ]);
+        assert!(out.status.success());
+        String::from_utf8(out.stderr).unwrap()
+    };
+    assert!(stats("sbvh").contains(note));
+    assert!(stats("object-median").contains(note));
+    assert!(!stats("lbvh").contains(note));
+}
+
+#[test]
 fn tradeoff_and_rotation_sweep_write_their_csv_and_plot() {
     let dir = std::env::temp_dir().join(format!("bvhlab-tradeoff-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();

@@ -171,6 +171,21 @@ fn a_million_triangles_build_without_deep_recursion() {
     }
 }
 
+#[test]
+fn ten_million_triangles_build_with_treelets() {
+    // The largest input: 10^7 random triangles through the LBVH and three treelet
+    // rounds (about 2.5 GB at its peak), a valid tree with brute force's hits.
+    let scene = Scene::load("soup:10000000").unwrap();
+    let tris = &scene.triangles;
+    assert_eq!(tris.len(), 10_000_000);
+    let (mut bvh, report) = built(tris, &lbvh(true));
+    assert_eq!(report.triangles, tris.len());
+    assert_eq!(report.phases.sah_after_round.len(), 3);
+    assert!(bvh.nodes.len() <= 2 * tris.len());
+    let brute = BruteForce::new(tris, true);
+    assert_matches_brute_force(&mut bvh, &brute, &rays(&bounds(tris), 8, 3), "soup 10^7");
+}
+
 fn on_threads(threads: usize, tris: &[Triangle], p: &BuildParams) -> Bvh {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)

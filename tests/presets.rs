@@ -204,6 +204,19 @@ fn bad_files_say_what_is_wrong() {
     assert!(top.contains("mood"), "{top}");
     let range = error_of("title = \"A\"\nscene = \"cornell\"\n[settings]\nbuckets = 1\n");
     assert!(range.contains("bucket count 1"), "{range}");
+    // The build-quality parameters out of range, as TOML can spell them.
+    for (setting, reason) in [
+        ("treelet_size = 4", "treelet size 4"),
+        ("treelet_rounds = 17", "17 treelet rounds"),
+        ("split_budget = -1.0", "split budget -1"),
+        ("split_alpha = nan", "overlap threshold α NaN"),
+        ("presplit = inf", "presplit budget inf"),
+    ] {
+        let e = error_of(&format!(
+            "title = \"A\"\nscene = \"cornell\"\n[settings]\n{setting}\n"
+        ));
+        assert!(e.contains(reason), "{setting}: {e}");
+    }
     let fov = error_of(
         "title = \"A\"\nscene = \"cornell\"\ncamera = { eye = [0, 0, 1], look = [0, 0, 0], fov = 0 }\n",
     );

@@ -172,6 +172,7 @@ fn every_builder_with_split_references_matches_brute_force_on_every_builtin_scen
             sbvh(),
             presplit(Strategy::LbvhTreelet, 0.3),
             presplit(Strategy::Lbvh, 0.3),
+            presplit(Strategy::SahBinned, 0.3),
         ] {
             let mut bvh = built(&scene.triangles, &p);
             assert_matches_brute_force(&mut bvh, &brute, &rays, &format!("{name} {p:?}"));
@@ -327,6 +328,33 @@ fn degenerate_inputs_build_valid_trees_and_trace() {
 }
 
 #[test]
+fn validation_finds_a_split_triangle_its_boxes_do_not_cover() {
+    // One reference per leaf, so a leaf box bounds exactly one piece of a triangle.
+    let tris = Scene::load("walls-rotated").unwrap().triangles;
+    let p = BuildParams {
+        max_leaf_size: 1,
+        ..sbvh()
+    };
+    let bvh = built(&tris, &p);
+    let mut references = vec![0; tris.len()];
+    for &t in &bvh.prim_indices {
+        references[t as usize] += 1;
+    }
+    let leaf = (0..bvh.nodes.len())
+        .find(|&i| {
+            let n = bvh.nodes[i];
+            n.is_leaf() && references[bvh.prim_indices[n.prim_range().start] as usize] > 1
+        })
+        .expect("a leaf holding a piece of a split triangle");
+    // Shrink that piece's box to its lowest corner: the piece is left uncovered.
+    let mut broken = bvh.clone();
+    let b = broken.nodes[leaf].bounds();
+    broken.nodes[leaf].set_bounds(Aabb::new(b.min, b.min));
+    let err = broken.validate(1).expect_err("an uncovered piece");
+    assert!(err.contains("lies in none of its"), "{err}");
+}
+
+#[test]
 fn refits_of_split_trees_stay_valid_and_match_brute_force() {
     let mut rng = Rng::new(5);
     for p in [sbvh(), presplit(Strategy::LbvhTreelet, 1.0)] {
@@ -389,6 +417,10 @@ fn the_report_counts_duplicated_references() {
     row("overlap threshold α");
     assert_eq!(row("overlap penalty κ"), "0");
     row("split budget");
+    assert_eq!(row("buckets B"), "16");
+    // Where the build's time went: the recursion (with the clipping) and the leaf order.
+    let phase = |name: &str| report.phases.times.iter().any(|(p, _)| p == name);
+    assert!(phase("splits (whole recursion)") && phase("leaf order"));
     let (_, pre) = build(&tris, &presplit(Strategy::Lbvh, 0.5)).unwrap();
     assert!(pre.duplicated_references() > 0);
     assert!(pre.phases.times.iter().any(|(p, _)| p == "pre-splitting"));

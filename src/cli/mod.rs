@@ -49,36 +49,36 @@ pub struct BuildArgs {
     pub rounds: u32,
     /// sbvh: try spatial splits where the object split's children overlap by more than this
     /// fraction of the root's surface area (0..=1).
-    #[arg(long, default_value_t = BuildParams::default().split_alpha)]
+    #[arg(long, default_value_t = BuildParams::default().split_alpha, allow_negative_numbers = true)]
     pub split_alpha: f32,
     /// sbvh: weighed against a spatial split, an object split costs its SAH cost × (1 + κ ·
     /// its children's overlap area / the node's area), for the rays that front-to-back order
     /// cannot stop early in that overlap (0..=16; 0 = the plain SAH).
-    #[arg(long, default_value_t = BuildParams::default().overlap_penalty)]
+    #[arg(long, default_value_t = BuildParams::default().overlap_penalty, allow_negative_numbers = true)]
     pub overlap_penalty: f32,
     /// sbvh: at most this many duplicated references, as a fraction of the triangle count
     /// (0..=16).
-    #[arg(long, default_value_t = BuildParams::default().split_budget)]
+    #[arg(long, default_value_t = BuildParams::default().split_budget, allow_negative_numbers = true)]
     pub split_budget: f32,
     /// lbvh, lbvh-treelet, sah-binned: pre-split the triangles that waste most box area,
     /// adding at most this many references as a fraction of the triangle count (0..=16; 0 =
     /// off).
-    #[arg(long, default_value_t = BuildParams::default().presplit)]
+    #[arg(long, default_value_t = BuildParams::default().presplit, allow_negative_numbers = true)]
     pub presplit: f32,
     /// two-level: partial re-braiding; the top level may open large instances into
     /// references to their BLAS's subtrees, largest first, up to this many extra references
     /// per instance, counting at least 4096 instances (0..=16; 0 = one reference per
     /// instance).
-    #[arg(long, default_value_t = BuildParams::default().rebraid)]
+    #[arg(long, default_value_t = BuildParams::default().rebraid, allow_negative_numbers = true)]
     pub rebraid: f32,
     /// Maximum number of triangles in a leaf (1..=4096).
     #[arg(long, default_value_t = BuildParams::default().max_leaf_size)]
     pub max_leaf: u32,
     /// SAH cost of a traversal step.
-    #[arg(long, default_value_t = BuildParams::default().c_trav)]
+    #[arg(long, default_value_t = BuildParams::default().c_trav, allow_negative_numbers = true)]
     pub c_trav: f32,
     /// SAH cost of a ray–triangle test.
-    #[arg(long, default_value_t = BuildParams::default().c_isect)]
+    #[arg(long, default_value_t = BuildParams::default().c_isect, allow_negative_numbers = true)]
     pub c_isect: f32,
     /// Child order in closest-hit traversal.
     #[arg(long, value_enum, default_value_t = OrderArg::FrontToBack)]
@@ -338,6 +338,19 @@ impl BuildArgs {
         }
     }
 
+    /// A note when `--presplit` is given to a builder that does not take it (it would
+    /// otherwise be dropped without a word: the SBVH splits its references itself, the
+    /// median and sweep builders never do).
+    pub fn presplit_ignored(&self) -> Option<String> {
+        let strategy = self.builder.strategy();
+        (self.presplit > 0.0 && !strategy.takes_presplit()).then(|| {
+            format!(
+                "note: --presplit applies to lbvh, lbvh-treelet and sah-binned; {} builds without it",
+                strategy.label()
+            )
+        })
+    }
+
     /// Whether `accel_to_trace` chose the fastest layout because no `--accel` was given.
     pub fn fastest_by_default(&self, scene: &Scene) -> bool {
         self.accel.is_none() && scene.instances.is_empty()
@@ -366,6 +379,9 @@ impl BuildArgs {
 
     fn build_kind(&self, scene: &Scene, accel: AccelArg, note: &str) -> Result<Built> {
         let params = self.structure_params_for(accel.kind()?);
+        if let Some(ignored) = self.presplit_ignored() {
+            eprintln!("{ignored}");
+        }
         let built = structure::build_scene(scene, &params, &Default::default())
             .with_context(|| format!("cannot build the {}", params.kind.title()))?;
         let simd = built

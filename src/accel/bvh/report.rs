@@ -122,7 +122,11 @@ impl BuildReport {
         let p = &self.params;
         let t = &self.tree;
         let mut rows = vec![("strategy".to_string(), p.strategy.label().to_string())];
-        if p.strategy == super::Strategy::SahBinned {
+        // The SBVH's object splits are binned SAH's.
+        if matches!(
+            p.strategy,
+            super::Strategy::SahBinned | super::Strategy::Sbvh
+        ) {
             rows.push(("buckets B".into(), p.buckets.to_string()));
         }
         if p.strategy == super::Strategy::LbvhTreelet {

@@ -341,10 +341,17 @@ pub fn build_with_progress(
             in_leaf_order(triangles, nodes, prim_indices)
         }
         Strategy::Sbvh if !triangles.is_empty() => {
+            // The same phases as the other top-down builds, so that a slow SBVH build shows
+            // where its time went (the clipping happens in the recursion).
+            let recursion = Instant::now();
             let tree = sbvh::build(triangles, params);
+            phases.add("splits (whole recursion)", recursion.elapsed());
             progress.fetch_add(triangles.len(), Ordering::Relaxed);
             phases.spatial_splits = Some((tree.spatial_splits, tree.unsplit));
-            in_leaf_order(triangles, Nodes::from_flat(&tree.nodes), tree.prims)
+            let leaf_order = Instant::now();
+            let bvh = in_leaf_order(triangles, Nodes::from_flat(&tree.nodes), tree.prims);
+            phases.add("leaf order", leaf_order.elapsed());
+            bvh
         }
         _ => build_tree(triangles, refs, params, progress, &mut phases),
     };
