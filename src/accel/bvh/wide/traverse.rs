@@ -273,8 +273,13 @@ where
                     entry: entry[i % W],
                 };
                 if mask != 0 {
-                    let first = mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
+                    // The highest entered lane first, then the others from the highest down
+                    // (pushed lowest first), as Embree's any-hit walk and the two levels'
+                    // do: on the standard views' shadow rays this visits 3–7 % fewer nodes
+                    // and up to a fifth fewer triangles than the lowest lane first, for the
+                    // same instructions per node (docs/wide-bvh.md).
+                    let last = (31 - mask.leading_zeros()) as usize;
+                    mask &= !(1 << last);
                     while mask != 0 {
                         let e = lane(mask.trailing_zeros() as usize);
                         mask &= mask - 1;
@@ -282,7 +287,7 @@ where
                         self.prefetch_entry(e);
                         stack.push(e);
                     }
-                    cur = lane(first);
+                    cur = lane(last);
                     continue;
                 }
                 match stack.pop() {
@@ -446,7 +451,8 @@ where
             })
             .collect();
         // Front to back the nearest entered child is taken first (of equal ones, the lower
-        // lane of two, the higher of more, as the sort leaves them); the lowest otherwise.
+        // lane of two, the higher of more, as the sort leaves them); any hit takes the
+        // highest lane first; naive order the lowest.
         let entered: Vec<(f32, u32)> = children
             .iter()
             .filter_map(|c| Some((c.entry?, c.node)))
@@ -455,6 +461,7 @@ where
         let first = match order {
             Order::Nearest if entered.len() > 2 => entered.iter().rev().min_by(nearest),
             Order::Nearest => entered.iter().min_by(nearest),
+            Order::AnyHit => entered.last(),
             _ => entered.first(),
         }
         .map(|c| c.1);

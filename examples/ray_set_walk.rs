@@ -1,0 +1,125 @@
+//! One standard ray set traced on one thread by the BVH8 or by Embree 3, for profiles
+//! (`perf record`, `valgrind --tool=callgrind --toggle-collect='ray_set_walk::trace*'`)
+//! and single-thread timings by the thread's CPU clock (docs/wide-bvh.md, "Diffuse and
+//! shadow rays against Embree, counted"):
+//!
+//! ```sh
+//! cargo build --release --features embree --example ray_set_walk
+//! target/release/examples/ray_set_walk ../shared/scenes/sponza.obj -14,3,0 10,5,0 0,14,0 shadow bvh8 5 [1024 768]
+//! ```
+//!
+//! Arguments: scene, eye, look-at, light, set (`primary`, `diffuse` or `shadow`), walk
+//! (`bvh8` or `embree`), repeats, and the image size. With `WALK_COUNT` set, the BVH8's
+//! nodes, box tests and triangle tests per ray are counted after the timing.
+
+use bvhlab::accel::bvh::WideBvh;
+use bvhlab::accel::bvh::wide::CollapseParams;
+use bvhlab::accel::{Accel, BuildParams, Counters, NoStats};
+use bvhlab::bench::rays::RaySets;
+use bvhlab::geometry::{Ray, Watertight};
+use bvhlab::scene::{Camera, Scene};
+use glam::Vec3;
+use std::time::Instant;
+
+fn vec3(s: &str) -> Vec3 {
+    let p: Vec<f32> = s.split(',').map(|x| x.parse().expect("x,y,z")).collect();
+    Vec3::new(p[0], p[1], p[2])
+}
+
+/// The set once; a checksum of the answers, so nothing is optimised away.
+#[inline(never)]
+fn trace<A: Accel>(accel: &A, any: bool, rays: &[Ray]) -> u64 {
+    let mut sum = 0u64;
+    for r in rays {
+        sum = sum.wrapping_add(if any {
+            u64::from(accel.any_hit::<Watertight, _>(r, &mut NoStats))
+        } else {
+            accel
+                .closest_hit::<Watertight, _>(r, &mut NoStats)
+                .map_or(0, |h| u64::from(h.t.to_bits()) ^ h.triangle)
+        });
+    }
+    sum
+}
+
+/// Seconds of CPU time this thread has used (wall-clock time elsewhere): other jobs on
+/// the machine then slow a run less.
+fn thread_seconds(start: Instant) -> f64 {
+    #[cfg(target_os = "linux")]
+    {
+        let _ = start;
+        let mut ts = libc::timespec {
+            tv_sec: 0,
+            tv_nsec: 0,
+        };
+        // SAFETY: `ts` is a valid timespec for the call to write.
+        unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+        ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
+    }
+    #[cfg(not(target_os = "linux"))]
+    start.elapsed().as_secs_f64()
+}
+
+fn main() {
+    let a: Vec<String> = std::env::args().collect();
+    if a.len() < 8 {
+        eprintln!(
+            "usage: ray_set_walk SCENE EYE LOOK LIGHT primary|diffuse|shadow bvh8|embree REPEATS [W H]"
+        );
+        std::process::exit(2);
+    }
+    let scene = Scene::load(&a[1]).expect("scene");
+    let camera = Camera::new(vec3(&a[2]), vec3(&a[3]));
+    let (set, walk) = (a[5].as_str(), a[6].as_str());
+    let repeats: usize = a[7].parse().expect("repeats");
+    let (w, h) = match (a.get(8), a.get(9)) {
+        (Some(w), Some(h)) => (w.parse().expect("width"), h.parse().expect("height")),
+        _ => (1024, 768),
+    };
+    let (bvh, _) =
+        bvhlab::accel::bvh::build(&scene.triangles, &BuildParams::default()).expect("build");
+    let bvh8 = WideBvh::<8>::collapse(&bvh, &CollapseParams::default());
+    let sets = RaySets::standard(&bvh8, &scene, &camera, vec3(&a[4]), w, h);
+    let (rays, any) = match set {
+        "primary" => (&sets.primary, false),
+        "diffuse" => (&sets.diffuse, false),
+        _ => (&sets.shadow, true),
+    };
+    #[cfg(feature = "embree")]
+    let embree = bvhlab::accel::embree::Embree::build(&scene.triangles, 1).expect("Embree");
+    let start = Instant::now();
+    let cpu = thread_seconds(start);
+    let mut sum = 0u64;
+    for _ in 0..repeats {
+        sum = sum.wrapping_add(match walk {
+            #[cfg(feature = "embree")]
+            "embree" => trace(&embree, any, rays),
+            _ => trace(&bvh8, any, rays),
+        });
+    }
+    let (wall, cpu) = (start.elapsed().as_secs_f64(), thread_seconds(start) - cpu);
+    let n = (rays.len() * repeats) as f64;
+    println!(
+        "{walk} {set}: {} rays x {repeats}, {:.3} Mrays/s wall, {:.3} Mrays/s cpu, checksum {sum}",
+        rays.len(),
+        n / wall / 1e6,
+        n / cpu / 1e6
+    );
+    if std::env::var_os("WALK_COUNT").is_some() {
+        let mut c = Counters::default();
+        for r in rays {
+            if any {
+                bvh8.any_hit::<Watertight, _>(r, &mut c);
+            } else {
+                bvh8.closest_hit::<Watertight, _>(r, &mut c);
+            }
+        }
+        let per_ray = |x: u32| f64::from(x) / rays.len() as f64;
+        println!(
+            "per ray: {:.3} nodes, {:.3} box tests, {:.3} triangle tests",
+            per_ray(c.nodes_visited),
+            per_ray(c.box_tests),
+            per_ray(c.triangle_tests)
+        );
+    }
+}
