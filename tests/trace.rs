@@ -9,7 +9,7 @@ use bvhlab::geometry::rayfile::{self, HitFormat, RayFileError};
 use bvhlab::geometry::{Ray, Watertight};
 use bvhlab::scene::Scene;
 use glam::Vec3;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn temp(name: &str) -> PathBuf {
@@ -23,6 +23,27 @@ fn bvhlab(args: &[&str]) -> std::process::Output {
         .args(args)
         .output()
         .expect("bvhlab runs")
+}
+
+/// `bvhlab trace --scene S --rays R --out O` and `extra`, which must succeed.
+fn trace_ok(scene: &str, rays: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec![
+        "trace",
+        "--scene",
+        scene,
+        "--rays",
+        rays.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    let output = bvhlab(&args);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    output
 }
 
 #[test]
@@ -74,21 +95,11 @@ fn trace_writes_closest_hits_and_occlusion_in_input_order() {
     let (bvh, _) = build(&scene.triangles, &BuildParams::default()).unwrap();
     for accel in ["bvh", "brute-force"] {
         let hits_path = temp(&format!("hits-{accel}.bin"));
-        let out = bvhlab(&[
-            "trace",
-            "--scene",
+        trace_ok(
             "teapot-in-stadium",
-            "--rays",
-            rays_path.to_str().unwrap(),
-            "--out",
-            hits_path.to_str().unwrap(),
-            "--accel",
-            accel,
-        ]);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
+            &rays_path,
+            &hits_path,
+            &["--accel", accel],
         );
         let hits = rayfile::decode_hits(&std::fs::read(&hits_path).unwrap(), HitFormat::U32);
         assert_eq!(hits.len(), rays.len());
@@ -112,22 +123,11 @@ fn trace_writes_closest_hits_and_occlusion_in_input_order() {
         }
     }
     let any_path = temp("any.bin");
-    let out = bvhlab(&[
-        "trace",
-        "--scene",
+    trace_ok(
         "teapot-in-stadium",
-        "--rays",
-        rays_path.to_str().unwrap(),
-        "--out",
-        any_path.to_str().unwrap(),
-        "--any",
-        "--intersector",
-        "f64",
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+        &rays_path,
+        &any_path,
+        &["--any", "--intersector", "f64"],
     );
     let occluded = std::fs::read(&any_path).unwrap();
     assert_eq!(occluded.len(), rays.len());
@@ -157,20 +157,7 @@ fn trace_counts_triangles_in_obj_file_order() {
     let rays_path = temp("order-rays.bin");
     std::fs::write(&rays_path, rayfile::encode_rays(&rays)).unwrap();
     let hits_path = temp("order-hits.bin");
-    let out = bvhlab(&[
-        "trace",
-        "--scene",
-        obj.to_str().unwrap(),
-        "--rays",
-        rays_path.to_str().unwrap(),
-        "--out",
-        hits_path.to_str().unwrap(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    trace_ok(obj.to_str().unwrap(), &rays_path, &hits_path, &[]);
     let hits = rayfile::decode_hits(&std::fs::read(&hits_path).unwrap(), HitFormat::U32);
     assert_eq!(
         hits,
@@ -233,27 +220,7 @@ fn hit_files_number_triangles_in_64_bits_when_32_do_not_reach() {
     let rays_path = temp("island-rays.bin");
     std::fs::write(&rays_path, rayfile::encode_rays(&rays)).unwrap();
     let hits_path = temp("island-hits.bin");
-    let trace = |extra: &[&str]| {
-        let mut args = vec![
-            "trace",
-            "--scene",
-            "island",
-            "--rays",
-            rays_path.to_str().unwrap(),
-            "--out",
-            hits_path.to_str().unwrap(),
-            "--threads",
-            "2",
-        ];
-        args.extend_from_slice(extra);
-        bvhlab(&args)
-    };
-    let out = trace(&[]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = trace_ok("island", &rays_path, &hits_path, &["--threads", "2"]);
     assert!(String::from_utf8_lossy(&out.stdout).contains("64-bit triangle numbers"));
     let bytes = std::fs::read(&hits_path).unwrap();
     assert_eq!(bytes.len(), rays.len() * HitFormat::U64.record_bytes());
@@ -283,7 +250,17 @@ fn hit_files_number_triangles_in_64_bits_when_32_do_not_reach() {
     assert!(beyond_32_bits > 40, "{beyond_32_bits} hits beyond 32 bits");
     // Asked for 32 bits, the island is refused before anything is traced.
     std::fs::remove_file(&hits_path).unwrap();
-    let out = trace(&["--hit-bits", "32"]);
+    let out = bvhlab(&[
+        "trace",
+        "--scene",
+        "island",
+        "--rays",
+        rays_path.to_str().unwrap(),
+        "--out",
+        hits_path.to_str().unwrap(),
+        "--hit-bits",
+        "32",
+    ]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
@@ -303,22 +280,7 @@ fn a_64_bit_hit_file_holds_the_32_bit_files_hits() {
     let mut files = Vec::new();
     for bits in ["32", "64"] {
         let hits_path = temp(&format!("wide-hits-{bits}.bin"));
-        let out = bvhlab(&[
-            "trace",
-            "--scene",
-            "cornell",
-            "--rays",
-            rays_path.to_str().unwrap(),
-            "--out",
-            hits_path.to_str().unwrap(),
-            "--hit-bits",
-            bits,
-        ]);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        trace_ok("cornell", &rays_path, &hits_path, &["--hit-bits", bits]);
         files.push(std::fs::read(&hits_path).unwrap());
     }
     let narrow = rayfile::decode_hits(&files[0], HitFormat::U32);
