@@ -174,7 +174,11 @@ fn trace_counts_triangles_in_obj_file_order() {
     let hits = rayfile::decode_hits(&std::fs::read(&hits_path).unwrap(), HitFormat::U32);
     assert_eq!(
         hits,
-        vec![(1.0, 1), (1.0, 2), (f32::INFINITY, u64::from(rayfile::MISS))]
+        vec![
+            (1.0, 1),
+            (1.0, 2),
+            (f32::INFINITY, u64::from(rayfile::MISS))
+        ]
     );
 }
 
