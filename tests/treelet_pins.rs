@@ -16,8 +16,10 @@ fn fingerprint(text: &str) -> u64 {
     })
 }
 
-/// (scene, treelet size, rounds, max leaf size) → (tree fingerprint, SAH bits per round).
-fn pinned() -> Vec<(Vec<Triangle>, u32, u32, u32, u64, Vec<u64>)> {
+/// (scene, treelet size, rounds, max leaf size, tree fingerprint, SAH bits per round).
+type Pin = (Vec<Triangle>, u32, u32, u32, u64, Vec<u64>);
+
+fn pinned() -> Vec<Pin> {
     let teapot = Scene::load("teapot-in-stadium").unwrap().triangles;
     let grass = Scene::load("grass:4000").unwrap().triangles;
     let random = soup(20_000, 5);
