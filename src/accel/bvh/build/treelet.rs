@@ -296,7 +296,8 @@ impl Optimal {
         let mut p = delta & delta.wrapping_neg();
         while p != 0 {
             let c = self.cost[p as usize] + self.cost[(s ^ p) as usize];
-            // `<=` as the minimum is the first value no later one was below: it equals it.
+            // Nothing is below the minimum, so this is the first partition equal to it: the
+            // one a scan keeping only strictly lower values ends with.
             if c <= best {
                 return p;
             }
