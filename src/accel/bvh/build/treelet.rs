@@ -111,7 +111,7 @@ impl Round<'_> {
         let mut k = 0;
         while k < count {
             let s = placed[k].0;
-            let p = opt.split[s as usize] as u32;
+            let p = opt.split_of(s);
             let mut ids = [0u32; 2];
             for (side, part) in [p, s ^ p].into_iter().enumerate() {
                 ids[side] = if part.is_power_of_two() {
@@ -219,8 +219,11 @@ thread_local! {
 pub struct Optimal {
     /// `cost[S]`: the lowest cost of a subtree over subset S of the leaves.
     pub cost: [f64; SUBSETS],
-    /// `split[S]`: the part P of S that goes left in that subtree.
+    /// `split[S]`: the part P of S that goes left in that subtree. Filled by `new`; after
+    /// `solve` alone, `split_of` finds it for the few subsets a rebuild needs.
     pub split: [u16; SUBSETS],
+    /// `children[S]`: the lowest C(P) + C(S∖P), which `split_of` searches for again.
+    children: [f64; SUBSETS],
     boxes: [Aabb; SUBSETS],
     counts: [u32; SUBSETS],
 }
@@ -229,25 +232,37 @@ impl Optimal {
     const EMPTY: Optimal = Optimal {
         cost: [0.0; SUBSETS],
         split: [0; SUBSETS],
+        children: [0.0; SUBSETS],
         boxes: [Aabb::EMPTY; SUBSETS],
         counts: [0; SUBSETS],
     };
 
+    /// The tables for `leaves`, `split` included.
     pub fn new(leaves: &[TreeletLeaf], sah: &SahCost) -> Box<Self> {
         let mut opt = Box::new(Optimal::EMPTY);
         opt.solve(leaves, sah);
+        for s in 1u32..(1 << leaves.len()) {
+            if !s.is_power_of_two() {
+                opt.split[s as usize] = opt.split_of(s) as u16;
+            }
+        }
         opt
     }
 
-    /// Fills the tables for `leaves`; entries of subsets beyond them are left as they were.
+    /// Fills `cost` for `leaves`; entries of subsets beyond them are left as they were.
+    ///
+    /// Only the minimum is kept per subset, not where it was found: all but a handful of
+    /// subsets are never part of the rebuilt treelet, so their split is not worth tracking
+    /// in the hot loop (`split_of` finds the few needed afterwards).
     pub fn solve(&mut self, leaves: &[TreeletLeaf], sah: &SahCost) {
         let m = leaves.len();
         assert!((1..=MAX_TREELET).contains(&m), "{m} treelet leaves");
         let Optimal {
             cost,
-            split,
+            children,
             boxes,
             counts,
+            ..
         } = self;
         for (k, leaf) in leaves.iter().enumerate() {
             boxes[1 << k] = leaf.bounds;
@@ -262,22 +277,33 @@ impl Optimal {
             let (si, rest) = (s as usize, (s ^ low) as usize);
             boxes[si] = boxes[rest].union(boxes[low as usize]);
             counts[si] = counts[rest] + counts[low as usize];
-            // Every partition once: P runs over the non-empty subsets of S without its
-            // lowest leaf, which always stays in S∖P.
-            let delta = (s - 1) & s;
-            let mut p = delta & delta.wrapping_neg();
-            let mut best = (f64::INFINITY, 0u32);
-            while p != 0 {
-                // (Masked so the compiler sees the indices in range: the hot loop of the build.)
-                let c = cost[p as usize & (SUBSETS - 1)] + cost[(s ^ p) as usize & (SUBSETS - 1)];
-                if c < best.0 {
-                    best = (c, p);
-                }
-                p = p.wrapping_sub(delta) & s;
-            }
-            cost[si] = sah.interior(boxes[si].surface_area() as f64, counts[si], best.0);
-            split[si] = best.1 as u16;
+            let best = min_children(cost, s);
+            children[si] = best;
+            cost[si] = sah.interior(boxes[si].surface_area() as f64, counts[si], best);
         }
+    }
+
+    /// The split of subset `s` (of two or more leaves) the last `solve` chose: the first
+    /// partition, in the order P = 1, 2, … over subsets of S without its lowest leaf, whose
+    /// C(P) + C(S∖P) is the minimum.
+    pub fn split_of(&self, s: u32) -> u32 {
+        let best = self.children[s as usize];
+        // No partition below infinity (or only NaNs): the scan never took one.
+        if best.is_nan() || best == f64::INFINITY {
+            return 0;
+        }
+        let delta = (s - 1) & s;
+        let mut p = delta & delta.wrapping_neg();
+        while p != 0 {
+            let c = self.cost[p as usize] + self.cost[(s ^ p) as usize];
+            // Nothing is below the minimum, so this is the first partition equal to it: the
+            // one a scan keeping only strictly lower values ends with.
+            if c <= best {
+                return p;
+            }
+            p = p.wrapping_sub(delta) & s;
+        }
+        unreachable!("the minimum of subset {s:#b} is one of its partitions")
     }
 
     /// The height of the optimal subtree over `s`.
@@ -285,7 +311,53 @@ impl Optimal {
         if s.is_power_of_two() {
             return leaves[s.trailing_zeros() as usize].height;
         }
-        let p = self.split[s as usize] as u32;
+        let p = self.split_of(s);
         1 + self.height(p, leaves).max(self.height(s ^ p, leaves))
     }
+}
+
+/// min over the partitions {P, S∖P} of subset `s` of C(P) + C(S∖P), with the bits (and NaN
+/// handling) of a scan that keeps the first value strictly below the running minimum.
+///
+/// P runs over the non-empty subsets of S without its lowest leaf (which stays in S∖P), so
+/// every partition comes once. The scan is split four ways by the two highest leaves h1 < h2
+/// of those: P = Q, Q + h1, Q + h2, Q + h1 + h2 for Q over the subsets of the rest. The four
+/// minima are independent (no single chain of dependent compares), and every P of one way
+/// comes before every P of the next in the plain order, so merging them in that order with
+/// the same strict compare gives the plain scan's value.
+#[inline(always)]
+fn min_children(cost: &[f64; SUBSETS], s: u32) -> f64 {
+    // (Masked so the compiler sees the indices in range: the hot loop of the build.)
+    let c = |p: u32| cost[p as usize & (SUBSETS - 1)] + cost[(s ^ p) as usize & (SUBSETS - 1)];
+    let delta = (s - 1) & s;
+    if delta.is_power_of_two() {
+        let x = c(delta);
+        return if x < f64::INFINITY { x } else { f64::INFINITY };
+    }
+    let h2 = 1 << (31 - delta.leading_zeros());
+    let h1 = 1 << (31 - (delta ^ h2).leading_zeros());
+    let rest = delta ^ h1 ^ h2;
+    let mut m = [f64::INFINITY; 4];
+    let keep = |m: &mut f64, x: f64| {
+        if x < *m {
+            *m = x;
+        }
+    };
+    // Q = 0: P = Q itself is empty, not a partition.
+    keep(&mut m[1], c(h1));
+    keep(&mut m[2], c(h2));
+    keep(&mut m[3], c(h1 | h2));
+    let mut q = rest & rest.wrapping_neg();
+    while q != 0 {
+        keep(&mut m[0], c(q));
+        keep(&mut m[1], c(q | h1));
+        keep(&mut m[2], c(q | h2));
+        keep(&mut m[3], c(q | h1 | h2));
+        q = q.wrapping_sub(rest) & rest;
+    }
+    let mut best = m[0];
+    for x in &m[1..] {
+        keep(&mut best, *x);
+    }
+    best
 }
