@@ -517,3 +517,26 @@ fn the_stress_suite_zeros_hold_through_every_split_builder() {
         }
     }
 }
+
+#[test]
+fn wide_reports_count_split_references() {
+    // A wide tree's leaves hold the BVH2's references, padding lanes aside: the report's
+    // references per triangle must show the spatial splits' duplicates.
+    use bvhlab::accel::structure::{self, AccelKind, StructureParams};
+    let rotated = Scene::load("walls-rotated").unwrap().triangles;
+    let progress = std::sync::atomic::AtomicUsize::new(0);
+    let of = |kind| {
+        let params = StructureParams {
+            bvh: sbvh(),
+            ..StructureParams::of_kind(kind)
+        };
+        structure::build(&rotated, &params, &progress)
+            .unwrap()
+            .report
+    };
+    let bvh2 = of(AccelKind::Bvh);
+    assert!(bvh2.references > rotated.len(), "{bvh2:?}");
+    for kind in [AccelKind::Bvh4, AccelKind::Bvh8] {
+        assert_eq!(of(kind).references, bvh2.references, "{kind:?}");
+    }
+}

@@ -585,7 +585,7 @@ where
         leaves,
         empty_leaves: 0,
         max_depth: wide.depth,
-        references: wide.triangle_count,
+        references: wide.references(),
         largest_leaf,
         details: vec![
             ("builder".into(), params.bvh.strategy.label().into()),

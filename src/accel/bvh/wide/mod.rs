@@ -137,6 +137,12 @@ where
             + self.prim_indices.len() * std::mem::size_of::<u32>()
     }
 
+    /// Triangle references in the leaves: one per used lane (a triangle with split
+    /// references counts once per leaf it is in; padding lanes not at all).
+    pub fn references(&self) -> usize {
+        self.prim_indices.iter().filter(|&&t| t != PADDING).count()
+    }
+
     /// Wide nodes and leaves (a leaf is a lane holding triangles).
     pub fn leaf_count(&self) -> usize {
         self.nodes
