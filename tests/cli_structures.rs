@@ -118,7 +118,17 @@ fn single_structure_bench_json_keeps_its_keys_and_adds_the_structure() {
         ] {
             assert!(!json[key].is_null(), "{}: {key}", kind.label());
         }
-        assert_eq!(json["sah_cost"].is_number(), kind == AccelKind::Bvh);
+        // The SAH cost of every structure that has one, the same as its SAH check's.
+        assert_eq!(json["sah_cost"].is_number(), !json["sah_check"].is_null());
+        assert_eq!(
+            json["sah_cost"].is_number(),
+            matches!(
+                kind,
+                AccelKind::Bvh | AccelKind::Bvh4 | AccelKind::Bvh8 | AccelKind::KdTree
+            ),
+            "{}",
+            kind.label()
+        );
     }
 }
 
@@ -332,6 +342,41 @@ fn bench_builders_reports_every_builder_on_the_same_rays() {
     }
     assert!(table.contains("% of SBVH's"), "{table}");
     assert!(table.contains("the same for every builder"), "{table}");
+
+    // The same builders collapsed to BVH8s: the same hits, every tree's SAH cost that of
+    // the wide tree, and the spatial splits' duplicates counted in its leaves.
+    let mut args = vec![
+        "bench",
+        "--scene",
+        "walls-rotated",
+        "--builders",
+        "--json",
+        "--accel",
+        "bvh8",
+    ];
+    args.extend(SMALL_BENCH);
+    let out = bvhlab(&args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let wide: serde_json::Value = serde_json::from_slice(&out.stdout).expect("one JSON object");
+    let wide = wide["builders"].as_array().expect("a builders array");
+    assert_eq!(wide.len(), variants.len());
+    for (b, p) in wide.iter().zip(&variants) {
+        assert_eq!(b["accel"], AccelKind::Bvh8.label());
+        assert_eq!(b["primary"]["hits"], wide[0]["primary"]["hits"]);
+        let (cost, predicted) = (b["sah_cost"].as_f64(), b["sah_check"]["predicted"].as_f64());
+        assert!((cost.unwrap() - predicted.unwrap()).abs() < 1e-3, "{b}");
+        let duplicated = b["duplicated_references"].as_u64().unwrap();
+        if p.strategy == Strategy::Sbvh {
+            assert!(duplicated > 1000, "{b}");
+        }
+        if p.presplit == 0.0 && p.strategy != Strategy::Sbvh {
+            assert_eq!(duplicated, 0, "{b}");
+        }
+    }
 
     let err = bvhlab(&[
         "bench",

@@ -119,6 +119,21 @@ pub struct BenchResult {
     pub peer: Option<PeerResult>,
 }
 
+impl BenchResult {
+    /// The tree's SAH cost: the BVH2's own, or the wide tree's.
+    pub fn sah_cost(&self) -> Option<f64> {
+        match &self.bvh_report {
+            Some(b) => Some(b.tree.sah_cost),
+            None => self.sah_check.as_ref().map(|c| c.predicted),
+        }
+    }
+
+    /// References beyond one per triangle (spatial splits and pre-splits).
+    pub fn duplicated_references(&self) -> usize {
+        self.report.references.saturating_sub(self.report.triangles)
+    }
+}
+
 /// A peer structure timed on the same ray sets and threads.
 #[derive(Clone, Debug)]
 pub struct PeerResult {
@@ -223,10 +238,16 @@ pub fn run_builders(
     builders: &[BuildParams],
     done: &mut dyn FnMut(&BenchResult),
 ) -> Result<Vec<BenchResult>, BenchError> {
+    // Each builder's BVH2 is traced as it is, or collapsed to the wide layout asked for.
+    let kind = if cfg.params.kind.is_wide() {
+        cfg.params.kind
+    } else {
+        AccelKind::Bvh
+    };
     let each = builders
         .iter()
         .map(|&bvh| StructureParams {
-            kind: AccelKind::Bvh,
+            kind,
             bvh,
             ..cfg.params
         })
@@ -559,7 +580,7 @@ impl BenchResult {
             "presplit": b.presplit,
             "split_alpha": b.split_alpha,
             "split_budget": b.split_budget,
-            "duplicated_references": self.bvh_report.as_ref().map(|b| b.duplicated_references()),
+            "duplicated_references": self.duplicated_references(),
             "treelet_size": b.treelet_size,
             "treelet_rounds": b.treelet_rounds,
             "max_leaf_size": b.max_leaf_size,
@@ -568,7 +589,7 @@ impl BenchResult {
                 .then(|| self.params.simd.label()),
             "build_ms": round3(r.build_ms()),
             "bytes": r.bytes,
-            "sah_cost": self.bvh_report.as_ref().map(|b| round3(b.tree.sah_cost)),
+            "sah_cost": self.sah_cost().map(round3),
             "nodes": r.nodes,
             "leaves": r.leaves,
             "empty_leaves": r.empty_leaves,

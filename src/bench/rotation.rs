@@ -104,10 +104,7 @@ pub fn run(
                 degrees,
                 builder: builder_label(&r.params.bvh),
                 build_ms: r.report.build_ms(),
-                duplicated_references: r
-                    .bvh_report
-                    .as_ref()
-                    .map_or(0, |b| b.duplicated_references()),
+                duplicated_references: r.duplicated_references(),
                 nodes: mean.nodes,
                 triangle_tests: mean.triangle_tests,
                 primary_mrays: r.primary.mrays_per_s(),

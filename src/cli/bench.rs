@@ -52,7 +52,9 @@ pub struct BenchArgs {
     /// Every BVH builder (object median, spatial median, full-sweep SAH, binned SAH, LBVH,
     /// LBVH + treelets, SBVH, and binned SAH, LBVH and LBVH + treelets again with pre-splits:
     /// --presplit, or 0.3) on the same ray sets, as one table: build ms, SAH cost, duplicated
-    /// references, and Mrays/s with its percentage of SBVH's.
+    /// references, and Mrays/s with its percentage of SBVH's. Each BVH2 is traced as it is,
+    /// or collapsed to the layout --accel bvh4 or bvh8 names (its build time then includes
+    /// the collapse).
     #[arg(long, conflicts_with_all = ["accuracy", "scaling", "embree", "rotation_sweep"])]
     pub builders: bool,
     /// The --builders table, then build + trace time against N diffuse rays per frame (10^5
@@ -119,7 +121,8 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let load_start = std::time::Instant::now();
     let scene = load_scene(&args.scene)?;
     let load_time = load_start.elapsed();
-    // The builders and the accuracy study compare BVH2 builds; the ray sets are traced with
+    // The builders and the accuracy study compare BVH2 builds (the builders, or their wide
+    // collapses with --accel bvh4 or bvh8); the ray sets are traced with
     // the fastest layout unless --accel names one.
     let compares_builds = args.builders || args.accuracy || args.sah_scatter;
     let traced = if compares_builds {
@@ -158,9 +161,17 @@ pub fn run(args: BenchArgs) -> Result<()> {
         );
     }
     if (args.builders || args.tradeoff || args.sah_scatter)
-        && args.build.accel.is_some_and(|a| a != super::AccelArg::Bvh)
+        && args.build.accel.is_some_and(|a| {
+            !matches!(
+                a,
+                super::AccelArg::Bvh | super::AccelArg::Bvh4 | super::AccelArg::Bvh8
+            )
+        })
     {
-        anyhow::bail!("--builders and --tradeoff compare the BVH's builders: leave out --accel");
+        anyhow::bail!(
+            "--builders, --tradeoff and --sah-scatter compare the BVH's builders: --accel bvh \
+             (the default there), bvh4 or bvh8"
+        );
     }
     cfg.params.validate()?;
     let pool = thread_pool(args.threads)?;
@@ -514,7 +525,6 @@ fn run_builders(
                 format!("{m:>7.2} ({:>3.0} %)", 100.0 * m / b.max(1e-12))
             })
             .collect();
-        let bvh = r.bvh_report.as_ref();
         out!(
             "  {:<28} {:>9.2} {:>6} {:>9.2} {:>9} {:>15} {:>15} {:>15}",
             bench::builder_label(&r.params.bvh),
@@ -523,8 +533,8 @@ fn run_builders(
                 "{:.0}",
                 100.0 * r.report.build_ms() / b.max(1e-12)
             )),
-            bvh.map_or(f64::NAN, |b| b.tree.sah_cost),
-            bvh.map_or(0, |b| b.duplicated_references()),
+            r.sah_cost().unwrap_or(f64::NAN),
+            r.duplicated_references(),
             cells[0],
             cells[1],
             cells[2]
