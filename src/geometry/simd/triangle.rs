@@ -103,7 +103,7 @@ impl TriangleKernel for Portable {
         tmin: f32,
         tmax: f32,
     ) -> BlockHits {
-        let [kx, ky, kz] = shear.k;
+        let [kx, ky, kz] = shear.k();
         let s = shear.s;
         let o = shear.o;
         let mut out = BlockHits {
@@ -163,7 +163,7 @@ impl TriangleKernel for Portable {
 macro_rules! watertight_m128 {
     ($block:expr, $shear:expr, $tmin:expr, $tmax:expr) => {{
         let (block, shear) = ($block, $shear);
-        let [kx, ky, kz] = shear.k;
+        let [kx, ky, kz] = shear.k();
         // The origin in the permuted axes, picked once per ray (`Shear::o`).
         let [ox, oy, oz] = shear.o.map(|c| _mm_set1_ps(c));
         let (sx, sy, sz) = (
@@ -171,7 +171,8 @@ macro_rules! watertight_m128 {
             _mm_set1_ps(shear.s.y),
             _mm_set1_ps(shear.s.z),
         );
-        let row = |k: usize, axis: usize| _mm_load_ps(block.v[k][axis].as_ptr());
+        // Unchecked: a shear's axes are below 3 (`Shear::k`).
+        let row = |k: usize, axis: usize| _mm_load_ps(block.v[k].get_unchecked(axis).as_ptr());
         // Vertex k relative to the origin, permuted and sheared: (x, y, unscaled z).
         let vertex = |k: usize| {
             let z = _mm_sub_ps(row(k, kz), oz);
@@ -309,7 +310,8 @@ mod x86 {
 
     triangle_kernel!(Sse41, |block, shear, _ray, tmin, tmax| {
         // SAFETY: the caller guarantees SSE4.1; the block's rows are 16-byte aligned arrays
-        // of four lanes, and the stores write into arrays of four.
+        // of four lanes, indexed by the shear's axes, which are below 3 (`Shear::k`); the
+        // stores write into arrays of four.
         unsafe {
             let (t, u, v, hit, retest) = watertight_m128!(block, shear, tmin, tmax);
             let mut out = BlockHits {

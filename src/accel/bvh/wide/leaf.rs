@@ -27,11 +27,11 @@ pub(super) struct Leaf {
 }
 
 impl Leaf {
-    /// The leaf a lane's word names.
+    /// The leaf a lane's word names (a leaf's word).
     #[inline(always)]
     pub(super) fn of(child: Subtree) -> Leaf {
         Leaf {
-            first: child.index(),
+            first: child.leaf_first(),
             count: child.leaf_count(),
         }
     }
@@ -309,16 +309,19 @@ macro_rules! leaf_entry_points {
         where
             Lanes<W>: NodeWidth,
         {
+            /// Takes the leaf's word, not the leaf: one argument fewer, so that all are
+            /// passed in registers.
             #[target_feature(enable = $features)]
             #[inline(never)]
             fn $closest<I: Intersector, S: Stats>(
                 &self,
-                leaf: Leaf,
+                child: Subtree,
                 data: &I::RayData,
                 ray: &Ray,
                 best: &mut BestHit,
                 stats: &mut S,
             ) -> bool {
+                let leaf = Leaf::of(child);
                 // SAFETY: this function is compiled for the kernel's instruction set.
                 unsafe { self.leaf_closest::<$kernel, I, S>(leaf, data, ray, best, stats) }
             }
@@ -392,7 +395,7 @@ where
     #[inline(always)]
     pub(super) unsafe fn leaf_closest_called<K: TriangleKernel, I: Intersector, S: Stats>(
         &self,
-        leaf: Leaf,
+        child: Subtree,
         data: &I::RayData,
         ray: &Ray,
         best: &mut BestHit,
@@ -403,12 +406,14 @@ where
         unsafe {
             match K::LEVEL {
                 #[cfg(target_arch = "x86_64")]
-                SimdLevel::Sse41 => self.leaf_closest_sse41::<I, S>(leaf, data, ray, best, stats),
+                SimdLevel::Sse41 => self.leaf_closest_sse41::<I, S>(child, data, ray, best, stats),
                 #[cfg(target_arch = "x86_64")]
-                SimdLevel::Avx2 => self.leaf_closest_avx2::<I, S>(leaf, data, ray, best, stats),
+                SimdLevel::Avx2 => self.leaf_closest_avx2::<I, S>(child, data, ray, best, stats),
                 #[cfg(target_arch = "x86_64")]
-                SimdLevel::Avx512 => self.leaf_closest_avx512::<I, S>(leaf, data, ray, best, stats),
-                _ => self.leaf_closest::<K, I, S>(leaf, data, ray, best, stats),
+                SimdLevel::Avx512 => {
+                    self.leaf_closest_avx512::<I, S>(child, data, ray, best, stats)
+                }
+                _ => self.leaf_closest::<K, I, S>(Leaf::of(child), data, ray, best, stats),
             }
         }
     }
