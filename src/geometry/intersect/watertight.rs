@@ -19,12 +19,22 @@ pub struct Watertight;
 /// The ray's shear: axis permutation (kx, ky, kz), kz the largest direction component.
 #[derive(Clone, Copy, Debug)]
 pub struct Shear {
-    pub k: [usize; 3],
+    /// Each below 3, as `Watertight::prepare` (which alone makes a shear) makes them: the
+    /// block test indexes a block's rows by them without bounds checks.
+    k: [usize; 3],
     /// (−d_kx / d_kz, −d_ky / d_kz, 1 / d_kz).
     pub s: Vec3,
     /// The origin in the permuted axes (o_kx, o_ky, o_kz): a block test broadcasts each
     /// straight from here, once per ray picked.
     pub o: [f32; 3],
+}
+
+impl Shear {
+    /// The axes (kx, ky, kz), each below 3.
+    #[inline(always)]
+    pub fn k(&self) -> [usize; 3] {
+        self.k
+    }
 }
 
 /// The axes of the ray's coordinate system: kz is the direction's largest component, kx and

@@ -103,7 +103,7 @@ impl TriangleKernel for Portable {
         tmin: f32,
         tmax: f32,
     ) -> BlockHits {
-        let [kx, ky, kz] = shear.k;
+        let [kx, ky, kz] = shear.k();
         let s = shear.s;
         let o = shear.o;
         let mut out = BlockHits {
@@ -163,7 +163,7 @@ impl TriangleKernel for Portable {
 macro_rules! watertight_m128 {
     ($block:expr, $shear:expr, $tmin:expr, $tmax:expr) => {{
         let (block, shear) = ($block, $shear);
-        let [kx, ky, kz] = shear.k;
+        let [kx, ky, kz] = shear.k();
         // The origin in the permuted axes, picked once per ray (`Shear::o`).
         let [ox, oy, oz] = shear.o.map(|c| _mm_set1_ps(c));
         let (sx, sy, sz) = (
@@ -171,7 +171,8 @@ macro_rules! watertight_m128 {
             _mm_set1_ps(shear.s.y),
             _mm_set1_ps(shear.s.z),
         );
-        let row = |k: usize, axis: usize| _mm_load_ps(block.v[k][axis].as_ptr());
+        // Unchecked: a shear's axes are below 3 (`Shear::k`).
+        let row = |k: usize, axis: usize| _mm_load_ps(block.v[k].get_unchecked(axis).as_ptr());
         // Vertex k relative to the origin, permuted and sheared: (x, y, unscaled z).
         let vertex = |k: usize| {
             let z = _mm_sub_ps(row(k, kz), oz);
@@ -193,20 +194,21 @@ macro_rules! watertight_m128 {
             _mm_or_ps(_mm_cmpeq_ps(e0, zero), _mm_cmpeq_ps(e1, zero)),
             _mm_cmpeq_ps(e2, zero),
         );
-        let negative = _mm_or_ps(
-            _mm_or_ps(_mm_cmplt_ps(e0, zero), _mm_cmplt_ps(e1, zero)),
-            _mm_cmplt_ps(e2, zero),
+        // Edges of one sign, read from the sign bits: the lanes whose edges' or has the sign
+        // bit and whose edges' and has not are those with edges of both signs, the scalar
+        // test's `outside` wherever no edge is ±0 (such a lane is on an edge and handed back
+        // whatever this says). Only sign bits are meaningful in this mask and in those made
+        // from it; each ends in a movemask.
+        let mixed = _mm_andnot_ps(
+            _mm_and_ps(_mm_and_ps(e0, e1), e2),
+            _mm_or_ps(_mm_or_ps(e0, e1), e2),
         );
-        let positive = _mm_or_ps(
-            _mm_or_ps(_mm_cmpgt_ps(e0, zero), _mm_cmpgt_ps(e1, zero)),
-            _mm_cmpgt_ps(e2, zero),
-        );
-        let outside = _mm_and_ps(negative, positive);
         let det = _mm_add_ps(_mm_add_ps(e0, e1), e2);
-        // A lane can hit only with its edges of one sign and a nonzero determinant (NaN,
-        // as in padding, is neither), and is handed back only with an edge at zero.
-        let det_nonzero = _mm_or_ps(_mm_cmplt_ps(det, zero), _mm_cmpgt_ps(det, zero));
-        if _mm_movemask_ps(_mm_or_ps(_mm_andnot_ps(outside, det_nonzero), on_edge)) == 0 {
+        // A lane can hit only with its edges of one sign and a determinant that is not NaN
+        // (padding's is): nonzero edges of one sign have a nonzero sum. It is handed back
+        // only with an edge at zero.
+        let one_sign = _mm_andnot_ps(mixed, _mm_cmpord_ps(det, det));
+        if _mm_movemask_ps(_mm_or_ps(one_sign, on_edge)) == 0 {
             return BlockHits::MISS;
         }
         let (az, bz, cz) = (
@@ -222,14 +224,12 @@ macro_rules! watertight_m128 {
             ),
             inv_det,
         );
-        let inside = _mm_andnot_ps(
-            outside,
+        // A NaN t (a NaN determinant) is within no interval.
+        let inside = _mm_and_ps(
+            one_sign,
             _mm_and_ps(
-                _mm_cmpneq_ps(det, zero),
-                _mm_and_ps(
-                    _mm_cmpgt_ps(t, _mm_set1_ps($tmin)),
-                    _mm_cmplt_ps(t, _mm_set1_ps($tmax)),
-                ),
+                _mm_cmpgt_ps(t, _mm_set1_ps($tmin)),
+                _mm_cmplt_ps(t, _mm_set1_ps($tmax)),
             ),
         );
         // No lane within the interval nor on an edge: the error bound decides nothing.
@@ -240,8 +240,9 @@ macro_rules! watertight_m128 {
         let sign = _mm_set1_ps(-0.0);
         let abs = |x| _mm_andnot_ps(sign, x);
         let max3 = |a, b, c| _mm_max_ps(_mm_max_ps(abs(a), abs(b)), abs(c));
-        let max_z = max3(az, bz, cz);
         let max_qz = max3(aqz, bqz, cqz);
+        // max |s_z q_z| is |s_z| max |q_z| bit for bit: rounding is monotonic and symmetric.
+        let max_z = _mm_mul_ps(abs(sz), max_qz);
         let max_x = max3(ax, bx, cx);
         let max_y = max3(ay, by, cy);
         let g = |n: i32| _mm_set1_ps(gamma(n));
@@ -309,7 +310,8 @@ mod x86 {
 
     triangle_kernel!(Sse41, |block, shear, _ray, tmin, tmax| {
         // SAFETY: the caller guarantees SSE4.1; the block's rows are 16-byte aligned arrays
-        // of four lanes, and the stores write into arrays of four.
+        // of four lanes, indexed by the shear's axes, which are below 3 (`Shear::k`); the
+        // stores write into arrays of four.
         unsafe {
             let (t, u, v, hit, retest) = watertight_m128!(block, shear, tmin, tmax);
             let mut out = BlockHits {

@@ -12,7 +12,7 @@ use crate::accel::replay::Step;
 use crate::accel::stats::record;
 use crate::accel::{BestHit, Stats};
 use crate::geometry::intersect::TriangleHit;
-use crate::geometry::simd::{BLOCK, SimdLevel, TriangleBlock, TriangleKernel, prefetch};
+use crate::geometry::simd::{BLOCK, BlockHits, SimdLevel, TriangleBlock, TriangleKernel, prefetch};
 use crate::geometry::{Intersector, Ray, Triangle};
 
 /// The index of a padding lane (a lane of no leaf, NaN).
@@ -27,11 +27,11 @@ pub(super) struct Leaf {
 }
 
 impl Leaf {
-    /// The leaf a lane's word names.
+    /// The leaf a lane's word names (a leaf's word).
     #[inline(always)]
     pub(super) fn of(child: Subtree) -> Leaf {
         Leaf {
-            first: child.index(),
+            first: child.leaf_first(),
             count: child.leaf_count(),
         }
     }
@@ -143,8 +143,25 @@ where
         if let Some((b, used)) = leaf.single_block() {
             return unsafe { self.block_closest::<K, I, S>(b, used, data, ray, best, stats) };
         }
+        unsafe { self.leaf_closest_blocks_called::<K, I, S>(leaf, data, ray, best, stats) }
+    }
+
+    /// `leaf_closest` of a leaf over several blocks, block by block.
+    ///
+    /// # Safety
+    /// The CPU supports K's instruction set.
+    #[inline(always)]
+    unsafe fn leaf_closest_blocks<K: TriangleKernel, I: Intersector, S: Stats>(
+        &self,
+        leaf: Leaf,
+        data: &I::RayData,
+        ray: &Ray,
+        best: &mut BestHit,
+        stats: &mut S,
+    ) -> bool {
         let mut found = false;
         for (b, used) in leaf.blocks() {
+            // SAFETY: the caller guarantees K's instruction set.
             found |= unsafe { self.block_closest::<K, I, S>(b, used, data, ray, best, stats) };
         }
         found
@@ -171,12 +188,49 @@ where
         }
         // SAFETY: the caller guarantees K's instruction set.
         let h = unsafe { I::intersect_block::<K>(data, ray, block, ray.tmin, best.limit) };
+        if h.retest & used != 0 {
+            return self.lanes_closest::<I>(&h, b, used, data, ray, best);
+        }
+        // Only the block test's hits: no call, so the leaf's entry saves fewer registers.
+        let mut lanes = h.hit & used;
+        let mut found = false;
+        while lanes != 0 {
+            let lane = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
+            if h.t[lane] < best.limit {
+                let hit = TriangleHit {
+                    t: h.t[lane],
+                    u: h.u[lane],
+                    v: h.v[lane],
+                };
+                best.offer(hit, self.prim_indices[b * BLOCK + lane]);
+                found = true;
+            }
+        }
+        found
+    }
+
+    /// The hit and handed-back lanes `used` of block `b` in lane order, keeping the best
+    /// hit; whether one was found. Rare (a lane on an edge or close to the origin), and out
+    /// of line: its scalar test is a call, which would make every leaf call save registers.
+    #[cold]
+    #[inline(never)]
+    fn lanes_closest<I: Intersector>(
+        &self,
+        h: &BlockHits,
+        b: usize,
+        used: u32,
+        data: &I::RayData,
+        ray: &Ray,
+        best: &mut BestHit,
+    ) -> bool {
+        let block = &self.blocks[b];
         let mut lanes = (h.hit | h.retest) & used;
         let mut found = false;
         while lanes != 0 {
             let lane = lanes.trailing_zeros() as usize;
             lanes &= lanes - 1;
-            if let Some(hit) = lane_hit::<I>(&h, block, lane, data, ray, best.limit) {
+            if let Some(hit) = lane_hit::<I>(h, block, lane, data, ray, best.limit) {
                 best.offer(hit, self.prim_indices[b * BLOCK + lane]);
                 found = true;
             }
@@ -250,14 +304,33 @@ where
 /// the block test needs most vector registers, and inlined it pushed the ray's slab
 /// constants out of theirs at every node; called, it leaves the node loop small.
 macro_rules! leaf_entry_points {
-    ($closest:ident, $any:ident, $kernel:ty, $features:literal) => {
+    ($closest:ident, $blocks:ident, $any:ident, $kernel:ty, $features:literal) => {
         impl<const W: usize> WideBvh<W>
         where
             Lanes<W>: NodeWidth,
         {
+            /// Takes the leaf's word, not the leaf: one argument fewer, so that all are
+            /// passed in registers.
             #[target_feature(enable = $features)]
             #[inline(never)]
             fn $closest<I: Intersector, S: Stats>(
+                &self,
+                child: Subtree,
+                data: &I::RayData,
+                ray: &Ray,
+                best: &mut BestHit,
+                stats: &mut S,
+            ) -> bool {
+                let leaf = Leaf::of(child);
+                // SAFETY: this function is compiled for the kernel's instruction set.
+                unsafe { self.leaf_closest::<$kernel, I, S>(leaf, data, ray, best, stats) }
+            }
+
+            /// A leaf over several blocks, kept out of the one-block leaf's entry point (the
+            /// commonest leaf), which then saves fewer registers at every call.
+            #[target_feature(enable = $features)]
+            #[inline(never)]
+            fn $blocks<I: Intersector, S: Stats>(
                 &self,
                 leaf: Leaf,
                 data: &I::RayData,
@@ -265,8 +338,8 @@ macro_rules! leaf_entry_points {
                 best: &mut BestHit,
                 stats: &mut S,
             ) -> bool {
-                // SAFETY: this function is compiled for the kernel's instruction set.
-                unsafe { self.leaf_closest::<$kernel, I, S>(leaf, data, ray, best, stats) }
+                // SAFETY: as above.
+                unsafe { self.leaf_closest_blocks::<$kernel, I, S>(leaf, data, ray, best, stats) }
             }
 
             #[target_feature(enable = $features)]
@@ -288,6 +361,7 @@ macro_rules! leaf_entry_points {
 #[cfg(target_arch = "x86_64")]
 leaf_entry_points!(
     leaf_closest_sse41,
+    leaf_closest_blocks_sse41,
     leaf_any_sse41,
     crate::geometry::simd::slab::Sse41,
     "sse4.1"
@@ -295,6 +369,7 @@ leaf_entry_points!(
 #[cfg(target_arch = "x86_64")]
 leaf_entry_points!(
     leaf_closest_avx2,
+    leaf_closest_blocks_avx2,
     leaf_any_avx2,
     crate::geometry::simd::slab::Avx2,
     "avx2"
@@ -302,6 +377,7 @@ leaf_entry_points!(
 #[cfg(target_arch = "x86_64")]
 leaf_entry_points!(
     leaf_closest_avx512,
+    leaf_closest_blocks_avx512,
     leaf_any_avx512,
     crate::geometry::simd::slab::Avx512,
     "avx512f,avx512vl"
@@ -319,7 +395,7 @@ where
     #[inline(always)]
     pub(super) unsafe fn leaf_closest_called<K: TriangleKernel, I: Intersector, S: Stats>(
         &self,
-        leaf: Leaf,
+        child: Subtree,
         data: &I::RayData,
         ray: &Ray,
         best: &mut BestHit,
@@ -330,12 +406,47 @@ where
         unsafe {
             match K::LEVEL {
                 #[cfg(target_arch = "x86_64")]
-                SimdLevel::Sse41 => self.leaf_closest_sse41::<I, S>(leaf, data, ray, best, stats),
+                SimdLevel::Sse41 => self.leaf_closest_sse41::<I, S>(child, data, ray, best, stats),
                 #[cfg(target_arch = "x86_64")]
-                SimdLevel::Avx2 => self.leaf_closest_avx2::<I, S>(leaf, data, ray, best, stats),
+                SimdLevel::Avx2 => self.leaf_closest_avx2::<I, S>(child, data, ray, best, stats),
                 #[cfg(target_arch = "x86_64")]
-                SimdLevel::Avx512 => self.leaf_closest_avx512::<I, S>(leaf, data, ray, best, stats),
-                _ => self.leaf_closest::<K, I, S>(leaf, data, ray, best, stats),
+                SimdLevel::Avx512 => {
+                    self.leaf_closest_avx512::<I, S>(child, data, ray, best, stats)
+                }
+                _ => self.leaf_closest::<K, I, S>(Leaf::of(child), data, ray, best, stats),
+            }
+        }
+    }
+
+    /// `leaf_closest_blocks` through the out-of-line copy compiled for K's instruction set.
+    ///
+    /// # Safety
+    /// The CPU supports K's instruction set.
+    #[inline(always)]
+    unsafe fn leaf_closest_blocks_called<K: TriangleKernel, I: Intersector, S: Stats>(
+        &self,
+        leaf: Leaf,
+        data: &I::RayData,
+        ray: &Ray,
+        best: &mut BestHit,
+        stats: &mut S,
+    ) -> bool {
+        // SAFETY: as in `leaf_closest_called`.
+        unsafe {
+            match K::LEVEL {
+                #[cfg(target_arch = "x86_64")]
+                SimdLevel::Sse41 => {
+                    self.leaf_closest_blocks_sse41::<I, S>(leaf, data, ray, best, stats)
+                }
+                #[cfg(target_arch = "x86_64")]
+                SimdLevel::Avx2 => {
+                    self.leaf_closest_blocks_avx2::<I, S>(leaf, data, ray, best, stats)
+                }
+                #[cfg(target_arch = "x86_64")]
+                SimdLevel::Avx512 => {
+                    self.leaf_closest_blocks_avx512::<I, S>(leaf, data, ray, best, stats)
+                }
+                _ => self.leaf_closest_blocks::<K, I, S>(leaf, data, ray, best, stats),
             }
         }
     }
@@ -437,7 +548,7 @@ where
 /// against the limit of this moment gives what the scalar test would.
 #[inline(always)]
 fn lane_hit<I: Intersector>(
-    h: &crate::geometry::simd::BlockHits,
+    h: &BlockHits,
     block: &TriangleBlock,
     lane: usize,
     data: &I::RayData,

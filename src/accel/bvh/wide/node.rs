@@ -123,6 +123,13 @@ impl Subtree {
         (self.0 >> INDEX_BITS).saturating_sub(1)
     }
 
+    /// The first slot of a lane known to hold a leaf.
+    #[inline(always)]
+    pub fn leaf_first(self) -> u32 {
+        debug_assert!(self.is_leaf());
+        self.0 & MAX_INDEX
+    }
+
     /// The triangle count of a lane known to hold a leaf.
     #[inline(always)]
     pub fn leaf_count(self) -> u32 {

@@ -97,10 +97,10 @@ where
             stats.node_visit();
             record(stats, || self.visit_step(cur));
             if cur.child.is_leaf() {
-                let leaf = Leaf::of(cur.child);
                 // SAFETY: a tree only selects a kernel its CPU supports (`set_simd`), and
                 // the entry points below are compiled for it.
-                if unsafe { self.leaf_closest_called::<K, I, S>(leaf, data, ray, best, stats) } {
+                if unsafe { self.leaf_closest_called::<K, I, S>(cur.child, data, ray, best, stats) }
+                {
                     box_tmax = best.t * T_SCALE;
                 }
             } else {
