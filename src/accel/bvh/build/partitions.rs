@@ -87,7 +87,7 @@ impl PartitionTable {
                 t.q.push((s ^ p) as i32);
                 p = p.wrapping_sub(delta) & s;
             }
-            while t.p.len() % lanes != 0 {
+            while !t.p.len().is_multiple_of(lanes) {
                 t.p.push(0);
                 t.q.push(0);
             }
