@@ -21,6 +21,7 @@
 mod lbvh;
 pub mod linked_tree;
 mod median;
+mod partitions;
 pub mod presplit;
 mod prim;
 mod radix_sort;
@@ -28,6 +29,7 @@ mod sah_binned;
 mod sah_sweep;
 mod sbvh;
 pub mod split_costs;
+mod subset_terms;
 pub mod treelet;
 
 pub use split_costs::split_costs;

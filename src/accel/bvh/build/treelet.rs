@@ -12,7 +12,10 @@
 use super::MAX_DEPTH;
 use super::PARALLEL_SUBTREE;
 use super::linked_tree::{LinkedNode, LinkedTree, SahCost};
+use super::partitions;
+use super::subset_terms::SubsetTerms;
 use crate::geometry::Aabb;
+use crate::geometry::simd::SimdLevel;
 use std::cell::RefCell;
 
 /// Treelet sizes the restructuring supports.
@@ -224,8 +227,8 @@ pub struct Optimal {
     pub split: [u16; SUBSETS],
     /// `children[S]`: the lowest C(P) + C(S∖P), which `split_of` searches for again.
     children: [f64; SUBSETS],
-    boxes: [Aabb; SUBSETS],
-    counts: [u32; SUBSETS],
+    /// What of each subset's cost does not depend on its partitions.
+    terms: SubsetTerms,
 }
 
 impl Optimal {
@@ -233,8 +236,7 @@ impl Optimal {
         cost: [0.0; SUBSETS],
         split: [0; SUBSETS],
         children: [0.0; SUBSETS],
-        boxes: [Aabb::EMPTY; SUBSETS],
-        counts: [0; SUBSETS],
+        terms: SubsetTerms::EMPTY,
     };
 
     /// The tables for `leaves`, `split` included.
@@ -249,7 +251,8 @@ impl Optimal {
         opt
     }
 
-    /// Fills `cost` for `leaves`; entries of subsets beyond them are left as they were.
+    /// Fills `cost` for `leaves` (and `cost[0]`, the empty set, with infinity); entries of
+    /// subsets beyond them are left as they were.
     ///
     /// Only the minimum is kept per subset, not where it was found: all but a handful of
     /// subsets are never part of the rebuilt treelet, so their split is not worth tracking
@@ -260,27 +263,17 @@ impl Optimal {
         let Optimal {
             cost,
             children,
-            boxes,
-            counts,
+            terms,
             ..
         } = self;
+        // Every subset's box, area and count first, in one pass with no serial dependence;
+        // then, subsets in increasing order, only the partitions.
+        let level = SimdLevel::detect();
+        terms.fill_with(level, leaves, sah);
         for (k, leaf) in leaves.iter().enumerate() {
-            boxes[1 << k] = leaf.bounds;
-            counts[1 << k] = leaf.count;
             cost[1 << k] = leaf.cost;
         }
-        for s in 1u32..(1 << m) {
-            if s.is_power_of_two() {
-                continue;
-            }
-            let low = s & s.wrapping_neg();
-            let (si, rest) = (s as usize, (s ^ low) as usize);
-            boxes[si] = boxes[rest].union(boxes[low as usize]);
-            counts[si] = counts[rest] + counts[low as usize];
-            let best = min_children(cost, s);
-            children[si] = best;
-            cost[si] = sah.interior(boxes[si].surface_area() as f64, counts[si], best);
-        }
+        partitions::solve(level, m, cost, children, terms);
     }
 
     /// The split of subset `s` (of two or more leaves) the last `solve` chose: the first
@@ -314,50 +307,4 @@ impl Optimal {
         let p = self.split_of(s);
         1 + self.height(p, leaves).max(self.height(s ^ p, leaves))
     }
-}
-
-/// min over the partitions {P, S∖P} of subset `s` of C(P) + C(S∖P), with the bits (and NaN
-/// handling) of a scan that keeps the first value strictly below the running minimum.
-///
-/// P runs over the non-empty subsets of S without its lowest leaf (which stays in S∖P), so
-/// every partition comes once. The scan is split four ways by the two highest leaves h1 < h2
-/// of those: P = Q, Q + h1, Q + h2, Q + h1 + h2 for Q over the subsets of the rest. The four
-/// minima are independent (no single chain of dependent compares), and every P of one way
-/// comes before every P of the next in the plain order, so merging them in that order with
-/// the same strict compare gives the plain scan's value.
-#[inline(always)]
-fn min_children(cost: &[f64; SUBSETS], s: u32) -> f64 {
-    // (Masked so the compiler sees the indices in range: the hot loop of the build.)
-    let c = |p: u32| cost[p as usize & (SUBSETS - 1)] + cost[(s ^ p) as usize & (SUBSETS - 1)];
-    let delta = (s - 1) & s;
-    if delta.is_power_of_two() {
-        let x = c(delta);
-        return if x < f64::INFINITY { x } else { f64::INFINITY };
-    }
-    let h2 = 1 << (31 - delta.leading_zeros());
-    let h1 = 1 << (31 - (delta ^ h2).leading_zeros());
-    let rest = delta ^ h1 ^ h2;
-    let mut m = [f64::INFINITY; 4];
-    let keep = |m: &mut f64, x: f64| {
-        if x < *m {
-            *m = x;
-        }
-    };
-    // Q = 0: P = Q itself is empty, not a partition.
-    keep(&mut m[1], c(h1));
-    keep(&mut m[2], c(h2));
-    keep(&mut m[3], c(h1 | h2));
-    let mut q = rest & rest.wrapping_neg();
-    while q != 0 {
-        keep(&mut m[0], c(q));
-        keep(&mut m[1], c(q | h1));
-        keep(&mut m[2], c(q | h2));
-        keep(&mut m[3], c(q | h1 | h2));
-        q = q.wrapping_sub(rest) & rest;
-    }
-    let mut best = m[0];
-    for x in &m[1..] {
-        keep(&mut best, *x);
-    }
-    best
 }
