@@ -56,10 +56,12 @@ fn solve_portable(
     }
 }
 
-/// Every partition {P, S∖P} of every subset S of two or more of up to `MAX_TREELET` leaves,
-/// S in increasing order, as the indices of P and S∖P, each subset's run padded to a whole
-/// number of vectors with P = S∖P = ∅ (C(∅) = ∞ never lowers a minimum). The subsets of
-/// the first m leaves are the first 2^m − 1 − m, whatever the treelet's size.
+/// Every partition {P, S∖P} of every subset S of two or more of a treelet's m leaves, as
+/// the indices of P and S∖P, each subset's run padded to a whole number of vectors with
+/// P = S∖P = ∅ (C(∅) = ∞ never lowers a minimum). The subsets come by size, smallest first:
+/// every subset's parts are smaller, so they come before it, and subsets of one size never
+/// wait on each other — the processor overlaps their scans, where in increasing order each
+/// subset's cost would often wait on the one just computed.
 struct PartitionTable {
     /// (S, first, end) of each subset's run in `p` and `q`.
     subsets: Vec<(u32, u32, u32)>,
@@ -68,16 +70,15 @@ struct PartitionTable {
 }
 
 impl PartitionTable {
-    fn new(lanes: usize) -> Self {
+    fn new(lanes: usize, m: usize) -> Self {
         let mut t = PartitionTable {
             subsets: Vec::new(),
             p: Vec::new(),
             q: Vec::new(),
         };
-        for s in 1u32..1 << MAX_TREELET {
-            if s.is_power_of_two() {
-                continue;
-            }
+        let mut order: Vec<u32> = (1u32..1 << m).filter(|s| !s.is_power_of_two()).collect();
+        order.sort_by_key(|&s| (s.count_ones(), s));
+        for s in order {
             let first = t.p.len() as u32;
             // P over the non-empty subsets of S without its lowest leaf: each partition once.
             let delta = (s - 1) & s;
@@ -96,16 +97,17 @@ impl PartitionTable {
         t
     }
 
-    /// The table for vectors of `lanes` (4 or 8), built on first use.
-    fn get(lanes: usize) -> &'static PartitionTable {
-        static TABLES: [OnceLock<PartitionTable>; 2] = [OnceLock::new(), OnceLock::new()];
-        TABLES[(lanes == 8) as usize].get_or_init(|| PartitionTable::new(lanes))
+    /// The table of `m` leaves for vectors of `lanes` (4 or 8), built on first use.
+    fn get(lanes: usize, m: usize) -> &'static PartitionTable {
+        const NONE: OnceLock<PartitionTable> = OnceLock::new();
+        static TABLES: [[OnceLock<PartitionTable>; MAX_TREELET + 1]; 2] =
+            [[NONE; MAX_TREELET + 1], [NONE; MAX_TREELET + 1]];
+        TABLES[(lanes == 8) as usize][m].get_or_init(|| PartitionTable::new(lanes, m))
     }
 
-    /// The runs of the subsets of the first `m` leaves.
-    fn runs(&self, m: usize) -> impl Iterator<Item = (usize, &[i32], &[i32])> {
-        let n = (1usize << m) - 1 - m;
-        self.subsets[..n].iter().map(|&(s, first, end)| {
+    /// Every subset's run.
+    fn runs(&self) -> impl Iterator<Item = (usize, &[i32], &[i32])> {
+        self.subsets.iter().map(|&(s, first, end)| {
             let r = first as usize..end as usize;
             // SAFETY: `new` makes every run a range within `p` and `q`.
             unsafe {
@@ -141,7 +143,7 @@ fn solve_avx2(
     terms: &SubsetTerms,
 ) {
     use std::arch::x86_64::*;
-    for (s, ps, qs) in PartitionTable::get(4).runs(m) {
+    for (s, ps, qs) in PartitionTable::get(4, m).runs() {
         let mut best = _mm256_set1_pd(f64::INFINITY);
         for (p, q) in ps.chunks_exact(4).zip(qs.chunks_exact(4)) {
             // SAFETY: each chunk holds four i32; P and S∖P are subsets of S, and S is below
@@ -174,7 +176,7 @@ fn solve_avx512(
     terms: &SubsetTerms,
 ) {
     use std::arch::x86_64::*;
-    for (s, ps, qs) in PartitionTable::get(8).runs(m) {
+    for (s, ps, qs) in PartitionTable::get(8, m).runs() {
         let mut best = _mm512_set1_pd(f64::INFINITY);
         for (p, q) in ps.chunks_exact(8).zip(qs.chunks_exact(8)) {
             // SAFETY: each chunk holds eight i32; P and S∖P are subsets of S, and S is below
