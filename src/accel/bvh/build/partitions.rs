@@ -99,9 +99,8 @@ impl PartitionTable {
 
     /// The table of `m` leaves for vectors of `lanes` (4 or 8), built on first use.
     fn get(lanes: usize, m: usize) -> &'static PartitionTable {
-        const NONE: OnceLock<PartitionTable> = OnceLock::new();
         static TABLES: [[OnceLock<PartitionTable>; MAX_TREELET + 1]; 2] =
-            [[NONE; MAX_TREELET + 1], [NONE; MAX_TREELET + 1]];
+            [const { [const { OnceLock::new() }; MAX_TREELET + 1] }; 2];
         TABLES[(lanes == 8) as usize][m].get_or_init(|| PartitionTable::new(lanes, m))
     }
 
