@@ -40,17 +40,14 @@ pub fn solve(
     }
 }
 
-/// The subsets in increasing order, so that every subset's parts come before it.
+/// The subsets by size, as the table orders them, each scanned with the scalar scan.
 fn solve_portable(
     m: usize,
     cost: &mut [f64; SUBSETS],
     children: &mut [f64; SUBSETS],
     terms: &SubsetTerms,
 ) {
-    for s in 1u32..(1 << m) {
-        if s.is_power_of_two() {
-            continue;
-        }
+    for &(s, _, _) in &PartitionTable::get(4, m).subsets {
         let best = min_children(cost, s);
         finish(s as usize, best, cost, children, terms);
     }
