@@ -15,6 +15,7 @@
 use bvhlab::accel::bvh::wide::CollapseParams;
 use bvhlab::accel::bvh::{Strategy, WideBvh};
 use bvhlab::accel::{Accel, BuildParams, NoStats};
+use bvhlab::bench::cpu_time::thread_cpu_seconds;
 use bvhlab::bench::rays::RaySets;
 use bvhlab::geometry::{Ray, Watertight};
 use bvhlab::scene::{Camera, Scene};
@@ -25,35 +26,12 @@ fn vec3(s: &str) -> Vec3 {
     Vec3::new(p[0], p[1], p[2])
 }
 
-/// Seconds of CPU time this thread has used (wall-clock seconds since the first call
-/// elsewhere).
-fn thread_seconds() -> f64 {
-    #[cfg(target_os = "linux")]
-    {
-        let mut ts = libc::timespec {
-            tv_sec: 0,
-            tv_nsec: 0,
-        };
-        // SAFETY: `ts` is a valid timespec for the call to write.
-        unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-        ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
-    }
-    #[cfg(not(target_os = "linux"))]
-    {
-        static START: std::sync::OnceLock<std::time::Instant> = std::sync::OnceLock::new();
-        START
-            .get_or_init(std::time::Instant::now)
-            .elapsed()
-            .as_secs_f64()
-    }
-}
-
 /// Mrays/s of one pass over `rays`; a checksum keeps the answers alive.
 fn trace(accel: &dyn Fn(&Ray) -> u64, rays: &[Ray]) -> f64 {
-    let start = thread_seconds();
+    let start = thread_cpu_seconds();
     let sum = rays.iter().fold(0u64, |s, r| s.wrapping_add(accel(r)));
     std::hint::black_box(sum);
-    rays.len() as f64 / (thread_seconds() - start) / 1e6
+    rays.len() as f64 / (thread_cpu_seconds() - start) / 1e6
 }
 
 fn main() {

@@ -15,6 +15,7 @@
 use bvhlab::accel::bvh::WideBvh;
 use bvhlab::accel::bvh::wide::CollapseParams;
 use bvhlab::accel::{Accel, BuildParams, Counters, NoStats};
+use bvhlab::bench::cpu_time::thread_cpu_seconds;
 use bvhlab::bench::rays::RaySets;
 use bvhlab::geometry::{Ray, Watertight};
 use bvhlab::scene::{Camera, Scene};
@@ -40,24 +41,6 @@ fn trace<A: Accel>(accel: &A, any: bool, rays: &[Ray]) -> u64 {
         });
     }
     sum
-}
-
-/// Seconds of CPU time this thread has used (wall-clock time elsewhere): other jobs on
-/// the machine then slow a run less.
-fn thread_seconds(start: Instant) -> f64 {
-    #[cfg(target_os = "linux")]
-    {
-        let _ = start;
-        let mut ts = libc::timespec {
-            tv_sec: 0,
-            tv_nsec: 0,
-        };
-        // SAFETY: `ts` is a valid timespec for the call to write.
-        unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-        ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
-    }
-    #[cfg(not(target_os = "linux"))]
-    start.elapsed().as_secs_f64()
 }
 
 fn main() {
@@ -88,7 +71,7 @@ fn main() {
     #[cfg(feature = "embree")]
     let embree = bvhlab::accel::embree::Embree::build(&scene.triangles, 1).expect("Embree");
     let start = Instant::now();
-    let cpu = thread_seconds(start);
+    let cpu = thread_cpu_seconds();
     let mut sum = 0u64;
     for _ in 0..repeats {
         sum = sum.wrapping_add(match walk {
@@ -97,7 +80,7 @@ fn main() {
             _ => trace(&bvh8, any, rays),
         });
     }
-    let (wall, cpu) = (start.elapsed().as_secs_f64(), thread_seconds(start) - cpu);
+    let (wall, cpu) = (start.elapsed().as_secs_f64(), thread_cpu_seconds() - cpu);
     let n = (rays.len() * repeats) as f64;
     println!(
         "{walk} {set}: {} rays x {repeats}, {:.3} Mrays/s wall, {:.3} Mrays/s cpu, checksum {sum}",

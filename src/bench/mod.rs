@@ -4,6 +4,7 @@
 
 pub mod accuracy;
 pub mod compare;
+pub mod cpu_time;
 pub mod frames;
 pub mod plot;
 pub mod rays;
