@@ -14,7 +14,6 @@
 use super::prim::PrimRef;
 use crate::geometry::clip::clipped_bounds;
 use crate::geometry::{Aabb, Triangle};
-use rayon::iter::Either;
 use rayon::prelude::*;
 
 /// Levels of the grid, as the LBVH's Morton codes have per axis.
@@ -25,6 +24,9 @@ const GRID_BITS: u32 = 21;
 struct Grid {
     origin: [f64; 3],
     extent: [f64; 3],
+    /// Cells per unit length on each axis (0 where the box is flat): a multiply per
+    /// coordinate instead of a divide.
+    cells_per_unit: [f64; 3],
 }
 
 /// A plane of the grid: its axis, position, and level (0 = the mid-plane, the most
@@ -38,15 +40,18 @@ struct Plane {
 
 impl Grid {
     fn new(bounds: &Aabb) -> Self {
+        let extent: [f64; 3] = std::array::from_fn(|k| (bounds.max[k] - bounds.min[k]) as f64);
+        let cells = (1u64 << GRID_BITS) as f64;
         Grid {
             origin: std::array::from_fn(|k| bounds.min[k] as f64),
-            extent: std::array::from_fn(|k| (bounds.max[k] - bounds.min[k]) as f64),
+            extent,
+            cells_per_unit: extent.map(|e| if e > 0.0 { cells / e } else { 0.0 }),
         }
     }
 
     fn cell(&self, axis: usize, x: f32) -> u32 {
         let cells = (1u64 << GRID_BITS) as f64;
-        let u = (x as f64 - self.origin[axis]) / self.extent[axis] * cells;
+        let u = (x as f64 - self.origin[axis]) * self.cells_per_unit[axis];
         u.clamp(0.0, cells - 1.0) as u32
     }
 
@@ -85,15 +90,61 @@ impl Grid {
     }
 }
 
-/// The priority p of splitting `t` (see the module comment); 0 if no grid plane crosses
-/// its box.
-fn priority(t: &Triangle, grid: &Grid) -> f64 {
+/// The cube of the priority p of splitting `t` (see the module comment), 2^(−level) times
+/// the wasted area; 0 if no grid plane crosses its box.
+fn priority_cubed(t: &Triangle, grid: &Grid) -> f64 {
     let b = t.bounds();
     let Some(plane) = grid.most_important_plane(&b) else {
         return 0.0;
     };
     let waste = (b.surface_area() as f64 - 2.0 * t.area() as f64).max(0.0);
-    (waste * 0.5f64.powi(plane.level as i32)).cbrt()
+    // 2^(−level) from its exponent bits (level ≤ 20).
+    waste * f64::from_bits((1023 - plane.level as u64) << 52)
+}
+
+/// Replaces every value with its cube root, four at a time: each root is a chain of
+/// dependent multiplies, so four chains in step keep the multipliers busy.
+fn cube_roots(values: &mut [f64]) {
+    let mut quads = values.chunks_exact_mut(4);
+    for q in &mut quads {
+        let roots = cube_root4([q[0], q[1], q[2], q[3]]);
+        q.copy_from_slice(&roots);
+    }
+    for x in quads.into_remainder() {
+        *x = cube_root4([*x; 4])[0];
+    }
+}
+
+/// ∛x of four x ≥ 0, each to within a few units in the last place, in multiplies only:
+/// Newton's method on y = x^(−1/3) (y ← y·(4 − x·y³)/3 needs no division), then ∛x = x·y².
+/// The library's `cbrt` took as long as the rest of the priority.
+fn cube_root4(x: [f64; 4]) -> [f64; 4] {
+    // Zero, subnormal (no exponent bits to guess from), infinite or NaN: rare enough for
+    // the library.
+    let usual = |x: f64| (f64::MIN_POSITIVE..f64::INFINITY).contains(&x);
+    // A first guess within about 10 % from the exponent bits: x^(−1/3) divides the exponent
+    // by −3, which on the bit pattern is a subtraction of a third of it.
+    let mut y = x.map(|x| {
+        let bits = if usual(x) {
+            x.to_bits()
+        } else {
+            1f64.to_bits()
+        };
+        f64::from_bits(0x553E_F0FF_289D_D796 - bits / 3)
+    });
+    let z = x.map(|x| if usual(x) { x } else { 1.0 });
+    for _ in 0..6 {
+        for k in 0..4 {
+            y[k] *= (4.0 - z[k] * y[k] * y[k] * y[k]) * (1.0 / 3.0);
+        }
+    }
+    std::array::from_fn(|k| {
+        if usual(x[k]) {
+            z[k] * y[k] * y[k]
+        } else {
+            x[k].max(0.0).cbrt()
+        }
+    })
 }
 
 /// The references of `triangles` with at most `budget · N` extra ones from pre-splitting,
@@ -115,27 +166,42 @@ pub fn references(triangles: &[Triangle], budget: f32) -> Vec<PrimRef> {
         .map(Triangle::bounds)
         .reduce(|| Aabb::EMPTY, Aabb::union);
     let grid = Grid::new(&bounds);
-    let priorities: Vec<f64> = triangles.par_iter().map(|t| priority(t, &grid)).collect();
+    let mut priorities: Vec<f64> = triangles
+        .par_iter()
+        .map(|t| priority_cubed(t, &grid))
+        .collect();
+    priorities.par_chunks_mut(4096).for_each(cube_roots);
     // Summed in order: a parallel f64 sum could differ in the last bit between thread counts.
     let total: f64 = priorities.iter().sum();
     if total <= 0.0 {
         return whole();
     }
     let splits = apportion(&priorities, total, extra);
-    triangles
+    // The few triangles that are cut, in parallel; then every reference in triangle order.
+    let cut: Vec<(usize, Vec<PrimRef>)> = splits
         .par_iter()
-        .zip(&splits)
         .enumerate()
-        .flat_map_iter(|(i, (t, &s))| {
-            if s == 0 {
-                // Most triangles: their whole box, without a vector of pieces.
-                return Either::Left(std::iter::once(PrimRef::new(t.bounds(), i as u32)));
-            }
-            let mut out = Vec::new();
-            split(t, i as u32, t.bounds(), s, &grid, &mut out);
-            Either::Right(out.into_iter())
+        .filter(|&(_, &s)| s > 0)
+        .map(|(i, &s)| {
+            let t = &triangles[i];
+            let mut pieces = Vec::new();
+            split(t, i as u32, t.bounds(), s, &grid, &mut pieces);
+            (i, pieces)
         })
-        .collect()
+        .collect();
+    let pieces: usize = cut.iter().map(|(_, p)| p.len()).sum();
+    let mut refs = Vec::with_capacity(triangles.len() - cut.len() + pieces);
+    let mut next = 0;
+    for (i, t) in triangles.iter().enumerate() {
+        match cut.get(next) {
+            Some((j, p)) if *j == i => {
+                refs.extend_from_slice(p);
+                next += 1;
+            }
+            _ => refs.push(PrimRef::new(t.bounds(), i as u32)),
+        }
+    }
+    refs
 }
 
 /// `extra` splits shared out in proportion to `priorities` (summing to `total`):
@@ -144,18 +210,35 @@ pub fn references(triangles: &[Triangle], budget: f32) -> Vec<PrimRef> {
 /// leave of the budget goes one split each to the largest remainders D · p_t − s_t, ties to
 /// the lower index. The same on any number of threads.
 fn apportion(priorities: &[f64], total: f64, extra: u64) -> Vec<u64> {
-    let splits_for = |d: f64| -> u64 { priorities.par_iter().map(|&p| (d * p) as u64).sum() };
-    let (mut lo, mut hi) = (extra as f64 / total, 2.0 * extra as f64 / total);
-    while splits_for(hi) <= extra {
+    let splits_for = |d: f64, ps: &[f64]| -> u64 { ps.iter().map(|&p| (d * p) as u64).sum() };
+    // Σ⌊D·p⌋ > D·Σp − N₊ (N₊ the triangles with p > 0), so D = (extra + N₊) / Σp is past
+    // the budget but for rounding, which the loop catches.
+    let positive = priorities.par_iter().filter(|&&p| p > 0.0).count() as u64;
+    let (mut lo, mut hi) = (extra as f64 / total, (extra + positive + 1) as f64 / total);
+    while splits_for(hi, priorities) <= extra {
         lo = hi;
         hi *= 2.0;
     }
+    // Only a triangle with hi · p ≥ 1 can get a split at a D below hi, so the bisection
+    // looks at those alone, and fewer as hi comes down: at the end, at most the `extra`
+    // triangles that get one.
+    let mut candidates: Vec<f64> = priorities
+        .par_iter()
+        .copied()
+        .filter(|&p| hi * p >= 1.0)
+        .collect();
     for _ in 0..32 {
         let mid = 0.5 * (lo + hi);
-        if splits_for(mid) <= extra {
+        let splits = splits_for(mid, &candidates);
+        if splits <= extra {
             lo = mid;
+            // Every larger D with the same sum has the same splits: nothing left to find.
+            if splits == extra {
+                break;
+            }
         } else {
             hi = mid;
+            candidates.retain(|&p| hi * p >= 1.0);
         }
     }
     let d = lo;
@@ -166,7 +249,7 @@ fn apportion(priorities: &[f64], total: f64, extra: u64) -> Vec<u64> {
             .par_iter()
             .enumerate()
             .filter(|(_, p)| **p > 0.0)
-            .map(|(i, &p)| (d * p - (d * p).floor(), i as u32))
+            .map(|(i, &p)| (d * p - ((d * p) as u64) as f64, i as u32))
             .collect();
         // Only the `left` largest are needed, in no particular order: a selection, not a sort.
         let largest_first =
@@ -232,6 +315,39 @@ mod tests {
         let b = Aabb::new(Vec3::new(0.5, 1.5, 4.5), Vec3::new(1.5, 2.5, 5.5));
         let p = grid.most_important_plane(&b).expect("crosses y = 2");
         assert_eq!((p.axis, p.position, p.level), (1, 2.0, 1));
+    }
+
+    #[test]
+    fn cube_root_matches_the_library() {
+        let mut rng = crate::bench::stress::Rng(7);
+        for _ in 0..100_000 {
+            // Mantissas and exponents across the whole normal range.
+            let x = (1.0 + rng.unit()) * 2f64.powi(rng.below(2040) as i32 - 1020);
+            let (got, want) = (cube_root4([x; 4])[3], x.cbrt());
+            assert!(
+                (got - want).abs() <= 4.0 * f64::EPSILON * want,
+                "∛{x:e}: {got:e} against {want:e}"
+            );
+        }
+        let mut special = [
+            0.0,
+            -1.0,
+            1e-310,
+            f64::MIN_POSITIVE,
+            1.0,
+            8.0,
+            27.0,
+            f64::MAX,
+            3.0,
+        ];
+        let want = special.map(|x: f64| x.max(0.0).cbrt());
+        cube_roots(&mut special);
+        for (got, want) in special.into_iter().zip(want) {
+            assert!(
+                (got - want).abs() <= 4.0 * f64::EPSILON * want,
+                "{got:e} against {want:e}"
+            );
+        }
     }
 
     #[test]
