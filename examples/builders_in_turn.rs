@@ -10,11 +10,13 @@
 //!
 //! Arguments: scene, eye, look-at, light, layout (`bvh` or `bvh8`), rounds, and the image
 //! size (512 × 384 unless given). Prints each tree's primary, diffuse and shadow Mrays/s
-//! (by the thread's CPU time) and its share of SBVH's.
+//! (by the thread's CPU time) and its share of SBVH's; then, per ray set, each tree's time
+//! per ray beside the work that the SAH predicts (nodes visited, triangle tests), so that
+//! what a node visit and a triangle test really cost can be fitted across trees.
 
 use bvhlab::accel::bvh::wide::CollapseParams;
 use bvhlab::accel::bvh::{Strategy, WideBvh};
-use bvhlab::accel::{Accel, BuildParams, NoStats};
+use bvhlab::accel::{Accel, BuildParams, Counters, NoStats};
 use bvhlab::bench::cpu_time::thread_cpu_seconds;
 use bvhlab::bench::rays::RaySets;
 use bvhlab::geometry::{Ray, Watertight};
@@ -64,19 +66,32 @@ fn main() {
             "LBVH + treelets, pre-split 0.2",
             with(Strategy::LbvhTreelet, 0.2),
         ),
+        // Plain LBVH and median splits: far more work per ray, for the fit's spread.
+        ("LBVH", with(Strategy::Lbvh, 0.0)),
+        ("spatial median", with(Strategy::SpatialMedian, 0.0)),
     ];
     type Walk = Box<dyn Fn(&Ray, bool) -> u64>;
-    let trees: Vec<(&str, Walk)> = builders
+    type CountedWalk = Box<dyn Fn(&Ray, bool) -> Counters>;
+    let trees: Vec<(&str, Walk, CountedWalk)> = builders
         .iter()
         .map(|(name, p)| {
             let (bvh, _) = bvhlab::accel::bvh::build(&scene.triangles, p).expect("build");
-            let walk: Walk = if wide {
-                let t = WideBvh::<8>::collapse(&bvh, &CollapseParams::default());
-                Box::new(move |r: &Ray, any: bool| answer(&t, r, any))
+            let (walk, counted): (Walk, CountedWalk) = if wide {
+                let t = std::rc::Rc::new(WideBvh::<8>::collapse(&bvh, &CollapseParams::default()));
+                let c = t.clone();
+                (
+                    Box::new(move |r: &Ray, any: bool| answer(&*t, r, any)),
+                    Box::new(move |r: &Ray, any: bool| work(&*c, r, any)),
+                )
             } else {
-                Box::new(move |r: &Ray, any: bool| answer(&bvh, r, any))
+                let bvh = std::rc::Rc::new(bvh);
+                let c = bvh.clone();
+                (
+                    Box::new(move |r: &Ray, any: bool| answer(&*bvh, r, any)),
+                    Box::new(move |r: &Ray, any: bool| work(&*c, r, any)),
+                )
             };
-            (*name, walk)
+            (*name, walk, counted)
         })
         .collect();
     let (sbvh, _) = bvhlab::accel::bvh::build(&scene.triangles, &builders[0].1).expect("build");
@@ -88,7 +103,7 @@ fn main() {
     ];
     let mut best = vec![[0.0f64; 3]; trees.len()];
     for _ in 0..rounds {
-        for (k, (_, walk)) in trees.iter().enumerate() {
+        for (k, (_, walk, _)) in trees.iter().enumerate() {
             for (s, (_, rays, any)) in named.iter().enumerate() {
                 let m = trace(&|r: &Ray| walk(r, *any), rays);
                 best[k][s] = best[k][s].max(m);
@@ -100,7 +115,7 @@ fn main() {
         scene.name,
         if wide { "BVH8" } else { "BVH2" }
     );
-    for (k, (name, _)) in trees.iter().enumerate() {
+    for (k, (name, _, _)) in trees.iter().enumerate() {
         let cells: Vec<String> = (0..3)
             .map(|s| {
                 format!(
@@ -113,6 +128,33 @@ fn main() {
             .collect();
         println!("  {name:<32} {}", cells.join("   "));
     }
+    println!("ns per ray (best round), and per ray: nodes visited, triangle tests");
+    for (s, (set, rays, any)) in named.iter().enumerate() {
+        for (k, (name, _, counted)) in trees.iter().enumerate() {
+            let sum = rays.iter().fold(Counters::default(), |mut c, r| {
+                c += counted(r, *any);
+                c
+            });
+            let n = rays.len() as f64;
+            println!(
+                "  {set:<8} {name:<32} {:8.1} ns {:8.2} nodes {:8.2} tests",
+                1e3 / best[k][s],
+                sum.nodes_visited as f64 / n,
+                sum.triangle_tests as f64 / n
+            );
+        }
+    }
+}
+
+/// One ray's work, counted.
+fn work<A: Accel>(accel: &A, r: &Ray, any: bool) -> Counters {
+    let mut c = Counters::default();
+    if any {
+        accel.any_hit::<Watertight, _>(r, &mut c);
+    } else {
+        accel.closest_hit::<Watertight, _>(r, &mut c);
+    }
+    c
 }
 
 /// One ray's answer as a number: the closest hit's distance and triangle, or whether it
