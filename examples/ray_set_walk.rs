@@ -10,10 +10,14 @@
 //!
 //! Arguments: scene, eye, look-at, light, set (`primary`, `diffuse` or `shadow`), walk
 //! (`bvh8` or `embree`), repeats, and the image size. With `WALK_COUNT` set, the BVH8's
-//! nodes, box tests and triangle tests per ray are counted after the timing.
+//! nodes, box tests and triangle tests per ray are counted after the timing. The BVH8 is
+//! collapsed from binned SAH's tree, or from the builder named in `WALK_BUILDER` (a label
+//! as `bench --builders` prints it, e.g. `SBVH`) with `WALK_PRESPLIT` as its pre-split
+//! budget; with `--cache-sim=yes --LL=2097152,16,64` callgrind then counts each tree's
+//! misses in a 2 MiB L2 (docs/build-quality.md, "What a node and a test cost").
 
-use bvhlab::accel::bvh::WideBvh;
 use bvhlab::accel::bvh::wide::CollapseParams;
+use bvhlab::accel::bvh::{Strategy, WideBvh};
 use bvhlab::accel::{Accel, BuildParams, Counters, NoStats};
 use bvhlab::bench::cpu_time::thread_cpu_seconds;
 use bvhlab::bench::rays::RaySets;
@@ -59,8 +63,18 @@ fn main() {
         (Some(w), Some(h)) => (w.parse().expect("width"), h.parse().expect("height")),
         _ => (1024, 768),
     };
-    let (bvh, _) =
-        bvhlab::accel::bvh::build(&scene.triangles, &BuildParams::default()).expect("build");
+    let strategy = std::env::var("WALK_BUILDER").map_or(Strategy::SahBinned, |name| {
+        *Strategy::ALL
+            .iter()
+            .find(|s| s.label() == name)
+            .expect("WALK_BUILDER: a builder's label")
+    });
+    let presplit = std::env::var("WALK_PRESPLIT").map_or(0.0, |b| b.parse().expect("budget"));
+    let params = BuildParams {
+        presplit,
+        ..BuildParams::with_strategy(strategy)
+    };
+    let (bvh, _) = bvhlab::accel::bvh::build(&scene.triangles, &params).expect("build");
     let bvh8 = WideBvh::<8>::collapse(&bvh, &CollapseParams::default());
     let sets = RaySets::standard(&bvh8, &scene, &camera, vec3(&a[4]), w, h);
     let (rays, any) = match set {
