@@ -22,6 +22,7 @@ use bvhlab::bench::rays::RaySets;
 use bvhlab::geometry::{Ray, Watertight};
 use bvhlab::scene::{Camera, Scene};
 use glam::Vec3;
+use std::rc::Rc;
 
 fn vec3(s: &str) -> Vec3 {
     let p: Vec<f32> = s.split(',').map(|x| x.parse().expect("x,y,z")).collect();
@@ -77,14 +78,14 @@ fn main() {
         .map(|(name, p)| {
             let (bvh, _) = bvhlab::accel::bvh::build(&scene.triangles, p).expect("build");
             let (walk, counted): (Walk, CountedWalk) = if wide {
-                let t = std::rc::Rc::new(WideBvh::<8>::collapse(&bvh, &CollapseParams::default()));
+                let t = Rc::new(WideBvh::<8>::collapse(&bvh, &CollapseParams::default()));
                 let c = t.clone();
                 (
                     Box::new(move |r: &Ray, any: bool| answer(&*t, r, any)),
                     Box::new(move |r: &Ray, any: bool| work(&*c, r, any)),
                 )
             } else {
-                let bvh = std::rc::Rc::new(bvh);
+                let bvh = Rc::new(bvh);
                 let c = bvh.clone();
                 (
                     Box::new(move |r: &Ray, any: bool| answer(&*bvh, r, any)),
