@@ -9,7 +9,8 @@
 //! ```
 //!
 //! Arguments: scene, eye, look-at, light, set (`primary`, `diffuse` or `shadow`), walk
-//! (`bvh8` or `embree`), repeats, and the image size. With `WALK_COUNT` set, the BVH8's
+//! (`bvh8` or `embree`; `WALK_EMBREE_ROBUST` set, Embree with its robust flag), repeats,
+//! and the image size. With `WALK_COUNT` set, the BVH8's
 //! nodes, box tests and triangle tests per ray are counted after the timing. The BVH8 is
 //! collapsed from binned SAH's tree, or from the builder named in `WALK_BUILDER` (a label
 //! as `bench --builders` prints it, e.g. `SBVH`) with `WALK_PRESPLIT` as its pre-split
@@ -83,7 +84,15 @@ fn main() {
         _ => (&sets.shadow, true),
     };
     #[cfg(feature = "embree")]
-    let embree = bvhlab::accel::embree::Embree::build(&scene.triangles, 1).expect("Embree");
+    let embree = {
+        use bvhlab::accel::embree::{Embree, EmbreeMode};
+        // `WALK_EMBREE_ROBUST` set: Embree with its robust flag.
+        let mode = match std::env::var_os("WALK_EMBREE_ROBUST") {
+            Some(_) => EmbreeMode::Robust,
+            None => EmbreeMode::Default,
+        };
+        Embree::build(&scene.triangles, 1, mode).expect("Embree")
+    };
     let start = Instant::now();
     let cpu = thread_cpu_seconds();
     let mut sum = 0u64;

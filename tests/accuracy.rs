@@ -102,6 +102,7 @@ fn bench_traces_with_the_chosen_intersector() {
             runs: 1,
             intersector: kind,
             embree: false,
+            embree_robust: false,
         };
         let r = bench::run(&scene, &cfg).unwrap();
         assert_eq!(r.intersector, kind);

@@ -777,3 +777,56 @@ fn island_size_is_bounded_by_its_instances() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("at most 2000000 instances"), "{err}");
 }
+
+/// The Embree peers: in a build without Embree, `bench --embree-robust` and `stress
+/// --embree` are a clear error; with it, `bench --embree --embree-robust` reports both peers,
+/// named, and `stress --embree` every tracer's leaks.
+#[test]
+fn embree_peers_are_reported_or_refused_clearly() {
+    let mut bench = vec![
+        "bench",
+        "--scene",
+        "sphere:500",
+        "--accel",
+        "bvh8",
+        "--json",
+        "--embree",
+        "--embree-robust",
+    ];
+    bench.extend(SMALL_BENCH);
+    let stress = [
+        "stress",
+        "--embree",
+        "--quick",
+        "--leak-rays",
+        "2000",
+        "--json",
+    ];
+    for args in [&bench[..], &stress[..]] {
+        let out = bvhlab(args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        if cfg!(feature = "embree") {
+            assert!(out.status.success(), "{args:?}: {stderr}");
+            let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+            if args[0] == "bench" {
+                let names: Vec<&str> = json["peers"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|p| p["name"].as_str().unwrap())
+                    .collect();
+                assert_eq!(names, ["Embree 3", "Embree 3 robust"]);
+                assert_eq!(json["peer"], json["peers"][0]);
+            } else {
+                assert_eq!(json["total"]["bvhlab"]["closest"], 0);
+                assert!(json["total"]["rays"].as_u64().unwrap() > 10_000);
+            }
+        } else {
+            assert!(!out.status.success(), "{args:?}");
+            assert!(
+                stderr.contains("built without Embree"),
+                "{args:?}: {stderr}"
+            );
+        }
+    }
+}

@@ -6,7 +6,7 @@
 
 mod common;
 
-use bvhlab::accel::embree::Embree;
+use bvhlab::accel::embree::{Embree, EmbreeMode};
 use bvhlab::accel::{Accel, BuildParams, NoStats};
 use bvhlab::geometry::{Ray, Watertight};
 use bvhlab::scene::Scene;
@@ -21,16 +21,20 @@ fn view_rays(scene: &Scene) -> Vec<Ray> {
 
 #[test]
 fn embree_finds_the_hits_bvhlab_finds() {
-    for name in [
+    let names = [
         "cornell",
         "teapot-in-stadium",
         "sphere:5000",
         "walls-rotated",
-    ] {
+    ];
+    for (name, mode) in names
+        .into_iter()
+        .flat_map(|n| [(n, EmbreeMode::Default), (n, EmbreeMode::Robust)])
+    {
         let scene = Scene::load(name).unwrap();
         let (bvh, _) =
             bvhlab::accel::bvh::build(&scene.triangles, &BuildParams::default()).expect("builds");
-        let embree = Embree::build(&scene.triangles, 2).expect("Embree builds");
+        let embree = Embree::build(&scene.triangles, 2, mode).expect("Embree builds");
         let mut rays = view_rays(&scene);
         rays.extend(common::rays(&scene.bounds(), 2000, 3));
         let mut disagree = 0;
@@ -48,7 +52,7 @@ fn embree_finds_the_hits_bvhlab_finds() {
         }
         assert!(
             disagree * 200 <= rays.len(),
-            "{name}: {disagree} of {} rays disagree",
+            "{name} ({mode:?}): {disagree} of {} rays disagree",
             rays.len()
         );
         // Embree's packets answer as its single rays do (at the same distance: its two
@@ -58,7 +62,11 @@ fn embree_finds_the_hits_bvhlab_finds() {
         embree.closest_hits::<Watertight>(&packet_rays, &mut hits);
         for (ray, hit) in packet_rays.iter().zip(&hits) {
             let single = embree.closest_hit::<Watertight, _>(ray, &mut NoStats);
-            assert_eq!(hit.map(|h| h.t), single.map(|h| h.t), "{name}: {ray:?}");
+            assert_eq!(
+                hit.map(|h| h.t),
+                single.map(|h| h.t),
+                "{name} ({mode:?}): {ray:?}"
+            );
         }
     }
 }
@@ -95,7 +103,8 @@ fn embree_instances_hit_the_triangles_of_the_flattened_scene() {
     assert!(scene.triangles.len() > 40_000);
     let (bvh, _) =
         bvhlab::accel::bvh::build(&scene.triangles, &BuildParams::default()).expect("builds");
-    let embree = Embree::build_instanced(&scene.instancing(), 2).expect("Embree builds");
+    let embree = Embree::build_instanced(&scene.instancing(), 2, EmbreeMode::Default)
+        .expect("Embree builds");
     // Rays at triangles' centroids from around the scene (so most hit), and the usual mix.
     let b = scene.bounds();
     let mut rays: Vec<Ray> = (0..3000)
@@ -133,4 +142,27 @@ fn embree_instances_hit_the_triangles_of_the_flattened_scene() {
         "{disagree} of {} rays disagree, {other_triangle} of {hits} hits name another triangle",
         rays.len()
     );
+}
+
+/// `stress --embree`: on the must-hit rays through shared edges and vertices bvhlab's
+/// watertight traversal loses none, Embree with its defaults loses some (its test is not
+/// watertight), and Embree's robust flag loses fewer than its defaults.
+#[test]
+fn embree_leak_counts_order_the_three_tracers() {
+    use bvhlab::bench::stress::peer;
+    use bvhlab::bench::stress::suite::StressConfig;
+    let cfg = StressConfig {
+        leak_rays: 20_000,
+        ..StressConfig::tests()
+    };
+    let report = peer::run(&cfg, &mut |_| {}).expect("Embree builds");
+    let t = &report.total;
+    assert!(t.rays > 500_000, "{} rays", t.rays);
+    assert_eq!((t.bvhlab.closest, t.bvhlab.any), (0, 0));
+    assert!(t.embree.closest > 0 && t.embree.any > 0, "{t:?}");
+    assert!(t.embree_robust.closest < t.embree.closest, "{t:?}");
+    let by_family: u64 = report.families.iter().map(|f| f.embree.closest).sum();
+    assert_eq!(by_family, t.embree.closest);
+    let by_placement: u64 = report.placements.iter().map(|p| p.rays).sum();
+    assert_eq!(by_placement, t.rays);
 }

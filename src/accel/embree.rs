@@ -29,6 +29,7 @@ mod ffi {
     pub const FORMAT_FLOAT3: c_uint = 0x9003;
     pub const FORMAT_FLOAT3X4_COLUMN_MAJOR: c_uint = 0x9234;
     pub const BUILD_QUALITY_MEDIUM: c_uint = 1;
+    pub const SCENE_FLAG_ROBUST: c_uint = 1 << 2;
     pub const INVALID_GEOMETRY_ID: c_uint = u32::MAX;
     pub const CONTEXT_FLAG_INCOHERENT: c_uint = 0;
     pub const CONTEXT_FLAG_COHERENT: c_uint = 1;
@@ -114,6 +115,7 @@ mod ffi {
         pub fn rtcGetDeviceError(device: Device) -> c_uint;
         pub fn rtcNewScene(device: Device) -> Scene;
         pub fn rtcSetSceneBuildQuality(scene: Scene, quality: c_uint);
+        pub fn rtcSetSceneFlags(scene: Scene, flags: c_uint);
         pub fn rtcReleaseScene(scene: Scene);
         pub fn rtcNewGeometry(device: Device, kind: c_uint) -> Geometry;
         pub fn rtcSetNewGeometryBuffer(
@@ -146,12 +148,35 @@ mod ffi {
     }
 }
 
+/// How Embree builds and traces: its defaults, or with `RTC_SCENE_FLAG_ROBUST`, which
+/// "avoids optimizations that reduce arithmetic accuracy" (rtcSetSceneFlags(3)): the
+/// structures and tests Embree offers against rays slipping through shared edges, the
+/// guarantee bvhlab's watertight test gives.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EmbreeMode {
+    Default,
+    Robust,
+}
+
+impl EmbreeMode {
+    /// The peer's name in the benchmark's tables.
+    pub fn name(self, instanced: bool) -> &'static str {
+        match (self, instanced) {
+            (EmbreeMode::Default, false) => "Embree 3",
+            (EmbreeMode::Default, true) => "Embree 3, instanced",
+            (EmbreeMode::Robust, false) => "Embree 3 robust",
+            (EmbreeMode::Robust, true) => "Embree 3 robust, instanced",
+        }
+    }
+}
+
 /// An Embree device and scene over a copy of the triangles, built with Embree's default
 /// (medium quality) BVH; for an instanced scene, Embree's own two levels: a scene per unique
 /// mesh and a top-level scene of instance geometries.
 pub struct Embree {
     device: ffi::Device,
     scene: ffi::Scene,
+    mode: EmbreeMode,
     /// The unique meshes' scenes of an instanced build (empty for one flattened mesh).
     meshes: Vec<ffi::Scene>,
     /// The flattened number of each instance's first triangle, so that a hit names the
@@ -167,7 +192,7 @@ unsafe impl Sync for Embree {}
 
 impl Embree {
     /// An empty device and top-level scene with `threads` build threads.
-    fn device(threads: usize) -> Result<Self, String> {
+    fn device(threads: usize, mode: EmbreeMode) -> Result<Self, String> {
         let config = format!("threads={threads}\0");
         // SAFETY: a plain call with a NUL-terminated configuration string.
         let device = unsafe { ffi::rtcNewDevice(config.as_ptr().cast()) };
@@ -179,6 +204,7 @@ impl Embree {
         Ok(Embree {
             device,
             scene,
+            mode,
             meshes: Vec::new(),
             first_triangle: Vec::new(),
             build_time: Duration::ZERO,
@@ -186,8 +212,8 @@ impl Embree {
     }
 
     /// Builds the scene with `threads` build threads; an error if Embree refuses.
-    pub fn build(triangles: &[Triangle], threads: usize) -> Result<Self, String> {
-        let mut this = Self::device(threads)?;
+    pub fn build(triangles: &[Triangle], threads: usize, mode: EmbreeMode) -> Result<Self, String> {
+        let mut this = Self::device(threads, mode)?;
         let start = Instant::now();
         this.commit_mesh(this.scene, triangles)?;
         this.build_time = start.elapsed();
@@ -198,8 +224,12 @@ impl Embree {
     /// Builds Embree's two levels over the same meshes and instances as bvhlab's
     /// (`Instancing`): one scene per unique mesh, committed once, and a top-level scene with
     /// an instance geometry per instance, whose id is the instance's index.
-    pub fn build_instanced(scene: &Instancing, threads: usize) -> Result<Self, String> {
-        let mut this = Self::device(threads)?;
+    pub fn build_instanced(
+        scene: &Instancing,
+        threads: usize,
+        mode: EmbreeMode,
+    ) -> Result<Self, String> {
+        let mut this = Self::device(threads, mode)?;
         let start = Instant::now();
         for mesh in &scene.meshes {
             // SAFETY: the device is live; the scene is kept in `meshes` and released in `Drop`.
@@ -240,7 +270,10 @@ impl Embree {
             first += scene.meshes[instance.mesh].len() as u64;
         }
         // SAFETY: the top-level scene is live; its instances' scenes are committed.
-        unsafe { ffi::rtcCommitScene(this.scene) };
+        unsafe {
+            this.set_flags(this.scene);
+            ffi::rtcCommitScene(this.scene);
+        }
         this.build_time = start.elapsed();
         this.check("the instanced build")?;
         Ok(this)
@@ -254,6 +287,7 @@ impl Embree {
         // each returned handle is checked before use.
         unsafe {
             ffi::rtcSetSceneBuildQuality(scene, ffi::BUILD_QUALITY_MEDIUM);
+            self.set_flags(scene);
             if n > 0 {
                 let geometry = ffi::rtcNewGeometry(self.device, ffi::GEOMETRY_TYPE_TRIANGLE);
                 let vertices = ffi::rtcSetNewGeometryBuffer(
@@ -294,6 +328,17 @@ impl Embree {
             ffi::rtcCommitScene(scene);
         }
         self.check("a mesh's build")
+    }
+
+    /// Sets the scene flags of this mode on `scene`, before its commit.
+    ///
+    /// # Safety
+    /// `scene` is a live scene of this device.
+    unsafe fn set_flags(&self, scene: ffi::Scene) {
+        if self.mode == EmbreeMode::Robust {
+            // SAFETY: the caller guarantees a live scene.
+            unsafe { ffi::rtcSetSceneFlags(scene, ffi::SCENE_FLAG_ROBUST) };
+        }
     }
 
     /// An error naming `what` if Embree reports one.

@@ -46,6 +46,9 @@ pub struct BenchConfig {
     pub intersector: IntersectorKind,
     /// Also build and trace with Embree, on the same rays and threads.
     pub embree: bool,
+    /// Also Embree with its robust flag (`RTC_SCENE_FLAG_ROBUST`), the peer with the
+    /// guarantee bvhlab's watertight test gives.
+    pub embree_robust: bool,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -117,7 +120,8 @@ pub struct BenchResult {
     pub shadow: RaySetResult,
     /// The SAH cost against the cost per ray measured, for structures with an SAH cost.
     pub sah_check: Option<SahCheck>,
-    pub peer: Option<PeerResult>,
+    /// The peers timed beside bvhlab: Embree with its defaults, then robust, as asked.
+    pub peers: Vec<PeerResult>,
 }
 
 impl BenchResult {
@@ -165,8 +169,11 @@ pub fn run(scene: &Scene, cfg: &BenchConfig) -> Result<BenchResult, BenchError> 
         cfg.height,
     );
     let mut result = measure(scene, cfg, &cfg.params, &built, &sets);
-    if cfg.embree {
-        result.peer = Some(run_embree(&built.structure, scene, cfg, &sets)?);
+    for (asked, robust) in [(cfg.embree, false), (cfg.embree_robust, true)] {
+        if asked {
+            let peer = run_embree(&built.structure, scene, cfg, &sets, robust)?;
+            result.peers.push(peer);
+        }
     }
     Ok(result)
 }
@@ -362,7 +369,7 @@ fn measure(
         diffuse,
         shadow,
         sah_check,
-        peer: None,
+        peers: Vec::new(),
     }
 }
 
@@ -403,20 +410,28 @@ fn run_embree(
     _: &Scene,
     _: &BenchConfig,
     _: &RaySets,
+    _: bool,
 ) -> Result<PeerResult, BenchError> {
     Err(BenchError::Peer(EMBREE_MISSING.into()))
 }
 
-/// Embree on the same ray sets, with as many build and trace threads as bvhlab had.
+/// Embree on the same ray sets, with as many build and trace threads as bvhlab had; with
+/// `robust`, built with its robust flag.
 #[cfg(feature = "embree")]
 fn run_embree(
     ours: &Structure,
     scene: &Scene,
     cfg: &BenchConfig,
     sets: &RaySets,
+    robust: bool,
 ) -> Result<PeerResult, BenchError> {
-    use crate::accel::embree::Embree;
+    use crate::accel::embree::{Embree, EmbreeMode};
     let threads = rayon::current_num_threads();
+    let mode = if robust {
+        EmbreeMode::Robust
+    } else {
+        EmbreeMode::Default
+    };
     // Two levels against Embree's two levels over the same meshes and instances; any other
     // structure against Embree's BVH over the flattened triangles.
     let two_level = matches!(ours, Structure::TwoLevel(_));
@@ -424,9 +439,9 @@ fn run_embree(
         cfg.builds,
         || {
             if two_level {
-                Embree::build_instanced(&scene.instancing(), threads)
+                Embree::build_instanced(&scene.instancing(), threads, mode)
             } else {
-                Embree::build(&scene.triangles, threads)
+                Embree::build(&scene.triangles, threads, mode)
             }
             .map_err(BenchError::Peer)
         },
@@ -449,11 +464,7 @@ fn run_embree(
         })
         .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
     Ok(PeerResult {
-        name: if two_level {
-            "Embree 3, instanced"
-        } else {
-            "Embree 3"
-        },
+        name: mode.name(two_level),
         build: embree.build_time,
         primary,
         primary_packets,
@@ -603,17 +614,26 @@ impl BenchResult {
             "diffuse": set(&self.diffuse, "hits"),
             "shadow": set(&self.shadow, "occluded"),
             "sah_check": self.sah_check.as_ref().map(SahCheck::to_json),
-            "peer": self.peer.as_ref().map(|p| serde_json::json!({
-                "name": p.name,
-                "build_ms": round3(p.build.as_secs_f64() * 1e3),
-                "primary": set(&p.primary, "hits"),
-                "primary_packets": set(&p.primary_packets, "hits"),
-                "diffuse": set(&p.diffuse, "hits"),
-                "shadow": set(&p.shadow, "occluded"),
-                "tied_primary_hits": p.tied_primary_hits,
-                "differing_primary_hits": p.differing_primary_hits,
-            })),
         });
+        // Each peer as an object; `peer` is the first, `peers` all of them.
+        let peers: Vec<serde_json::Value> = self
+            .peers
+            .iter()
+            .map(|p| {
+                serde_json::json!({
+                    "name": p.name,
+                    "build_ms": round3(p.build.as_secs_f64() * 1e3),
+                    "primary": set(&p.primary, "hits"),
+                    "primary_packets": set(&p.primary_packets, "hits"),
+                    "diffuse": set(&p.diffuse, "hits"),
+                    "shadow": set(&p.shadow, "occluded"),
+                    "tied_primary_hits": p.tied_primary_hits,
+                    "differing_primary_hits": p.differing_primary_hits,
+                })
+            })
+            .collect();
+        json["peer"] = peers.first().cloned().unwrap_or(serde_json::Value::Null);
+        json["peers"] = peers.into();
         // (Set here: one more key in the macro above exceeds its recursion limit.)
         json["overlap_penalty"] = as_typed(b.overlap_penalty).into();
         // The two levels' top-level references and their budget.

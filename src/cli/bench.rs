@@ -41,6 +41,11 @@ pub struct BenchArgs {
     /// ratios (needs a build with `--features embree`).
     #[arg(long, conflicts_with = "study")]
     pub embree: bool,
+    /// Also Embree 3 built with its robust flag (RTC_SCENE_FLAG_ROBUST: the structures and
+    /// tests it offers against rays slipping through shared edges), as a second peer with
+    /// --embree or on its own (needs a build with `--features embree`).
+    #[arg(long, conflicts_with = "study")]
+    pub embree_robust: bool,
     /// Ray–triangle test of the timed runs.
     #[arg(long, value_enum, default_value_t = IntersectorArg::Watertight)]
     pub intersector: IntersectorArg,
@@ -55,25 +60,25 @@ pub struct BenchArgs {
     /// references, and Mrays/s with its percentage of SBVH's. Each BVH2 is traced as it is,
     /// or collapsed to the layout --accel bvh4 or bvh8 names (its build time then includes
     /// the collapse).
-    #[arg(long, conflicts_with_all = ["accuracy", "scaling", "embree", "rotation_sweep"])]
+    #[arg(long, conflicts_with_all = ["accuracy", "scaling", "embree", "embree_robust", "rotation_sweep"])]
     pub builders: bool,
     /// The --builders table, then build + trace time against N diffuse rays per frame (10^5
     /// to 10^11) from each builder's build time and diffuse Mrays/s: a CSV, a log–log plot,
     /// and for which range of N each builder is best.
-    #[arg(long, conflicts_with = "embree")]
+    #[arg(long, conflicts_with_all = ["embree", "embree_robust"])]
     pub tradeoff: bool,
     /// The --builders table, then each tree's SAH cost against its measured cost per ray
     /// (random lines and the view's rays) as a scatter plot: the scene's rows go into the
     /// CSV (default sah-scatter.csv) beside the rows of other scenes already there, and the
     /// plot shows them all.
-    #[arg(long, conflicts_with = "embree")]
+    #[arg(long, conflicts_with_all = ["embree", "embree_robust"])]
     pub sah_scatter: bool,
     /// Turn the walls (--scene walls or walls:N) from 0° to 45° in steps of 5° and trace
     /// each angle's own view with binned SAH, SBVH, SBVH with the overlap penalty (κ = 1,
     /// --split-budget 16, unless --overlap-penalty is given) and pre-split LBVH + treelets:
     /// mean nodes visited, triangle tests and Mrays/s against the angle, as a table, a CSV
     /// and a plot.
-    #[arg(long, conflicts_with = "embree")]
+    #[arg(long, conflicts_with_all = ["embree", "embree_robust"])]
     pub rotation_sweep: bool,
     /// How the cost per primary ray grows with the scene: every structure on the scene's own
     /// view at sizes from 10^3 to 10^6 triangles (soup, sphere, grass or teapot-in-stadium),
@@ -109,7 +114,8 @@ pub fn run(args: BenchArgs) -> Result<()> {
         (args.width.unwrap_or(1024), args.height.unwrap_or(768))
     };
     check_size(width, height)?;
-    if args.embree && !bench::EMBREE_AVAILABLE {
+    let peers = args.embree || args.embree_robust;
+    if peers && !bench::EMBREE_AVAILABLE {
         anyhow::bail!(bench::EMBREE_MISSING);
     }
     if args.scaling {
@@ -143,15 +149,16 @@ pub fn run(args: BenchArgs) -> Result<()> {
         runs: args.runs,
         intersector: args.intersector.kind(),
         embree: args.embree,
+        embree_robust: args.embree_robust,
     };
     let all = args.build.accel == Some(super::AccelArg::All);
-    if all && (args.embree || args.accuracy) {
+    if all && (peers || args.accuracy) {
         anyhow::bail!(
             "--accel all times bvhlab's structures only: leave out --embree and --accuracy"
         );
     }
     // Embree's instanced build needs no flattened triangles when the two levels are traced.
-    let peer_flattens = args.embree && cfg.params.kind != AccelKind::TwoLevel;
+    let peer_flattens = peers && cfg.params.kind != AccelKind::TwoLevel;
     if (peer_flattens || args.accuracy) && !scene.is_flattened() {
         anyhow::bail!(
             "--embree and --accuracy work on the scene's stored triangles: {} places its \
@@ -293,7 +300,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
             c.shadow
         );
     }
-    if let Some(p) = &r.peer {
+    for p in &r.peers {
         print_peer(r, p)?;
     }
     Ok(())
@@ -991,6 +998,7 @@ fn run_rotation_sweep(args: &BenchArgs, width: u32, height: u32) -> Result<()> {
         runs: args.runs,
         intersector: args.intersector.kind(),
         embree: false,
+        embree_robust: false,
     };
     cfg.params.validate()?;
     let pool = thread_pool(args.threads)?;

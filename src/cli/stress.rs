@@ -54,6 +54,11 @@ pub struct StressArgs {
     /// Worker threads (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Only the watertightness part, through Embree 3 with its defaults and with its robust
+    /// flag beside the structure under test: the leaks of each, per mesh and per placement
+    /// (needs a build with `--features embree`; reports, does not fail).
+    #[arg(long, conflicts_with = "scenes")]
+    pub embree: bool,
     /// The structure under test (and its parameters); the f64 reference runs through a BVH.
     #[command(flatten)]
     pub build: BuildArgs,
@@ -79,6 +84,9 @@ pub fn run(args: StressArgs) -> Result<()> {
         .build
         .structure_params_for(args.build.accel.unwrap_or(super::AccelArg::Bvh).kind()?);
     cfg.structure.validate()?;
+    if args.embree {
+        return run_embree(&args, &cfg);
+    }
     let mut specs: Vec<String> = args.scenes.clone();
     if specs.is_empty() {
         specs.extend(BUILTIN.iter().map(|s| s.to_string()));
@@ -140,6 +148,91 @@ pub fn run(args: StressArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// `stress --embree`: the must-hit rays through bvhlab and both Embree modes.
+#[cfg(feature = "embree")]
+fn run_embree(args: &StressArgs, cfg: &StressConfig) -> Result<()> {
+    use bvhlab::bench::stress::peer::{self, PeerLeakRow};
+    let pool = thread_pool(args.threads)?;
+    let quiet = args.json;
+    let report = pool
+        .install(|| {
+            peer::run(cfg, &mut |line| {
+                if !quiet {
+                    eprintln!("  done: {line}");
+                }
+            })
+        })
+        .map_err(anyhow::Error::msg)?;
+    let row_json = |r: &PeerLeakRow| {
+        serde_json::json!({
+            "label": r.label,
+            "rays": r.rays,
+            "bvhlab": { "closest": r.bvhlab.closest, "any": r.bvhlab.any },
+            "embree": { "closest": r.embree.closest, "any": r.embree.any },
+            "embree_robust": { "closest": r.embree_robust.closest, "any": r.embree_robust.any },
+        })
+    };
+    if args.json {
+        out!(
+            "{}",
+            serde_json::json!({
+                "structure": cfg.structure.kind.label(),
+                "meshes": report.meshes.iter().map(row_json).collect::<Vec<_>>(),
+                "placements": report.placements.iter().map(row_json).collect::<Vec<_>>(),
+                "families": report.families.iter().map(row_json).collect::<Vec<_>>(),
+                "total": row_json(&report.total),
+            })
+        );
+        return Ok(());
+    }
+    out!(
+        "Must-hit rays through shared edges and vertices that found nothing (closest hit / any hit), {} with the watertight test against Embree 3:",
+        cfg.structure.kind.label()
+    );
+    let header = |first: &str| -> Result<()> {
+        out!(
+            "  {first:<44} {:>9} {:>17} {:>17} {:>17}",
+            "rays",
+            "bvhlab",
+            "Embree 3",
+            "Embree 3 robust"
+        );
+        Ok(())
+    };
+    let row = |r: &PeerLeakRow| -> Result<()> {
+        let pair =
+            |l: bvhlab::bench::stress::peer::TracerLeaks| format!("{} / {}", l.closest, l.any);
+        out!(
+            "  {:<44} {:>9} {:>17} {:>17} {:>17}",
+            r.label,
+            r.rays,
+            pair(r.bvhlab),
+            pair(r.embree),
+            pair(r.embree_robust)
+        );
+        Ok(())
+    };
+    header("mesh")?;
+    for r in &report.meshes {
+        row(r)?;
+    }
+    row(&report.total)?;
+    header("placement (all meshes)")?;
+    for r in &report.placements {
+        row(r)?;
+    }
+    header("aimed (all meshes and placements)")?;
+    for r in &report.families {
+        row(r)?;
+    }
+    Ok(())
+}
+
+#[cfg(not(feature = "embree"))]
+fn run_embree(_: &StressArgs, _: &StressConfig) -> Result<()> {
+    bail!(bvhlab::bench::EMBREE_MISSING)
 }
 
 fn round2(x: f64) -> f64 {

@@ -176,10 +176,14 @@ impl<'a> RayMaker<'a> {
 
     /// `n` must-hit rays (attempts that are not exact in f32 are skipped, which is rare).
     pub fn rays(&self, n: usize, seed: u64) -> Vec<Ray> {
+        self.rays_by_family(n, seed).map(|(_, r)| r).collect()
+    }
+
+    /// The rays of `rays`, in the same order, each with how it was aimed.
+    pub fn rays_by_family(&self, n: usize, seed: u64) -> impl Iterator<Item = (Family, Ray)> {
         (0..16 * n as u64 + 64)
-            .filter_map(|i| self.ray(i, seed).map(|(_, r)| r))
+            .filter_map(move |i| self.ray(i, seed))
             .take(n)
-            .collect()
     }
 }
 

@@ -8,6 +8,8 @@ pub mod grazing;
 pub mod instanced;
 pub mod leaks;
 pub mod meshes;
+#[cfg(feature = "embree")]
+pub mod peer;
 pub mod shadow;
 pub mod slab;
 pub mod suite;
