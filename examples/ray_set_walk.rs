@@ -8,7 +8,8 @@
 //! target/release/examples/ray_set_walk ../shared/scenes/sponza.obj -14,3,0 10,5,0 0,14,0 shadow bvh8 5 [1024 768]
 //! ```
 //!
-//! Arguments: scene, eye, look-at, light, set (`primary`, `diffuse` or `shadow`), walk
+//! Arguments: scene, eye, look-at, light, set (`primary`, `diffuse`, `shadow`, or `packets`:
+//! the primary rays 64 at a time through `closest_hits`, `rtcIntersect16` for Embree), walk
 //! (`bvh8` or `embree`; `WALK_EMBREE_ROBUST` set, Embree with its robust flag), repeats,
 //! and the image size. With `WALK_COUNT` set, the BVH8's
 //! nodes, box tests and triangle tests per ray are counted after the timing. The BVH8 is
@@ -17,6 +18,7 @@
 //! budget; with `--cache-sim=yes --LL=2097152,16,64` callgrind then counts each tree's
 //! misses in a 2 MiB L2 (docs/build-quality.md, "What a node and a test cost").
 
+use bvhlab::accel::bvh::packet::PACKET_SIZE;
 use bvhlab::accel::bvh::wide::CollapseParams;
 use bvhlab::accel::bvh::{Strategy, WideBvh};
 use bvhlab::accel::{Accel, BuildParams, Counters, NoStats};
@@ -27,15 +29,33 @@ use bvhlab::scene::{Camera, Scene};
 use glam::Vec3;
 use std::time::Instant;
 
+/// The trees' large arrays on huge pages, as in the `bvhlab` binary: without them the walk's
+/// speed varies by a fifth from one process to the next with where its pages land.
+#[global_allocator]
+static ALLOCATOR: bvhlab::huge_pages::HugePages = bvhlab::huge_pages::HugePages;
+
 fn vec3(s: &str) -> Vec3 {
     let p: Vec<f32> = s.split(',').map(|x| x.parse().expect("x,y,z")).collect();
     Vec3::new(p[0], p[1], p[2])
 }
 
-/// The set once; a checksum of the answers, so nothing is optimised away.
+/// The set once; a checksum of the answers, so nothing is optimised away. With `packets`,
+/// the rays (the primary set in tile order) go 64 at a time through `closest_hits`, as the
+/// benchmark's packet row traces them.
 #[inline(never)]
-fn trace<A: Accel>(accel: &A, any: bool, rays: &[Ray]) -> u64 {
+fn trace<A: Accel>(accel: &A, any: bool, packets: bool, rays: &[Ray]) -> u64 {
     let mut sum = 0u64;
+    if packets {
+        let mut hits = [None; PACKET_SIZE];
+        for packet in rays.chunks(PACKET_SIZE) {
+            let hits = &mut hits[..packet.len()];
+            accel.closest_hits::<Watertight>(packet, hits);
+            for h in hits.iter().flatten() {
+                sum = sum.wrapping_add(u64::from(h.t.to_bits()) ^ h.triangle);
+            }
+        }
+        return sum;
+    }
     for r in rays {
         sum = sum.wrapping_add(if any {
             u64::from(accel.any_hit::<Watertight, _>(r, &mut NoStats))
@@ -52,7 +72,7 @@ fn main() {
     let a: Vec<String> = std::env::args().collect();
     if a.len() < 8 {
         eprintln!(
-            "usage: ray_set_walk SCENE EYE LOOK LIGHT primary|diffuse|shadow bvh8|embree REPEATS [W H]"
+            "usage: ray_set_walk SCENE EYE LOOK LIGHT primary|diffuse|shadow|packets bvh8|embree REPEATS [W H]"
         );
         std::process::exit(2);
     }
@@ -80,9 +100,11 @@ fn main() {
     let sets = RaySets::standard(&bvh8, &scene, &camera, vec3(&a[4]), w, h);
     let (rays, any) = match set {
         "primary" => (&sets.primary, false),
+        "packets" => (&sets.primary_tiles, false),
         "diffuse" => (&sets.diffuse, false),
         _ => (&sets.shadow, true),
     };
+    let packets = set == "packets";
     #[cfg(feature = "embree")]
     let embree = {
         use bvhlab::accel::embree::{Embree, EmbreeMode};
@@ -99,8 +121,8 @@ fn main() {
     for _ in 0..repeats {
         sum = sum.wrapping_add(match walk {
             #[cfg(feature = "embree")]
-            "embree" => trace(&embree, any, rays),
-            _ => trace(&bvh8, any, rays),
+            "embree" => trace(&embree, any, packets, rays),
+            _ => trace(&bvh8, any, packets, rays),
         });
     }
     let (wall, cpu) = (start.elapsed().as_secs_f64(), thread_cpu_seconds() - cpu);
