@@ -188,8 +188,8 @@ fn run_embree(args: &StressArgs, cfg: &StressConfig) -> Result<()> {
         return Ok(());
     }
     out!(
-        "Must-hit rays through shared edges and vertices that found nothing (closest hit / any hit), {} with the watertight test against Embree 3:",
-        cfg.structure.kind.label()
+        "Must-hit rays through shared edges and vertices that found nothing (closest hit / any hit): bvhlab's {} with the watertight test, Embree 3, and Embree 3 with its robust flag:",
+        cfg.structure.kind.title()
     );
     let header = |first: &str| -> Result<()> {
         out!(

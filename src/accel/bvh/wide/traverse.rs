@@ -175,7 +175,16 @@ where
                             push(b);
                             a
                         } else {
-                            self.push_many(node, mask, &entry, &mut stack)
+                            // Five to eight: ordered out of line, pushed here, so that the
+                            // stack never leaves this function and its length stays in a
+                            // register (passed to a call, it lived in memory, and every
+                            // pop waited for the store of the push before it).
+                            let sorted = nearest_first_many::<W>(mask, &entry);
+                            let n = (mask.count_ones() as usize).min(8);
+                            for &k in sorted[1..n].iter().rev() {
+                                push(k);
+                            }
+                            sorted[0]
                         };
                         cur = lane(lane_of::<W>(nearest) as u32);
                         continue;
@@ -337,48 +346,31 @@ impl<const W: usize> WideBvh<W>
 where
     Lanes<W>: NodeWidth,
 {
-    /// Five to eight entered children (`mask`) of `node`: ordered by the network of eight,
-    /// the farther ones pushed farthest first; returns the nearest's key. Out of line: the
-    /// eight keys need more registers than the loop can spare, which it would otherwise
-    /// spill at every node, and the case is rare.
-    #[inline(never)]
-    fn push_many(
-        &self,
-        node: &WideNode<W>,
-        mask: u32,
-        entry: &[f32; W],
-        stack: &mut Stack<'_>,
-    ) -> u64 {
-        const { assert!(W <= 8) };
-        // Every lane's key, `u64::MAX` (last) where the ray misses: the array then stays in
-        // registers.
-        let keys: [u64; 8] = std::array::from_fn(|i| {
-            if i < W && mask >> i & 1 == 1 {
-                key(entry[i % W], i as u32)
-            } else {
-                u64::MAX
-            }
-        });
-        let sorted = nearest_first8(keys);
-        let n = (mask.count_ones() as usize).min(8);
-        for &k in sorted[1..n].iter().rev() {
-            let i = lane_of::<W>(k);
-            let e = Entry {
-                child: node.child[i],
-                entry: entry[i],
-            };
-            self.prefetch_entry(e);
-            stack.push(e);
-        }
-        sorted[0]
-    }
-
     /// Prefetches a child as it is pushed, so its data arrives while its siblings are
     /// visited (a child visited at once gains little, and is not prefetched).
     #[inline(always)]
     fn prefetch_entry(&self, e: Entry) {
         self.prefetch_child(e.child);
     }
+}
+
+/// Five to eight entered children (`mask`): their keys ordered nearest first by the network
+/// of eight, the missed lanes' `u64::MAX` after them. Out of line: the eight keys need more
+/// registers than the loop can spare, which it would otherwise spill at every node, and the
+/// case is rare.
+#[inline(never)]
+fn nearest_first_many<const W: usize>(mask: u32, entry: &[f32; W]) -> [u64; 8] {
+    const { assert!(W <= 8) };
+    // Every lane's key, `u64::MAX` (last) where the ray misses: the array then stays in
+    // registers.
+    let keys: [u64; 8] = std::array::from_fn(|i| {
+        if i < W && mask >> i & 1 == 1 {
+            key(entry[i % W], i as u32)
+        } else {
+            u64::MAX
+        }
+    });
+    nearest_first8(keys)
 }
 
 // The steps of the walk, for a recording sink. A child is named by its node index, a leaf
