@@ -263,6 +263,8 @@ pub struct LeakCase {
     pub bvh: Structure,
     pub brute: BruteForce,
     pub rays: Vec<Ray>,
+    /// How each ray of `rays` was aimed.
+    pub families: Vec<Family>,
 }
 
 impl LeakCase {
@@ -282,12 +284,13 @@ impl LeakCase {
             .ok()?
             .structure;
         let brute = BruteForce::new(&placed.triangles, true);
-        let rays = RayMaker::new(&placed).rays(rays, seed);
+        let (families, rays) = RayMaker::new(&placed).rays_by_family(rays, seed).unzip();
         Some(LeakCase {
             placed,
             bvh,
             brute,
             rays,
+            families,
         })
     }
 

@@ -4,7 +4,7 @@
 //! watertight test. A ray that finds nothing is a leak, as in `leaks`. Built only with the
 //! `embree` feature.
 
-use super::leaks::{Family, LeakCase, RayMaker, placements};
+use super::leaks::{Family, LeakCase, placements};
 use super::meshes::ClosedMesh;
 use super::suite::StressConfig;
 use crate::accel::embree::{Embree, EmbreeMode};
@@ -124,11 +124,7 @@ pub fn run(cfg: &StressConfig, log: &mut dyn FnMut(&str)) -> Result<PeerLeakRepo
             let tris = &case.placed.triangles;
             let embree = Embree::build(tris, threads, EmbreeMode::Default)?;
             let robust = Embree::build(tris, threads, EmbreeMode::Robust)?;
-            // The case's rays in the same order, with how each was aimed.
-            let families: Vec<Family> = RayMaker::new(&case.placed)
-                .rays_by_family(cfg.leak_rays, seed)
-                .map(|(f, _)| f)
-                .collect();
+            let families = &case.families;
             let lost = [
                 lost(&case.bvh, &case.rays),
                 lost(&embree, &case.rays),
@@ -140,9 +136,9 @@ pub fn run(cfg: &StressConfig, log: &mut dyn FnMut(&str)) -> Result<PeerLeakRepo
                     None => case.rays.len(),
                     Some(want) => families.iter().filter(|&&f| f == want).count(),
                 } as u64,
-                bvhlab: leaks_of(&lost[0], &families, family),
-                embree: leaks_of(&lost[1], &families, family),
-                embree_robust: leaks_of(&lost[2], &families, family),
+                bvhlab: leaks_of(&lost[0], families, family),
+                embree: leaks_of(&lost[1], families, family),
+                embree_robust: leaks_of(&lost[2], families, family),
             };
             let one = row_of(None);
             row.add(&one);
