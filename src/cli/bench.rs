@@ -608,8 +608,9 @@ fn print_peer(r: &bench::BenchResult, p: &bench::PeerResult) -> Result<()> {
         p.tied_primary_hits,
         p.differing_primary_hits
     );
-    // The peer's column is as wide as its name ("Embree 3, instanced" is wider than a number).
-    let w = p.name.chars().count().max(12);
+    // The peer's column is as wide as its name ("Embree 3, instanced" is wider than a number)
+    // and two spaces.
+    let w = p.name.chars().count().max(12) + 2;
     out!(
         "  {:<22} {:>12} {:>w$} {:>10}",
         "",
