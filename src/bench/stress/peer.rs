@@ -72,16 +72,26 @@ fn lost<A: Accel + Sync>(accel: &A, rays: &[Ray]) -> Vec<(bool, bool)> {
         .collect()
 }
 
-/// The leaks of the rays of `family` (all rays when `None`) among `lost`.
-fn leaks_of(lost: &[(bool, bool)], families: &[Family], family: Option<Family>) -> TracerLeaks {
-    let mut l = TracerLeaks::default();
-    for (&(closest, any), &f) in lost.iter().zip(families) {
-        if family.is_none_or(|want| want == f) {
-            l.closest += u64::from(closest);
-            l.any += u64::from(any);
+/// One case's rays and leaks per way of aiming (in `Family::ALL` order), from how each ray
+/// was aimed and what bvhlab, Embree and Embree robust lost of them (`lost`).
+fn by_family(families: &[Family], lost: &[Vec<(bool, bool)>; 3]) -> [PeerLeakRow; 7] {
+    let mut rows: [PeerLeakRow; 7] = Default::default();
+    for (i, f) in families.iter().enumerate() {
+        let Some(k) = Family::ALL.iter().position(|x| x == f) else {
+            continue;
+        };
+        let row = &mut rows[k];
+        row.rays += 1;
+        let tracers = [&mut row.bvhlab, &mut row.embree, &mut row.embree_robust];
+        for (leaks, lost) in tracers.into_iter().zip(lost) {
+            let (closest, any) = lost[i];
+            leaks.add(TracerLeaks {
+                closest: u64::from(closest),
+                any: u64::from(any),
+            });
         }
     }
-    l
+    rows
 }
 
 /// Runs the must-hit rays of every closed mesh and placement of `cfg` (the same cases and
@@ -124,27 +134,20 @@ pub fn run(cfg: &StressConfig, log: &mut dyn FnMut(&str)) -> Result<PeerLeakRepo
             let tris = &case.placed.triangles;
             let embree = Embree::build(tris, threads, EmbreeMode::Default)?;
             let robust = Embree::build(tris, threads, EmbreeMode::Robust)?;
-            let families = &case.families;
             let lost = [
                 lost(&case.bvh, &case.rays),
                 lost(&embree, &case.rays),
                 lost(&robust, &case.rays),
             ];
-            let row_of = |family: Option<Family>| PeerLeakRow {
-                label: String::new(),
-                rays: match family {
-                    None => case.rays.len(),
-                    Some(want) => families.iter().filter(|&&f| f == want).count(),
-                } as u64,
-                bvhlab: leaks_of(&lost[0], families, family),
-                embree: leaks_of(&lost[1], families, family),
-                embree_robust: leaks_of(&lost[2], families, family),
-            };
-            let one = row_of(None);
-            row.add(&one);
-            report.placements[k].add(&one);
-            for (i, &f) in Family::ALL.iter().enumerate() {
-                report.families[i].add(&row_of(Some(f)));
+            // The case's row is the sum of its families' rows.
+            for (total, one) in report
+                .families
+                .iter_mut()
+                .zip(by_family(&case.families, &lost))
+            {
+                total.add(&one);
+                row.add(&one);
+                report.placements[k].add(&one);
             }
         }
         log(&format!(
