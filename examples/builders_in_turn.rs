@@ -1,6 +1,6 @@
 //! Builders' trees traced in turn over the same ray sets, on one thread, round after round,
 //! the best round of each kept: on a shared machine a load that comes and goes then slows
-//! every tree alike, where consecutive `bench --builders` runs of one tree differ by ±30 %
+//! every tree alike, where consecutive `bench builders` runs of one tree differ by ±30 %
 //! (docs/build-quality.md, "LBVH + treelets against SBVH").
 //!
 //! ```sh

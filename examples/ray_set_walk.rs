@@ -14,7 +14,7 @@
 //! and the image size. With `WALK_COUNT` set, the BVH8's
 //! nodes, box tests and triangle tests per ray are counted after the timing. The BVH8 is
 //! collapsed from binned SAH's tree, or from the builder named in `WALK_BUILDER` (a label
-//! as `bench --builders` prints it, e.g. `SBVH`) with `WALK_PRESPLIT` as its pre-split
+//! as `bench builders` prints it, e.g. `SBVH`) with `WALK_PRESPLIT` as its pre-split
 //! budget; with `--cache-sim=yes --LL=2097152,16,64` callgrind then counts each tree's
 //! misses in a 2 MiB L2 (docs/build-quality.md, "What a node and a test cost").
 

@@ -44,7 +44,7 @@ enum Command {
     /// Build a BVH and print its build report as a table.
     Stats(cli::stats::StatsArgs),
     /// Time builds and the standard primary, diffuse and shadow ray sets.
-    Bench(cli::bench::BenchArgs),
+    Bench(cli::bench::BenchCommand),
     /// Time the explorer's frames (preview and full size) and its drag-to-refit frames.
     Frames(cli::frames::FramesArgs),
     /// Replay one pixel's ray step by step: nodes visited, children tested, pushes, pops and

@@ -1,8 +1,8 @@
 //! Run time against error: the intersectors behind one run-time choice, and the accuracy
-//! matrix behind `bvhlab bench --accuracy` (every builder with every intersector), checked
+//! matrix behind `bvhlab bench accuracy` (every builder with every intersector), checked
 //! on a small scene. Timings are produced but never asserted.
 
-mod common;
+use bvhlab_testkit as common;
 
 use bvhlab::accel::bvh::{BuildParams, Strategy, build};
 use bvhlab::accel::{Accel, BruteForce, NoStats};

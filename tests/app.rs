@@ -2,7 +2,7 @@
 //! driven through its labelled widgets and pointer events.
 
 use bvhlab::accel::bvh::{BuildParams, Strategy, build};
-mod common;
+use bvhlab_testkit as common;
 
 use bvhlab::app::BvhLabApp;
 use bvhlab::render::{RenderSettings, render};
@@ -143,7 +143,7 @@ fn out_of_range_build_parameters_are_brought_into_range_and_built() {
     // Values no slider can set (a settings file from elsewhere might hold them): each
     // parameter's slider brings its value into range, and the tree is built with those.
     {
-        let s = &mut h.state_mut().settings;
+        let s = &mut h.state_mut().settings.structure.bvh;
         s.treelet_size = 10;
         s.treelet_rounds = 1000;
         s.split_alpha = f32::NAN;
@@ -418,7 +418,7 @@ fn a_grid_over_its_cell_cap_is_an_error_and_the_previous_grid_stays() {
     choose_structure(&mut h, bvhlab::accel::AccelKind::Grid.title());
     let before = h.state().report.clone().expect("the grid built");
     let outline = h.state().outline.clone();
-    h.state_mut().settings.grid_lambda = 64.0;
+    h.state_mut().settings.structure.grid.lambda = 64.0;
     settle(&mut h);
     let app = h.state();
     let error = app.build_error.clone().expect("a clear error");

@@ -2,7 +2,7 @@
 //! configuration as A (button or key A), change the builder, choose the view A | B or
 //! B − A, and read the summary; A follows the scene through moves and loads.
 
-mod common;
+use bvhlab_testkit as common;
 
 use bvhlab::app::BvhLabApp;
 use bvhlab::render::colormap::to_rgba8;

@@ -2,11 +2,11 @@
 //! lecture in the real app, saving and loading a preset file, a bad file leaving the state
 //! alone, and the camera bookmarks.
 
-mod common;
+use bvhlab_testkit as common;
 
 use bvhlab::accel::AccelKind;
-use bvhlab::app::settings::ViewMode;
 use bvhlab::app::{BvhLabApp, Tool};
+use bvhlab::render::ViewMode;
 use common::app::{launch, settle};
 use eframe::egui::{self, Key, Modifiers};
 use egui_kittest::Harness;
@@ -33,7 +33,7 @@ fn digit_keys_open_presets_and_page_keys_step_through_them() {
     h.key_press(Key::Num2);
     settle(&mut h);
     assert_eq!(h.state().lecture.current, Some(1));
-    assert_eq!(h.state().settings.accel, AccelKind::BruteForceBbox);
+    assert_eq!(h.state().settings.structure.kind, AccelKind::BruteForceBbox);
     assert_eq!(h.state().settings.mode, ViewMode::Triangles);
     // The caption bar shows the title and the question.
     assert!(h.query_by_label("Early out").is_some());
@@ -66,8 +66,8 @@ fn digit_keys_open_presets_and_page_keys_step_through_them() {
     h.get_by_label("next preset >").click();
     settle(&mut h);
     assert_eq!(h.state().lecture.current, Some(10));
-    assert_eq!(h.state().settings.accel, AccelKind::KdTree);
-    assert!(!h.state().settings.mailbox);
+    assert_eq!(h.state().settings.structure.kind, AccelKind::KdTree);
+    assert!(!h.state().settings.structure.mailbox);
 }
 
 #[test]
@@ -99,10 +99,13 @@ fn every_step_of_the_lecture_shows_its_view() {
         assert_eq!(s.load_error, None, "{step}");
         assert_eq!(s.build_error, None, "{step}");
         assert_eq!(s.settings.scene, p.scene, "{step}");
-        assert_eq!(s.settings.accel, p.settings.accel, "{step}");
+        assert_eq!(
+            s.settings.structure.kind, p.settings.structure.kind,
+            "{step}"
+        );
         assert_eq!(
             s.report.as_ref().unwrap().structure,
-            p.settings.accel.label(),
+            p.settings.structure.kind.label(),
             "{step}"
         );
         assert_eq!(s.settings.mode, p.settings.mode, "{step}");
@@ -132,16 +135,16 @@ fn a_saved_preset_loads_back_to_the_same_state() {
     for (a, b) in cam.eye.iter().zip([3.0, 4.0, 9.0]) {
         assert!((a - b).abs() < 1e-4, "{cam:?}");
     }
-    assert_eq!(loaded.settings.accel, AccelKind::Octree);
+    assert_eq!(loaded.settings.structure.kind, AccelKind::Octree);
     assert_eq!(loaded.tool, Tool::Replay);
     assert_eq!(loaded.walk, Some(2));
     assert!(loaded.pinned.is_none());
     // Pin A, then change B: the pinned configuration is part of the saved preset.
     h.state_mut().pin();
-    h.state_mut().settings.accel = AccelKind::Grid;
+    h.state_mut().settings.structure.kind = AccelKind::Grid;
     settle(&mut h);
     let loaded = h.state().preset_here("Close");
-    assert_eq!(loaded.pinned.as_ref().unwrap().accel, AccelKind::Octree);
+    assert_eq!(loaded.pinned.as_ref().unwrap().kind, AccelKind::Octree);
     // Save it, go elsewhere, load the saved file: the same state again.
     let saved = temp_file("saved.toml");
     h.state_mut().save_preset(&saved).unwrap();
@@ -150,7 +153,7 @@ fn a_saved_preset_loads_back_to_the_same_state() {
     assert_eq!(h.state().lecture.current, Some(0));
     h.key_press(Key::Num1);
     settle(&mut h);
-    assert_eq!(h.state().settings.accel, AccelKind::BruteForce);
+    assert_eq!(h.state().settings.structure.kind, AccelKind::BruteForce);
     // The lecture's first step pins nothing.
     assert!(h.state().pinned.is_none());
     h.state_mut().load_presets(&saved).unwrap();

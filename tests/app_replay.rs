@@ -2,7 +2,7 @@
 //! its label, a click on the viewport, the arrow keys, Home and End; the export writing the
 //! shown view and its counters, and saying clearly when it cannot.
 
-mod common;
+use bvhlab_testkit as common;
 
 use bvhlab::app::BvhLabApp;
 use bvhlab::app::export::Export;

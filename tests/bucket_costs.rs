@@ -1,7 +1,7 @@
 //! The bucket-cost plot: the cheapest candidate it shows at a node is the split the SAH
 //! builder took there, on every built-in scene, for binned SAH (several B) and the full sweep.
 
-mod common;
+use bvhlab_testkit as common;
 
 use bvhlab::accel::bvh::{BuildParams, Bvh, Strategy, build, split_costs};
 use bvhlab::accel::split_costs::SplitMethod;

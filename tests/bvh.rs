@@ -2,7 +2,7 @@
 //! hits on random soups and on every built-in scene; any hit agrees with closest hit; refit
 //! equals rebuild; counting does not change hits; degenerate inputs build valid trees.
 
-mod common;
+use bvhlab_testkit as common;
 
 use bvhlab::accel::bvh::{BuildError, BuildParams, Strategy, TraversalOrder, build};
 use bvhlab::accel::{Accel, BruteForce, Bvh, Counters, NoStats};

@@ -308,7 +308,7 @@ fn wide_bvhs_name_their_simd_kernel_and_trace_the_bvh2_hits_with_each() {
 #[test]
 fn bench_builders_reports_every_builder_on_the_same_rays() {
     use bvhlab::accel::bvh::{BuildParams, Strategy};
-    let mut args = vec!["bench", "--scene", "soup:600", "--builders", "--json"];
+    let mut args = vec!["bench", "builders", "--scene", "soup:600", "--json"];
     args.extend(SMALL_BENCH);
     let out = bvhlab(&args);
     assert!(
@@ -334,7 +334,7 @@ fn bench_builders_reports_every_builder_on_the_same_rays() {
         assert_eq!(b["shadow"]["occluded"], builders[0]["shadow"]["occluded"]);
     }
 
-    let mut args = vec!["bench", "--scene", "soup:600", "--builders"];
+    let mut args = vec!["bench", "builders", "--scene", "soup:600"];
     args.extend(SMALL_BENCH);
     let table = String::from_utf8(bvhlab(&args).stdout).unwrap();
     for p in &variants {
@@ -347,9 +347,9 @@ fn bench_builders_reports_every_builder_on_the_same_rays() {
     // the wide tree, and the spatial splits' duplicates counted in its leaves.
     let mut args = vec![
         "bench",
+        "builders",
         "--scene",
         "walls-rotated",
-        "--builders",
         "--json",
         "--accel",
         "bvh8",
@@ -378,16 +378,9 @@ fn bench_builders_reports_every_builder_on_the_same_rays() {
         }
     }
 
-    let err = bvhlab(&[
-        "bench",
-        "--scene",
-        "soup:10",
-        "--builders",
-        "--accel",
-        "grid",
-    ]);
+    let err = bvhlab(&["bench", "builders", "--scene", "soup:10", "--accel", "grid"]);
     assert!(!err.status.success());
-    assert!(String::from_utf8_lossy(&err.stderr).contains("--builders"));
+    assert!(String::from_utf8_lossy(&err.stderr).contains("bench builders"));
 }
 
 #[test]
@@ -545,9 +538,9 @@ fn tradeoff_and_rotation_sweep_write_their_csv_and_plot() {
     let (csv, png) = (dir.join("t.csv"), dir.join("t.png"));
     let mut args = vec![
         "bench",
+        "tradeoff",
         "--scene",
         "soup:600",
-        "--tradeoff",
         "--csv",
         csv.to_str().unwrap(),
         "--plot",
@@ -570,9 +563,9 @@ fn tradeoff_and_rotation_sweep_write_their_csv_and_plot() {
     let (csv, png) = (dir.join("r.csv"), dir.join("r.png"));
     let mut args = vec![
         "bench",
+        "rotation-sweep",
         "--scene",
         "walls:24",
-        "--rotation-sweep",
         "--csv",
         csv.to_str().unwrap(),
         "--plot",
@@ -592,7 +585,7 @@ fn tradeoff_and_rotation_sweep_write_their_csv_and_plot() {
     assert!(rows.contains("\n45,SBVH (κ = 1; budget 16 N),"), "{rows}");
     assert!(png.exists());
 
-    let err = bvhlab(&["bench", "--scene", "cornell", "--rotation-sweep"]);
+    let err = bvhlab(&["bench", "rotation-sweep", "--scene", "cornell"]);
     assert!(!err.status.success());
     assert!(String::from_utf8_lossy(&err.stderr).contains("--scene walls"));
     std::fs::remove_dir_all(&dir).ok();
@@ -656,7 +649,7 @@ fn stress_through_the_two_levels_places_closed_meshes_as_instances() {
     assert_eq!(json["passed"], true);
 }
 
-/// `--sah-scatter` gathers scenes in one CSV (a scene run again replaces its rows), prints
+/// `bench sah-scatter` gathers scenes in one CSV (a scene run again replaces its rows), prints
 /// the SAH check table, and refuses a CSV it did not write without touching it.
 #[test]
 fn sah_scatter_gathers_scenes_in_one_csv() {
@@ -666,9 +659,9 @@ fn sah_scatter_gathers_scenes_in_one_csv() {
     let run = |scene: &str| {
         let mut args = vec![
             "bench",
+            "sah-scatter",
             "--scene",
             scene,
-            "--sah-scatter",
             "--csv",
             csv.to_str().unwrap(),
             "--plot",

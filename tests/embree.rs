@@ -4,7 +4,7 @@
 //! so agreement is asked for all but a small fraction of rays.
 #![cfg(feature = "embree")]
 
-mod common;
+use bvhlab_testkit as common;
 
 use bvhlab::accel::embree::{Embree, EmbreeMode};
 use bvhlab::accel::{Accel, BuildParams, NoStats};

@@ -1,7 +1,7 @@
 //! The app's frame pipeline: a full shaded frame is shown traced without counting (primary
 //! rays in packets), and its counted pass follows. Both must show the same frame.
 
-mod common;
+use bvhlab_testkit as common;
 
 use bvhlab::accel::structure::{self, AccelKind, Structure, StructureParams};
 use bvhlab::app::worker::{Command, Overlay, RenderJob, Reply, Worker};

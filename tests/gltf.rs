@@ -3,7 +3,7 @@
 //! external, embedded and binary buffers; and each kind of broken file rejected with its
 //! own error naming the file (and the node, where one is to blame).
 
-mod common;
+use bvhlab_testkit as common;
 
 use bvhlab::geometry::Triangle;
 use bvhlab::scene::gltf::AccessorProblem;

@@ -3,7 +3,7 @@
 //! duplicated; JSON numbers replaced by hostile ones). Every input must load or be rejected
 //! with a typed error naming the file; none may panic or hang.
 
-mod common;
+use bvhlab_testkit as common;
 
 use bvhlab::scene::{GltfError, Scene, load_gltf};
 use common::Rng;

@@ -3,7 +3,7 @@
 //! whose hits lie exactly on cell faces, edges and corners; errors for bad parameters;
 //! counting changes no hit; degenerate and very large inputs.
 
-mod common;
+use bvhlab_testkit as common;
 
 use bvhlab::accel::grid::{GridError, GridParams, MAX_CELLS, build};
 use bvhlab::accel::{Accel, BruteForce, NoStats};
@@ -232,11 +232,12 @@ fn resolution_follows_lambda_with_cubical_cells() {
     // 8000 cells over a volume of 8: side³ = 8 / 8000, side = 0.1, so 40 × 20 × 10.
     assert_eq!(grid.resolution(), [40, 20, 10]);
     assert_eq!(report.nodes, 8000);
-    assert!(
+    assert_eq!(
         report
-            .details
-            .iter()
-            .any(|(k, v)| k == "resolution" && v == "40 × 20 × 10")
+            .detail("resolution")
+            .map(|v| v.to_string())
+            .as_deref(),
+        Some("40 × 20 × 10")
     );
 }
 

@@ -2,7 +2,7 @@
 //! enough to flatten; at its default size it places over 1.5 × 10^10 triangles without
 //! storing them, and a structure over its flattened triangles is refused with a clear error.
 
-mod common;
+use bvhlab_testkit as common;
 
 use bvhlab::accel::structure::{self, AccelKind, StructureError, StructureParams};
 use bvhlab::accel::{Accel, Counters, NoStats};

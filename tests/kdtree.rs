@@ -3,7 +3,7 @@
 //! whose triangles lie in and end on the split planes, and degenerate inputs; counting does
 //! not change hits; mailboxing removes repeated tests; bad parameters are errors.
 
-mod common;
+use bvhlab_testkit as common;
 
 use bvhlab::accel::kdtree::{KdError, KdParams, KdSplit, KdTree, build};
 use bvhlab::accel::{Accel, BruteForce, NoStats, StructureReport};

@@ -3,7 +3,7 @@
 //! cost that no treelet round raises, and the dynamic program's topology equal to the best of
 //! all binary trees over the treelet's leaves.
 
-mod common;
+use bvhlab_testkit as common;
 
 use bvhlab::accel::bvh::build::MAX_DEPTH;
 use bvhlab::accel::bvh::build::linked_tree::SahCost;

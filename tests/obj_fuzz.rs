@@ -3,7 +3,7 @@
 //! inserted). Every input must load or be rejected with a typed error naming the file;
 //! none may panic or hang.
 
-mod common;
+use bvhlab_testkit as common;
 
 use bvhlab::scene::{ObjError, Scene, load_obj};
 use std::path::{Path, PathBuf};

@@ -3,7 +3,7 @@
 //! built-in scene and on lattice scenes whose hits lie exactly on cell faces, edges and
 //! corners; parameter errors; counting changes no hit; degenerate and very large inputs.
 
-mod common;
+use bvhlab_testkit as common;
 
 use bvhlab::accel::octree::{Octree, OctreeError, OctreeParams, build};
 use bvhlab::accel::{Accel, BruteForce, NoStats};

@@ -1,10 +1,11 @@
 //! Lecture presets as files: the built-in lecture, saving and loading again to the same
 //! preset, and bad files rejected with an error that names the problem.
 
-use bvhlab::accel::AccelKind;
+use bvhlab::accel::{AccelKind, Strategy, StructureParams};
 use bvhlab::app::Tool;
 use bvhlab::app::preset::{Preset, Sequence, View, parse};
-use bvhlab::app::settings::{Bookmark, Pinned, Settings, StrategyChoice, ViewMode};
+use bvhlab::app::settings::{Bookmark, Settings};
+use bvhlab::render::ViewMode;
 use bvhlab::scene::Scene;
 use std::path::PathBuf;
 use std::process::Command;
@@ -57,14 +58,14 @@ fn the_lecture_follows_the_slides_in_order() {
 fn every_step_of_the_lecture_loads_and_builds() {
     for (i, p) in Sequence::lecture().presets.iter().enumerate() {
         let scene = Scene::load(&p.scene).unwrap_or_else(|e| panic!("step {}: {e}", i + 1));
-        let params = p.settings.structure_params();
+        let params = p.settings.structure;
         params.validate().unwrap();
         // The island is traced through its two levels only (the app test builds it).
         if scene.is_flattened() {
             bvhlab::accel::structure::build(&scene.triangles, &params, &AtomicUsize::new(0))
                 .unwrap_or_else(|e| panic!("step {} ({}): {e}", i + 1, p.title));
         } else {
-            assert_eq!(p.settings.accel, AccelKind::TwoLevel);
+            assert_eq!(p.settings.structure.kind, AccelKind::TwoLevel);
         }
     }
 }
@@ -72,10 +73,6 @@ fn every_step_of_the_lecture_loads_and_builds() {
 /// A preset with every part set away from its default.
 fn full_preset() -> Preset {
     let mut settings = Settings {
-        accel: AccelKind::KdTree,
-        mailbox: false,
-        strategy: StrategyChoice::ObjectMedian,
-        buckets: 7,
         mode: ViewMode::Repeated,
         shadow_rays: true,
         heat_max: Some(40),
@@ -83,9 +80,13 @@ fn full_preset() -> Preset {
         level: 3,
         see_through: true,
         auto_rebuild_percent: Some(12.5),
-        kd_c_isect: 1.7,
         ..Settings::default()
     };
+    settings.structure.kind = AccelKind::KdTree;
+    settings.structure.mailbox = false;
+    settings.structure.bvh.strategy = Strategy::ObjectMedian;
+    settings.structure.bvh.buckets = 7;
+    settings.structure.kdtree.c_isect = 1.7;
     settings.scene = "soup:500".into();
     Preset {
         title: "Mailboxing off".into(),
@@ -99,10 +100,13 @@ fn full_preset() -> Preset {
         tool: Tool::Replay,
         walk: Some(5),
         settings,
-        pinned: Some(Pinned {
-            accel: AccelKind::Grid,
-            grid_lambda: 2.5,
-            ..Pinned::default()
+        pinned: Some(StructureParams {
+            kind: AccelKind::Grid,
+            grid: bvhlab::accel::grid::GridParams {
+                lambda: 2.5,
+                ..Default::default()
+            },
+            ..StructureParams::default()
         }),
     }
 }
@@ -115,10 +119,12 @@ fn a_preset_pins_configuration_a() {
                 [settings]\nstrategy = \"SahBinned\"\n\
                 [pinned]\nstrategy = \"ObjectMedian\"\nmax_leaf_size = 2\n";
     let seq = parse(text, "pin.toml", None).unwrap();
-    let a = seq.presets[0].pinned.clone().unwrap();
-    assert_eq!(a.strategy, StrategyChoice::ObjectMedian);
-    assert_eq!(a.max_leaf_size, 2);
-    assert_eq!(a.buckets, Pinned::default().buckets);
+    let a = seq.presets[0].pinned.unwrap();
+    assert_eq!(a.bvh.strategy, Strategy::ObjectMedian);
+    assert_eq!(a.bvh.max_leaf_size, 2);
+    assert_eq!(a.bvh.buckets, StructureParams::default().bvh.buckets);
+    // A table without `accel` pins the fastest layout here, as the app starts with.
+    assert_eq!(a.kind, AccelKind::fastest());
     let bad = text.replace("max_leaf_size = 2", "buckets = 0");
     let err = parse(&bad, "pin.toml", None).unwrap_err().to_string();
     assert!(err.contains("pinned"), "{err}");
@@ -165,8 +171,8 @@ fn a_file_holds_one_preset_or_a_sequence() {
     let (lecture, i) = Sequence::open("lecture:3").unwrap();
     assert_eq!(i, 2);
     assert_eq!(
-        lecture.presets[i].settings.strategy,
-        StrategyChoice::ObjectMedian
+        lecture.presets[i].settings.structure.bvh.strategy,
+        Strategy::ObjectMedian
     );
 }
 
@@ -316,6 +322,52 @@ fn the_readme_example_is_a_valid_preset() {
     let start = readme.find("```toml\n").expect("the README shows a preset") + 8;
     let text = &readme[start..start + readme[start..].find("```").unwrap()];
     let p = &parse(text, "README.md", None).unwrap().presets[0];
-    assert_eq!(p.settings.accel, AccelKind::Grid);
+    assert_eq!(p.settings.structure.kind, AccelKind::Grid);
     assert_eq!(p.camera.unwrap().fov, 50.0);
+}
+
+/// Settings saved by an earlier version of the app (RON written by eframe, each parameter a
+/// field of its own) load into today's settings with every value kept.
+#[test]
+fn settings_saved_by_an_earlier_version_load() {
+    use bvhlab::accel::TraversalOrder;
+    use bvhlab::accel::kdtree::KdSplit;
+    use bvhlab::geometry::simd::SimdLevel;
+    use bvhlab::render::compare::CompareView;
+    let text = include_str!("data/settings-saved.ron");
+    let s = Settings::from_ron(text).expect("the saved settings load");
+    let p = &s.structure;
+    assert_eq!(s.scene, "teapot-in-stadium");
+    assert_eq!(
+        (p.kind, p.mailbox, p.simd),
+        (AccelKind::KdTree, false, SimdLevel::Portable)
+    );
+    let kd = &p.kdtree;
+    assert_eq!((kd.c_trav, kd.c_isect, kd.empty_bonus), (1.5, 3.0, 0.5));
+    assert_eq!((kd.max_depth, kd.max_leaf_size), (20, 2));
+    assert_eq!(kd.split, KdSplit::Binned(32));
+    assert_eq!(p.grid.lambda, 2.0);
+    assert_eq!((p.octree.max_leaf_size, p.octree.max_depth), (4, 9));
+    let b = &p.bvh;
+    assert_eq!((b.strategy, b.buckets), (Strategy::Sbvh, 24));
+    assert_eq!((b.treelet_size, b.treelet_rounds), (8, 2));
+    assert_eq!(
+        (b.split_alpha, b.overlap_penalty, b.split_budget),
+        (0.001, 0.5, 0.25)
+    );
+    assert_eq!((b.presplit, b.rebraid, b.max_leaf_size), (0.1, 2.0, 4));
+    assert_eq!((b.c_trav, b.c_isect), (1.25, 2.0));
+    assert_eq!(p.order, TraversalOrder::Naive);
+    assert_eq!(
+        (s.mode, s.shadow_rays, s.heat_max),
+        (ViewMode::Nodes, true, Some(50))
+    );
+    assert_eq!((s.show_levels, s.level, s.see_through), (true, 3, true));
+    assert!(s.color_by_node && s.move_whole_object);
+    assert_eq!(s.compare_view, CompareView::Difference);
+    assert_eq!((s.auto_rebuild_percent, s.ui_scale), (Some(5.0), 1.25));
+    assert_eq!(s.recent, ["../shared/scenes/sponza.obj"]);
+    assert_eq!(s.bookmarks["cornell"][0].view.fov, 45.0);
+    // Saved again, they load again the same.
+    assert_eq!(Settings::from_ron(&s.to_ron().unwrap()), Some(s));
 }

@@ -3,7 +3,7 @@
 //! primary and the shadow ray, on every built-in scene and every structure; and
 //! `bvhlab replay` prints them, as text or as one JSON object of the documented shape.
 
-mod common;
+use bvhlab_testkit as common;
 
 use bvhlab::accel::replay::Step;
 use bvhlab::accel::structure::{self, AccelKind, Structure, StructureParams};

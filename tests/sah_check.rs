@@ -1,7 +1,7 @@
 //! SAH predicted against measured: the random lines the SAH assumes, and the check's place
 //! in `bvhlab bench`.
 
-use bvhlab::bench::sah_check::random_lines;
+use bvhlab::accel::sah_check::random_lines;
 use bvhlab::geometry::Aabb;
 use bvhlab::geometry::aabb::SlabRay;
 use glam::Vec3;

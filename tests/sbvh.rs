@@ -5,7 +5,7 @@
 //! and its refits; the split budget caps the duplicates, a zero budget gives binned SAH's
 //! tree exactly, and the build is the same on 1 and 2 threads.
 
-mod common;
+use bvhlab_testkit as common;
 
 use bvhlab::accel::bvh::refit::RefitIndex;
 use bvhlab::accel::bvh::wide::CollapseParams;

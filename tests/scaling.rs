@@ -1,4 +1,4 @@
-//! The scaling study behind `bvhlab bench --scaling`: a tiny run gives a row per structure
+//! The scaling study behind `bvhlab bench scaling`: a tiny run gives a row per structure
 //! and size, brute force tests every triangle for every ray, and the CSV and plots are
 //! written. Timings are produced but never asserted.
 

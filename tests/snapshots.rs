@@ -2,8 +2,8 @@
 //! status bar) rendered by wgpu on the CPU (Mesa's lavapipe) and compared with the reference
 //! PNGs in tests/snapshots/. Refresh them with `UPDATE_SNAPSHOTS=1`.
 
-use bvhlab::app::settings::ViewMode;
-mod common;
+use bvhlab::render::ViewMode;
+use bvhlab_testkit as common;
 
 use bvhlab::app::BvhLabApp;
 use common::app::launch;

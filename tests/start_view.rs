@@ -2,7 +2,7 @@
 //! conference room) starts from inside, where the outside view shows only its hull; other
 //! meshes, and every built-in scene, keep their views.
 
-mod common;
+use bvhlab_testkit as common;
 
 use bvhlab::accel::bvh::{BuildParams, build};
 use bvhlab::accel::{Accel, NoStats};

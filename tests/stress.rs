@@ -4,7 +4,7 @@
 //! edge points of closed meshes (integer grid arithmetic), rational arithmetic for the slab
 //! test, and the f64 intersector with error bounds.
 
-mod common;
+use bvhlab_testkit as common;
 
 use bvhlab::accel::bvh::{BuildParams, build};
 use bvhlab::accel::{Accel, BruteForce, NoStats};
@@ -177,7 +177,7 @@ fn degenerate_triangles_are_never_hit_and_never_give_nan() {
 
 #[test]
 fn degenerate_triangles_in_a_bvh_build_and_trace() {
-    let mut rng = bvhlab::bench::stress::Rng(7);
+    let mut rng = bvhlab::random::Rng(7);
     let grid = degenerate::Grid {
         step: 1.0 / 64.0,
         offset: 0.0,
@@ -347,13 +347,12 @@ fn spawned_origins_lie_strictly_on_the_side_they_leave_to() {
     // directions: the surface point's error bound holds the exact point (f64), and the
     // spawned origin lies strictly on the side of the plane the direction points to.
     use bvhlab::geometry::spawn::SurfacePoint;
-    let mut rng = bvhlab::bench::stress::Rng(17);
+    let mut rng = bvhlab::random::Rng(17);
     let mut checked = 0;
     for _ in 0..RAYS {
         let scale = 10f64.powi(rng.below(7) as i32 - 3);
         let offset = rng.in_ball() * 10f64.powi(rng.below(7) as i32);
-        let corner =
-            |rng: &mut bvhlab::bench::stress::Rng| (offset + rng.in_ball() * scale).as_vec3();
+        let corner = |rng: &mut bvhlab::random::Rng| (offset + rng.in_ball() * scale).as_vec3();
         let tri = Triangle::new(corner(&mut rng), corner(&mut rng), corner(&mut rng));
         let [a, b, c] = tri.v.map(|v| v.as_dvec3());
         let n64 = (b - a).cross(c - a);

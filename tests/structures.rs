@@ -3,7 +3,7 @@
 //! with mailboxing on and off, any hit agreeing with closest hit, counting changing no hit,
 //! and exactly the BVH2's hit counts on the standard views of the shared scenes.
 
-mod common;
+use bvhlab_testkit as common;
 
 use bvhlab::accel::structure::{self, AccelKind, Structure, StructureParams};
 use bvhlab::accel::{Accel, BruteForce, Counters, NoStats};

@@ -1,11 +1,11 @@
 //! `bvhlab trace` end to end: rays in, hits out, in input order, against the library's own
 //! closest-hit and any-hit answers; bad ray files are errors naming the rays.
 
-mod common;
+use bvhlab_testkit as common;
 
 use bvhlab::accel::bvh::{BuildParams, build};
+use bvhlab::accel::rayfile::{self, HitFormat, RayFileError};
 use bvhlab::accel::{Accel, NoStats};
-use bvhlab::geometry::rayfile::{self, HitFormat, RayFileError};
 use bvhlab::geometry::{Ray, Watertight};
 use bvhlab::scene::Scene;
 use glam::Vec3;

@@ -2,7 +2,7 @@
 //! their SAH cost after every round, recorded from the straightforward dynamic program, so a
 //! faster one that changes any tree (topology, child order or a single cost bit) fails.
 
-mod common;
+use bvhlab_testkit as common;
 
 use bvhlab::accel::bvh::{BuildParams, Strategy, build};
 use bvhlab::geometry::Triangle;

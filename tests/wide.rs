@@ -5,7 +5,7 @@
 //! subtree and costs no more than a greedy collapse; the wide trees of the default build are
 //! the ones recorded, on 1 and 2 threads.
 
-mod common;
+use bvhlab_testkit as common;
 
 use bvhlab::accel::bvh::wide::{CollapseParams, LaneKind, Lanes, NodeWidth};
 use bvhlab::accel::bvh::{self, BuildParams, Bvh, Strategy, TraversalOrder, WideBvh};
@@ -616,11 +616,11 @@ fn the_sah_optimal_collapse_costs_no_more_than_a_greedy_one() {
 fn an_unsupported_kernel_is_refused_and_changes_nothing() {
     let b2 = bvh2(&soup(100, 1), Strategy::SahBinned);
     let mut wide = WideBvh::<8>::collapse(&b2, &CollapseParams::default());
-    let before = wide.simd;
+    let before = wide.simd();
     for level in SimdLevel::ALL.into_iter().filter(|l| !l.supported()) {
         let err = wide.set_simd(level).unwrap_err();
         assert!(err.to_string().contains(level.label()), "{err}");
-        assert_eq!(wide.simd, before);
+        assert_eq!(wide.simd(), before);
     }
     assert!(wide.set_simd(SimdLevel::Portable).is_ok());
 }

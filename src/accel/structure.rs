@@ -5,43 +5,67 @@
 //! so the hot loops stay generic over the intersector and the statistics sink.
 //!
 //! Adding a structure is: its folder, a variant of `AccelKind` and `Structure`, its
-//! parameters in `StructureParams`, and one arm in each `match` below.
+//! parameters in `StructureParams` (`params.rs`), and one arm in each `match` below.
 
 use super::bvh::refit::{RefitError, RefitIndex, RefitReport};
 use super::bvh::wide::{CollapseParams, UnsupportedSimd};
 use super::bvh::wide::{Lanes, NodeWidth};
 use super::bvh::{self, BuildError, BuildReport, Bvh, Bvh4, Bvh8, WideBvh};
-use super::grid::{self, Grid, GridError, GridParams};
-use super::kdtree::{self, KdError, KdParams, KdTree};
-use super::octree::{self, Octree, OctreeError, OctreeParams};
+use super::grid::{self, Grid, GridError};
+use super::kdtree::{self, KdError, KdTree};
+use super::octree::{self, Octree, OctreeError};
 use super::outline::Outline;
+pub use super::params::StructureParams;
 use super::report::StructureReport;
 use super::two_level::{self, TwoLevel};
-use super::{Accel, BruteForce, BuildParams, Hit, Stats, TraversalOrder};
+use super::{Accel, BruteForce, Hit, Stats, TraversalOrder};
+use crate::accel::report::Detail;
 use crate::geometry::simd::SimdLevel;
 use crate::geometry::{Intersector, Ray, Triangle};
 use crate::scene::{FlattenError, Instancing, Scene};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
-/// Which structure to build, as the CLI's `--accel` and the app's selector name it.
+/// Which structure to build, as the CLI's `--accel`, the presets' `accel` and the app's
+/// selector name it.
 #[derive(
-    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize,
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    Hash,
+    serde::Serialize,
+    serde::Deserialize,
+    clap::ValueEnum,
 )]
 pub enum AccelKind {
+    /// The BVH2 built with the --builder parameters.
     #[default]
     Bvh,
+    /// The BVH2 collapsed into a 4-wide BVH, traced with SIMD (--simd).
     Bvh4,
+    /// The BVH2 collapsed into an 8-wide BVH, traced with SIMD (--simd).
     Bvh8,
+    /// SAH k-d tree with perfect splits (--kd-* parameters, --empty-bonus).
+    #[value(name = "kdtree")]
     KdTree,
+    /// Uniform grid of about λ·N cells (--lambda).
     Grid,
+    /// Sparse adaptive octree (--octree-* parameters).
     Octree,
+    /// Every triangle for every ray.
     BruteForce,
+    /// Every triangle whose own box the ray pierces, after the scene's box.
     BruteForceBbox,
+    /// A top-level BVH over the instances, one bottom-level BVH per unique mesh (each OBJ
+    /// object is one instance); BLASes built with the --builder parameters.
     TwoLevel,
 }
 
 impl AccelKind {
+    /// Every structure; a test checks it against the derived list, so none is missed.
     pub const ALL: [AccelKind; 9] = [
         AccelKind::Bvh,
         AccelKind::Bvh4,
@@ -130,92 +154,6 @@ impl AccelKind {
     /// Whether the structure can be refitted after motion (rather than rebuilt).
     pub fn can_refit(self) -> bool {
         self.is_bvh()
-    }
-}
-
-/// Everything a build needs, as plain data shared by the app, the CLI and the tests. The
-/// parameters of every structure are kept, so switching back and forth keeps each one's.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct StructureParams {
-    pub kind: AccelKind,
-    pub bvh: BuildParams,
-    /// BVH child order: a traversal setting, changed without a rebuild.
-    pub order: TraversalOrder,
-    pub kdtree: KdParams,
-    pub grid: GridParams,
-    pub octree: OctreeParams,
-    /// Mailboxing of the spatial structures: a traversal setting, changed without a rebuild
-    /// (it overrides the `mailbox` of their own parameters).
-    pub mailbox: bool,
-    /// The wide BVHs' slab kernel: a traversal setting, changed without a rebuild.
-    pub simd: SimdLevel,
-}
-
-impl Default for StructureParams {
-    fn default() -> Self {
-        StructureParams {
-            kind: AccelKind::Bvh,
-            bvh: BuildParams::default(),
-            order: TraversalOrder::FrontToBack,
-            kdtree: KdParams::default(),
-            grid: GridParams::default(),
-            octree: OctreeParams::default(),
-            mailbox: true,
-            simd: SimdLevel::detect(),
-        }
-    }
-}
-
-impl StructureParams {
-    pub fn of_kind(kind: AccelKind) -> Self {
-        StructureParams {
-            kind,
-            ..Default::default()
-        }
-    }
-
-    /// Checks the parameters of the chosen structure.
-    pub fn validate(&self) -> Result<(), StructureError> {
-        match self.kind {
-            AccelKind::Bvh => self.bvh.validate()?,
-            AccelKind::Bvh4 | AccelKind::Bvh8 | AccelKind::TwoLevel => {
-                self.bvh.validate()?;
-                if !self.simd.supported() {
-                    return Err(UnsupportedSimd(self.simd).into());
-                }
-            }
-            AccelKind::KdTree => self.kdtree.validate()?,
-            AccelKind::Grid => self.grid.validate()?,
-            AccelKind::Octree => self.octree.validate()?,
-            AccelKind::BruteForce | AccelKind::BruteForceBbox => {}
-        }
-        Ok(())
-    }
-
-    /// Whether a structure built with `self` must be built again to match `other`
-    /// (traversal settings alone never need a build).
-    pub fn needs_rebuild_for(&self, other: &StructureParams) -> bool {
-        let strip = |p: &StructureParams| {
-            let mut p = *p;
-            p.order = TraversalOrder::FrontToBack;
-            p.mailbox = true;
-            p.simd = SimdLevel::Portable;
-            p.kdtree.mailbox = true;
-            p.grid.mailbox = true;
-            p.octree.mailbox = true;
-            p
-        };
-        let (a, b) = (strip(self), strip(other));
-        a.kind != b.kind
-            || match a.kind {
-                AccelKind::Bvh | AccelKind::Bvh4 | AccelKind::Bvh8 | AccelKind::TwoLevel => {
-                    a.bvh != b.bvh
-                }
-                AccelKind::KdTree => a.kdtree != b.kdtree,
-                AccelKind::Grid => a.grid != b.grid,
-                AccelKind::Octree => a.octree != b.octree,
-                AccelKind::BruteForce | AccelKind::BruteForceBbox => false,
-            }
     }
 }
 
@@ -461,9 +399,9 @@ impl Structure {
     /// The slab kernel the structure traces with, for the wide BVHs.
     pub fn simd(&self) -> Option<SimdLevel> {
         match self {
-            Structure::Bvh4(w) => Some(w.simd),
-            Structure::Bvh8(w) => Some(w.simd),
-            Structure::TwoLevel(t) => Some(t.simd),
+            Structure::Bvh4(w) => Some(w.simd()),
+            Structure::Bvh8(w) => Some(w.simd()),
+            Structure::TwoLevel(t) => Some(t.simd()),
             _ => None,
         }
     }
@@ -505,20 +443,6 @@ impl Structure {
             }
             _ => return None,
         })
-    }
-
-    pub fn as_bvh(&self) -> Option<&Bvh> {
-        match self {
-            Structure::Bvh(b) => Some(b),
-            _ => None,
-        }
-    }
-
-    pub fn as_bvh_mut(&mut self) -> Option<&mut Bvh> {
-        match self {
-            Structure::Bvh(b) => Some(b),
-            _ => None,
-        }
     }
 }
 
@@ -589,37 +513,31 @@ where
         largest_leaf,
         details: vec![
             ("builder".into(), params.bvh.strategy.label().into()),
+            ("BVH2 build".into(), Detail::Time(bvh_report.build_time)),
+            ("collapse".into(), Detail::Time(collapse_time)),
             (
-                "BVH2 build".into(),
-                format!("{:.2} ms", bvh_report.build_time.as_secs_f64() * 1e3),
+                "threads".into(),
+                Detail::count(rayon::current_num_threads()),
             ),
-            (
-                "collapse".into(),
-                format!("{:.2} ms", collapse_time.as_secs_f64() * 1e3),
-            ),
-            ("threads".into(), rayon::current_num_threads().to_string()),
         ]
         .into_iter()
         .chain(bvh_report.phases.time_rows())
         .chain([
             (
                 "time: collapse table".into(),
-                format!("{:.2} ms", collapse_phases.table.as_secs_f64() * 1e3),
+                Detail::Time(collapse_phases.table),
             ),
             (
                 "time: collapse layout".into(),
-                format!("{:.2} ms", collapse_phases.layout.as_secs_f64() * 1e3),
+                Detail::Time(collapse_phases.layout),
             ),
             (
                 "SAH cost".into(),
-                format!(
-                    "{:.2}",
-                    wide.sah_cost(params.bvh.c_trav, params.bvh.c_isect)
-                ),
+                Detail::Number(wide.sah_cost(params.bvh.c_trav, params.bvh.c_isect), 2),
             ),
             (
                 "bytes per triangle".into(),
-                format!("{:.1}", bytes as f64 / triangles.len().max(1) as f64),
+                Detail::Number(bytes as f64 / triangles.len().max(1) as f64, 1),
             ),
         ])
         .collect(),

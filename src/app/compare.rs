@@ -29,10 +29,7 @@ pub fn section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             }
             Some(pinned) => {
                 ui.label(format!("A: {}", pinned.label()));
-                ui.label(format!(
-                    "B: {}",
-                    super::settings::Pinned::of(&app.settings).label()
-                ));
+                ui.label(format!("B: {}", app.settings.structure.label()));
                 ui.horizontal(|ui| {
                     if ui.button("Pin B as A").clicked() {
                         app.pin();

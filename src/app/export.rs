@@ -27,6 +27,9 @@ impl Export {
     }
 }
 
+/// Shared slot for a file chosen in a dialog running on its own thread.
+pub type Picked = Arc<Mutex<Option<PathBuf>>>;
+
 pub type SaveSlot = Arc<Mutex<Option<(Export, PathBuf)>>>;
 
 impl BvhLabApp {

@@ -5,7 +5,8 @@
 use super::BvhLabApp;
 use super::orbit::Orbit;
 use super::preset::{Preset, PresetError, Sequence, View};
-use super::settings::{Bookmark, ViewMode};
+use super::settings::Bookmark;
+use crate::render::ViewMode;
 use crate::scene::Camera;
 use eframe::egui::{self, Key, RichText};
 use std::path::{Path, PathBuf};
@@ -108,7 +109,7 @@ impl BvhLabApp {
     fn apply_preset(&mut self, preset: &Preset) {
         self.settings = preset.settings_over(&self.settings);
         self.tool = preset.tool;
-        self.pinned = preset.pinned.clone();
+        self.pinned = preset.pinned;
         self.compared = None;
         self.replay = None;
         self.replay_error = None;
@@ -117,7 +118,7 @@ impl BvhLabApp {
         self.lecture.pending = Some(Pending::of(preset));
         self.lecture.error = None;
         // The scene loads straight into the preset's structure: one build.
-        let params = self.settings.structure_params();
+        let params = self.settings.structure;
         self.sent_build = Some(params);
         self.worker.send(super::worker::Command::SetParams(params));
         self.load(preset.scene.clone());
@@ -157,7 +158,7 @@ impl BvhLabApp {
             tool: self.tool,
             walk: self.walk,
             settings: self.settings.clone(),
-            pinned: self.pinned.clone(),
+            pinned: self.pinned,
         }
     }
 

@@ -8,9 +8,12 @@ pub mod export;
 mod lecture;
 pub mod levels;
 mod orbit;
+mod overlay;
 mod panels;
+mod params;
 pub mod preset;
 pub mod replay;
+mod replies;
 pub mod screenshot;
 pub mod settings;
 pub mod start_view;
@@ -25,10 +28,10 @@ use eframe::egui;
 use orbit::Orbit;
 use screenshot::ScreenshotPlan;
 
-use settings::{Pinned, Settings};
+use settings::Settings;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
-use worker::{Command, CompareJob, Compared, Overlay, RenderJob, Reply, Shown, Worker};
+use worker::{Command, CompareJob, Compared, Overlay, RenderJob, Shown, Worker};
 
 /// How the app starts: normally with the remembered settings; tests and screenshots start
 /// from defaults and remember nothing.
@@ -108,7 +111,7 @@ pub struct BvhLabApp {
     /// SAH cost after each refit since the last build (the first entry is the build's).
     pub sah_history: Vec<f64>,
     /// The built tree's SAH cost against random lines (none for other structures).
-    pub sah_prediction: Option<worker::SahPrediction>,
+    pub sah_prediction: Option<crate::accel::sah_check::SahPrediction>,
     pub last_refit: Option<Duration>,
     /// Under a structure that cannot refit: the last rebuild after a move, and what a BVH
     /// refit of the same move took.
@@ -132,7 +135,7 @@ pub struct BvhLabApp {
     show_help: bool,
     /// The scene as the worker has it, after moves (see `request_snapshot`).
     pub snapshot: Option<Arc<Scene>>,
-    picked: worker::Picked,
+    picked: export::Picked,
     pub screenshot: Option<ScreenshotPlan>,
     /// The ray replay being stepped through, and why the last one failed.
     pub replay: Option<replay::ReplayView>,
@@ -143,7 +146,7 @@ pub struct BvhLabApp {
     save_slot: export::SaveSlot,
     /// Configuration A of a comparison; the settings are configuration B. A stays pinned
     /// when another scene loads and is built again over it.
-    pub pinned: Option<Pinned>,
+    pub pinned: Option<StructureParams>,
     /// A against B in the newest full frame (quick previews may not count).
     pub compared: Option<Compared>,
     /// The lecture's presets and the one shown.
@@ -153,9 +156,9 @@ pub struct BvhLabApp {
 impl BvhLabApp {
     pub fn new(cc: &eframe::CreationContext<'_>, launch: Launch) -> Self {
         let mut settings: Settings = match cc.storage {
-            Some(storage) if !launch.fresh => {
-                eframe::get_value(storage, settings::STORAGE_KEY).unwrap_or_default()
-            }
+            Some(storage) if !launch.fresh => (storage.get_string(settings::STORAGE_KEY))
+                .and_then(|text| Settings::from_ron(&text))
+                .unwrap_or_default(),
             _ => Settings::default(),
         };
         if launch.fresh {
@@ -168,7 +171,7 @@ impl BvhLabApp {
             settings.scene = scene.clone();
         }
         if let Some(accel) = launch.accel {
-            settings.accel = accel;
+            settings.structure.kind = accel;
         }
         if let Some(plan) = &launch.screenshot {
             plan.apply(&mut settings);
@@ -186,11 +189,11 @@ impl BvhLabApp {
         };
         let ctx = cc.egui_ctx.clone();
         let mut worker = Worker::spawn(move || ctx.request_repaint());
-        worker.send(Command::Build(settings.structure_params()));
+        worker.send(Command::Build(settings.structure));
         worker.send(Command::Load(settings.scene.clone()));
         cc.egui_ctx.set_zoom_factor(settings.ui_scale);
         BvhLabApp {
-            sent_build: Some(settings.structure_params()),
+            sent_build: Some(settings.structure),
             settings,
             worker,
             persist: !launch.fresh,
@@ -246,7 +249,7 @@ impl BvhLabApp {
 
     /// Pins the current configuration as A: from now on each frame is traced with A too.
     pub fn pin(&mut self) {
-        self.pinned = Some(Pinned::of(&self.settings));
+        self.pinned = Some(self.settings.structure);
         self.compared = None;
     }
 
@@ -260,144 +263,6 @@ impl BvhLabApp {
             self.unpin()
         } else {
             self.pin()
-        }
-    }
-
-    /// Handles everything the worker has said since the last frame (public for the UI
-    /// tests, which hand it replies in a chosen order).
-    pub fn handle_replies(&mut self, ctx: &egui::Context, replies: Vec<Reply>) {
-        for r in replies {
-            match r {
-                Reply::Loaded { spec, scene } => {
-                    // A scene that does not store its triangles (the island) can only be
-                    // traced through its two levels.
-                    if !scene.is_flattened() {
-                        self.settings.accel = crate::accel::AccelKind::TwoLevel;
-                    }
-                    self.orbit = Orbit::from_camera(&scene.camera());
-                    if std::path::Path::new(&spec).exists() && scene::is_file_spec(&spec) {
-                        self.settings.add_recent(&spec);
-                    }
-                    self.settings.scene = spec;
-                    self.scene_rows = scene
-                        .instancing_rows()
-                        .into_iter()
-                        .map(|(k, v)| (format!("scene {k}"), v))
-                        .collect();
-                    self.scene = Some(scene);
-                    self.load_error = None;
-                    self.selection = None;
-                    self.selected_object = None;
-                    self.moved_transforms.clear();
-                    self.walk = None;
-                    self.instance_outline = None;
-                    self.leaf_instances = Arc::default();
-                    self.replay = None;
-                    self.building = true;
-                    self.apply_pending_view();
-                }
-                Reply::LoadFailed { error, .. } => self.load_error = Some(error),
-                Reply::Built {
-                    report,
-                    bvh_report,
-                    outline,
-                    leaf_instances,
-                    sah,
-                } => {
-                    self.sah_prediction = sah;
-                    self.sah_history = bvh_report.iter().map(|r| r.tree.sah_cost).collect();
-                    // The selected instance's BLAS comes again (`InstanceSelected`) if the
-                    // new structure has it.
-                    self.instance_outline = None;
-                    self.leaf_instances = leaf_instances;
-                    self.settings.level = self.settings.level.min(outline.max_depth());
-                    self.walk = self.walk.filter(|&w| (w as usize) < outline.nodes.len());
-                    // A screenshot of the tree walk opens it at the node it names.
-                    if let Some(node) = self.screenshot.as_ref().and_then(|p| p.walk) {
-                        self.walk = Some(node.min(outline.nodes.len().saturating_sub(1) as u32));
-                    }
-                    // A screenshot of an instance's BLAS selects it once the levels exist.
-                    if let Some(i) = self.screenshot.as_ref().and_then(|p| p.instance) {
-                        self.worker.send(Command::SelectInstance(Some(i)));
-                    }
-                    self.outline = outline;
-                    self.apply_pending_structure();
-                    // The replayed steps name nodes of the old structure.
-                    self.replay = None;
-                    self.report = Some(*report);
-                    self.bvh_report = bvh_report.map(|b| *b);
-                    self.build_error = None;
-                    self.building = false;
-                }
-                Reply::BuildFailed(e) => {
-                    self.build_error = Some(e);
-                    self.building = false;
-                }
-                Reply::Refitted {
-                    sah_before,
-                    sah_after,
-                    refit_time,
-                } => {
-                    // A wide BVH's build report has no SAH cost: its first refit gives it.
-                    if self.sah_history.is_empty() {
-                        self.sah_history.push(sah_before);
-                    }
-                    self.sah_history.push(sah_after);
-                    self.last_refit = Some(refit_time);
-                    self.maybe_auto_rebuild();
-                }
-                Reply::RebuiltAfterMove {
-                    rebuild_time,
-                    bvh_refit_time,
-                } => self.last_rebuild = Some((rebuild_time, bvh_refit_time)),
-                Reply::InstanceMoved {
-                    refit_time,
-                    flat_refit_time,
-                    object,
-                    transform,
-                } => {
-                    self.last_instance_move = Some((refit_time, flat_refit_time));
-                    self.moved_transforms.insert(object, transform);
-                }
-                Reply::Frame(shown) => {
-                    if let Some(t) = self.move_sent.take() {
-                        self.drag_latency = Some(t.elapsed());
-                    }
-                    let [w, h] = [shown.job.width as usize, shown.job.height as usize];
-                    let image = egui::ColorImage::from_rgba_unmultiplied([w, h], &shown.rgba);
-                    match &mut self.texture {
-                        Some(t) => t.set(image, egui::TextureOptions::LINEAR),
-                        None => {
-                            self.texture =
-                                Some(ctx.load_texture("frame", image, egui::TextureOptions::LINEAR))
-                        }
-                    }
-                    if !shown.job.preview {
-                        self.full_summary = Some(shown.frame.summary.clone());
-                        self.compared = shown.compared.clone();
-                    }
-                    self.shown = Some(shown);
-                }
-                Reply::Counted { job, frame } => {
-                    // The counts of the full frame on screen: same hits, same image.
-                    if let Some(shown) = self.shown.as_mut().filter(|s| s.job == job) {
-                        self.full_summary = Some(frame.summary.clone());
-                        Arc::make_mut(shown).frame = frame;
-                    }
-                }
-                Reply::Snapshot(scene) => self.snapshot = Some(scene),
-                Reply::InstanceSelected(outlined) => self.instance_selected(outlined),
-                Reply::Replayed(Ok(replay)) => {
-                    let mut view = replay::ReplayView::new(replay);
-                    if let Some(r) = self.screenshot.as_ref().and_then(|p| p.replay) {
-                        view.stop = r.visit.saturating_sub(1).min(view.replay.stops() - 1);
-                    }
-                    self.replay = Some(view);
-                    self.replay_error = None;
-                }
-                Reply::Replayed(Err(e)) => self.replay_error = Some(e),
-                Reply::Idle(_) => {}
-            }
         }
     }
 
@@ -427,7 +292,7 @@ impl BvhLabApp {
 
     /// Sends build parameters when they changed.
     fn sync_build(&mut self) {
-        let wanted = self.settings.structure_params();
+        let wanted = self.settings.structure;
         if self.sent_build != Some(wanted) {
             let rebuilds = self
                 .sent_build
@@ -466,13 +331,13 @@ impl BvhLabApp {
                 instance: self.instance_outline.as_ref().map(|i| i.instance),
                 probe: self
                     .probe
-                    .filter(|_| s.accel.walks_cells() && s.show_levels),
+                    .filter(|_| s.structure.kind.walks_cells() && s.show_levels),
                 see_through: s.see_through,
                 color_by_node: s.color_by_node,
             },
             preview,
             compare: self.pinned.as_ref().map(|p| CompareJob {
-                a: p.structure_params(),
+                a: *p,
                 view: s.compare_view,
             }),
         })
@@ -681,7 +546,7 @@ impl eframe::App for BvhLabApp {
             screenshot::Action::Replay(r) => self.scripted_replay(r),
             screenshot::Action::Compare(c) => {
                 self.pin();
-                c.b.apply_to(&mut self.settings);
+                self.settings.structure = c.b;
                 self.settings.compare_view = c.view;
             }
             screenshot::Action::None => {}

@@ -9,7 +9,8 @@
 //! app's state stays as it was.
 
 use super::Tool;
-use super::settings::{Pinned, Settings};
+use super::settings::Settings;
+use crate::accel::StructureParams;
 use crate::geometry::simd::SimdLevel;
 use crate::scene::{Camera, builtin};
 use glam::Vec3;
@@ -97,7 +98,7 @@ pub struct Preset {
     /// Configuration A of a comparison, pinned when the preset opens (the settings are B);
     /// none: nothing pinned. Its fields are the structure's settings, missing = default.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub pinned: Option<Pinned>,
+    pub pinned: Option<StructureParams>,
 }
 
 /// Settings that belong to the person at the computer, not to a view of the lecture: a
@@ -185,20 +186,29 @@ pub fn parse(text: &str, origin: &str, dir: Option<&Path>) -> Result<Sequence, P
                 toml::Value::Array(a) => a.iter().filter_map(|v| v.as_table().cloned()).collect(),
                 _ => Vec::new(),
             };
-            let file: File = toml::from_str(text).map_err(|e| fail(e.to_string()))?;
+            let file: File = toml::from_str(text).map_err(|e| fail(locate(text, e)))?;
             (tables, file.preset)
         }
         None => {
-            let one: Preset = toml::from_str(text).map_err(|e| fail(e.to_string()))?;
+            let one: Preset = toml::from_str(text).map_err(|e| fail(locate(text, e)))?;
             (vec![table.clone()], vec![one])
         }
     };
     if presets.is_empty() {
         return Err(fail("it holds no preset".into()));
     }
-    let known = setting_names();
+    let known = key_names(Settings::default());
+    let known_pinned = key_names(StructureParams::default());
     for (i, (preset, table)) in presets.iter_mut().zip(&tables).enumerate() {
         let name = format!("preset {} ('{}')", i + 1, preset.title);
+        if let Some(toml::Value::Table(pinned)) = table.get("pinned")
+            && let Some(key) = pinned.keys().find(|k| !known_pinned.contains(k))
+        {
+            return Err(fail(format!(
+                "{name}: unknown setting '{key}' in [pinned] (its settings are: {})",
+                known_pinned.join(", ")
+            )));
+        }
         if let Some(toml::Value::Table(settings)) = table.get("settings") {
             for key in settings.keys() {
                 if PERSONAL.contains(&key.as_str()) {
@@ -235,9 +245,32 @@ pub fn parse(text: &str, origin: &str, dir: Option<&Path>) -> Result<Sequence, P
     })
 }
 
-/// The names of the settings, as the file spells them.
-fn setting_names() -> Vec<String> {
-    match serde_json::to_value(Settings::default()) {
+/// A value serde rejects, said with its line. The settings' keys are read as one flattened
+/// table, so serde's error points at the table's header: here the table's lines are read
+/// one by one to find the setting whose value is wrong.
+fn locate(text: &str, error: toml::de::Error) -> String {
+    let Some(span) = error.span() else {
+        return error.to_string();
+    };
+    // The table starts on the line of the span: its header, then its keys.
+    let first = text[..span.start.min(text.len())].lines().count();
+    let is_header = |l: &str| l.trim_start().starts_with('[');
+    let mut lines = text.lines().enumerate().skip(first).peekable();
+    lines.next_if(|(_, l)| is_header(l));
+    let in_table = lines.take_while(|(_, l)| !is_header(l));
+    for (i, line) in in_table {
+        if let Some((key, _)) = line.split_once('=')
+            && let Err(e) = toml::from_str::<Settings>(line)
+        {
+            return format!("line {}: setting '{}': {}", i + 1, key.trim(), e.message());
+        }
+    }
+    error.to_string()
+}
+
+/// The keys of `value`'s fields, as a preset file spells them.
+fn key_names(value: impl Serialize) -> Vec<String> {
+    match serde_json::to_value(value) {
         Ok(serde_json::Value::Object(map)) => map.keys().cloned().collect(),
         _ => Vec::new(),
     }
@@ -268,14 +301,11 @@ impl Preset {
             view.check()?;
         }
         self.settings
-            .structure_params()
+            .structure
             .validate()
             .map_err(|e| e.to_string())?;
         match &self.pinned {
-            Some(a) => a
-                .structure_params()
-                .validate()
-                .map_err(|e| format!("pinned: {e}")),
+            Some(a) => a.validate().map_err(|e| format!("pinned: {e}")),
             None => Ok(()),
         }
     }
@@ -302,7 +332,7 @@ impl Preset {
             }
             // The machine's own SIMD kernel is the default; only another choice is saved,
             // so the file loads on machines with other vector units.
-            if self.settings.simd == SimdLevel::detect() {
+            if self.settings.structure.simd == SimdLevel::detect() {
                 settings.remove("simd");
             }
         }

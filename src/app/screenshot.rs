@@ -2,7 +2,9 @@
 //! screenshot request once its frame is complete, then closed. This is how the README's
 //! pictures are made.
 
-use super::settings::{Pinned, Settings, ViewMode};
+use super::settings::Settings;
+use crate::accel::StructureParams;
+use crate::render::ViewMode;
 use crate::render::compare::CompareView;
 use eframe::egui;
 use std::path::PathBuf;
@@ -44,7 +46,7 @@ pub struct ReplayShot {
 /// becomes the current configuration, shown in `view`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CompareShot {
-    pub b: Pinned,
+    pub b: StructureParams,
     pub view: CompareView,
 }
 

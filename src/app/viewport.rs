@@ -207,7 +207,7 @@ fn start_drag(app: &mut BvhLabApp, rect: egui::Rect, pos: egui::Pos2) {
     }
     // Under the two levels a click selects the object's instance: the levels and the walk
     // continue into its BLAS.
-    if app.settings.accel == AccelKind::TwoLevel
+    if app.settings.structure.kind == AccelKind::TwoLevel
         && let Some(object) = usize::try_from(s.triangle)
             .ok()
             .and_then(|t| app.scene.as_ref()?.object_of(t))
@@ -216,7 +216,7 @@ fn start_drag(app: &mut BvhLabApp, rect: egui::Rect, pos: egui::Pos2) {
     }
     // Under the two levels a whole object moves as its instance: the top level is refitted.
     // This works for any triangle number, also past 32 bits (the island).
-    if app.settings.accel == AccelKind::TwoLevel && app.settings.move_whole_object {
+    if app.settings.structure.kind == AccelKind::TwoLevel && app.settings.move_whole_object {
         let object = usize::try_from(s.triangle)
             .ok()
             .and_then(|t| app.scene.as_ref()?.object_of(t));

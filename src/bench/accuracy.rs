@@ -1,4 +1,4 @@
-//! Run time against error, behind `bvhlab bench --accuracy`: every intersector with every
+//! Run time against error, behind `bvhlab bench accuracy`: every intersector with every
 //! builder (object/spatial median, full-sweep SAH, binned SAH B = 2…64, LBVH, LBVH + treelets)
 //! gives build time, SAH
 //! cost, Mrays/s, leak and mismatch rates; written as CSV and as a Pareto plot.

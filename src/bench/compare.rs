@@ -3,9 +3,9 @@
 //! the f32 test's error of the edges involved); anything else is a mismatch.
 
 use crate::accel::{Accel, Hit, NoStats};
-use crate::bench::stress::Rng;
 use crate::geometry::intersect::reference::{Evaluation, Shear64, evaluate};
 use crate::geometry::{Aabb, Intersector, Ray, ReferenceF64, Triangle};
+use crate::random::Rng;
 use glam::Vec3;
 use rayon::prelude::*;
 

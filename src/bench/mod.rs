@@ -17,6 +17,8 @@ pub mod tradeoff;
 
 use crate::accel::bvh::packet::PACKET_SIZE;
 use crate::accel::bvh::{BuildParams, BuildReport, Strategy};
+pub use crate::accel::sah_check::MeanWork;
+use crate::accel::sah_check::mean_work_of;
 use crate::accel::structure::{self, AccelKind, Built, Structure, StructureError};
 use crate::accel::{Accel, NoStats, StructureParams, StructureReport};
 #[cfg(feature = "embree")]
@@ -26,7 +28,7 @@ use crate::scene::{Camera, Scene};
 use glam::Vec3;
 use rayon::prelude::*;
 use rays::RaySets;
-use sah_check::{SahCheck, mean_work_of};
+use sah_check::SahCheck;
 use std::time::{Duration, Instant};
 
 #[derive(Clone, Debug)]
@@ -67,20 +69,6 @@ pub struct RaySetResult {
     pub best: Duration,
     /// Mean counters per ray (from one counting pass, not timed); `None` where not counted.
     pub mean: Option<MeanWork>,
-}
-
-/// The mean work per ray of a ray set.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct MeanWork {
-    pub nodes: f64,
-    pub box_tests: f64,
-    pub triangle_tests: f64,
-    pub repeated_tests: f64,
-    /// Two-level structures: of `nodes` and `box_tests`, those in the top level, and the
-    /// instances entered (all 0 for other structures).
-    pub top_nodes: f64,
-    pub top_box_tests: f64,
-    pub instances_entered: f64,
 }
 
 impl RaySetResult {
@@ -193,7 +181,7 @@ pub fn run_all(
     run_each(scene, cfg, each, done)
 }
 
-/// The builders `bench --builders` compares, as Karras and Aila's Table 1 does: every
+/// The builders `bench builders` compares, as Karras and Aila's Table 1 does: every
 /// strategy, and the fast ones (LBVH, LBVH + treelets, binned SAH) again with pre-splits
 /// (`base.presplit`, or `accuracy::PRESPLIT_BUDGET` if it is 0). The other parameters come
 /// from `base`.
@@ -639,11 +627,7 @@ impl BenchResult {
         // The two levels' top-level references and their budget.
         if self.params.kind == AccelKind::TwoLevel {
             json["rebraid"] = as_typed(b.rebraid).into();
-            let references = r
-                .details
-                .iter()
-                .find(|(k, _)| k == "TLAS references")
-                .and_then(|(_, v)| v.parse::<u64>().ok());
+            let references = r.detail("TLAS references").and_then(|v| v.as_count());
             json["references"] = references.into();
         }
         // The two levels' build times, each level on its own (their sum is `build_ms`).
@@ -651,11 +635,7 @@ impl BenchResult {
             ("BLAS builds", "blas_build_ms"),
             ("TLAS build", "tlas_build_ms"),
         ] {
-            let ms = r
-                .details
-                .iter()
-                .find(|(k, _)| k == detail)
-                .and_then(|(_, v)| v.trim_end_matches(" ms").parse::<f64>().ok());
+            let ms = r.detail(detail).and_then(|v| v.as_ms());
             if let Some(ms) = ms {
                 json[key] = round3(ms).into();
             }

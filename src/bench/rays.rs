@@ -6,10 +6,10 @@
 use crate::accel::{Accel, NoStats};
 use crate::geometry::spawn::SurfacePoint;
 use crate::geometry::{Ray, Watertight};
+use crate::random::cosine_direction;
 use crate::scene::{Camera, Scene};
 use glam::Vec3;
 use rayon::prelude::*;
-use std::f32::consts::PI;
 
 #[derive(Clone, Debug, Default)]
 pub struct RaySets {
@@ -88,24 +88,4 @@ impl RaySets {
             diffuse: pick(&self.diffuse),
         }
     }
-}
-
-/// A direction on the hemisphere around the unit normal `n`, with density ∝ cos θ, from a
-/// deterministic hash of `key` (the same rays every run).
-pub fn cosine_direction(n: Vec3, key: u64) -> Vec3 {
-    let h = splitmix64(key ^ 0x9e37_79b9_7f4a_7c15);
-    let r1 = (h >> 40) as f32 / (1u64 << 24) as f32;
-    let r2 = ((h >> 16) & 0xff_ffff) as f32 / (1u64 << 24) as f32;
-    let phi = 2.0 * PI * r1;
-    let r = r2.sqrt();
-    let (t, b) = n.any_orthonormal_pair();
-    let local = Vec3::new(r * phi.cos(), r * phi.sin(), (1.0 - r2).max(0.0).sqrt());
-    (t * local.x + b * local.y + n * local.z).normalize()
-}
-
-pub fn splitmix64(mut x: u64) -> u64 {
-    x = x.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    x = (x ^ (x >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    x = (x ^ (x >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    x ^ (x >> 31)
 }

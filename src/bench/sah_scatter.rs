@@ -1,5 +1,5 @@
 //! The SAH's prediction against the measured cost per ray, as a scatter plot over builders
-//! and scenes (`bvhlab bench --builders --sah-scatter`). Each point is one tree on one
+//! and scenes (`bvhlab bench sah-scatter`). Each point is one tree on one
 //! scene: across, the SAH cost it predicts; up, the cost per ray measured. On the line
 //! y = x the prediction is exact; below it the rays cost less than the SAH assumes.
 //!

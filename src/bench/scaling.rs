@@ -1,4 +1,4 @@
-//! How the cost of a ray grows with the scene, behind `bvhlab bench --scaling`: every structure
+//! How the cost of a ray grows with the scene, behind `bvhlab bench scaling`: every structure
 //! traces the same view of a built-in scene at sizes from 10³ to 10⁶ triangles, and the slope of
 //! log(cost) against log(N) tells brute force's ∝ N from a grid's ∝ N^(1/3) and a tree's ∝ log N.
 

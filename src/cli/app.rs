@@ -1,12 +1,14 @@
 //! `bvhlab` (no command) and `bvhlab app`: the explorer window; `bvhlab screenshot`: the same
 //! window in a given state, saved to a PNG.
 
-use super::compare::{CompareViewArg, settings_over};
-use super::{AccelArg, check_size};
+use super::check_size;
+use super::compare::params_over;
 use anyhow::Result;
+use bvhlab::accel::{AccelKind, StructureParams};
 use bvhlab::app::preset::Sequence;
 use bvhlab::app::screenshot::{ScreenshotPlan, Shot};
 use bvhlab::app::{Launch, run as run_app};
+use bvhlab::render::compare::CompareView;
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 
@@ -22,7 +24,7 @@ pub struct AppArgs {
     /// The structure to build (default: the last one; on a fresh start the fastest layout
     /// this machine traces).
     #[arg(long, value_enum)]
-    pub accel: Option<AccelArg>,
+    pub accel: Option<AccelKind>,
     /// Open at a preset: `lecture` (the built-in lecture), `lecture:N` (its step N), a
     /// preset file, or `FILE:N`. It sets the scene, structure, view and camera.
     #[arg(long, value_name = "lecture[:N]|FILE[:N]", conflicts_with_all = ["scene", "accel"])]
@@ -34,7 +36,7 @@ pub fn run(args: AppArgs) -> Result<()> {
     let preset = args.preset.as_deref().map(Sequence::open).transpose()?;
     run_app(Launch {
         scene: args.scene,
-        accel: args.accel.map(AccelArg::kind).transpose()?,
+        accel: args.accel,
         fresh: args.fresh,
         screenshot: None,
         preset,
@@ -73,8 +75,8 @@ pub struct ScreenshotArgs {
     #[arg(long, default_value_t = 860)]
     pub height: u32,
     /// The structure to build.
-    #[arg(long, value_enum, default_value_t = AccelArg::Bvh)]
-    pub accel: AccelArg,
+    #[arg(long, value_enum, default_value_t = AccelKind::Bvh)]
+    pub accel: AccelKind,
     /// For `--mode levels`: the depth shown (default 3).
     #[arg(long)]
     pub level: Option<u32>,
@@ -99,8 +101,8 @@ pub struct ScreenshotArgs {
     #[arg(long, value_name = "B FLAGS", allow_hyphen_values = true)]
     pub compare: Option<String>,
     /// With --compare: A | B side by side, or the difference B − A (heatmap modes).
-    #[arg(long, value_enum, requires = "compare", default_value_t = CompareViewArg::Split)]
-    pub compare_view: CompareViewArg,
+    #[arg(long, value_enum, requires = "compare", default_value_t = CompareView::Split)]
+    pub compare_view: CompareView,
     /// Open at a preset (`lecture`, `lecture:N`, a preset file, `FILE:N`): its scene,
     /// structure, view, overlays and camera replace --scene, --accel and --mode, and its
     /// caption is shown above the view.
@@ -137,8 +139,8 @@ pub fn screenshot(args: ScreenshotArgs) -> Result<()> {
         Some((sequence, i)) => bvhlab::scene::Scene::load(&sequence.presets[*i].scene)?,
         None => bvhlab::scene::Scene::load(&args.scene)?,
     };
-    let accel = args.accel.kind()?;
-    if args.instance.is_some() && accel != bvhlab::accel::AccelKind::TwoLevel {
+    let accel = args.accel;
+    if args.instance.is_some() && accel != AccelKind::TwoLevel {
         anyhow::bail!("--instance selects an instance of the two levels: use --accel two-level");
     }
     let mut plan = ScreenshotPlan::new(args.out, shot, args.width, args.height);
@@ -151,19 +153,19 @@ pub fn screenshot(args: ScreenshotArgs) -> Result<()> {
     });
     if let Some(flags) = &args.compare {
         let mut a = bvhlab::app::settings::Settings {
-            accel,
+            structure: StructureParams::of_kind(accel),
             ..Default::default()
         };
         plan.apply(&mut a);
-        let view = args.compare_view.view();
-        if view == bvhlab::render::compare::CompareView::Difference && !a.mode.is_heatmap() {
+        let view = args.compare_view;
+        if view == CompareView::Difference && !a.mode.is_heatmap() {
             anyhow::bail!(
                 "--compare-view difference needs a heatmap --mode (nodes, boxes, triangles), not {}",
                 a.mode.label()
             );
         }
         plan.compare = Some(bvhlab::app::screenshot::CompareShot {
-            b: settings_over(&a, flags)?,
+            b: params_over(&a.structure, flags)?,
             view,
         });
     }

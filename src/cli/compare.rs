@@ -3,33 +3,15 @@
 //! trace the same view; the PNG shows A | B or the difference B − A, and the summary
 //! compares their counters.
 
-use super::{BuildArgs, OrderArg};
+use super::BuildArgs;
 use anyhow::{Context, Result, anyhow, bail};
-use bvhlab::app::settings::{Pinned, Settings, StrategyChoice};
+use bvhlab::accel::StructureParams;
 use bvhlab::render::compare::{CompareView, compare_image, compared_counters, summarize};
 use bvhlab::render::{Frame, Mode, RenderSettings};
 use bvhlab::scene::Scene;
 use bvhlab::with_intersector;
-use clap::parser::ValueSource;
-use clap::{CommandFactory, FromArgMatches, Parser, ValueEnum};
+use clap::{ArgMatches, CommandFactory, FromArgMatches, Parser};
 use std::path::Path;
-
-#[derive(ValueEnum, Clone, Copy, Debug, PartialEq)]
-pub enum CompareViewArg {
-    /// Left half from A, right half from B, a line between them.
-    Split,
-    /// Per pixel B − A of the heatmap's counter: blue where B is cheaper, red where dearer.
-    Difference,
-}
-
-impl CompareViewArg {
-    pub fn view(self) -> CompareView {
-        match self {
-            CompareViewArg::Split => CompareView::Split,
-            CompareViewArg::Difference => CompareView::Difference,
-        }
-    }
-}
 
 /// The build flags of configuration B, as `--compare` takes them.
 #[derive(Parser)]
@@ -39,38 +21,11 @@ struct CompareFlags {
     build: BuildArgs,
 }
 
-/// Copies into `b` the fields of `given` whose flag `is_set` (given on the command line);
-/// returns the names of every field, which are the flags' ids.
-macro_rules! given_over {
-    ($b:ident, $given:ident, $is_set:ident; $($field:ident),* $(,)?) => {{
-        $( if $is_set(stringify!($field)) { $b.$field = $given.$field.clone(); } )*
-        &[$(stringify!($field)),*]
-    }};
-}
-
-fn overlay(
-    b: &mut BuildArgs,
-    given: &BuildArgs,
-    is_set: impl Fn(&str) -> bool,
-) -> &'static [&'static str] {
-    given_over!(b, given, is_set;
-        accel, mailbox, builder, buckets, treelet_size, rounds, split_alpha, overlap_penalty,
-        split_budget, presplit, rebraid, max_leaf, c_trav, c_isect, order, kd_c_trav, kd_c_isect, empty_bonus,
-        kd_max_depth, kd_max_leaf, kd_bins, lambda, octree_max_leaf, octree_max_depth, simd,
-    )
-}
-
-/// Configuration B: A's build flags with the ones `flags` gives replaced.
-pub fn b_over_a(a: &BuildArgs, flags: &str) -> Result<BuildArgs> {
-    let (given, is_set) = parse(flags)?;
-    let mut b = a.clone();
-    overlay(&mut b, &given, is_set);
-    Ok(b)
-}
-
-/// The flags of `flags`, and which of them it gives (the others hold their defaults).
-fn parse(flags: &str) -> Result<(BuildArgs, impl Fn(&str) -> bool)> {
-    let matches = CompareFlags::command()
+/// The flags `flags` gives, and only those: without their defaults, so that applied over
+/// a configuration they change only what they name.
+fn given(flags: &str) -> Result<ArgMatches> {
+    CompareFlags::command()
+        .mut_args(|arg| arg.default_value(None))
         .try_get_matches_from(flags.split_whitespace())
         .map_err(|e| {
             let message = e.render().to_string();
@@ -79,63 +34,29 @@ fn parse(flags: &str) -> Result<(BuildArgs, impl Fn(&str) -> bool)> {
                 "bad --compare flags '{flags}': {}",
                 first.trim_start_matches("error: ")
             )
-        })?;
-    let given = CompareFlags::from_arg_matches(&matches)?.build;
-    let is_set = move |id: &str| matches.value_source(id) == Some(ValueSource::CommandLine);
-    Ok((given, is_set))
+        })
+}
+
+/// Configuration B: A's build flags with the ones `flags` gives replaced.
+pub fn b_over_a(a: &BuildArgs, flags: &str) -> Result<BuildArgs> {
+    let mut b = a.clone();
+    b.update_from_arg_matches(&given(flags)?)?;
+    Ok(b)
 }
 
 /// The app's configuration B for `bvhlab screenshot --compare`: `a` with the build flags
 /// `flags` gives.
-pub fn settings_over(a: &Settings, flags: &str) -> Result<Pinned> {
-    let (given, is_set) = parse(flags)?;
-    let mut s = a.clone();
-    if is_set("accel")
-        && let Some(accel) = given.accel
-    {
-        s.accel = accel.kind()?;
-    }
-    if is_set("simd")
-        && let Some(simd) = given.simd
-    {
-        s.simd = simd.level();
-    }
-    let b = &given;
-    macro_rules! set {
-        ($($flag:ident => $field:ident = $value:expr),* $(,)?) => {
-            $( if is_set(stringify!($flag)) { s.$field = $value; } )*
-        };
-    }
-    set!(
-        mailbox => mailbox = b.mailbox,
-        builder => strategy = StrategyChoice::from(b.builder.strategy()),
-        buckets => buckets = b.buckets,
-        treelet_size => treelet_size = b.treelet_size,
-        rounds => treelet_rounds = b.rounds,
-        split_alpha => split_alpha = b.split_alpha,
-        overlap_penalty => overlap_penalty = b.overlap_penalty,
-        split_budget => split_budget = b.split_budget,
-        presplit => presplit = b.presplit,
-        rebraid => rebraid = b.rebraid,
-        max_leaf => max_leaf_size = b.max_leaf,
-        c_trav => c_trav = b.c_trav,
-        c_isect => c_isect = b.c_isect,
-        order => naive_order = matches!(b.order, OrderArg::Naive),
-        kd_c_trav => kd_c_trav = b.kd_c_trav,
-        kd_c_isect => kd_c_isect = b.kd_c_isect,
-        empty_bonus => kd_empty_bonus = b.empty_bonus,
-        kd_max_depth => kd_max_depth = b.kd_max_depth,
-        kd_max_leaf => kd_max_leaf_size = b.kd_max_leaf,
-        kd_bins => kd_bins = b.kd_bins,
-        lambda => grid_lambda = b.lambda,
-        octree_max_leaf => octree_max_leaf_size = b.octree_max_leaf,
-        octree_max_depth => octree_max_depth = b.octree_max_depth,
-    );
+pub fn params_over(a: &StructureParams, flags: &str) -> Result<StructureParams> {
+    let mut b = BuildArgs {
+        accel: None,
+        params: *a,
+    };
+    b.update_from_arg_matches(&given(flags)?)?;
+    let b = b.structure_params_for(b.accel.map_or(Ok(a.kind), |k| k.kind())?);
     // Fail here rather than in the window.
-    s.structure_params()
-        .validate()
+    b.validate()
         .map_err(|e| anyhow!("bad --compare flags '{flags}': {e}"))?;
-    Ok(Pinned::of(&s))
+    Ok(b)
 }
 
 /// Traces A (`a`) and B (`flags` over `a`) with `settings`, writes the comparison to `out`
@@ -146,10 +67,9 @@ pub fn run(
     intersector: bvhlab::geometry::IntersectorKind,
     a: &BuildArgs,
     flags: &str,
-    view: CompareViewArg,
+    view: CompareView,
     out: &Path,
 ) -> Result<()> {
-    let view = view.view();
     if view == CompareView::Difference && !matches!(settings.mode, Mode::Heatmap(..)) {
         bail!(
             "--compare-view difference needs a heatmap --mode (nodes, boxes, triangles, \
@@ -201,6 +121,7 @@ pub fn run(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use bvhlab::accel::{AccelKind, Strategy};
 
     fn a_with(args: &[&str]) -> BuildArgs {
         CompareFlags::try_parse_from(args.iter().copied())
@@ -212,29 +133,96 @@ mod tests {
     fn b_changes_only_the_flags_it_gives() {
         let a = a_with(&["--max-leaf", "8", "--builder", "lbvh", "--buckets", "16"]);
         let b = b_over_a(&a, "--builder sbvh").unwrap();
-        assert!(matches!(b.builder, super::super::BuilderArg::Sbvh));
-        assert_eq!((b.max_leaf, b.buckets), (8, 16));
+        assert_eq!(b.params.bvh.strategy, Strategy::Sbvh);
+        assert_eq!((b.params.bvh.max_leaf_size, b.params.bvh.buckets), (8, 16));
         let b = b_over_a(&a, "--max-leaf 2 --accel kdtree --mailbox false").unwrap();
-        assert_eq!((b.max_leaf, b.mailbox), (2, false));
-        assert!(matches!(b.builder, super::super::BuilderArg::Lbvh));
+        assert_eq!((b.params.bvh.max_leaf_size, b.params.mailbox), (2, false));
+        assert_eq!(
+            b.accel,
+            Some(super::super::AccelArg::One(AccelKind::KdTree))
+        );
+        assert_eq!(b.params.bvh.strategy, Strategy::Lbvh);
         // No flags: B is A.
         let b = b_over_a(&a, "").unwrap();
-        assert_eq!(b.max_leaf, a.max_leaf);
+        assert_eq!(b.params, a.params);
     }
 
+    /// A's values that are not the defaults survive in B: the defaults of the flags B does
+    /// not give never overwrite them.
     #[test]
-    fn every_build_flag_can_be_given_to_b() {
-        let a = a_with(&[]);
-        let mut b = a.clone();
-        let names = overlay(&mut b, &a, |_| false);
-        let mut ids: Vec<String> = CompareFlags::command()
-            .get_arguments()
-            .map(|arg| arg.get_id().to_string())
-            .collect();
-        ids.sort();
-        let mut names: Vec<String> = names.iter().map(|s| s.to_string()).collect();
-        names.sort();
-        assert_eq!(ids, names);
+    fn the_defaults_of_flags_not_given_do_not_reach_b() {
+        let a = a_with(&[
+            "--builder",
+            "sbvh",
+            "--buckets",
+            "4",
+            "--max-leaf",
+            "3",
+            "--c-trav",
+            "2",
+            "--c-isect",
+            "3",
+            "--treelet-size",
+            "6",
+            "--rounds",
+            "1",
+            "--split-alpha",
+            "0.5",
+            "--overlap-penalty",
+            "1",
+            "--split-budget",
+            "0.5",
+            "--presplit",
+            "0.2",
+            "--rebraid",
+            "2",
+            "--order",
+            "naive",
+            "--kd-c-trav",
+            "2",
+            "--kd-c-isect",
+            "3",
+            "--empty-bonus",
+            "0.1",
+            "--kd-max-depth",
+            "9",
+            "--kd-max-leaf",
+            "3",
+            "--kd-bins",
+            "16",
+            "--lambda",
+            "3",
+            "--octree-max-leaf",
+            "3",
+            "--octree-max-depth",
+            "5",
+            "--mailbox",
+            "false",
+            "--simd",
+            "portable",
+        ]);
+        let defaults = a_with(&[]).params;
+        let b = b_over_a(&a, "--lambda 4").unwrap().params;
+        assert_eq!(b.grid.lambda, 4.0);
+        assert_eq!(
+            StructureParams {
+                grid: a.params.grid,
+                ..b
+            },
+            a.params
+        );
+        // Every field of A differs from its default, so each one above was checked.
+        let fields = |p: &StructureParams| match serde_json::to_value(p) {
+            Ok(serde_json::Value::Object(map)) => map,
+            _ => unreachable!(),
+        };
+        let (given, default) = (fields(&a.params), fields(&defaults));
+        for (key, value) in &given {
+            assert!(
+                key == "accel" || default[key] != *value,
+                "{key} is its default"
+            );
+        }
     }
 
     #[test]

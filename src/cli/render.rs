@@ -1,10 +1,11 @@
 //! `bvhlab render`: a scene through the CPU ray tracer into a PNG.
 
-use super::compare::CompareViewArg;
-use super::{AccelArg, BuildArgs, IntersectorArg, ModeArg, ViewArgs, check_size, load_scene};
+use super::{AccelArg, BuildArgs, ViewArgs, check_size, load_scene};
 use anyhow::{Context, Result, bail};
-use bvhlab::accel::Counter;
-use bvhlab::render::{self, Mode, RayKind, RenderSettings};
+use bvhlab::accel::{AccelKind, Counter};
+use bvhlab::geometry::IntersectorKind;
+use bvhlab::render::compare::CompareView;
+use bvhlab::render::{self, RayKind, RenderSettings, ViewMode};
 use bvhlab::with_intersector;
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
@@ -17,8 +18,8 @@ pub struct RenderArgs {
     /// Output PNG.
     #[arg(long, short)]
     pub out: Option<PathBuf>,
-    #[arg(long, value_enum, default_value_t = ModeArg::Shaded)]
-    pub mode: ModeArg,
+    #[arg(long, value_enum, default_value_t = ViewMode::Shaded)]
+    pub mode: ViewMode,
     /// For heatmaps: count the shadow rays instead of the primary rays.
     #[arg(long)]
     pub shadow: bool,
@@ -35,8 +36,8 @@ pub struct RenderArgs {
     #[command(flatten)]
     pub view: ViewArgs,
     /// Ray–triangle test used by every ray.
-    #[arg(long, value_enum, default_value_t = IntersectorArg::Watertight)]
-    pub intersector: IntersectorArg,
+    #[arg(long, value_enum, default_value_t = IntersectorKind::Watertight)]
+    pub intersector: IntersectorKind,
     #[command(flatten)]
     pub build: BuildArgs,
     /// Compare with a second configuration B: build flags in one quoted argument, read over
@@ -45,8 +46,8 @@ pub struct RenderArgs {
     #[arg(long, value_name = "B FLAGS", allow_hyphen_values = true)]
     pub compare: Option<String>,
     /// With --compare: A | B side by side, or the difference B − A of the heatmap's counter.
-    #[arg(long, value_enum, requires = "compare", default_value_t = CompareViewArg::Split)]
-    pub compare_view: CompareViewArg,
+    #[arg(long, value_enum, requires = "compare", default_value_t = CompareView::Split)]
+    pub compare_view: CompareView,
 }
 
 pub fn run(args: RenderArgs) -> Result<()> {
@@ -59,23 +60,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         }
         camera.fov_y_deg = fov;
     }
-    let rays = if args.shadow {
-        RayKind::Shadow
-    } else {
-        RayKind::Primary
-    };
-    let mode = match args.mode {
-        ModeArg::Shaded => Mode::Shaded,
-        ModeArg::Normals => Mode::Normals,
-        ModeArg::Depth => Mode::Depth,
-        ModeArg::Nodes => Mode::Heatmap(Counter::NodesVisited, rays),
-        ModeArg::Boxes => Mode::Heatmap(Counter::BoxTests, rays),
-        ModeArg::Triangles => Mode::Heatmap(Counter::TriangleTests, rays),
-        ModeArg::Repeated => Mode::Heatmap(Counter::RepeatedTests, rays),
-        ModeArg::TopNodes => Mode::Heatmap(Counter::TopNodesVisited, rays),
-        ModeArg::BottomNodes => Mode::Heatmap(Counter::BottomNodesVisited, rays),
-        ModeArg::Instances => Mode::Heatmap(Counter::InstancesEntered, rays),
-    };
+    let mode = args.mode.render_mode(args.shadow);
     let settings = RenderSettings {
         width: args.width,
         height: args.height,
@@ -86,7 +71,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         shadows: true,
         counters: true,
     };
-    let kind = args.intersector.kind();
+    let kind = args.intersector;
     let out_or_default = |suffix: &str| {
         args.out.clone().unwrap_or_else(|| {
             PathBuf::from(format!("bvhlab-{}{suffix}.png", sanitize(&scene.name)))
@@ -106,12 +91,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
     // A flat structure has no levels: its top-level and instance counts are all zero, a
     // black heatmap that would look like a measurement.
-    let two_level_mode = matches!(
-        args.mode,
-        ModeArg::TopNodes | ModeArg::BottomNodes | ModeArg::Instances
-    );
     let accel = args.build.accel_to_trace(&scene);
-    if two_level_mode && accel != AccelArg::TwoLevel {
+    if args.mode.is_two_level() && accel != AccelArg::One(AccelKind::TwoLevel) {
         bail!(
             "--mode {} counts the two levels' work, which {} does not have: add --accel two-level",
             args.mode

@@ -1,8 +1,9 @@
 //! `bvhlab replay`: one pixel's ray traced again step by step, through the same traversal
 //! code as `render`, printed as text or as one JSON object.
 
-use super::{BuildArgs, IntersectorArg, ViewArgs, check_size, load_scene};
+use super::{BuildArgs, ViewArgs, check_size, load_scene};
 use anyhow::{Context, Result, bail};
+use bvhlab::geometry::IntersectorKind;
 use bvhlab::render::replay::replay_pixel;
 use bvhlab::render::{RayKind, RenderSettings};
 use bvhlab::with_intersector;
@@ -44,8 +45,8 @@ pub struct ReplayArgs {
     #[arg(long)]
     pub json: bool,
     /// Ray–triangle test.
-    #[arg(long, value_enum, default_value_t = IntersectorArg::Watertight)]
-    pub intersector: IntersectorArg,
+    #[arg(long, value_enum, default_value_t = IntersectorKind::Watertight)]
+    pub intersector: IntersectorKind,
     #[command(flatten)]
     pub build: BuildArgs,
 }
@@ -79,7 +80,7 @@ pub fn run(args: ReplayArgs) -> Result<()> {
     };
     let built = args.build.build(&scene)?;
     let s = &built.structure;
-    let replay = with_intersector!(args.intersector.kind(), I => replay_pixel::<I>(s, &scene, &settings, args.pixel, rays))
+    let replay = with_intersector!(args.intersector, I => replay_pixel::<I>(s, &scene, &settings, args.pixel, rays))
         .context("cannot replay the pixel")?;
     if args.json {
         out!("{}", replay.to_json());

@@ -80,9 +80,12 @@ pub fn run(args: StressArgs) -> Result<()> {
     if let Some(s) = args.seed {
         cfg.seed = s;
     }
-    cfg.structure = args
-        .build
-        .structure_params_for(args.build.accel.unwrap_or(super::AccelArg::Bvh).kind()?);
+    cfg.structure = args.build.structure_params_for(
+        args.build
+            .accel
+            .unwrap_or(super::AccelArg::One(bvhlab::accel::AccelKind::Bvh))
+            .kind()?,
+    );
     cfg.structure.validate()?;
     if args.embree {
         return run_embree(&args, &cfg);
@@ -253,7 +256,7 @@ fn axis_parallel_timing(scene: &Scene) -> Timing {
         return t;
     };
     let b = scene.bounds();
-    let mut rng = bvhlab::bench::stress::Rng(5);
+    let mut rng = bvhlab::random::Rng(5);
     let n = 400_000;
     let origins: Vec<Vec3> = (0..n)
         .map(|_| {

@@ -1,11 +1,12 @@
 //! `bvhlab trace`: a batch query for users who bring their own rays. Reads a binary ray
 //! file, traces every ray (closest hit, or occlusion with --any) and writes the answers in
-//! input order; the formats are those of `bvhlab::geometry::rayfile`.
+//! input order; the formats are those of `bvhlab::accel::rayfile`.
 
-use super::{BuildArgs, IntersectorArg, load_scene, thread_pool};
+use super::{BuildArgs, load_scene, thread_pool};
 use anyhow::{Context, Result, bail};
+use bvhlab::accel::rayfile::{self, HitFormat};
 use bvhlab::accel::{Accel, NoStats};
-use bvhlab::geometry::rayfile::{self, HitFormat};
+use bvhlab::geometry::IntersectorKind;
 use bvhlab::geometry::{Intersector, Ray};
 use bvhlab::with_intersector;
 use clap::{Args, ValueEnum};
@@ -39,8 +40,8 @@ pub struct TraceArgs {
     #[arg(long)]
     pub any: bool,
     /// Ray–triangle test.
-    #[arg(long, value_enum, default_value_t = IntersectorArg::Watertight)]
-    pub intersector: IntersectorArg,
+    #[arg(long, value_enum, default_value_t = IntersectorKind::Watertight)]
+    pub intersector: IntersectorKind,
     /// Bits of a triangle's number in the hit file (default: 32, or 64 for a scene that
     /// places more triangles than 32 bits number).
     #[arg(long, value_enum, conflicts_with = "any")]
@@ -87,7 +88,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
     let (output, answered) = pool.install(|| -> Result<(Vec<u8>, usize)> {
         let built = args.build.build_to_trace(&scene)?;
         let s = &built.structure;
-        with_intersector!(args.intersector.kind(), I => trace_all::<_, I>(s, &rays, args.any, format))
+        with_intersector!(args.intersector, I => trace_all::<_, I>(s, &rays, args.any, format))
     })?;
     let elapsed = start.elapsed();
     std::fs::write(&args.out, &output)
@@ -104,7 +105,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
         answered,
         answers,
         scene.placed_triangles(),
-        args.intersector.kind().label(),
+        args.intersector.label(),
         elapsed.as_secs_f64() * 1e3
     );
     Ok(())

@@ -84,18 +84,6 @@ impl Aabb {
         2.0 * (e.x * e.y + e.y * e.z + e.z * e.x)
     }
 
-    /// Axis of the largest extent (0 = x, 1 = y, 2 = z).
-    pub fn largest_axis(&self) -> usize {
-        let e = self.extent();
-        if e.x >= e.y && e.x >= e.z {
-            0
-        } else if e.y >= e.z {
-            1
-        } else {
-            2
-        }
-    }
-
     pub fn contains_point(&self, p: Vec3) -> bool {
         p.cmpge(self.min).all() && p.cmple(self.max).all()
     }

@@ -7,7 +7,6 @@ pub mod frustum;
 pub mod intersect;
 pub mod overlap;
 pub mod ray;
-pub mod rayfile;
 pub mod simd;
 pub mod spawn;
 pub mod triangle;

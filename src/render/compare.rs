@@ -11,14 +11,17 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 /// How two traced frames are shown.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum,
+)]
 pub enum CompareView {
-    /// Configuration B alone, as without a pinned A.
+    /// Configuration B alone, as without a pinned A (the app's choice; the CLI compares).
     #[default]
+    #[value(skip)]
     BOnly,
-    /// Left half of the image from A, right half from B.
+    /// Left half from A, right half from B, a line between them.
     Split,
-    /// Per pixel B − A of the heatmap's counter (heatmaps only).
+    /// Per pixel B − A of the heatmap's counter: blue where B is cheaper, red where dearer.
     Difference,
 }
 

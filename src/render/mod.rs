@@ -9,8 +9,10 @@ pub mod frame;
 pub mod overlay;
 pub mod replay;
 mod sample_pool;
+pub mod view_mode;
 
 pub use frame::{CounterSummary, Frame, FrameSummary, RayKind, Sample};
+pub use view_mode::ViewMode;
 
 use crate::accel::bvh::packet::PACKET_SIZE;
 use crate::accel::{Accel, Counter, Counters, Hit, NoStats, Stats};

@@ -558,7 +558,7 @@ fn quarter_turns(p: Vec3, turns: usize) -> Vec3 {
     (0..turns).fold(p, |p, _| vec3(p.z, p.y, -p.x))
 }
 
-/// SplitMix64 (Steele, Lea and Flood 2014): tiny, fast and plenty for placing geometry.
+/// A SplitMix64 stream (`crate::random`) for placing geometry.
 pub(super) struct Rng(u64);
 
 impl Rng {
@@ -567,11 +567,9 @@ impl Rng {
     }
 
     fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
+        let out = crate::random::splitmix64(self.0);
+        self.0 = self.0.wrapping_add(crate::random::GOLDEN);
+        out
     }
 
     /// Uniform in [0, 1): the top 24 bits, which f32 holds exactly.

@@ -219,7 +219,7 @@ mod tests {
     /// A shifted box is its eight shifted corners' box, to the bit, signed zeros aside.
     #[test]
     fn a_shifted_box_is_its_shifted_corners_box() {
-        let mut rng = crate::bench::stress::Rng(0x2545_f491_4f6c_dd1d);
+        let mut rng = crate::random::Rng(0x2545_f491_4f6c_dd1d);
         // Values from tiny to huge, of both signs.
         let mut next = || (rng.unit() as f32 - 0.5) * 10f32.powi(rng.below(13) as i32 - 6);
         for _ in 0..20_000 {
@@ -244,7 +244,7 @@ mod tests {
     /// placements that overflow f32 (where the shared form steps aside).
     #[test]
     fn corners_placed_together_give_the_corners_placed_one_by_one() {
-        let mut rng = crate::bench::stress::Rng(0x9e37_79b9_7f4a_7c15);
+        let mut rng = crate::random::Rng(0x9e37_79b9_7f4a_7c15);
         let mut next = |range: i32| {
             (rng.unit() as f32 - 0.5) * 10f32.powi(rng.below(2 * range as u64 + 1) as i32 - range)
         };

@@ -100,7 +100,7 @@ mod tests {
 
     #[test]
     fn finds_the_owner_of_every_triangle_as_the_search_does() {
-        let mut rng = crate::bench::stress::Rng(0x9e37_79b9_7f4a_7c15);
+        let mut rng = crate::random::Rng(0x9e37_79b9_7f4a_7c15);
         let mut next = |n: u64| rng.below(n) as usize;
         for case in 0..40 {
             // Objects of 1 to thousands of triangles, some with gaps between them.

@@ -19,8 +19,8 @@ pub use wide::{Bvh4, Bvh8, Subtree, WideBvh};
 use crate::geometry::Triangle;
 use rayon::prelude::*;
 
-/// Which child a traversal visits first.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+/// Which child a traversal visits first (the CLI's `--order`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, clap::ValueEnum)]
 pub enum TraversalOrder {
     /// The child whose box the ray enters first, the other pushed with its entry distance
     /// and skipped if a closer hit has been found by the time it is popped.

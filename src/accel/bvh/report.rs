@@ -3,6 +3,7 @@
 
 use super::Bvh;
 use super::build::BuildParams;
+use crate::accel::report::Detail;
 use std::time::Duration;
 
 /// Shape statistics of a tree, recomputed after a refit as well.
@@ -68,13 +69,10 @@ impl BuildPhases {
     }
 
     /// One ("time: phase", "x ms") row per phase.
-    pub fn time_rows(&self) -> impl Iterator<Item = (String, String)> + '_ {
-        self.times.iter().map(|(phase, time)| {
-            (
-                format!("time: {phase}"),
-                format!("{:.2} ms", time.as_secs_f64() * 1e3),
-            )
-        })
+    pub fn time_rows(&self) -> impl Iterator<Item = (String, Detail)> + '_ {
+        self.times
+            .iter()
+            .map(|(phase, time)| (format!("time: {phase}"), Detail::Time(*time)))
     }
 
     pub fn add_round(&mut self, time: Duration, sah_cost: f64) {
@@ -179,7 +177,7 @@ impl BuildReport {
             .collect();
         rows.push(("leaf sizes (size:count)".into(), hist.join(" ")));
         rows.push(("threads".into(), rayon::current_num_threads().to_string()));
-        rows.extend(self.phases.time_rows());
+        rows.extend((self.phases.time_rows()).map(|(k, v)| (k, v.to_string())));
         if let Some(before) = self.phases.sah_before_rounds {
             rows.push(("SAH cost before treelets".into(), format!("{before:.3}")));
         }
@@ -225,6 +223,7 @@ impl BuildReport {
             details: rows
                 .into_iter()
                 .filter(|(k, _)| !skip.contains(&k.as_str()))
+                .map(|(k, v)| (k, v.into()))
                 .collect(),
             caps_hit: Vec::new(),
         }

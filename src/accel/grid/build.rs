@@ -5,6 +5,7 @@
 
 use super::{Grid, GridError, GridParams, MAX_CELLS, MAX_REFERENCES, PAD, SHARED};
 use crate::accel::StructureReport;
+use crate::accel::report::Detail;
 use crate::geometry::overlap::{TriangleRuns, TriangleSat};
 use crate::geometry::{Aabb, Triangle};
 use glam::DVec3;
@@ -449,15 +450,15 @@ fn report(grid: &Grid, params: &GridParams, build_time: std::time::Duration) -> 
         references: grid.ids.len(),
         largest_leaf: largest,
         details: vec![
-            ("resolution".into(), format!("{nx} × {ny} × {nz}")),
+            ("resolution".into(), format!("{nx} × {ny} × {nz}").into()),
             (
                 "λ (cells per triangle)".into(),
-                format!("{}", params.lambda),
+                format!("{}", params.lambda).into(),
             ),
-            ("cells".into(), cells.to_string()),
+            ("cells".into(), Detail::count(cells)),
             (
                 "cells per triangle".into(),
-                format!("{:.2}", cells as f64 / grid.triangles.len().max(1) as f64),
+                Detail::Number(cells as f64 / grid.triangles.len().max(1) as f64, 2),
             ),
         ],
         caps_hit: Vec::new(),

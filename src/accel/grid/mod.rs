@@ -32,12 +32,17 @@ pub(crate) const PAD: f64 = 1.0 / (1u64 << 18) as f64;
 
 pub(crate) use crate::accel::mailbox::{SHARED, mark_shared};
 
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize, clap::Args)]
+#[serde(default)]
 pub struct GridParams {
-    /// Cells ≈ λ · triangles (1/16..=64).
+    /// Uniform grid: cells ≈ λ · triangles (1/16..=64).
+    #[serde(rename = "grid_lambda")]
+    #[arg(id = "grid_lambda", long = "lambda", value_name = "LAMBDA", default_value_t = GridParams::default().lambda)]
     pub lambda: f32,
     /// Skip triangles the ray has tested already (they are listed in every cell they
     /// overlap); the grid's `mailbox` field switches it without a rebuild.
+    #[serde(skip)]
+    #[arg(skip = true)]
     pub mailbox: bool,
 }
 

@@ -34,26 +34,77 @@ impl KdSplit {
     }
 }
 
-/// Plain-data build parameters, shared by the app, the CLI and the tests.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Plain-data build parameters, shared by the app, the CLI and the tests. The preset keys
+/// and the flags carry a `kd` prefix where the BVH has a parameter of the same name.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize, clap::Args)]
+#[serde(default)]
 pub struct KdParams {
-    /// Cost of one traversal step (a node and its plane distance).
+    /// k-d tree: SAH cost of a traversal step (a node and its plane distance).
+    #[serde(rename = "kd_c_trav")]
+    #[arg(id = "kd_c_trav", long = "kd-c-trav", value_name = "KD_C_TRAV", default_value_t = KdParams::default().c_trav)]
     pub c_trav: f32,
-    /// Cost of one ray–triangle test.
+    /// k-d tree: SAH cost of a ray–triangle test.
+    #[serde(rename = "kd_c_isect")]
+    #[arg(id = "kd_c_isect", long = "kd-c-isect", value_name = "KD_C_ISECT", default_value_t = KdParams::default().c_isect)]
     pub c_isect: f32,
-    /// A split with one empty side costs (1 − empty_bonus) times its SAH cost: cutting off
-    /// empty space lets rays skip it in one step.
+    /// k-d tree: a split with an empty side costs (1 − bonus) × its SAH cost, since rays
+    /// skip empty space in one step (0..1).
+    #[serde(rename = "kd_empty_bonus")]
+    #[arg(id = "kd_empty_bonus", long = "empty-bonus", value_name = "EMPTY_BONUS", default_value_t = KdParams::default().empty_bonus)]
     pub empty_bonus: f32,
-    /// Deepest leaf; 0 = automatic, 8 + 1.3·log2 N (pbrt), at most `MAX_DEPTH`.
+    /// k-d tree: depth bound (0 = 8 + 1.3·log2 N, as pbrt; at most 64).
+    #[serde(rename = "kd_max_depth")]
+    #[arg(id = "kd_max_depth", long = "kd-max-depth", value_name = "KD_MAX_DEPTH", default_value_t = KdParams::default().max_depth)]
     pub max_depth: u32,
-    /// A node with this many references or fewer becomes a leaf.
+    /// k-d tree: nodes with this many references or fewer become leaves.
+    #[serde(rename = "kd_max_leaf_size")]
+    #[arg(id = "kd_max_leaf_size", long = "kd-max-leaf", value_name = "KD_MAX_LEAF", default_value_t = KdParams::default().max_leaf_size)]
     pub max_leaf_size: u32,
+    /// k-d tree: split candidates from B bins per axis instead of the exact event sweep
+    /// (0 = the sweep).
+    #[serde(rename = "kd_bins", with = "kd_bins")]
+    #[arg(id = "kd_bins", long = "kd-bins", value_name = "KD_BINS", value_parser = kd_bins::parse, default_value = "0")]
     pub split: KdSplit,
-    /// Traversal skips triangles the ray has tested already (a toggle, no rebuild).
+    /// Traversal skips triangles the ray has tested already (a toggle, no rebuild; the
+    /// structure's own `mailbox` setting is what the app and the CLI change).
+    #[serde(skip)]
+    #[arg(skip = true)]
     pub mailbox: bool,
     /// The build stops splitting before the leaves hold more than this many references
     /// per triangle in total.
+    #[serde(skip)]
+    #[arg(skip = KdParams::default().max_references_factor)]
     pub max_references_factor: f32,
+}
+
+/// The split search as the presets and the CLI spell it: a bin count, 0 for the sweep.
+mod kd_bins {
+    use super::KdSplit;
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(split: &KdSplit, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_u32(match split {
+            KdSplit::Sweep => 0,
+            KdSplit::Binned(b) => *b,
+        })
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<KdSplit, D::Error> {
+        Ok(from_bins(u32::deserialize(d)?))
+    }
+
+    fn from_bins(bins: u32) -> KdSplit {
+        match bins {
+            0 => KdSplit::Sweep,
+            b => KdSplit::Binned(b),
+        }
+    }
+
+    pub fn parse(text: &str) -> Result<KdSplit, String> {
+        text.parse::<u32>()
+            .map(from_bins)
+            .map_err(|e| format!("'{text}' is not a bin count: {e}"))
+    }
 }
 
 impl Default for KdParams {

@@ -137,6 +137,7 @@ impl KdTree {
             ),
             ("SAH cost".to_string(), format!("{:.2}", self.sah_cost())),
         ];
+        let details = details.into_iter().map(|(k, v)| (k, v.into())).collect();
         StructureReport {
             structure: "kdtree",
             triangles: self.triangles.len(),

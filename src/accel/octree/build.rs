@@ -6,6 +6,7 @@
 use super::{MAX_REFERENCES_PER_TRIANGLE, Node, Octree, OctreeError, OctreeParams};
 use crate::accel::StructureReport;
 use crate::accel::grid::{PAD, mark_shared};
+use crate::accel::report::Detail;
 use crate::geometry::overlap::TriangleSat;
 use crate::geometry::{Aabb, Triangle};
 use glam::DVec3;
@@ -261,12 +262,18 @@ fn report(
         references: octree.refs.len(),
         largest_leaf: leaves.iter().map(|n| n.count as usize).max().unwrap_or(0),
         details: vec![
-            ("max leaf size".into(), params.max_leaf_size.to_string()),
-            ("depth bound".into(), params.max_depth.to_string()),
-            ("root cube side".into(), format!("{:.4}", octree.root_size)),
+            (
+                "max leaf size".into(),
+                Detail::Count(params.max_leaf_size.into()),
+            ),
+            ("depth bound".into(), Detail::Count(params.max_depth.into())),
+            (
+                "root cube side".into(),
+                Detail::Number(octree.root_size.into(), 4),
+            ),
             (
                 "empty octants (not stored)".into(),
-                caps.empty_octants.to_string(),
+                Detail::count(caps.empty_octants),
             ),
         ],
         caps_hit,

@@ -25,14 +25,21 @@ pub const MAX_LEAF_SIZE: u32 = 1 << 16;
 /// copied into every octant level after level.
 pub const MAX_REFERENCES_PER_TRIANGLE: usize = 16;
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize, clap::Args)]
+#[serde(default)]
 pub struct OctreeParams {
-    /// A cell holding more triangles than this is split (1..=65536).
+    /// Octree: a cell holding more triangles than this is split (1..=65536).
+    #[serde(rename = "octree_max_leaf_size")]
+    #[arg(id = "octree_max_leaf_size", long = "octree-max-leaf", value_name = "OCTREE_MAX_LEAF", default_value_t = OctreeParams::default().max_leaf_size)]
     pub max_leaf_size: u32,
-    /// Cells at this depth are not split (0..=16; the root is depth 0).
+    /// Octree: cells at this depth are not split (0..=16; the root is depth 0).
+    #[serde(rename = "octree_max_depth")]
+    #[arg(id = "octree_max_depth", long = "octree-max-depth", value_name = "OCTREE_MAX_DEPTH", default_value_t = OctreeParams::default().max_depth)]
     pub max_depth: u32,
     /// Skip triangles the ray has tested already (they are listed in every cell they
     /// overlap); the octree's `mailbox` field switches it without a rebuild.
+    #[serde(skip)]
+    #[arg(skip = true)]
     pub mailbox: bool,
 }
 

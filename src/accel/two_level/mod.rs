@@ -23,6 +23,7 @@ pub use refit::{MovedReference, TopLevelIndex};
 use super::bvh::wide::{CollapseParams, UnsupportedSimd};
 use super::bvh::{self, BuildError, Bvh8, Subtree};
 use super::{BuildParams, Outline, OutlineNode, StructureReport, TraversalOrder};
+use crate::accel::report::Detail;
 use crate::geometry::simd::SimdLevel;
 use crate::geometry::{Aabb, Triangle};
 use crate::scene::{Instance, Instancing, TransformError};
@@ -51,8 +52,9 @@ pub struct TwoLevel {
     /// index `references`; it keeps no triangles).
     pub tlas: Bvh8,
     pub order: TraversalOrder,
-    /// The slab kernel both levels run.
-    pub simd: SimdLevel,
+    /// The slab kernel both levels run. Private: the traversal's `unsafe` kernels rely on it
+    /// naming a level this CPU supports, which `set_simd` checks.
+    simd: SimdLevel,
     /// The build parameters, kept to rebuild the top level.
     pub params: BuildParams,
     /// Where each reference sits in the TLAS, for refitting an instance's when it moves.
@@ -299,7 +301,9 @@ impl TwoLevel {
     pub fn rebuild_top_level(&mut self) -> Result<(), BuildError> {
         let (mut tlas, references) = build_tlas(&self.blases, &self.instances, &self.params)?;
         tlas.order = self.order;
-        tlas.simd = self.simd;
+        // `self.simd` passed `set_simd`, so this cannot fail (and the new TLAS would keep the
+        // level detected here if it did).
+        let _ = tlas.set_simd(self.simd);
         self.top_index = TopLevelIndex::new(&tlas, references.len());
         self.leaves = leaf_references(&tlas, &references, &self.instances);
         self.first_reference = first_reference(&references, self.instances.len());
@@ -310,6 +314,11 @@ impl TwoLevel {
 
     /// Chooses the slab kernel of both levels (no rebuild); one this CPU lacks is an error
     /// and changes nothing.
+    /// The slab kernel both levels run.
+    pub fn simd(&self) -> SimdLevel {
+        self.simd
+    }
+
     pub fn set_simd(&mut self, level: SimdLevel) -> Result<(), UnsupportedSimd> {
         self.tlas.set_simd(level)?;
         for blas in &mut self.blases {
@@ -424,7 +433,6 @@ impl TwoLevel {
             })
             .max()
             .unwrap_or(0) as usize;
-        let ms = |d: Duration| format!("{:.2} ms", d.as_secs_f64() * 1e3);
         StructureReport {
             structure: "two-level",
             triangles: instanced,
@@ -437,15 +445,18 @@ impl TwoLevel {
             references: instanced,
             largest_leaf,
             details: vec![
-                ("instances".into(), self.instances.len().to_string()),
-                ("TLAS references".into(), self.references.len().to_string()),
-                ("re-braiding".into(), self.rebraid_summary()),
-                ("unique meshes".into(), self.blases.len().to_string()),
-                ("unique triangles".into(), unique.to_string()),
-                ("TLAS nodes".into(), self.tlas.nodes.len().to_string()),
-                ("BLAS nodes".into(), blas_nodes.to_string()),
-                ("BLAS builds".into(), ms(times.blas)),
-                ("TLAS build".into(), ms(times.tlas)),
+                ("instances".into(), Detail::count(self.instances.len())),
+                (
+                    "TLAS references".into(),
+                    Detail::count(self.references.len()),
+                ),
+                ("re-braiding".into(), self.rebraid_summary().into()),
+                ("unique meshes".into(), Detail::count(self.blases.len())),
+                ("unique triangles".into(), Detail::count(unique)),
+                ("TLAS nodes".into(), Detail::count(self.tlas.nodes.len())),
+                ("BLAS nodes".into(), Detail::count(blas_nodes)),
+                ("BLAS builds".into(), Detail::Time(times.blas)),
+                ("TLAS build".into(), Detail::Time(times.tlas)),
             ],
             caps_hit: Vec::new(),
         }

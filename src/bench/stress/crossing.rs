@@ -2,10 +2,10 @@
 //! two consistently wound triangles, or at a vertex inside a closed fan, transversally. The
 //! exact ray hits there; a closest hit missing or farther away is a leak.
 
-use super::Rng;
 use crate::accel::{Accel, NoStats};
 use crate::geometry::intersect::reference::{Shear64, evaluate};
 use crate::geometry::{Intersector, Ray, Triangle};
+use crate::random::Rng;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use std::collections::HashMap;

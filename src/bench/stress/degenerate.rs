@@ -1,8 +1,8 @@
 //! Degenerate triangles (one point, a repeated corner, three collinear corners) on exact
 //! dyadic grids: they have no area, so no ray may hit them, and none may give a NaN.
 
-use super::Rng;
 use crate::geometry::{Intersector, Ray, Triangle};
+use crate::random::Rng;
 use glam::Vec3;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

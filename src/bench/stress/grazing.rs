@@ -2,8 +2,8 @@
 //! across it) sees zero area and must not hit; rays along edges or nearly in the plane of any
 //! triangle may hit or miss, but never with a NaN.
 
-use super::Rng;
 use crate::geometry::{Intersector, Ray, Triangle};
+use crate::random::Rng;
 use glam::Vec3;
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -2,11 +2,11 @@
 //! inside and outside, each passing through a robustly interior point, so it must hit. A ray
 //! with no hit is a leak, whether the triangle test or the BVH's box test lost it.
 
-use super::Rng;
 use super::meshes::{ClosedMesh, F32_INTS, PlacedMesh, Placement, exact_in_f32};
 use crate::accel::structure::{self, Structure};
 use crate::accel::{Accel, BruteForce, NoStats, StructureParams};
 use crate::geometry::{Intersector, Ray};
+use crate::random::Rng;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 

@@ -3,9 +3,9 @@
 //! is the triangle it leaves has hit itself.
 
 use crate::accel::{Accel, NoStats};
-use crate::bench::rays::cosine_direction;
 use crate::geometry::spawn::SurfacePoint;
 use crate::geometry::{Intersector, Ray, Triangle};
+use crate::random::cosine_direction;
 use glam::Vec3;
 use rayon::prelude::*;
 

@@ -2,9 +2,9 @@
 //! slab planes, rays touching a box exactly at a corner, edge or face. It must be conservative
 //! (Ize 2013), exact on axis-parallel rays, and miss boxes missed by a clear margin.
 
-use super::Rng;
 use crate::geometry::aabb::{SlabRay, slab_entry};
 use crate::geometry::{Aabb, Ray, gamma};
+use crate::random::Rng;
 use glam::Vec3;
 use std::cmp::Ordering;
 

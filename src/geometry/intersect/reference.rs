@@ -66,16 +66,6 @@ pub struct Evaluation {
 }
 
 impl Evaluation {
-    /// The smallest |e_i| on the wrong side: how far the ray passes outside the triangle
-    /// (0 or negative when inside), in edge-function units.
-    pub fn outside_margin(&self) -> f64 {
-        let positive = self.det > 0.0;
-        self.e
-            .iter()
-            .map(|&e| if positive { -e } else { e })
-            .fold(f64::NEG_INFINITY, f64::max)
-    }
-
     /// Whether rounding within the f32 test's bounds could decide either way whether the
     /// ray meets the triangle: the ray passes within the edge error of the boundary, or
     /// the projected triangle is degenerate within it.

@@ -69,12 +69,14 @@ pub fn prefetch<T>(p: *const T) {
     Ord,
     serde::Serialize,
     serde::Deserialize,
+    clap::ValueEnum,
 )]
 pub enum SimdLevel {
     /// Plain Rust over arrays: runs everywhere (the compiler may still vectorise it).
     #[default]
     Portable,
     /// 128-bit SSE4.1: four boxes per instruction.
+    #[value(name = "sse4.1")]
     Sse41,
     /// 256-bit AVX2: eight boxes per instruction.
     Avx2,

@@ -43,18 +43,35 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+/// A BVH builder: the split strategy of the top-down builders, or a bottom-up one. The
+/// CLI's `--builder` and the presets' `strategy` name it.
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    Hash,
+    serde::Serialize,
+    serde::Deserialize,
+    clap::ValueEnum,
+)]
 pub enum Strategy {
+    /// Equal counts on both sides, along the widest axis of the centroids.
     ObjectMedian,
+    /// The midpoint of the centroid bounds.
     SpatialMedian,
+    /// The SAH at every position between sorted centroids, on all three axes.
     SahSweep,
+    /// The SAH at the boundaries of B equal-width buckets, on all three axes (--buckets).
     #[default]
     SahBinned,
-    /// Karras 2012: Morton order and a radix tree, leaves collapsed by the SAH.
+    /// Karras 2012: Morton codes, radix sort, radix tree; leaves collapsed by the SAH.
     Lbvh,
-    /// LBVH improved by Karras and Aila's (2013) treelet restructuring.
+    /// LBVH then Karras–Aila treelet restructuring (--treelet-size, --rounds).
     LbvhTreelet,
-    /// Stich, Friedrich and Dietrich 2009: binned SAH with object and spatial splits.
+    /// Binned SAH with spatial splits, Stich et al. 2009 (--split-alpha, --split-budget).
     Sbvh,
 }
 
@@ -88,47 +105,59 @@ impl Strategy {
             Strategy::Lbvh | Strategy::LbvhTreelet | Strategy::SahBinned
         )
     }
-
-    pub fn is_sah(self) -> bool {
-        matches!(self, Strategy::SahSweep | Strategy::SahBinned)
-    }
 }
 
-/// Plain-data build parameters, shared by the app, the CLI and the tests.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// Plain-data build parameters, shared by the app, the CLI and the tests. The field is the
+/// preset key; the flag is `--` and the field in kebab case unless named below.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize, clap::Args)]
+#[serde(default)]
 pub struct BuildParams {
+    /// The builder: split strategy.
+    #[arg(long = "builder", value_name = "BUILDER", value_enum, default_value_t = BuildParams::default().strategy)]
     pub strategy: Strategy,
-    /// Bucket count B of the binned SAH builder.
+    /// Bucket count B for binned SAH and the SBVH (2..=256).
+    #[arg(long, default_value_t = BuildParams::default().buckets)]
     pub buckets: u32,
-    /// No leaf holds more triangles than this.
+    /// Maximum number of triangles in a leaf (1..=4096).
+    #[arg(long = "max-leaf", value_name = "MAX_LEAF", default_value_t = BuildParams::default().max_leaf_size)]
     pub max_leaf_size: u32,
-    /// Cost of one traversal step (a node visit with its box tests).
+    /// SAH cost of a traversal step (a node visit with its box tests).
+    #[arg(long, default_value_t = BuildParams::default().c_trav, allow_negative_numbers = true)]
     pub c_trav: f32,
-    /// Cost of one ray–triangle test.
+    /// SAH cost of a ray–triangle test.
+    #[arg(long, default_value_t = BuildParams::default().c_isect, allow_negative_numbers = true)]
     pub c_isect: f32,
-    /// Leaves n of a treelet in treelet restructuring.
+    /// lbvh-treelet: leaves n of a treelet (5..=9).
+    #[arg(long, default_value_t = BuildParams::default().treelet_size)]
     pub treelet_size: u32,
-    /// Rounds of treelet restructuring.
+    /// lbvh-treelet: rounds of treelet restructuring (0..=16).
+    #[arg(long = "rounds", value_name = "ROUNDS", default_value_t = BuildParams::default().treelet_rounds)]
     pub treelet_rounds: u32,
-    /// SBVH: the overlap threshold α. Spatial splits are tried only in nodes where the best
-    /// object split's children overlap by more than α times the root's surface area.
+    /// sbvh: try spatial splits where the object split's children overlap by more than this
+    /// fraction of the root's surface area, the overlap threshold α (0..=1).
+    #[arg(long, default_value_t = BuildParams::default().split_alpha, allow_negative_numbers = true)]
     pub split_alpha: f32,
-    /// SBVH: the overlap penalty κ. Weighed against a spatial split, an object split costs
-    /// its SAH cost × (1 + κ · the area of its children's overlap / the node's area): rays
-    /// stop at their first hit, and where children overlap front-to-back order cannot skip
-    /// the far one. 0 is the plain SAH.
+    /// sbvh: the overlap penalty κ. Weighed against a spatial split, an object split costs
+    /// its SAH cost × (1 + κ · its children's overlap area / the node's area), for the rays
+    /// that front-to-back order cannot stop early in that overlap (0..=16; 0 = the plain
+    /// SAH).
+    #[arg(long, default_value_t = BuildParams::default().overlap_penalty, allow_negative_numbers = true)]
     pub overlap_penalty: f32,
-    /// SBVH: at most this many references beyond one per triangle, as a fraction of the
-    /// triangle count.
+    /// sbvh: at most this many duplicated references, as a fraction of the triangle count
+    /// (0..=16).
+    #[arg(long, default_value_t = BuildParams::default().split_budget, allow_negative_numbers = true)]
     pub split_budget: f32,
-    /// Pre-splitting for LBVH, LBVH + treelets and binned SAH: extra references, as a
-    /// fraction of the triangle count, given to the triangles that gain most from being
-    /// cut along the Morton grid. 0 turns it off.
+    /// lbvh, lbvh-treelet, sah-binned: pre-split the triangles that waste most box area
+    /// (cut along the Morton grid), adding at most this many references as a fraction of
+    /// the triangle count (0..=16; 0 = off).
+    #[arg(long, default_value_t = BuildParams::default().presplit, allow_negative_numbers = true)]
     pub presplit: f32,
-    /// Two levels: partial re-braiding. The top level may open instances into references to
-    /// their BLAS's subtrees, up to this many extra references per instance (counting at
-    /// least 40 960 instances; `two_level::rebraid`). 0 turns it off: one reference per
-    /// instance.
+    /// two-level: partial re-braiding; the top level may open large instances into
+    /// references to their BLAS's subtrees, largest first, up to this many extra references
+    /// per instance, counting at least 40 960 instances (0..=16; 0 = one reference per
+    /// instance).
+    // How: `two_level::rebraid`.
+    #[arg(long, default_value_t = BuildParams::default().rebraid, allow_negative_numbers = true)]
     pub rebraid: f32,
 }
 

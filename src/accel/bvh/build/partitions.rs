@@ -262,7 +262,7 @@ mod tests {
     /// and NaNs included.
     #[test]
     fn every_level_matches_the_portable_scan() {
-        let mut rng = crate::bench::stress::Rng(0x9e37_79b9_7f4a_7c15);
+        let mut rng = crate::random::Rng(0x9e37_79b9_7f4a_7c15);
         let mut next = move || rng.next_u64();
         for trial in 0..300 {
             let m = 2 + trial % (MAX_TREELET - 1);

@@ -319,7 +319,7 @@ mod tests {
 
     #[test]
     fn cube_root_matches_the_library() {
-        let mut rng = crate::bench::stress::Rng(7);
+        let mut rng = crate::random::Rng(7);
         for _ in 0..100_000 {
             // Mantissas and exponents across the whole normal range.
             let x = (1.0 + rng.unit()) * 2f64.powi(rng.below(2040) as i32 - 1020);

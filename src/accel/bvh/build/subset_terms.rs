@@ -154,7 +154,7 @@ mod tests {
     #[test]
     fn terms_match_the_scalar_formula_bit_for_bit() {
         // Uniform in [0, 1) in f32: the top 24 bits of the crate's seeded generator.
-        let mut rng = crate::bench::stress::Rng(0x2545_f491_4f6c_dd1d);
+        let mut rng = crate::random::Rng(0x2545_f491_4f6c_dd1d);
         let mut next = move || (rng.next_u64() >> 40) as f32 / (1u64 << 24) as f32;
         for trial in 0..200 {
             let m = 1 + trial % MAX_TREELET;

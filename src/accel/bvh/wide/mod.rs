@@ -42,8 +42,9 @@ where
     /// Distinct scene triangles the tree was built over.
     pub triangle_count: usize,
     pub order: TraversalOrder,
-    /// The slab kernel the traversal runs (one this machine supports).
-    pub simd: SimdLevel,
+    /// The slab kernel the traversal runs. Private: the traversal's `unsafe` kernels rely on
+    /// it naming a level this CPU supports, which `set_simd` checks.
+    simd: SimdLevel,
     /// Levels of wide nodes (the root alone is 1).
     pub depth: u32,
 }
@@ -123,6 +124,11 @@ where
 {
     /// Chooses the slab kernel; an instruction set this CPU lacks is an error and changes
     /// nothing.
+    /// The slab kernel the traversal runs.
+    pub fn simd(&self) -> SimdLevel {
+        self.simd
+    }
+
     pub fn set_simd(&mut self, level: SimdLevel) -> Result<(), UnsupportedSimd> {
         if !level.supported() {
             return Err(UnsupportedSimd(level));

@@ -325,7 +325,7 @@ mod tests {
     /// lanes in use.
     #[test]
     fn bounds_are_the_union_of_the_used_lanes() {
-        let mut rng = crate::bench::stress::Rng(0x853c_49e6_748f_ea9b);
+        let mut rng = crate::random::Rng(0x853c_49e6_748f_ea9b);
         let mut next = || rng.unit() as f32 * 16.0 - 8.0;
         for used in 0..=8 {
             for _ in 0..200 {

@@ -426,7 +426,7 @@ impl RefitIndex {
 mod tests {
     use super::*;
     use crate::accel::bvh::{self, BuildParams};
-    use crate::bench::stress::Rng;
+    use crate::random::Rng;
 
     /// Triangles on a coarse grid, so that many share their least and greatest planes, with
     /// every zero coordinate given a random sign: a box of several of them is +0 or −0 as

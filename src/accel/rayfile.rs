@@ -4,8 +4,8 @@
 //! more triangles than 32 bits count (instancing), in 64 (`HitFormat::U64`); occlusion as
 //! one byte per ray.
 
-use super::Ray;
-use crate::accel::Hit;
+use super::Hit;
+use crate::geometry::Ray;
 use glam::Vec3;
 
 pub const RAY_BYTES: usize = 32;

@@ -1,6 +1,5 @@
-//! Shared helpers for the integration tests: a seeded generator, random scenes and rays,
+//! Shared helpers for bvhlab's integration tests: a seeded generator, random scenes and rays,
 //! and the hit comparison used against brute force.
-#![allow(dead_code)]
 
 pub mod app;
 pub mod gltf;
@@ -11,7 +10,7 @@ use bvhlab::accel::{Accel, Counters, Hit, NoStats};
 use bvhlab::geometry::{Aabb, Ray, Triangle, Watertight};
 use glam::Vec3;
 
-/// splitmix64: small, seeded, good enough for test inputs.
+/// A SplitMix64 stream (`bvhlab::random`): small, seeded, good enough for test inputs.
 pub struct Rng(u64);
 
 impl Rng {
@@ -20,11 +19,9 @@ impl Rng {
     }
 
     pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
+        let out = bvhlab::random::splitmix64(self.0);
+        self.0 = self.0.wrapping_add(bvhlab::random::GOLDEN);
+        out
     }
 
     /// Uniform in [0, 1).

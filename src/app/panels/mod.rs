@@ -1,0 +1,87 @@
+//! The side panels, top and bottom bars and the help window: plain functions of the app
+//! state. Every control is labelled, for screen readers and for the UI tests.
+
+mod bars;
+mod help;
+mod legend;
+mod levels;
+mod refit;
+mod stats;
+mod walk;
+
+pub use bars::{status_bar, top_bar};
+pub use help::help_window;
+pub use legend::legend;
+pub use stats::stats;
+pub use walk::Step;
+
+use crate::accel::AccelKind;
+use crate::app::BvhLabApp;
+use crate::render::ViewMode;
+use eframe::egui::{self, RichText};
+
+pub fn controls(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    ui.add_space(4.0);
+    crate::app::lecture::error(app, ui);
+    if let Some(e) = &app.load_error {
+        ui.colored_label(ui.visuals().error_fg_color, format!("Load failed: {e}"));
+        ui.label(RichText::new("The previous scene is still loaded.").weak());
+        if ui.button("Dismiss").clicked() {
+            app.load_error = None;
+        }
+        ui.separator();
+    }
+    build_section(app, ui);
+    view_section(app, ui);
+    crate::app::compare::section(app, ui);
+    levels::levels_section(app, ui);
+    walk::walk_section(app, ui);
+    refit::refit_section(app, ui);
+}
+
+fn build_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    egui::CollapsingHeader::new("Build")
+        .default_open(true)
+        .show(ui, |ui| {
+            crate::app::params::structure_params(ui, &mut app.settings.structure);
+            if let Some(e) = &app.build_error {
+                ui.colored_label(ui.visuals().error_fg_color, e);
+            }
+        });
+}
+
+fn view_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    egui::CollapsingHeader::new("View")
+        .default_open(true)
+        .show(ui, |ui| {
+            let s = &mut app.settings;
+            ui.horizontal_wrapped(|ui| {
+                for (k, m) in ViewMode::ALL.into_iter().enumerate() {
+                    // The split of the levels means something only for the two levels.
+                    if m.is_two_level() && s.structure.kind != AccelKind::TwoLevel {
+                        continue;
+                    }
+                    ui.selectable_value(&mut s.mode, m, m.label())
+                        .on_hover_text(format!("Shift+{}", (k + 1) % 10));
+                }
+            });
+            if s.mode.is_heatmap() {
+                ui.checkbox(&mut s.shadow_rays, "count shadow rays (instead of primary)");
+                let mut fixed = s.heat_max.is_some();
+                ui.horizontal(|ui| {
+                    ui.checkbox(&mut fixed, "fixed scale maximum");
+                    let shown_max = app.shown.as_ref().and_then(|f| f.heat_max).unwrap_or(100);
+                    match (fixed, &mut s.heat_max) {
+                        (true, Some(m)) => {
+                            ui.add(egui::DragValue::new(m).range(1..=100_000));
+                        }
+                        (true, m @ None) => *m = Some(shown_max),
+                        (false, m) => *m = None,
+                    }
+                });
+            }
+            if ui.button("Frame all (F)").clicked() {
+                app.frame_all();
+            }
+        });
+}

@@ -1,0 +1,115 @@
+//! The Move and refit section: the move tool, the refit or rebuild it causes, the SAH
+//! cost since the build, undo.
+
+use crate::accel::AccelKind;
+use crate::app::BvhLabApp;
+use eframe::egui::{self, RichText};
+
+pub(super) fn refit_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    egui::CollapsingHeader::new("Drag to refit or rebuild")
+        .default_open(true)
+        .show(ui, |ui| {
+            ui.label(
+                RichText::new(
+                    "Choose “move triangles”, then click a triangle to select it and drag it.",
+                )
+                .weak(),
+            );
+            ui.checkbox(&mut app.settings.move_whole_object, "move its whole object");
+            if let (Some(t), Some(scene)) = (app.selection, &app.scene) {
+                let object = scene
+                    .object_of(t as usize)
+                    .map_or("?".to_string(), |o| scene.objects[o].name.clone());
+                ui.label(format!("selected: triangle {t} of '{object}'"));
+            }
+            ui.horizontal(|ui| {
+                if ui.button("Undo move (Ctrl+Z)").clicked() {
+                    app.undo();
+                }
+                if ui.button("Rebuild (B)").clicked() {
+                    app.rebuild();
+                }
+            });
+            let mut auto = app.settings.auto_rebuild_percent.is_some();
+            ui.horizontal(|ui| {
+                ui.checkbox(&mut auto, "rebuild when SAH cost grows by");
+                let mut p = app.settings.auto_rebuild_percent.unwrap_or(25.0);
+                ui.add_enabled(
+                    auto,
+                    egui::DragValue::new(&mut p)
+                        .range(1.0..=1000.0)
+                        .suffix(" %"),
+                );
+                app.settings.auto_rebuild_percent = auto.then_some(p);
+            });
+            if app.settings.structure.kind == AccelKind::TwoLevel {
+                grabbed_instance(app, ui);
+                if let Some((refit, flat)) = app.last_instance_move {
+                    ui.label(format!(
+                        "last move: the instance moved, the top level refitted in {:.3} ms",
+                        refit.as_secs_f64() * 1e3
+                    ));
+                    ui.label(match flat {
+                        Some(f) => format!(
+                            "a BVH over the flattened scene refits the same move in {:.2} ms",
+                            f.as_secs_f64() * 1e3
+                        ),
+                        None => "the scene is too large to flatten: no flat BVH to refit".into(),
+                    });
+                }
+            } else if app.settings.structure.kind.can_refit() {
+                if let Some(t) = app.last_refit {
+                    ui.label(format!("last refit {:.2} ms", t.as_secs_f64() * 1e3));
+                }
+            } else if let Some((rebuild, refit)) = app.last_rebuild {
+                ui.label(format!(
+                    "last move: rebuilt in {:.2} ms",
+                    rebuild.as_secs_f64() * 1e3
+                ));
+                if let Some(r) = refit {
+                    ui.label(format!(
+                        "a BVH would refit it in {:.2} ms: a BVH is simpler to update",
+                        r.as_secs_f64() * 1e3
+                    ));
+                }
+            }
+            if let Some(t) = app.drag_latency {
+                ui.label(format!(
+                    "move to refitted frame {:.1} ms",
+                    t.as_secs_f64() * 1e3
+                ));
+            }
+        });
+}
+
+/// The grabbed object's instance: which it is and its transform (object to world).
+pub(super) fn grabbed_instance(app: &BvhLabApp, ui: &mut egui::Ui) {
+    let (Some(object), Some(scene)) = (app.selected_object, &app.scene) else {
+        return;
+    };
+    let Some(name) = scene.objects.get(object).map(|o| o.name.clone()) else {
+        return;
+    };
+    // Before its first move: the scene's own instance, or the object as an instance of
+    // its own triangles (the identity).
+    let instance = scene.instance_of_object(object);
+    let transform = app
+        .moved_transforms
+        .get(&object)
+        .copied()
+        .unwrap_or_else(|| {
+            instance.map_or(glam::Affine3A::IDENTITY, |i| scene.instances[i].transform)
+        });
+    ui.label(match instance {
+        Some(i) => format!("instance {i} ('{name}'), object to world:"),
+        None => format!("'{name}' as an instance of its own triangles, object to world:"),
+    });
+    let m = transform.matrix3;
+    let t = transform.translation;
+    for row in 0..3 {
+        ui.monospace(format!(
+            "[{:>8.3} {:>8.3} {:>8.3} | {:>9.3}]",
+            m.x_axis[row], m.y_axis[row], m.z_axis[row], t[row]
+        ));
+    }
+}

@@ -1,0 +1,207 @@
+//! The statistics panel: the build report, the frame's counters and the SAH predicted
+//! against measured.
+
+use crate::accel::split_costs::SplitMethod;
+use crate::app::{BvhLabApp, Tool};
+use eframe::egui::{self};
+use egui_plot::{Bar, BarChart, Line, Plot, PlotPoints};
+
+/// The widest a column of the build report grows before its values wrap.
+const REPORT_VALUE_WIDTH: f32 = 180.0;
+
+pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    ui.add_space(4.0);
+    let walked = app.shown.as_ref().and_then(|s| s.walk.as_ref());
+    if let Some((info, costs)) = walked.and_then(|w| Some((w, w.split_costs.as_ref()?))) {
+        ui.heading(format!("Splits of node {}", info.node));
+        // A k-d node's split is the cheapest plane by construction (the plot replays its
+        // build); a BVH node's may differ, so its own cost is drawn too.
+        let own = matches!(
+            costs.method,
+            SplitMethod::Binned { .. } | SplitMethod::Sweep
+        );
+        crate::app::bucket_plot::show(ui, costs, own.then_some(info.sah_cost));
+        ui.separator();
+    }
+    // With a pinned A, the comparison is what the user is looking at: first.
+    crate::app::compare::summary(app, ui);
+    if app.replay.is_some() || app.replay_error.is_some() || app.tool == Tool::Replay {
+        crate::app::replay::section(app, ui);
+        ui.separator();
+    }
+    ui.heading("Build");
+    if let Some(r) = &app.report {
+        // A scene with instances of its own first says how it is instanced, as `bvhlab
+        // stats` does: the instanced triangles and the memory a flattened copy would take.
+        let scene_rows = app.scene_rows.iter().cloned();
+        // Long values (the island's re-braiding budget) wrap within their column instead
+        // of widening the panel and squeezing the view.
+        egui::Grid::new("report")
+            .num_columns(2)
+            .striped(true)
+            .max_col_width(REPORT_VALUE_WIDTH)
+            .show(ui, |ui| {
+                for (k, v) in scene_rows.chain(r.rows()) {
+                    if k.starts_with("leaf sizes") {
+                        continue;
+                    }
+                    ui.label(k);
+                    ui.add(egui::Label::new(v).wrap());
+                    ui.end_row();
+                }
+            });
+    }
+    if let Some(r) = &app.bvh_report {
+        ui.label("leaf sizes");
+        let bars: Vec<Bar> = r
+            .tree
+            .leaf_size_histogram
+            .iter()
+            .enumerate()
+            .filter(|&(_, &c)| c > 0)
+            .map(|(size, &c)| Bar::new(size as f64, c as f64).width(0.8))
+            .collect();
+        Plot::new("leaf sizes")
+            .height(110.0)
+            .allow_drag(false)
+            .allow_zoom(false)
+            .allow_scroll(false)
+            .x_axis_label("triangles in leaf")
+            .y_axis_label("leaves")
+            .show(ui, |p| p.bar_chart(BarChart::new("leaves", bars)));
+        if let Some(before) = r.phases.sah_before_rounds {
+            ui.label("SAH cost per treelet round");
+            let points: PlotPoints = std::iter::once(before)
+                .chain(r.phases.sah_after_round.iter().copied())
+                .enumerate()
+                .map(|(round, c)| [round as f64, c])
+                .collect();
+            Plot::new("treelet rounds")
+                .height(110.0)
+                .allow_drag(false)
+                .allow_zoom(false)
+                .allow_scroll(false)
+                .x_axis_label("round (0: the LBVH)")
+                .y_axis_label("SAH cost")
+                .show(ui, |p| p.line(Line::new("SAH cost", points)));
+        }
+    }
+    if app.report.is_none() {
+        ui.label("building…");
+    }
+    ui.separator();
+    ui.heading("Last frame");
+    if let Some(s) = &app.full_summary {
+        ui.label(format!(
+            "{} rays ({} primary, {} shadow), {:.2} Mrays/s",
+            s.rays(),
+            s.primary_rays,
+            s.shadow_rays,
+            s.mrays_per_s()
+        ));
+        // The frame on screen was traced without counting; its counted pass follows.
+        if !s.counted() {
+            ui.label("counting…");
+        } else {
+            counter_grid(ui, s);
+        }
+    }
+    sah_check_section(app, ui);
+    crate::app::export::section(app, ui);
+    if app.bvh_report.is_none() {
+        return;
+    }
+    ui.separator();
+    ui.heading("SAH cost since the last build");
+    let points: PlotPoints = app
+        .sah_history
+        .iter()
+        .enumerate()
+        .map(|(i, &c)| [i as f64, c])
+        .collect();
+    Plot::new("sah history")
+        .height(130.0)
+        .x_axis_label("refits")
+        .y_axis_label("SAH cost")
+        .show(ui, |p| p.line(Line::new("SAH cost", points)));
+    if let (Some(first), Some(last)) = (app.sah_history.first(), app.sah_history.last()) {
+        ui.label(format!(
+            "{:+.1} % since the build",
+            (last / first - 1.0) * 100.0
+        ));
+    }
+}
+
+/// The counted frame's mean and maximum of every counter, for both kinds of ray.
+pub(super) fn counter_grid(ui: &mut egui::Ui, s: &crate::render::FrameSummary) {
+    egui::Grid::new("counters")
+        .num_columns(3)
+        .striped(true)
+        .show(ui, |ui| {
+            ui.label("");
+            ui.strong("primary mean / max");
+            ui.strong("shadow mean / max");
+            ui.end_row();
+            let two_level =
+                s.counter(
+                    crate::render::RayKind::Primary,
+                    crate::accel::Counter::TopNodesVisited,
+                )
+                .max > 0;
+            for which in crate::accel::Counter::ALL {
+                if which.is_two_level() && !two_level {
+                    continue;
+                }
+                ui.label(which.label());
+                for rays in [
+                    crate::render::RayKind::Primary,
+                    crate::render::RayKind::Shadow,
+                ] {
+                    let c = s.counter(rays, which);
+                    ui.label(format!("{:.1} / {}", c.mean, c.max));
+                }
+                ui.end_row();
+            }
+        });
+}
+
+/// The SAH's prediction against the cost per ray measured: on the random lines it assumes,
+/// and on the frame's own rays, which start at the camera or on surfaces and stop at hits.
+pub(super) fn sah_check_section(app: &BvhLabApp, ui: &mut egui::Ui) {
+    let (Some(p), Some(s)) = (&app.sah_prediction, &app.full_summary) else {
+        return;
+    };
+    // Nothing measured yet: the counted pass is still on its way.
+    if !s.counted() {
+        return;
+    }
+    use crate::accel::Counter;
+    use crate::render::RayKind;
+    let measured = |rays: RayKind| {
+        p.c_trav as f64 * s.counter(rays, Counter::NodesVisited).mean
+            + p.c_isect as f64 * s.counter(rays, Counter::TriangleTests).mean
+    };
+    ui.separator();
+    ui.heading("SAH predicted against measured");
+    ui.label("cost per ray: C_trav · nodes visited + C_isect · triangle tests");
+    egui::Grid::new("sah check")
+        .num_columns(3)
+        .striped(true)
+        .show(ui, |ui| {
+            let ratio = |x: f64| format!("{:.0} %", 100.0 * x / p.predicted.max(f64::MIN_POSITIVE));
+            ui.label("SAH cost (predicted)");
+            ui.label(format!("{:.2}", p.predicted));
+            ui.label("");
+            ui.end_row();
+            for (label, cost) in [
+                ("random lines through the box", p.random),
+                ("this frame's primary rays", measured(RayKind::Primary)),
+                ("this frame's shadow rays", measured(RayKind::Shadow)),
+            ] {
+                ui.label(label);
+                ui.label(format!("{cost:.2}"));
+                ui.label(ratio(cost));
+                ui.end_row();
+            }
+        });
+}

@@ -1,0 +1,148 @@
+//! What the app does with the worker's replies: a loaded scene, a built or refitted
+//! structure, a frame to show, a replay, an error to say.
+
+use super::*;
+use eframe::egui;
+use orbit::Orbit;
+use std::sync::Arc;
+use worker::{Command, Reply};
+
+impl BvhLabApp {
+    /// Handles everything the worker has said since the last frame (public for the UI
+    /// tests, which hand it replies in a chosen order).
+    pub fn handle_replies(&mut self, ctx: &egui::Context, replies: Vec<Reply>) {
+        for r in replies {
+            match r {
+                Reply::Loaded { spec, scene } => {
+                    // A scene that does not store its triangles (the island) can only be
+                    // traced through its two levels.
+                    if !scene.is_flattened() {
+                        self.settings.structure.kind = crate::accel::AccelKind::TwoLevel;
+                    }
+                    self.orbit = Orbit::from_camera(&scene.camera());
+                    if std::path::Path::new(&spec).exists() && scene::is_file_spec(&spec) {
+                        self.settings.add_recent(&spec);
+                    }
+                    self.settings.scene = spec;
+                    self.scene_rows = scene
+                        .instancing_rows()
+                        .into_iter()
+                        .map(|(k, v)| (format!("scene {k}"), v))
+                        .collect();
+                    self.scene = Some(scene);
+                    self.load_error = None;
+                    self.selection = None;
+                    self.selected_object = None;
+                    self.moved_transforms.clear();
+                    self.walk = None;
+                    self.instance_outline = None;
+                    self.leaf_instances = Arc::default();
+                    self.replay = None;
+                    self.building = true;
+                    self.apply_pending_view();
+                }
+                Reply::LoadFailed { error, .. } => self.load_error = Some(error),
+                Reply::Built {
+                    report,
+                    bvh_report,
+                    outline,
+                    leaf_instances,
+                    sah,
+                } => {
+                    self.sah_prediction = sah;
+                    self.sah_history = bvh_report.iter().map(|r| r.tree.sah_cost).collect();
+                    // The selected instance's BLAS comes again (`InstanceSelected`) if the
+                    // new structure has it.
+                    self.instance_outline = None;
+                    self.leaf_instances = leaf_instances;
+                    self.settings.level = self.settings.level.min(outline.max_depth());
+                    self.walk = self.walk.filter(|&w| (w as usize) < outline.nodes.len());
+                    // A screenshot of the tree walk opens it at the node it names.
+                    if let Some(node) = self.screenshot.as_ref().and_then(|p| p.walk) {
+                        self.walk = Some(node.min(outline.nodes.len().saturating_sub(1) as u32));
+                    }
+                    // A screenshot of an instance's BLAS selects it once the levels exist.
+                    if let Some(i) = self.screenshot.as_ref().and_then(|p| p.instance) {
+                        self.worker.send(Command::SelectInstance(Some(i)));
+                    }
+                    self.outline = outline;
+                    self.apply_pending_structure();
+                    // The replayed steps name nodes of the old structure.
+                    self.replay = None;
+                    self.report = Some(*report);
+                    self.bvh_report = bvh_report.map(|b| *b);
+                    self.build_error = None;
+                    self.building = false;
+                }
+                Reply::BuildFailed(e) => {
+                    self.build_error = Some(e);
+                    self.building = false;
+                }
+                Reply::Refitted {
+                    sah_before,
+                    sah_after,
+                    refit_time,
+                } => {
+                    // A wide BVH's build report has no SAH cost: its first refit gives it.
+                    if self.sah_history.is_empty() {
+                        self.sah_history.push(sah_before);
+                    }
+                    self.sah_history.push(sah_after);
+                    self.last_refit = Some(refit_time);
+                    self.maybe_auto_rebuild();
+                }
+                Reply::RebuiltAfterMove {
+                    rebuild_time,
+                    bvh_refit_time,
+                } => self.last_rebuild = Some((rebuild_time, bvh_refit_time)),
+                Reply::InstanceMoved {
+                    refit_time,
+                    flat_refit_time,
+                    object,
+                    transform,
+                } => {
+                    self.last_instance_move = Some((refit_time, flat_refit_time));
+                    self.moved_transforms.insert(object, transform);
+                }
+                Reply::Frame(shown) => {
+                    if let Some(t) = self.move_sent.take() {
+                        self.drag_latency = Some(t.elapsed());
+                    }
+                    let [w, h] = [shown.job.width as usize, shown.job.height as usize];
+                    let image = egui::ColorImage::from_rgba_unmultiplied([w, h], &shown.rgba);
+                    match &mut self.texture {
+                        Some(t) => t.set(image, egui::TextureOptions::LINEAR),
+                        None => {
+                            self.texture =
+                                Some(ctx.load_texture("frame", image, egui::TextureOptions::LINEAR))
+                        }
+                    }
+                    if !shown.job.preview {
+                        self.full_summary = Some(shown.frame.summary.clone());
+                        self.compared = shown.compared.clone();
+                    }
+                    self.shown = Some(shown);
+                }
+                Reply::Counted { job, frame } => {
+                    // The counts of the full frame on screen: same hits, same image.
+                    if let Some(shown) = self.shown.as_mut().filter(|s| s.job == job) {
+                        self.full_summary = Some(frame.summary.clone());
+                        Arc::make_mut(shown).frame = frame;
+                    }
+                }
+                Reply::Snapshot(scene) => self.snapshot = Some(scene),
+                Reply::InstanceSelected(outlined) => self.instance_selected(outlined),
+                Reply::Replayed(Ok(replay)) => {
+                    let mut view = replay::ReplayView::new(replay);
+                    if let Some(r) = self.screenshot.as_ref().and_then(|p| p.replay) {
+                        view.stop = r.visit.saturating_sub(1).min(view.replay.stops() - 1);
+                    }
+                    self.replay = Some(view);
+                    self.replay_error = None;
+                }
+                Reply::Replayed(Err(e)) => self.replay_error = Some(e),
+                Reply::Idle(_) => {}
+            }
+        }
+    }
+}

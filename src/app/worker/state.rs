@@ -1,0 +1,320 @@
+//! The worker's state and its command loop: the scene, the structure built over it and the
+//! frames traced from it; commands are taken in batches, superseded loads and builds are
+//! skipped, and only the newest render request is rendered.
+
+use super::messages::*;
+use super::motion::{DragBounds, SelectionTable};
+use crate::accel::Outline;
+use crate::accel::bvh::Bvh;
+use crate::accel::bvh::refit::RefitIndex;
+use crate::accel::sah_check::SahPrediction;
+use crate::accel::split_costs::SplitCosts;
+use crate::accel::structure::{self, AccelKind, Structure, StructureParams};
+use crate::accel::two_level::{InstanceOutline, ReferenceLocator};
+use crate::render::Frame;
+use crate::scene::{Camera, Scene};
+use glam::Vec3;
+use std::cell::RefCell;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::mpsc::{Receiver, Sender};
+
+/// The key under which a traced frame stays valid.
+#[derive(Clone, PartialEq)]
+pub(in crate::app) struct TraceKey {
+    pub(in crate::app) camera: Camera,
+    pub(in crate::app) width: u32,
+    pub(in crate::app) height: u32,
+    pub(in crate::app) version: u64,
+}
+
+/// A traced frame, the view it is valid for, and whether it was traced with counting.
+pub(in crate::app) struct Traced {
+    pub(in crate::app) key: TraceKey,
+    pub(in crate::app) frame: Arc<Frame>,
+    pub(in crate::app) counted: bool,
+}
+
+pub(in crate::app) struct State {
+    pub(in crate::app) replies: Sender<Reply>,
+    /// The newest command the UI has sent.
+    pub(in crate::app) latest: Arc<AtomicU64>,
+    /// The light (the scene's, or the standard one from its box) at `scene_version`.
+    pub(in crate::app) light: Option<(u64, Vec3)>,
+    pub(in crate::app) wake: Box<dyn Fn() + Send>,
+    pub(in crate::app) progress: Arc<(AtomicUsize, AtomicUsize)>,
+    pub(in crate::app) scene: Option<Scene>,
+    pub(in crate::app) structure: Option<Structure>,
+    pub(in crate::app) params: StructureParams,
+    pub(in crate::app) outline: Arc<Outline>,
+    /// Under the two levels: the selected instance's BLAS, and the instance each top-level
+    /// leaf holds.
+    pub(in crate::app) instance: Option<Arc<InstanceOutline>>,
+    pub(in crate::app) leaf_instances: Arc<Vec<u32>>,
+    /// Under the two levels: the reference each top-level leaf holds, and which reference
+    /// reaches each triangle (made when a walk first needs it).
+    pub(in crate::app) leaf_references: Vec<u32>,
+    pub(in crate::app) reference_locator: std::sync::OnceLock<ReferenceLocator>,
+    /// Under a structure that cannot refit: a BVH over the same triangles, refitted on every
+    /// move only to show what a refit would have cost. Made at the first move.
+    pub(in crate::app) reference_bvh: Option<(Bvh, RefitIndex)>,
+    /// Changes whenever the scene's triangles or the tree change.
+    pub(in crate::app) version: u64,
+    /// Changes whenever the scene's triangles change (load, move, undo): A is built again.
+    pub(in crate::app) scene_version: u64,
+    /// Configuration A of a comparison, built over the same scene as B.
+    pub(in crate::app) pinned: Option<PinnedStructure>,
+    /// Builds of A so far: A's frames are traced again after each.
+    pub(in crate::app) pinned_builds: u64,
+    pub(in crate::app) traced: Option<Traced>,
+    pub(in crate::app) pinned_traced: Option<(TraceKey, Arc<Frame>)>,
+    pub(in crate::app) last_job: Option<RenderJob>,
+    /// For partial refits of the current tree; made at the first move after a build.
+    pub(in crate::app) refit_index: Option<RefitIndex>,
+    /// Moves of the drag in progress, then finished drags (for undo).
+    pub(in crate::app) gesture: Vec<Motion>,
+    pub(in crate::app) undo: Vec<Vec<Motion>>,
+    /// The walk node's split costs, kept while the tree, the node and the parameters stay.
+    pub(in crate::app) split_costs: RefCell<Option<(SplitCostsKey, Arc<SplitCosts>)>>,
+    /// The move tool's selection as a table, kept while the selection and the scene stay.
+    pub(in crate::app) selection: RefCell<Option<Arc<SelectionTable>>>,
+    /// While a selection is dragged: the boxes the standard light is placed from.
+    pub(in crate::app) drag_bounds: Option<DragBounds>,
+}
+
+/// An image's pixels and its heatmap scale, as `colorize` gives them.
+pub(in crate::app) type Image = (Vec<u8>, Option<u32>);
+
+/// The pinned configuration's structure over the scene as it was at `scene_version`, or
+/// why it could not be built.
+pub(in crate::app) struct PinnedStructure {
+    pub(in crate::app) params: StructureParams,
+    pub(in crate::app) scene_version: u64,
+    pub(in crate::app) structure: Result<Structure, String>,
+    /// `pinned_builds` when it was built (or its traversal settings last changed).
+    pub(in crate::app) version: u64,
+}
+
+#[derive(Clone, Copy, PartialEq)]
+pub(in crate::app) struct SplitCostsKey {
+    pub(in crate::app) version: u64,
+    pub(in crate::app) node: usize,
+    pub(in crate::app) params: StructureParams,
+}
+
+/// One move, as undo replays it backwards.
+#[derive(Clone)]
+pub(in crate::app) enum Motion {
+    Triangles(Arc<Vec<u32>>, Vec3),
+    Object(usize, Vec3),
+}
+
+/// Random lines for the SAH's prediction of each build: a mean within about a per cent,
+/// quick enough for every rebuild.
+pub(in crate::app) const SAH_RANDOM_LINES: usize = 1 << 14;
+
+/// Undo keeps this many drags.
+pub(in crate::app) const UNDO_DEPTH: usize = 64;
+
+impl State {
+    pub(in crate::app) fn reply(&self, r: Reply) {
+        let _ = self.replies.send(r);
+        (self.wake)();
+    }
+
+    pub(in crate::app) fn run(mut self, commands: Receiver<(u64, Command)>) {
+        while let Ok(first) = commands.recv() {
+            let mut batch = vec![first];
+            batch.extend(commands.try_iter());
+            let last_seq = batch.last().map_or(0, |(s, _)| *s);
+            // Of several loads or builds waiting, only the newest matters (a slider dragged
+            // across ten values asks for one build, not ten).
+            let last_load = batch
+                .iter()
+                .rposition(|(_, c)| matches!(c, Command::Load(_)));
+            let last_build = batch
+                .iter()
+                .rposition(|(_, c)| matches!(c, Command::Build { .. }));
+            let mut job = None;
+            let version = self.version;
+            for (i, (_, command)) in batch.into_iter().enumerate() {
+                let superseded = match command {
+                    Command::Load(_) => Some(i) != last_load,
+                    Command::Build { .. } => Some(i) != last_build,
+                    _ => false,
+                };
+                if superseded {
+                    continue;
+                }
+                match command {
+                    Command::Render(j) => job = Some(j),
+                    other => self.apply(other),
+                }
+            }
+            // A new request, or the last one again if the scene or tree changed under it.
+            let again = (self.version != version)
+                .then(|| self.last_job.clone())
+                .flatten();
+            if let Some(j) = job.or(again) {
+                self.render(j);
+            }
+            self.count_shown(last_seq);
+            self.reply(Reply::Idle(last_seq));
+        }
+    }
+
+    pub(in crate::app) fn apply(&mut self, command: Command) {
+        match command {
+            Command::Load(spec) => match Scene::load(&spec) {
+                Ok(mut scene) => {
+                    // An interior from a file starts from inside it (see `start_view`).
+                    if crate::app::scene::is_file_spec(&spec) {
+                        scene.view = scene
+                            .view
+                            .or_else(|| crate::app::start_view::interior_view(&scene));
+                    }
+                    self.reply(Reply::Loaded {
+                        spec,
+                        scene: Arc::new(scene.clone()),
+                    });
+                    self.scene = Some(scene);
+                    self.structure = None;
+                    self.instance = None;
+                    self.reference_bvh = None;
+                    self.gesture.clear();
+                    self.undo.clear();
+                    self.version += 1;
+                    self.scene_version += 1;
+                    self.rebuild();
+                }
+                Err(e) => self.reply(Reply::LoadFailed {
+                    spec,
+                    error: e.to_string(),
+                }),
+            },
+            Command::Build(params) => {
+                let old = self.params;
+                self.params = params;
+                if old.needs_rebuild_for(&params) || self.structure.is_none() {
+                    if !self.rebuild() {
+                        self.params = old;
+                    }
+                } else if params != old {
+                    if let Some(s) = &mut self.structure {
+                        s.set_order(params.order);
+                        s.set_mailbox(params.mailbox);
+                        // A kernel this CPU lacks keeps the one the structure has.
+                        let _ = s.set_simd(params.simd);
+                    }
+                    self.version += 1;
+                }
+            }
+            Command::SetParams(params) => self.params = params,
+            Command::Render(_) => {}
+            Command::Rebuild => {
+                self.rebuild();
+            }
+            Command::Snapshot => {
+                if let Some(scene) = &self.scene {
+                    self.reply(Reply::Snapshot(Arc::new(scene.clone())));
+                }
+            }
+            Command::Move { triangles, delta } => {
+                self.move_triangles(&triangles, delta);
+                self.gesture.push(Motion::Triangles(triangles, delta));
+            }
+            Command::MoveObject { object, delta } => {
+                if self.move_object(object, delta) {
+                    self.gesture.push(Motion::Object(object, delta));
+                }
+            }
+            Command::EndGesture => {
+                if !self.gesture.is_empty() {
+                    self.undo.push(std::mem::take(&mut self.gesture));
+                    if self.undo.len() > UNDO_DEPTH {
+                        self.undo.remove(0);
+                    }
+                }
+            }
+            Command::Replay(request) => {
+                let replayed = self.replay(&request);
+                self.reply(Reply::Replayed(replayed));
+            }
+            Command::SelectInstance(i) => self.select_instance(i),
+            Command::SelectObject(object) => {
+                let i = self.instance_of_object(object);
+                self.select_instance(i);
+            }
+            Command::Undo => {
+                let step = if self.gesture.is_empty() {
+                    self.undo.pop().unwrap_or_default()
+                } else {
+                    std::mem::take(&mut self.gesture)
+                };
+                for motion in step.iter().rev() {
+                    match motion {
+                        Motion::Triangles(triangles, delta) => {
+                            self.move_triangles(triangles, -*delta)
+                        }
+                        Motion::Object(object, delta) => {
+                            self.move_object(*object, -*delta);
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Builds the structure for the current scene and parameters; false (and the old one
+    /// kept) if the parameters are rejected.
+    pub(in crate::app) fn rebuild(&mut self) -> bool {
+        let Some(scene) = &self.scene else {
+            return true;
+        };
+        self.progress.0.store(0, Ordering::Relaxed);
+        // The two levels count unique triangles, the others placed ones.
+        let total = if self.params.kind == AccelKind::TwoLevel {
+            scene.instancing().unique_triangles()
+        } else {
+            scene.triangles.len()
+        };
+        self.progress.1.store(total, Ordering::Relaxed);
+        match structure::build_scene(scene, &self.params, &self.progress.0) {
+            Ok(built) => {
+                self.refit_index = None;
+                self.outline = Arc::new(built.structure.outline());
+                let sah = SahPrediction::of(
+                    &built.structure,
+                    &self.params,
+                    &scene.bounds(),
+                    SAH_RANDOM_LINES,
+                );
+                let (leaf_instances, leaf_references) = match &built.structure {
+                    Structure::TwoLevel(tl) => (tl.leaf_instances(), tl.leaf_references()),
+                    _ => (Vec::new(), Vec::new()),
+                };
+                self.leaf_references = leaf_references;
+                self.reference_locator = Default::default();
+                self.structure = Some(built.structure);
+                self.leaf_instances = Arc::new(leaf_instances);
+                self.version += 1;
+                self.reply(Reply::Built {
+                    report: Box::new(built.report),
+                    bvh_report: built.bvh_report.map(Box::new),
+                    outline: self.outline.clone(),
+                    leaf_instances: self.leaf_instances.clone(),
+                    sah,
+                });
+                // The selected instance hangs below another leaf of the new top level (or
+                // the structure has no instances any more).
+                let selected = self.instance.as_ref().map(|i| i.instance);
+                self.select_instance(selected);
+                true
+            }
+            Err(e) => {
+                self.reply(Reply::BuildFailed(e.to_string()));
+                false
+            }
+        }
+    }
+}

@@ -1,0 +1,117 @@
+//! The view modes in plain data: what the app shows, what a preset sets and what the CLI's
+//! `--mode` names; one enum for all three.
+
+use super::{Mode, RayKind};
+use crate::accel::Counter;
+use serde::{Deserialize, Serialize};
+
+/// What a frame shows, as plain data: the app's view mode, the presets' `mode` and the
+/// CLI's `--mode` (the renderer's `Mode` adds the kind of ray a heatmap counts).
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum,
+)]
+pub enum ViewMode {
+    /// Lambert shading with a hard shadow from the point light.
+    #[default]
+    Shaded,
+    /// Surface normals as colours.
+    Normals,
+    /// Distance to the hit.
+    Depth,
+    /// Heatmap of nodes visited.
+    Nodes,
+    /// Heatmap of ray–box tests.
+    Boxes,
+    /// Heatmap of ray–triangle tests.
+    Triangles,
+    /// Heatmap of repeated triangle tests (spatial structures with --mailbox false).
+    Repeated,
+    /// Two-level structure: heatmap of nodes visited in the top level (TLAS).
+    TopNodes,
+    /// Two-level structure: heatmap of nodes visited in the bottom levels (BLASes).
+    BottomNodes,
+    /// Two-level structure: heatmap of instances entered.
+    Instances,
+}
+
+impl ViewMode {
+    pub const ALL: [ViewMode; 10] = [
+        ViewMode::Shaded,
+        ViewMode::Normals,
+        ViewMode::Depth,
+        ViewMode::Nodes,
+        ViewMode::Boxes,
+        ViewMode::Triangles,
+        ViewMode::Repeated,
+        ViewMode::TopNodes,
+        ViewMode::BottomNodes,
+        ViewMode::Instances,
+    ];
+
+    pub fn label(self) -> &'static str {
+        match self {
+            ViewMode::Shaded => "shaded",
+            ViewMode::Normals => "normals",
+            ViewMode::Depth => "depth",
+            ViewMode::Nodes => "nodes visited",
+            ViewMode::Boxes => "box tests",
+            ViewMode::Triangles => "triangle tests",
+            ViewMode::Repeated => "repeated tests",
+            ViewMode::TopNodes => "top-level nodes",
+            ViewMode::BottomNodes => "bottom-level nodes",
+            ViewMode::Instances => "instances entered",
+        }
+    }
+
+    pub fn is_heatmap(self) -> bool {
+        matches!(
+            self,
+            ViewMode::Nodes
+                | ViewMode::Boxes
+                | ViewMode::Triangles
+                | ViewMode::Repeated
+                | ViewMode::TopNodes
+                | ViewMode::BottomNodes
+                | ViewMode::Instances
+        )
+    }
+
+    /// Whether the mode shows a count only a two-level structure makes.
+    pub fn is_two_level(self) -> bool {
+        matches!(
+            self,
+            ViewMode::TopNodes | ViewMode::BottomNodes | ViewMode::Instances
+        )
+    }
+
+    pub fn render_mode(self, shadow: bool) -> Mode {
+        let rays = if shadow {
+            RayKind::Shadow
+        } else {
+            RayKind::Primary
+        };
+        match self {
+            ViewMode::Shaded => Mode::Shaded,
+            ViewMode::Normals => Mode::Normals,
+            ViewMode::Depth => Mode::Depth,
+            ViewMode::Nodes => Mode::Heatmap(Counter::NodesVisited, rays),
+            ViewMode::Boxes => Mode::Heatmap(Counter::BoxTests, rays),
+            ViewMode::Triangles => Mode::Heatmap(Counter::TriangleTests, rays),
+            ViewMode::Repeated => Mode::Heatmap(Counter::RepeatedTests, rays),
+            ViewMode::TopNodes => Mode::Heatmap(Counter::TopNodesVisited, rays),
+            ViewMode::BottomNodes => Mode::Heatmap(Counter::BottomNodesVisited, rays),
+            ViewMode::Instances => Mode::Heatmap(Counter::InstancesEntered, rays),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::ValueEnum;
+
+    #[test]
+    fn every_view_mode_is_listed() {
+        assert_eq!(ViewMode::ALL.as_slice(), ViewMode::value_variants());
+    }
+}
