@@ -33,6 +33,8 @@ struct Cli {
     command: Option<Command>,
 }
 
+// Parsed once per run: the size of its largest variant (bench with its studies) costs nothing.
+#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand)]
 enum Command {
     /// Open the explorer app (the same as no command).

@@ -267,10 +267,7 @@ fn report(
                 Detail::Count(params.max_leaf_size.into()),
             ),
             ("depth bound".into(), Detail::Count(params.max_depth.into())),
-            (
-                "root cube side".into(),
-                Detail::Number(octree.root_size.into(), 4),
-            ),
+            ("root cube side".into(), Detail::Number(octree.root_size, 4)),
             (
                 "empty octants (not stored)".into(),
                 Detail::count(caps.empty_octants),
