@@ -8,6 +8,7 @@ pub mod bvh;
 pub mod embree;
 pub mod grid;
 pub mod hit;
+pub mod instances;
 pub mod kdtree;
 pub mod mailbox;
 pub mod octree;

@@ -151,6 +151,11 @@ impl AccelKind {
         self == AccelKind::Grid
     }
 
+    /// Whether the structure places instances: a top level over per-mesh bottom levels.
+    pub fn places_instances(self) -> bool {
+        self == AccelKind::TwoLevel
+    }
+
     /// Whether the structure can be refitted after motion (rather than rebuilt).
     pub fn can_refit(self) -> bool {
         self.is_bvh()

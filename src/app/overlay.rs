@@ -106,10 +106,7 @@ impl State {
         };
         let n = &outline.nodes[node];
         let whole_instance = match (&self.structure, self.leaf_references.get(node)) {
-            (Some(Structure::TwoLevel(tl)), Some(&r)) => tl
-                .references
-                .get(r as usize)
-                .is_some_and(|r| r.subtree == crate::accel::bvh::Subtree::ROOT),
+            (Some(s), Some(&r)) => s.reference_is_whole_instance(r),
             _ => false,
         };
         let mut info = WalkInfo {
@@ -143,7 +140,7 @@ impl State {
             let corners = inst.world_corners(b as usize);
             outline_corners(frame, rgba, &job.camera, &corners, FIRST_CHILD, true);
             tint_triangles(frame, rgba, |t| under.contains(&t).then_some(FIRST_CHILD));
-        } else if let Some(Structure::TwoLevel(tl)) = &self.structure {
+        } else if let Some(tl) = self.structure.as_ref().filter(|s| s.places_instances()) {
             // The top level's nodes hold references: their triangles are counted and tinted
             // by reference, never listed (the island places 10^10).
             let children: Vec<usize> = if n.is_leaf() {
@@ -158,7 +155,7 @@ impl State {
             for (k, &c) in children.iter().enumerate() {
                 let mut under = 0u64;
                 for r in self.references_under(c) {
-                    under += tl.references[r as usize].triangles as u64;
+                    under += tl.reference_triangles(r);
                     side.insert(r, k as u8);
                 }
                 info.triangles += under as usize;
@@ -178,7 +175,7 @@ impl State {
             }
             let locator = self
                 .reference_locator
-                .get_or_init(|| tl.reference_locator());
+                .get_or_init(|| tl.reference_locator().unwrap_or_default());
             tint_triangles(frame, rgba, |t| {
                 let r = tl.reference_of_triangle(locator, t)?;
                 side.get(&r).map(|&k| child_color(k as usize, count))

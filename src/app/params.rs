@@ -38,7 +38,7 @@ pub fn structure_params(ui: &mut egui::Ui, p: &mut StructureParams) {
     }
     match p.kind {
         AccelKind::Bvh | AccelKind::TwoLevel => {
-            bvh_params(ui, &mut p.bvh, p.kind == AccelKind::TwoLevel);
+            bvh_params(ui, &mut p.bvh, p.kind.places_instances());
             traversal_order(ui, &mut p.order);
         }
         AccelKind::Bvh4 | AccelKind::Bvh8 => {

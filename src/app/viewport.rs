@@ -5,7 +5,6 @@
 use super::panels::{Step, legend};
 use super::replay::Go;
 use super::{BvhLabApp, Drag, Tool};
-use crate::accel::AccelKind;
 use crate::render::compare::CompareView;
 use crate::scene::Camera;
 use eframe::egui::{self, Key, PointerButton, Sense};
@@ -207,7 +206,7 @@ fn start_drag(app: &mut BvhLabApp, rect: egui::Rect, pos: egui::Pos2) {
     }
     // Under the two levels a click selects the object's instance: the levels and the walk
     // continue into its BLAS.
-    if app.settings.structure.kind == AccelKind::TwoLevel
+    if app.settings.structure.kind.places_instances()
         && let Some(object) = usize::try_from(s.triangle)
             .ok()
             .and_then(|t| app.scene.as_ref()?.object_of(t))
@@ -216,7 +215,7 @@ fn start_drag(app: &mut BvhLabApp, rect: egui::Rect, pos: egui::Pos2) {
     }
     // Under the two levels a whole object moves as its instance: the top level is refitted.
     // This works for any triangle number, also past 32 bits (the island).
-    if app.settings.structure.kind == AccelKind::TwoLevel && app.settings.move_whole_object {
+    if app.settings.structure.kind.places_instances() && app.settings.move_whole_object {
         let object = usize::try_from(s.triangle)
             .ok()
             .and_then(|t| app.scene.as_ref()?.object_of(t));

@@ -168,7 +168,7 @@ pub fn run(
         .enumerate()
         .max_by_key(|(_, o)| o.count)
         .ok_or("the scene has no objects")?;
-    let instanced = params.kind == crate::accel::AccelKind::TwoLevel;
+    let instanced = params.kind.places_instances();
     let moved: Arc<Vec<u32>> = if instanced {
         Arc::new(Vec::new())
     } else {

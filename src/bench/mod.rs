@@ -6,6 +6,7 @@ pub mod accuracy;
 pub mod compare;
 pub mod cpu_time;
 pub mod frames;
+pub mod json;
 pub mod plot;
 pub mod rays;
 pub mod rotation;
@@ -422,7 +423,7 @@ fn run_embree(
     };
     // Two levels against Embree's two levels over the same meshes and instances; any other
     // structure against Embree's BVH over the flattened triangles.
-    let two_level = matches!(ours, Structure::TwoLevel(_));
+    let two_level = ours.places_instances();
     let embree = best_build(
         cfg.builds,
         || {
@@ -538,118 +539,12 @@ fn time_chunks(
     result
 }
 
-impl BenchResult {
-    pub fn to_json(&self) -> serde_json::Value {
-        let set = |r: &RaySetResult, hits: &str| {
-            let mut v = serde_json::json!({
-                "rays": r.rays,
-                hits: r.hits,
-                "mrays_per_s": round3(r.mrays_per_s()),
-            });
-            if let Some(m) = &r.mean {
-                v["mean_nodes"] = round3(m.nodes).into();
-                v["mean_box_tests"] = round3(m.box_tests).into();
-                v["mean_triangle_tests"] = round3(m.triangle_tests).into();
-                v["mean_repeated_tests"] = round3(m.repeated_tests).into();
-                if self.params.kind == AccelKind::TwoLevel {
-                    v["mean_top_nodes"] = round3(m.top_nodes).into();
-                    v["mean_bottom_nodes"] = round3(m.nodes - m.top_nodes).into();
-                    v["mean_top_box_tests"] = round3(m.top_box_tests).into();
-                    v["mean_bottom_box_tests"] = round3(m.box_tests - m.top_box_tests).into();
-                    v["mean_instances_entered"] = round3(m.instances_entered).into();
-                }
-                if let Some(ns) = r.ns_per_step(m.nodes) {
-                    v["ns_per_step"] = round3(ns).into();
-                }
-            }
-            if r.mrays_per_s() > 0.0 {
-                v["ns_per_ray"] = round3(1e3 / r.mrays_per_s()).into();
-            }
-            v
-        };
-        let r = &self.report;
-        let b = &self.params.bvh;
-        let mut json = serde_json::json!({
-            "scene": self.scene,
-            "accel": self.params.kind.label(),
-            "triangles": self.triangles,
-            "threads": self.threads,
-            "intersector": self.intersector.label(),
-            "builder": builder_label(b),
-            "buckets": b.buckets,
-            "presplit": b.presplit,
-            "split_alpha": b.split_alpha,
-            "split_budget": b.split_budget,
-            "duplicated_references": self.duplicated_references(),
-            "treelet_size": b.treelet_size,
-            "treelet_rounds": b.treelet_rounds,
-            "max_leaf_size": b.max_leaf_size,
-            "mailbox": self.params.mailbox,
-            "simd": (self.params.kind.is_wide() || self.params.kind == AccelKind::TwoLevel)
-                .then(|| self.params.simd.label()),
-            "build_ms": round3(r.build_ms()),
-            "bytes": r.bytes,
-            "sah_cost": self.sah_cost().map(round3),
-            "nodes": r.nodes,
-            "leaves": r.leaves,
-            "empty_leaves": r.empty_leaves,
-            "max_leaf_depth": r.max_depth,
-            "references_per_triangle": round3(r.references_per_triangle()),
-            "largest_leaf": r.largest_leaf,
-            "sampled_every": self.sampled,
-            "primary": set(&self.primary, "hits"),
-            "primary_packets": set(&self.primary_packets, "hits"),
-            "diffuse": set(&self.diffuse, "hits"),
-            "shadow": set(&self.shadow, "occluded"),
-            "sah_check": self.sah_check.as_ref().map(SahCheck::to_json),
-        });
-        // Each peer as an object; `peer` is the first, `peers` all of them.
-        let peers: Vec<serde_json::Value> = self
-            .peers
-            .iter()
-            .map(|p| {
-                serde_json::json!({
-                    "name": p.name,
-                    "build_ms": round3(p.build.as_secs_f64() * 1e3),
-                    "primary": set(&p.primary, "hits"),
-                    "primary_packets": set(&p.primary_packets, "hits"),
-                    "diffuse": set(&p.diffuse, "hits"),
-                    "shadow": set(&p.shadow, "occluded"),
-                    "tied_primary_hits": p.tied_primary_hits,
-                    "differing_primary_hits": p.differing_primary_hits,
-                })
-            })
-            .collect();
-        json["peer"] = peers.first().cloned().unwrap_or(serde_json::Value::Null);
-        json["peers"] = peers.into();
-        // (Set here: one more key in the macro above exceeds its recursion limit.)
-        json["overlap_penalty"] = as_typed(b.overlap_penalty).into();
-        // The two levels' top-level references and their budget.
-        if self.params.kind == AccelKind::TwoLevel {
-            json["rebraid"] = as_typed(b.rebraid).into();
-            let references = r.detail("TLAS references").and_then(|v| v.as_count());
-            json["references"] = references.into();
-        }
-        // The two levels' build times, each level on its own (their sum is `build_ms`).
-        for (detail, key) in [
-            ("BLAS builds", "blas_build_ms"),
-            ("TLAS build", "tlas_build_ms"),
-        ] {
-            let ms = r.detail(detail).and_then(|v| v.as_ms());
-            if let Some(ms) = ms {
-                json[key] = round3(ms).into();
-            }
-        }
-        json
-    }
-}
-
-fn round3(x: f64) -> f64 {
+pub(crate) fn round3(x: f64) -> f64 {
     (x * 1000.0).round() / 1000.0
 }
 
 /// A parameter as the user typed it: the f64 nearest the f32's shortest decimal (0.1, not
 /// 0.10000000149011612).
-fn as_typed(x: f32) -> f64 {
+pub(crate) fn as_typed(x: f32) -> f64 {
     x.to_string().parse().unwrap_or(x as f64)
 }

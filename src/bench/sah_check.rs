@@ -7,8 +7,9 @@ use crate::accel::sah_check::{MeanWork, RANDOM_RAYS, SahPrediction};
 use crate::accel::{Structure, StructureParams};
 use crate::geometry::Aabb;
 
-/// The prediction and the measured costs per ray, in the SAH's units.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// The prediction and the measured costs per ray, in the SAH's units (its fields are the
+/// keys of `sah_check` in the bench's JSON).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct SahCheck {
     pub c_trav: f32,
     pub c_isect: f32,
@@ -39,18 +40,6 @@ impl SahCheck {
             primary: cost(primary),
             diffuse: cost(diffuse),
             shadow: cost(shadow),
-        })
-    }
-
-    pub fn to_json(&self) -> serde_json::Value {
-        serde_json::json!({
-            "c_trav": self.c_trav,
-            "c_isect": self.c_isect,
-            "predicted": self.predicted,
-            "random": self.random,
-            "primary": self.primary,
-            "diffuse": self.diffuse,
-            "shadow": self.shadow,
         })
     }
 }

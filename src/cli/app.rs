@@ -140,7 +140,7 @@ pub fn screenshot(args: ScreenshotArgs) -> Result<()> {
         None => bvhlab::scene::Scene::load(&args.scene)?,
     };
     let accel = args.accel;
-    if args.instance.is_some() && accel != AccelKind::TwoLevel {
+    if args.instance.is_some() && !accel.places_instances() {
         anyhow::bail!("--instance selects an instance of the two levels: use --accel two-level");
     }
     let mut plan = ScreenshotPlan::new(args.out, shot, args.width, args.height);

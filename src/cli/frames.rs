@@ -3,7 +3,6 @@
 
 use super::{BuildArgs, ViewArgs, load_scene};
 use anyhow::{Result, anyhow};
-use bvhlab::accel::AccelKind;
 use bvhlab::bench::frames;
 use clap::Args;
 
@@ -58,7 +57,7 @@ pub fn run(args: FramesArgs) -> Result<()> {
             );
         }
     }
-    let two_level = params.kind == AccelKind::TwoLevel;
+    let two_level = params.kind.places_instances();
     for d in &r.drags {
         let flat = match (two_level, d.flat_refit) {
             (false, _) => String::new(),

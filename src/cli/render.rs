@@ -1,6 +1,6 @@
 //! `bvhlab render`: a scene through the CPU ray tracer into a PNG.
 
-use super::{AccelArg, BuildArgs, ViewArgs, check_size, load_scene};
+use super::{BuildArgs, ViewArgs, check_size, load_scene};
 use anyhow::{Context, Result, bail};
 use bvhlab::accel::{AccelKind, Counter};
 use bvhlab::geometry::IntersectorKind;
@@ -92,7 +92,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     // A flat structure has no levels: its top-level and instance counts are all zero, a
     // black heatmap that would look like a measurement.
     let accel = args.build.accel_to_trace(&scene);
-    if args.mode.is_two_level() && accel != AccelArg::One(AccelKind::TwoLevel) {
+    if args.mode.is_two_level() && !accel.kind().is_ok_and(AccelKind::places_instances) {
         bail!(
             "--mode {} counts the two levels' work, which {} does not have: add --accel two-level",
             args.mode

@@ -139,11 +139,13 @@ fn place_visits(structure: &Structure, ray: &Ray, steps: &mut [Step]) -> Vec<Opt
     let mut first_triangle = 0u64;
     let mut out = Vec::with_capacity(steps.len());
     for step in steps.iter_mut() {
-        if let (Step::Instance { instance: i }, Structure::TwoLevel(tl)) = (&*step, structure) {
-            instance = tl.instances.get(*i as usize).map(|i| i.transform);
-            first_triangle = tl.first_triangle.get(*i as usize).copied().unwrap_or(0);
+        if let Step::Instance { instance: i } = &*step {
+            instance = structure.instance_transform(*i as usize);
+            first_triangle = structure.instance_first_triangle(*i as usize).unwrap_or(0);
         }
-        if let (Step::Triangle { triangle, .. }, Structure::TwoLevel(_)) = (&mut *step, structure) {
+        if let Step::Triangle { triangle, .. } = &mut *step
+            && structure.places_instances()
+        {
             *triangle += first_triangle;
         }
         let Step::Visit {
@@ -158,7 +160,7 @@ fn place_visits(structure: &Structure, ray: &Ray, steps: &mut [Step]) -> Vec<Opt
             continue;
         };
         // A BLAS walks as a wide BVH of its own: its visits are the bottom level's.
-        if *level == Level::Single && matches!(structure, Structure::TwoLevel(_)) {
+        if *level == Level::Single && structure.places_instances() {
             *level = Level::Bottom;
         }
         let place = match level {

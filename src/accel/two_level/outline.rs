@@ -261,7 +261,7 @@ impl BlasParents {
 
 /// The tree of every BLAS read upwards, to find which reference reaches a triangle
 /// (`TwoLevel::reference_of_triangle`): a few bytes per unique triangle, made on demand.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Default)]
 pub struct ReferenceLocator {
     blases: Vec<BlasParents>,
 }

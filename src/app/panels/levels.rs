@@ -1,7 +1,6 @@
 //! The Levels section: the boxes or cells at one depth, and under the two levels the
 //! selected instance.
 
-use crate::accel::AccelKind;
 use crate::app::BvhLabApp;
 use eframe::egui::{self};
 
@@ -38,7 +37,7 @@ pub(super) fn levels_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                     ui.radio_value(&mut s.color_by_node, true, "node");
                 });
                 ui.label(format!("{level_count} nodes or cells at depth {}", s.level));
-                if s.structure.kind == AccelKind::TwoLevel {
+                if s.structure.kind.places_instances() {
                     ui.label(match in_blas {
                         Some(i) if s.level > top => format!(
                             "BLAS of instance {i}, its level {} (placed by the instance's \
@@ -57,7 +56,7 @@ pub(super) fn levels_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                     });
                 }
             });
-            if app.settings.structure.kind == AccelKind::TwoLevel {
+            if app.settings.structure.kind.places_instances() {
                 selected_instance(app, ui);
             }
         });

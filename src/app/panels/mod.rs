@@ -15,7 +15,6 @@ pub use legend::legend;
 pub use stats::stats;
 pub use walk::Step;
 
-use crate::accel::AccelKind;
 use crate::app::BvhLabApp;
 use crate::render::ViewMode;
 use eframe::egui::{self, RichText};
@@ -58,7 +57,7 @@ fn view_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             ui.horizontal_wrapped(|ui| {
                 for (k, m) in ViewMode::ALL.into_iter().enumerate() {
                     // The split of the levels means something only for the two levels.
-                    if m.is_two_level() && s.structure.kind != AccelKind::TwoLevel {
+                    if m.is_two_level() && !s.structure.kind.places_instances() {
                         continue;
                     }
                     ui.selectable_value(&mut s.mode, m, m.label())

@@ -1,7 +1,6 @@
 //! The Move and refit section: the move tool, the refit or rebuild it causes, the SAH
 //! cost since the build, undo.
 
-use crate::accel::AccelKind;
 use crate::app::BvhLabApp;
 use eframe::egui::{self, RichText};
 
@@ -42,7 +41,7 @@ pub(super) fn refit_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 );
                 app.settings.auto_rebuild_percent = auto.then_some(p);
             });
-            if app.settings.structure.kind == AccelKind::TwoLevel {
+            if app.settings.structure.kind.places_instances() {
                 grabbed_instance(app, ui);
                 if let Some((refit, flat)) = app.last_instance_move {
                     ui.label(format!(

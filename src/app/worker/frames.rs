@@ -13,6 +13,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 impl State {
+    /// Replays a pixel through the structure as it is now, in the scene as it is now.
     pub(in crate::app) fn replay(&self, r: &ReplayRequest) -> Result<Arc<Replay>, String> {
         let (Some(scene), Some(structure)) = (&self.scene, &self.structure) else {
             return Err("there is no structure to replay yet".into());
@@ -29,9 +30,6 @@ impl State {
             .map_err(|e| e.to_string())
     }
 
-    /// Moves object `object` by `delta`; true if it moved. Under the two levels: its
-    /// instance (the scene's own, or the object itself as an instance of its triangles)
-    /// moves, and the top level is refitted.
     pub(in crate::app) fn render(&mut self, job: RenderJob) {
         let light = self.light();
         let (Some(scene), Some(structure)) = (&self.scene, &self.structure) else {

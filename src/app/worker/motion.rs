@@ -5,7 +5,7 @@ use super::messages::*;
 use super::state::*;
 use crate::accel::bvh;
 use crate::accel::bvh::refit::RefitIndex;
-use crate::accel::structure::{self, Structure};
+use crate::accel::structure;
 use crate::accel::two_level::InstanceOutline;
 use crate::geometry::Aabb;
 use crate::scene::Scene;
@@ -184,7 +184,9 @@ impl State {
         table
     }
 
-    /// Replays a pixel through the structure as it is now, in the scene as it is now.
+    /// Moves object `object` by `delta`; true if it moved. Under the two levels: its
+    /// instance (the scene's own, or the object itself as an instance of its triangles)
+    /// moves, and the top level is refitted.
     pub(in crate::app) fn move_object(&mut self, object: usize, delta: Vec3) -> bool {
         let (Some(scene), Some(structure)) = (&mut self.scene, &mut self.structure) else {
             return false;
@@ -192,7 +194,7 @@ impl State {
         let Some(range) = scene.objects.get(object).map(|o| o.range()) else {
             return false;
         };
-        let Structure::TwoLevel(tl) = structure else {
+        if !structure.places_instances() {
             // Any other structure moves the object's triangles.
             let triangles: Arc<Vec<u32>> = Arc::new(range.map(|t| t as u32).collect());
             self.move_triangles(&triangles, delta);
@@ -205,13 +207,16 @@ impl State {
             // scene, the instance in the structure.
             // (Only where the structure's instances are the objects: a scene whose objects
             // do not cover its triangles in order is one instance of them all.)
-            let is_object = tl.instances.len() == scene.objects.len()
-                && tl.first_triangle.get(object) == Some(&(range.start as u64));
-            let Some(current) = tl.instances.get(object).filter(|_| is_object) else {
+            let current = structure
+                .instance_transform(object)
+                .filter(|_| structure.objects_are_instances(scene, object));
+            let Some(current) = current else {
                 return false;
             };
-            transform = glam::Affine3A::from_translation(delta) * current.transform;
-            let ok = tl.move_instance(object, transform).is_ok();
+            transform = glam::Affine3A::from_translation(delta) * current;
+            let ok = structure
+                .move_instance(object, transform)
+                .is_some_and(|r| r.is_ok());
             if ok {
                 for t in &mut scene.triangles[range.clone()] {
                     for v in &mut t.v {
@@ -227,7 +232,8 @@ impl State {
             match scene.translate_instance(i, delta) {
                 Ok(placed) => {
                     transform = placed.transform;
-                    let ok = tl.move_instance(i, placed.transform).is_ok();
+                    let ok =
+                        (structure.move_instance(i, placed.transform)).is_some_and(|r| r.is_ok());
                     if !ok {
                         let _ = scene.translate_instance(i, -delta);
                     }
@@ -265,12 +271,12 @@ impl State {
         });
         // The selected instance's boxes move with it: the same BLAS under the same leaf (a
         // refit keeps the top level's shape), placed by the new transform.
-        if let (Some(selected), Some(Structure::TwoLevel(tl))) = (&self.instance, &self.structure)
-            && let Some(now) = tl.instances.get(selected.instance)
-            && now.transform != selected.transform
+        if let (Some(selected), Some(structure)) = (&self.instance, &self.structure)
+            && let Some(now) = structure.instance_transform(selected.instance)
+            && now != selected.transform
         {
             let moved = Arc::new(InstanceOutline {
-                transform: now.transform,
+                transform: now,
                 ..InstanceOutline::clone(selected)
             });
             self.instance = Some(moved.clone());
@@ -283,24 +289,17 @@ impl State {
     /// the scene's own instance, or the object itself as an instance of its own triangles
     /// where the structure's instances are the objects.
     pub(in crate::app) fn instance_of_object(&self, object: usize) -> Option<usize> {
-        let (Some(scene), Some(Structure::TwoLevel(tl))) = (&self.scene, &self.structure) else {
+        let (Some(scene), Some(structure)) = (&self.scene, &self.structure) else {
             return None;
         };
-        if !scene.instances.is_empty() {
-            return scene.instance_of_object(object);
-        }
-        let range = scene.objects.get(object)?.range();
-        let is_object = tl.instances.len() == scene.objects.len()
-            && tl.first_triangle.get(object) == Some(&(range.start as u64));
-        // A scene whose objects do not cover its triangles in order is one instance.
-        Some(if is_object { object } else { 0 }).filter(|&i| i < tl.instances.len())
+        structure.instance_of_object(scene, object)
     }
 
     /// Outlines instance `i`'s BLAS for the levels view and the walk (none under any other
     /// structure, or for no such instance) and tells the UI.
     pub(in crate::app) fn select_instance(&mut self, i: Option<usize>) {
         let outlined = match (&self.structure, i) {
-            (Some(Structure::TwoLevel(tl)), Some(i)) => tl.instance_outline(i).map(Arc::new),
+            (Some(structure), Some(i)) => structure.instance_outline(i).map(Arc::new),
             _ => None,
         };
         if outlined.is_none() && self.instance.is_none() {

@@ -9,7 +9,7 @@ use crate::accel::bvh::Bvh;
 use crate::accel::bvh::refit::RefitIndex;
 use crate::accel::sah_check::SahPrediction;
 use crate::accel::split_costs::SplitCosts;
-use crate::accel::structure::{self, AccelKind, Structure, StructureParams};
+use crate::accel::structure::{self, Structure, StructureParams};
 use crate::accel::two_level::{InstanceOutline, ReferenceLocator};
 use crate::render::Frame;
 use crate::scene::{Camera, Scene};
@@ -273,7 +273,7 @@ impl State {
         };
         self.progress.0.store(0, Ordering::Relaxed);
         // The two levels count unique triangles, the others placed ones.
-        let total = if self.params.kind == AccelKind::TwoLevel {
+        let total = if self.params.kind.places_instances() {
             scene.instancing().unique_triangles()
         } else {
             scene.triangles.len()
@@ -289,10 +289,8 @@ impl State {
                     &scene.bounds(),
                     SAH_RANDOM_LINES,
                 );
-                let (leaf_instances, leaf_references) = match &built.structure {
-                    Structure::TwoLevel(tl) => (tl.leaf_instances(), tl.leaf_references()),
-                    _ => (Vec::new(), Vec::new()),
-                };
+                let (leaf_instances, leaf_references) =
+                    built.structure.leaf_instances_and_references();
                 self.leaf_references = leaf_references;
                 self.reference_locator = Default::default();
                 self.structure = Some(built.structure);

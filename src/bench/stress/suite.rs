@@ -12,7 +12,7 @@ use super::shadow::{self, ShadowReport};
 use super::slab::{self, SlabReport};
 use crate::accel::bvh::{BuildParams, build};
 use crate::accel::structure;
-use crate::accel::{AccelKind, StructureError, StructureParams};
+use crate::accel::{StructureError, StructureParams};
 use crate::bench::compare::{self, Agreement};
 use crate::geometry::{IntersectorKind, Ray};
 use crate::scene::Scene;
@@ -159,7 +159,7 @@ pub fn run(
         log(&format!("watertightness: {} ({rays} rays)", mesh.name));
     }
     let mut instanced = Vec::new();
-    if cfg.structure.kind == AccelKind::TwoLevel {
+    if cfg.structure.kind.places_instances() {
         for mesh in ClosedMesh::all() {
             let result = run_instanced(&mesh, cfg)?;
             log(&format!("instances: {}", result.label));

@@ -308,7 +308,7 @@ fn run_settings(args: BenchArgs) -> Result<()> {
         );
     }
     // Embree's instanced build needs no flattened triangles when the two levels are traced.
-    let peer_flattens = peers && cfg.params.kind != AccelKind::TwoLevel;
+    let peer_flattens = peers && !cfg.params.kind.places_instances();
     if (peer_flattens || args.accuracy) && !scene.is_flattened() {
         anyhow::bail!(
             "--embree and `bench accuracy` work on the scene's stored triangles: {} places its \
@@ -410,7 +410,7 @@ fn run_settings(args: BenchArgs) -> Result<()> {
             let step = set
                 .ns_per_step(m.nodes)
                 .map_or(String::new(), |ns| format!(" {ns:>6.1} ns per step"));
-            let levels = if r.params.kind == AccelKind::TwoLevel {
+            let levels = if r.params.kind.places_instances() {
                 format!(
                     "  (top {:.1} nodes, {:.1} boxes; bottom {:.1} nodes, {:.1} boxes; {:.1} instances entered)",
                     m.top_nodes,
