@@ -76,11 +76,21 @@ fn ray_files_round_trip_and_reject_bad_rays() {
         Ray::new(Vec3::new(f32::NAN, 0.0, 0.0), Vec3::X),
         Ray::segment(Vec3::ZERO, Vec3::X, f32::NAN, 1.0),
         Ray::new(Vec3::ZERO, Vec3::new(0.0, f32::INFINITY, 0.0)),
+        // The interval: tmin finite and ≥ 0, tmax beyond it (+∞ is fine, above).
+        Ray::segment(Vec3::ZERO, Vec3::X, -1.0, 1.0),
+        Ray::segment(Vec3::ZERO, Vec3::X, f32::INFINITY, f32::INFINITY),
+        Ray::segment(Vec3::ZERO, Vec3::X, 0.0, f32::NEG_INFINITY),
+        Ray::segment(Vec3::ZERO, Vec3::X, 2.0, 2.0),
     ];
     match rayfile::decode_rays(&rayfile::encode_rays(&bad)) {
         Err(RayFileError::InvalidRays { count, first }) => {
-            assert_eq!(count, 4);
-            assert_eq!(first.iter().map(|f| f.0).collect::<Vec<_>>(), [1, 2, 3, 4]);
+            assert_eq!(count, 8);
+            let indices: Vec<usize> = first.iter().map(|f| f.0).collect();
+            assert_eq!(indices[..4], [1, 2, 3, 4]);
+            assert!(
+                first.iter().any(|f| f.1.contains("tmin is negative")),
+                "{first:?}"
+            );
         }
         other => panic!("{other:?}"),
     }

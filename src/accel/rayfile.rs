@@ -49,6 +49,10 @@ pub fn invalid_reason(ray: &Ray) -> Option<&'static str> {
         Some("direction is zero")
     } else if ray.tmin.is_nan() || ray.tmax.is_nan() {
         Some("tmin or tmax is NaN")
+    } else if !(ray.tmin.is_finite() && ray.tmin >= 0.0) {
+        Some("tmin is negative or infinite (it must be a finite t ≥ 0)")
+    } else if ray.tmax <= ray.tmin {
+        Some("tmax is not greater than tmin (it may be +∞)")
     } else {
         None
     }

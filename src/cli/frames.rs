@@ -13,8 +13,8 @@ pub struct FramesArgs {
     pub scene: String,
     #[command(flatten)]
     pub view: ViewArgs,
-    /// Frames per measurement (the median is reported).
-    #[arg(long, default_value_t = 15)]
+    /// Frames per measurement (the median is reported; at least 1).
+    #[arg(long, default_value_t = 15, value_parser = crate::cli::at_least_one::<usize>)]
     pub runs: usize,
     #[command(flatten)]
     pub build: BuildArgs,
@@ -28,8 +28,7 @@ pub fn run(args: FramesArgs) -> Result<()> {
     let sizes = [(640, 360, true), (640, 360, false), (1280, 720, false)];
     let params = args.build.structure_params(&scene)?;
     params.validate()?;
-    let r = frames::run(&args.scene, &params, camera, &sizes, args.runs.max(1))
-        .map_err(|e| anyhow!(e))?;
+    let r = frames::run(&args.scene, &params, camera, &sizes, args.runs).map_err(|e| anyhow!(e))?;
     out!(
         "{}: {} triangles, {}, {} threads",
         r.scene,

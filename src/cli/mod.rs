@@ -212,6 +212,37 @@ pub fn load_scene(spec: &str) -> Result<Scene> {
     Scene::load(spec).with_context(|| format!("cannot load scene '{spec}'"))
 }
 
+/// How many threads `--threads` may ask for, per core: more only adds switching.
+const THREADS_PER_CORE: usize = 4;
+
+/// `--threads N`: at least 1 and at most `THREADS_PER_CORE` × this machine's cores, so a
+/// typing slip cannot start thousands of threads.
+pub fn parse_threads(text: &str) -> Result<usize, String> {
+    let n: usize = text
+        .parse()
+        .map_err(|_| format!("'{text}' is not a thread count"))?;
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let most = THREADS_PER_CORE * cores;
+    match n {
+        0 => Err("at least 1 thread is needed (leave out --threads for all cores)".into()),
+        n if n > most => Err(format!(
+            "{n} threads is more than {THREADS_PER_CORE} per core on this machine's {cores} \
+             cores (at most {most})"
+        )),
+        n => Ok(n),
+    }
+}
+
+/// A count that must be at least 1 (`--builds`, `--runs`, ray counts): 0 would measure
+/// or test nothing and report it as if it had.
+pub fn at_least_one<T: std::str::FromStr + PartialEq + From<u8>>(text: &str) -> Result<T, String> {
+    match text.parse::<T>() {
+        Ok(n) if n == T::from(0) => Err("must be at least 1".into()),
+        Ok(n) => Ok(n),
+        Err(_) => Err(format!("'{text}' is not a whole number")),
+    }
+}
+
 /// A rayon pool with `threads` workers (default: all cores).
 pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     let mut pool = rayon::ThreadPoolBuilder::new();
@@ -234,6 +265,17 @@ pub fn check_size(width: u32, height: u32) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn thread_counts_are_bounded() {
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        assert_eq!(parse_threads("1"), Ok(1));
+        assert_eq!(parse_threads(&(4 * cores).to_string()), Ok(4 * cores));
+        assert!(parse_threads("0").unwrap_err().contains("at least 1"));
+        let many = parse_threads(&(4 * cores + 1).to_string()).unwrap_err();
+        assert!(many.contains("at most"), "{many}");
+        assert!(parse_threads("x").is_err());
+    }
 
     #[test]
     fn vec3_parsing() {

@@ -43,16 +43,16 @@ pub struct StressArgs {
     /// Folder of the shared scenes (default: $BVHLAB_SCENES if set).
     #[arg(long)]
     pub scenes_dir: Option<PathBuf>,
-    /// Must-hit rays per closed mesh and placement.
-    #[arg(long)]
+    /// Must-hit rays per closed mesh and placement (at least 1).
+    #[arg(long, value_parser = crate::cli::at_least_one::<usize>)]
     pub leak_rays: Option<usize>,
-    /// Rays per scene for each scene part.
-    #[arg(long)]
+    /// Rays per scene for each scene part (at least 1).
+    #[arg(long, value_parser = crate::cli::at_least_one::<usize>)]
     pub scene_rays: Option<usize>,
     #[arg(long)]
     pub seed: Option<u64>,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
+    /// Worker threads, at most 4 × the cores (default: all cores).
+    #[arg(long, value_parser = crate::cli::parse_threads)]
     pub threads: Option<usize>,
     /// Only the watertightness part, through Embree 3 with its defaults and with its robust
     /// flag beside the structure under test: the leaks of each, per mesh and per placement

@@ -46,8 +46,8 @@ pub struct TraceArgs {
     /// places more triangles than 32 bits number).
     #[arg(long, value_enum, conflicts_with = "any")]
     pub hit_bits: Option<HitBits>,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
+    /// Worker threads, at most 4 × the cores (default: all cores).
+    #[arg(long, value_parser = crate::cli::parse_threads)]
     pub threads: Option<usize>,
     #[command(flatten)]
     pub build: BuildArgs,

@@ -33,14 +33,14 @@ pub struct BenchCommon {
     /// Image height (default: 768, or 192 for `scaling`).
     #[arg(long)]
     pub height: Option<u32>,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
+    /// Worker threads, at most 4 × the cores (default: all cores).
+    #[arg(long, value_parser = crate::cli::parse_threads)]
     pub threads: Option<usize>,
-    /// Builds to time; the best is reported.
-    #[arg(long, default_value_t = 5)]
+    /// Builds to time; the best is reported (at least 1).
+    #[arg(long, default_value_t = 5, value_parser = crate::cli::at_least_one::<u32>)]
     pub builds: u32,
-    /// Runs over each ray set; the best is reported.
-    #[arg(long, default_value_t = 5)]
+    /// Runs over each ray set; the best is reported (at least 1).
+    #[arg(long, default_value_t = 5, value_parser = crate::cli::at_least_one::<u32>)]
     pub runs: u32,
     /// Print exactly one JSON object.
     #[arg(long)]
