@@ -28,6 +28,7 @@ pub mod app;
 pub mod bench;
 pub mod geometry;
 pub mod huge_pages;
+pub mod output;
 pub mod random;
 pub mod render;
 pub mod scene;

@@ -168,8 +168,7 @@ impl BvhLabApp {
             .file_stem()
             .map_or("preset".into(), |s| s.to_string_lossy().into_owned());
         let text = self.preset_here(&title).to_toml();
-        let result =
-            std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()));
+        let result = crate::output::write(path, text.as_bytes()).map_err(|e| e.to_string());
         match &result {
             Ok(()) => {
                 self.lecture.saved = Some(path.display().to_string());

@@ -179,15 +179,9 @@ impl ScreenshotPlan {
         ctx.request_screenshot(move |image| {
             let [w, h] = image.size;
             let bytes: Vec<u8> = image.pixels.iter().flat_map(|c| c.to_array()).collect();
-            let saved = image::save_buffer(
-                &out,
-                &bytes,
-                w as u32,
-                h as u32,
-                image::ExtendedColorType::Rgba8,
-            )
-            .map(|()| out.display().to_string())
-            .map_err(|e| format!("cannot write {}: {e}", out.display()));
+            let saved = crate::output::write_png(&bytes, w as u32, h as u32, &out)
+                .map(|()| out.display().to_string())
+                .map_err(|e| e.to_string());
             if let Ok(mut r) = result.lock() {
                 *r = Some(saved);
             }

@@ -125,6 +125,7 @@ fn parse_fraction_pair(s: &str) -> Result<[f32; 2], String> {
 
 pub fn screenshot(args: ScreenshotArgs) -> Result<()> {
     check_size(args.width, args.height)?;
+    bvhlab::output::check(&args.out, &["png"])?;
     let shot = match args.mode {
         ShotArg::Shaded => Shot::Shaded,
         ShotArg::Nodes => Shot::Nodes,

@@ -4,7 +4,7 @@
 //! compares their counters.
 
 use super::BuildArgs;
-use anyhow::{Context, Result, anyhow, bail};
+use anyhow::{Result, anyhow, bail};
 use bvhlab::accel::StructureParams;
 use bvhlab::render::compare::{CompareView, compare_image, compared_counters, summarize};
 use bvhlab::render::{Frame, Mode, RenderSettings};
@@ -78,6 +78,10 @@ pub fn run(
         );
     }
     let b = b_over_a(a, flags)?;
+    // B's parameters are checked before A is traced.
+    b.structure_params_for(b.accel_to_trace(scene).kind()?)
+        .validate()
+        .map_err(|e| anyhow!("bad --compare flags '{flags}': {e}"))?;
     let trace = |name: &str, args: &BuildArgs| -> Result<Frame> {
         eprint!("{name}: ");
         let built = args.build_to_trace(scene)?;
@@ -87,14 +91,7 @@ pub fn run(
     let frame_a = trace("A", a)?;
     let frame_b = trace("B", &b)?;
     let (rgba, scale) = compare_image(&frame_a, &frame_b, settings.mode, settings.heat_max, view)?;
-    image::save_buffer(
-        out,
-        &rgba,
-        frame_b.width,
-        frame_b.height,
-        image::ExtendedColorType::Rgba8,
-    )
-    .with_context(|| format!("cannot write {}", out.display()))?;
+    bvhlab::output::write_png(&rgba, frame_b.width, frame_b.height, out)?;
     out!(
         "wrote {} ({}×{}, {}, {})",
         out.display(),

@@ -1,7 +1,7 @@
 //! `bvhlab render`: a scene through the CPU ray tracer into a PNG.
 
 use super::{BuildArgs, ViewArgs, check_size, load_scene};
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use bvhlab::accel::{AccelKind, Counter};
 use bvhlab::geometry::IntersectorKind;
 use bvhlab::render::compare::CompareView;
@@ -52,6 +52,9 @@ pub struct RenderArgs {
 
 pub fn run(args: RenderArgs) -> Result<()> {
     check_size(args.width, args.height)?;
+    if let Some(out) = &args.out {
+        bvhlab::output::check(out, &["png"])?;
+    }
     let scene = load_scene(&args.scene)?;
     let mut camera = args.view.camera(&scene)?;
     if let Some(fov) = args.fov {
@@ -104,9 +107,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let built = args.build.build_to_trace(&scene)?;
     let frame = with_intersector!(kind, I => render::render_with::<_, I>(&built.structure, &scene, &settings));
     let out = out_or_default("");
-    frame
-        .save_png(&out)
-        .with_context(|| format!("cannot write {}", out.display()))?;
+    frame.save_png(&out)?;
     let s = &frame.summary;
     out!(
         "wrote {} ({}×{}, {}): {} rays in {:.1} ms, {:.2} Mrays/s",

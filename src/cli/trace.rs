@@ -77,6 +77,7 @@ fn hit_format(asked: Option<HitBits>, triangles: u64) -> Result<HitFormat> {
 }
 
 pub fn run(args: TraceArgs) -> Result<()> {
+    bvhlab::output::check(&args.out, &[])?;
     let bytes = std::fs::read(&args.rays)
         .with_context(|| format!("cannot read {}", args.rays.display()))?;
     let rays = rayfile::decode_rays(&bytes)
@@ -91,8 +92,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
         with_intersector!(args.intersector, I => trace_all::<_, I>(s, &rays, args.any, format))
     })?;
     let elapsed = start.elapsed();
-    std::fs::write(&args.out, &output)
-        .with_context(|| format!("cannot write {}", args.out.display()))?;
+    bvhlab::output::write(&args.out, &output)?;
     let answers = if args.any {
         "occluded".to_string()
     } else {

@@ -2,23 +2,16 @@
 //! CSV (one row per pixel) for a spreadsheet or a plot of one's own.
 
 use super::Frame;
+use crate::output::{self, OutputError};
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 #[derive(Debug, thiserror::Error)]
 pub enum ExportError {
     #[error("there is no frame to save yet")]
     NoFrame,
-    #[error("cannot write {path}: {source}")]
-    Io {
-        path: PathBuf,
-        source: std::io::Error,
-    },
-    #[error("cannot write {path}: {source}")]
-    Image {
-        path: PathBuf,
-        source: image::ImageError,
-    },
+    #[error(transparent)]
+    Output(#[from] OutputError),
     #[error("the image is {got} bytes, not the 4 × {width} × {height} of its size")]
     Size { got: usize, width: u32, height: u32 },
 }
@@ -32,12 +25,7 @@ pub fn save_png(rgba: &[u8], width: u32, height: u32, path: &Path) -> Result<(),
             height,
         });
     }
-    image::save_buffer(path, rgba, width, height, image::ExtendedColorType::Rgba8).map_err(
-        |source| ExportError::Image {
-            path: path.to_path_buf(),
-            source,
-        },
-    )
+    Ok(output::write_png(rgba, width, height, path)?)
 }
 
 /// The header of the counters CSV.
@@ -80,12 +68,11 @@ pub fn write_counters_csv(frame: &Frame, out: &mut impl Write) -> std::io::Resul
 
 /// Writes the frame's counters as CSV to `path`.
 pub fn save_counters_csv(frame: &Frame, path: &Path) -> Result<(), ExportError> {
-    let io = |source| ExportError::Io {
+    output::check(path, &["csv"])?;
+    let mut bytes = Vec::new();
+    write_counters_csv(frame, &mut bytes).map_err(|source| OutputError::Io {
         path: path.to_path_buf(),
         source,
-    };
-    let file = std::fs::File::create(path).map_err(io)?;
-    let mut out = std::io::BufWriter::new(file);
-    write_counters_csv(frame, &mut out).map_err(io)?;
-    out.flush().map_err(io)
+    })?;
+    Ok(output::write(path, &bytes)?)
 }

@@ -198,14 +198,9 @@ impl Frame {
         (x < self.width && y < self.height).then(|| &self.samples[(y * self.width + x) as usize])
     }
 
-    pub fn save_png(&self, path: &std::path::Path) -> Result<(), image::ImageError> {
-        image::save_buffer(
-            path,
-            &self.rgba,
-            self.width,
-            self.height,
-            image::ExtendedColorType::Rgba8,
-        )
+    /// Writes the image as a PNG, whole (`crate::output`).
+    pub fn save_png(&self, path: &std::path::Path) -> Result<(), crate::output::OutputError> {
+        crate::output::write_png(&self.rgba, self.width, self.height, path)
     }
 }
 

@@ -2,6 +2,7 @@
 //! and line plots over `plotters`, saved as PNG with an SVG beside it, with labels that never
 //! overlap, in the font the binary already embeds for egui (no system fonts).
 
+use crate::output::{self, OutputError};
 use plotters::coord::Shift;
 use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint};
 use plotters::prelude::*;
@@ -98,16 +99,8 @@ pub struct Figure {
 pub enum PlotError {
     #[error("cannot draw the chart: {0}")]
     Draw(String),
-    #[error("cannot write {path}: {source}")]
-    Write {
-        path: PathBuf,
-        source: std::io::Error,
-    },
-    #[error("cannot write {path}: {source}")]
-    Png {
-        path: PathBuf,
-        source: image::ImageError,
-    },
+    #[error(transparent)]
+    Output(#[from] OutputError),
 }
 
 fn draw_err<E: std::fmt::Debug>(e: E) -> PlotError {
@@ -158,17 +151,20 @@ pub fn pareto_front(points: &[(f64, f64)]) -> Vec<usize> {
 /// Draws `figure` into a PNG at `png` and an SVG beside it (same stem, `.svg`); returns the
 /// SVG's path.
 pub fn save(figure: &Figure, png: &Path) -> Result<PathBuf, PlotError> {
+    check(png)?;
     let image = render_png(figure)?;
-    image.save(png).map_err(|source| PlotError::Png {
-        path: png.to_path_buf(),
-        source,
-    })?;
+    let rgba = image::DynamicImage::ImageRgb8(image).into_rgba8();
+    let svg = render_svg(figure)?;
+    output::write_png(rgba.as_raw(), rgba.width(), rgba.height(), png)?;
     let svg_path = png.with_extension("svg");
-    std::fs::write(&svg_path, render_svg(figure)?).map_err(|source| PlotError::Write {
-        path: svg_path.clone(),
-        source,
-    })?;
+    output::write(&svg_path, svg.as_bytes())?;
     Ok(svg_path)
+}
+
+/// Checks that a chart can be written to `png` (and its SVG beside it), before the work
+/// that makes it.
+pub fn check(png: &Path) -> Result<(), OutputError> {
+    output::check(png, &["png"])
 }
 
 /// The figure as an RGB image.

@@ -1,7 +1,7 @@
 //! `bench accuracy`: run time against error, every intersector with every builder.
 
 use super::{BenchArgs, output_paths};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use bvhlab::bench::accuracy::{self, AccuracyConfig};
 use bvhlab::bench::{BenchConfig, plot};
 use bvhlab::scene::Scene;
@@ -32,8 +32,7 @@ pub(super) fn run_accuracy(
         })
     })?;
     let (csv_path, plot_path) = output_paths(args, "accuracy", &scene.name);
-    std::fs::write(&csv_path, accuracy::csv(&rows))
-        .with_context(|| format!("cannot write {}", csv_path.display()))?;
+    bvhlab::output::write(&csv_path, accuracy::csv(&rows).as_bytes())?;
     let svg_path = plot::save(&accuracy::pareto_plot(&rows), &plot_path)?;
     if args.json {
         let json: Vec<serde_json::Value> = rows

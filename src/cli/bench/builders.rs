@@ -44,8 +44,7 @@ pub(super) fn run_builders(
     let mut written = None;
     if args.tradeoff {
         let (csv_path, plot_path) = output_paths(args, "tradeoff", &scene.name);
-        std::fs::write(&csv_path, tradeoff::csv(&scene.name, &lines))
-            .with_context(|| format!("cannot write {}", csv_path.display()))?;
+        bvhlab::output::write(&csv_path, tradeoff::csv(&scene.name, &lines).as_bytes())?;
         let svg_path = plot::save(&tradeoff::figure(&scene.name, threads, &lines), &plot_path)?;
         written = Some((csv_path, plot_path, svg_path));
     }
@@ -265,8 +264,7 @@ pub(super) fn write_sah_scatter(
         })
         .collect();
     let rows = sah_scatter::merge(earlier, new);
-    std::fs::write(&csv_path, sah_scatter::csv(&rows))
-        .with_context(|| format!("cannot write {}", csv_path.display()))?;
+    bvhlab::output::write(&csv_path, sah_scatter::csv(&rows).as_bytes())?;
     let svg_path = plot::save(&sah_scatter::figure(&rows), &plot_path)?;
     Ok((csv_path, plot_path, svg_path))
 }

@@ -258,6 +258,13 @@ pub struct BenchArgs {
 }
 
 fn run_settings(args: BenchArgs) -> Result<()> {
+    // A study's files are checked before its work, which can take minutes.
+    if let Some(csv) = &args.csv {
+        bvhlab::output::check(csv, &[])?;
+    }
+    if let Some(png) = &args.plot {
+        bvhlab::bench::plot::check(png)?;
+    }
     let (width, height) = if args.scaling {
         (args.width.unwrap_or(256), args.height.unwrap_or(192))
     } else {

@@ -61,8 +61,7 @@ pub(super) fn run_rotation_sweep(args: &BenchArgs, width: u32, height: u32) -> R
     })?;
     let threads = pool.current_num_threads();
     let (csv_path, plot_path) = output_paths(args, "rotation", &args.scene);
-    std::fs::write(&csv_path, rotation::csv(&rows))
-        .with_context(|| format!("cannot write {}", csv_path.display()))?;
+    bvhlab::output::write(&csv_path, rotation::csv(&rows).as_bytes())?;
     let svg_path = plot::save(&rotation::figure(&rows, threads), &plot_path)?;
     if args.json {
         let rows: Vec<serde_json::Value> = rows

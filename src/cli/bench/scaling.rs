@@ -2,7 +2,7 @@
 
 use super::super::thread_pool;
 use super::{BenchArgs, output_paths};
-use anyhow::{Context, Result};
+use anyhow::Result;
 use bvhlab::accel::AccelKind;
 use bvhlab::bench::plot;
 use bvhlab::bench::scaling::{self, ScalingConfig};
@@ -58,8 +58,7 @@ pub(super) fn run_scaling(args: &BenchArgs, width: u32, height: u32) -> Result<(
     })?;
     let slopes = scaling::slopes(&rows);
     let (csv_path, plot_path) = output_paths(args, "scaling", name);
-    std::fs::write(&csv_path, scaling::csv(&rows))
-        .with_context(|| format!("cannot write {}", csv_path.display()))?;
+    bvhlab::output::write(&csv_path, scaling::csv(&rows).as_bytes())?;
     let svg_path = plot::save(&scaling::figure(&rows), &plot_path)?;
     let threads = rows.first().map_or(0, |r| r.threads);
     if args.json {

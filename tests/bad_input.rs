@@ -1,0 +1,188 @@
+//! Bad input through the binary, as a user would give it: every case ends with a non-zero
+//! exit and one clear message naming the problem, no panic, and no file left behind; the
+//! cases beside them that must work, work.
+
+use bvhlab::accel::rayfile;
+use bvhlab::geometry::Ray;
+use glam::Vec3;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn bvhlab(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_bvhlab"))
+        .args(args)
+        .current_dir(dir)
+        .env("RUST_BACKTRACE", "0")
+        .output()
+        .expect("the binary runs")
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("bvhlab-bad-{}-{name}", std::process::id()));
+    std::fs::remove_dir_all(&dir).ok();
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn files_in(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+const SMALL: [&str; 4] = ["--width", "16", "--height", "12"];
+
+#[test]
+fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
+    let dir = temp_dir("table");
+    // A ray file whose second ray starts its interval below zero.
+    let rays = [
+        Ray::new(Vec3::new(0.0, 1.0, 3.0), -Vec3::Z),
+        Ray::segment(Vec3::new(0.0, 1.0, 3.0), -Vec3::Z, -1.0, 10.0),
+    ];
+    std::fs::write(dir.join("rays.bin"), rayfile::encode_rays(&rays)).unwrap();
+    let before = files_in(&dir);
+    let cases: &[(&[&str], &str)] = &[
+        (
+            &["bench", "--scene", "cornell", "--threads", "0"],
+            "at least 1 thread",
+        ),
+        (
+            &["bench", "--scene", "cornell", "--threads", "100000"],
+            "per core",
+        ),
+        (
+            &["bench", "--scene", "cornell", "--builds", "0"],
+            "at least 1",
+        ),
+        (
+            &["bench", "--scene", "cornell", "--runs", "0"],
+            "at least 1",
+        ),
+        (
+            &["frames", "--scene", "cornell", "--runs", "0"],
+            "at least 1",
+        ),
+        (&["stress", "--quick", "--leak-rays", "0"], "at least 1"),
+        (&["stress", "--quick", "--scene-rays", "0"], "at least 1"),
+        (
+            &["render", "--scene", "cornell", "-o", "x.jpg"],
+            ".jpg files are not written",
+        ),
+        (
+            &["render", "--scene", "cornell", "-o", "nodir/x.png"],
+            "does not exist",
+        ),
+        (
+            &["render", "--scene", "cornell", "-o", "."],
+            "it is a folder",
+        ),
+        (
+            &[
+                "render",
+                "--scene",
+                "cornell",
+                "--compare",
+                "--buckets 1",
+                "-o",
+                "c.png",
+            ],
+            "bucket count 1",
+        ),
+        (
+            &["screenshot", "--scene", "cornell", "--out", "shot.jpg"],
+            ".jpg files are not written",
+        ),
+        (
+            &[
+                "bench",
+                "scaling",
+                "--scene",
+                "soup",
+                "--csv",
+                "ok.csv",
+                "--plot",
+                "nodir/a.png",
+            ],
+            "does not exist",
+        ),
+        (
+            &["bench", "accuracy", "--scene", "cornell", "--plot", "a.svg"],
+            "use .png",
+        ),
+        (
+            &[
+                "trace",
+                "--scene",
+                "cornell",
+                "--rays",
+                "rays.bin",
+                "--out",
+                "nodir/h.bin",
+            ],
+            "does not exist",
+        ),
+        (
+            &[
+                "trace", "--scene", "cornell", "--rays", "rays.bin", "--out", "h.bin",
+            ],
+            "tmin is negative",
+        ),
+        (
+            &["bench", "builders", "--scene", "cornell", "--accel", "grid"],
+            "bench builders",
+        ),
+    ];
+    for (args, expected) in cases {
+        let mut all: Vec<&str> = args.to_vec();
+        if matches!(args[0], "render" | "bench") {
+            all.extend(SMALL);
+        }
+        let out = bvhlab(&dir, &all);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} succeeded");
+        assert!(
+            err.contains(expected),
+            "{args:?}: expected '{expected}' in:\n{err}"
+        );
+        assert!(!err.contains("panicked"), "{args:?} panicked:\n{err}");
+        // One cause, said once.
+        let first = err.lines().next().unwrap_or_default();
+        assert_eq!(
+            err.matches(first).count(),
+            1,
+            "{args:?} repeats itself:\n{err}"
+        );
+        assert_eq!(files_in(&dir), before, "{args:?} left a file behind");
+    }
+    // The same commands with their outputs fixed write whole files.
+    let out = bvhlab(
+        &dir,
+        &[
+            "render", "--scene", "cornell", "-o", "ok.png", "--width", "16", "--height", "12",
+        ],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(image::open(dir.join("ok.png")).is_ok());
+    std::fs::write(dir.join("good.bin"), rayfile::encode_rays(&rays[..1])).unwrap();
+    let out = bvhlab(
+        &dir,
+        &[
+            "trace", "--scene", "cornell", "--rays", "good.bin", "--out", "h.bin",
+        ],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(std::fs::read(dir.join("h.bin")).unwrap().len(), 8);
+    std::fs::remove_dir_all(&dir).ok();
+}
