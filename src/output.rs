@@ -19,15 +19,16 @@ pub enum OutputError {
         format: String,
         expected: String,
     },
-    #[error("cannot write {path}: {source}")]
+    // Causes are said in the message, not chained after it (they would print twice).
+    #[error("cannot write {path}: {error}")]
     Io {
         path: PathBuf,
-        source: std::io::Error,
+        error: std::io::Error,
     },
-    #[error("cannot encode the image for {path}: {source}")]
+    #[error("cannot encode the image for {path}: {error}")]
     Encode {
         path: PathBuf,
-        source: image::ImageError,
+        error: image::ImageError,
     },
 }
 
@@ -45,6 +46,19 @@ pub fn check(path: &Path, extensions: &[&str]) -> Result<(), OutputError> {
             path: path.to_path_buf(),
             folder,
         });
+    }
+    // A folder that cannot be written in (read-only, a system folder) is found now too.
+    let probe = folder.join(format!(".bvhlab-probe.{}", std::process::id()));
+    match std::fs::File::create(&probe) {
+        Ok(_) => {
+            let _ = std::fs::remove_file(&probe);
+        }
+        Err(error) => {
+            return Err(OutputError::Io {
+                path: path.to_path_buf(),
+                error,
+            });
+        }
     }
     if !extensions.is_empty() {
         let ext = path
@@ -76,7 +90,7 @@ pub fn write(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     check(path, &[])?;
     let io = |source| OutputError::Io {
         path: path.to_path_buf(),
-        source,
+        error: source,
     };
     let name = path.file_name().map_or_else(
         || "output".to_string(),
@@ -113,7 +127,7 @@ pub fn png_bytes(
     )
     .map_err(|source| OutputError::Encode {
         path: path.to_path_buf(),
-        source,
+        error: source,
     })?;
     Ok(bytes)
 }

@@ -819,3 +819,39 @@ fn dropping_a_gltf_on_the_window_loads_its_instances() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A first scene that cannot be loaded leaves the window without a scene: it says so and
+/// offers the built-in scenes, and one click loads one.
+#[test]
+fn a_failed_first_load_offers_the_built_in_scenes() {
+    let missing = std::env::temp_dir().join(format!("bvhlab-missing-{}.obj", std::process::id()));
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(1400.0, 900.0))
+        .with_max_steps(16)
+        .build_eframe(move |cc| {
+            BvhLabApp::new(
+                cc,
+                bvhlab::app::Launch {
+                    scene: Some(missing.display().to_string()),
+                    fresh: true,
+                    ..Default::default()
+                },
+            )
+        });
+    for _ in 0..20 {
+        h.run_steps(2);
+        let ctx = h.ctx.clone();
+        h.state_mut().wait_for_worker(&ctx);
+        if h.state().load_error.is_some() {
+            break;
+        }
+    }
+    h.run_steps(2);
+    assert!(h.state().scene.is_none());
+    assert!(h.query_by_label_contains("No scene is loaded").is_some());
+    assert!(h.query_by_label_contains("The previous scene").is_none());
+    h.get_by_label("walls").click();
+    settle(&mut h);
+    assert_eq!(h.state().scene.as_ref().unwrap().name, "walls");
+    assert!(h.state().load_error.is_none());
+}

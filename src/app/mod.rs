@@ -39,6 +39,9 @@ use worker::{Command, CompareJob, Compared, Overlay, RenderJob, Shown, Worker};
 pub struct Launch {
     /// Overrides the scene to open.
     pub scene: Option<String>,
+    /// The scene `scene` names, loaded already: the command line loads it before it opens
+    /// the window, so a file that cannot be read is an error there, not in the window.
+    pub loaded: Option<Scene>,
     /// Overrides the structure to build.
     pub accel: Option<crate::accel::AccelKind>,
     /// Start from default settings and do not save them.
@@ -190,7 +193,12 @@ impl BvhLabApp {
         let ctx = cc.egui_ctx.clone();
         let mut worker = Worker::spawn(move || ctx.request_repaint());
         worker.send(Command::Build(settings.structure));
-        worker.send(Command::Load(settings.scene.clone()));
+        match launch.loaded {
+            Some(scene) if launch.scene.as_ref() == Some(&settings.scene) => {
+                worker.send(Command::Adopt(settings.scene.clone(), Box::new(scene)));
+            }
+            _ => worker.send(Command::Load(settings.scene.clone())),
+        }
         cc.egui_ctx.set_zoom_factor(settings.ui_scale);
         BvhLabApp {
             sent_build: Some(settings.structure),

@@ -1,8 +1,8 @@
 //! `bvhlab` (no command) and `bvhlab app`: the explorer window; `bvhlab screenshot`: the same
 //! window in a given state, saved to a PNG.
 
-use super::check_size;
 use super::compare::params_over;
+use super::{check_size, load_scene};
 use anyhow::Result;
 use bvhlab::accel::{AccelKind, StructureParams};
 use bvhlab::app::preset::Sequence;
@@ -32,10 +32,12 @@ pub struct AppArgs {
 }
 
 pub fn run(args: AppArgs) -> Result<()> {
-    // A bad preset is an error here, before any window opens.
+    // A bad preset or scene is an error here, before any window opens.
     let preset = args.preset.as_deref().map(Sequence::open).transpose()?;
+    let loaded = args.scene.as_deref().map(load_scene).transpose()?;
     run_app(Launch {
         scene: args.scene,
+        loaded,
         accel: args.accel,
         fresh: args.fresh,
         screenshot: None,
@@ -170,8 +172,11 @@ pub fn screenshot(args: ScreenshotArgs) -> Result<()> {
             view,
         });
     }
+    // The scene is loaded here, so a bad one is an error before the window opens.
+    let loaded = load_scene(&args.scene)?;
     run_app(Launch {
         scene: Some(args.scene),
+        loaded: Some(loaded),
         accel: Some(accel),
         fresh: true,
         screenshot: Some(plan),

@@ -72,7 +72,7 @@ pub fn save_counters_csv(frame: &Frame, path: &Path) -> Result<(), ExportError> 
     let mut bytes = Vec::new();
     write_counters_csv(frame, &mut bytes).map_err(|source| OutputError::Io {
         path: path.to_path_buf(),
-        source,
+        error: source,
     })?;
     Ok(output::write(path, &bytes)?)
 }

@@ -16,11 +16,11 @@ use std::path::{Path, PathBuf};
 /// Why a glTF file could not be loaded. `node` names a node as `node 3 'Name'`.
 #[derive(Debug, thiserror::Error)]
 pub enum GltfError {
-    #[error("cannot read {}: {source}", path.display())]
+    // The cause is said in the message, not chained after it (it would print twice).
+    #[error("cannot read {}: {error}", path.display())]
     Io {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        error: std::io::Error,
     },
     #[error("{}: not a valid glTF 2.0 file: {reason}", path.display())]
     Parse { path: PathBuf, reason: String },
@@ -86,7 +86,7 @@ pub enum AccessorProblem {
 pub fn load_gltf(path: &Path) -> Result<Scene, GltfError> {
     let bytes = std::fs::read(path).map_err(|source| GltfError::Io {
         path: path.to_path_buf(),
-        source,
+        error: source,
     })?;
     parse_gltf(path, &bytes)
 }

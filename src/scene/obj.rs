@@ -15,11 +15,11 @@ pub const DEFAULT_COLOR: Vec3 = Vec3::splat(0.7);
 /// Why an OBJ file could not be loaded. Line numbers are 1-based.
 #[derive(Debug, thiserror::Error)]
 pub enum ObjError {
-    #[error("cannot read {}: {source}", path.display())]
+    // The cause is said in the message, not chained after it (it would print twice).
+    #[error("cannot read {}: {error}", path.display())]
     Io {
         path: PathBuf,
-        #[source]
-        source: std::io::Error,
+        error: std::io::Error,
     },
     #[error("{}:{line}: {reason}: '{text}'", path.display())]
     Parse {
@@ -56,7 +56,7 @@ pub enum ObjError {
 pub fn load_obj(path: &Path) -> Result<Scene, ObjError> {
     let bytes = std::fs::read(path).map_err(|source| ObjError::Io {
         path: path.to_path_buf(),
-        source,
+        error: source,
     })?;
     parse_obj(path, bytes, path.parent())
 }

@@ -22,9 +22,21 @@ use eframe::egui::{self, RichText};
 pub fn controls(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     ui.add_space(4.0);
     crate::app::lecture::error(app, ui);
-    if let Some(e) = &app.load_error {
+    if let Some(e) = app.load_error.clone() {
         ui.colored_label(ui.visuals().error_fg_color, format!("Load failed: {e}"));
-        ui.label(RichText::new("The previous scene is still loaded.").weak());
+        if app.scene.is_some() {
+            ui.label(RichText::new("The previous scene is still loaded.").weak());
+        } else {
+            // Nothing loaded yet (a bad first scene): offer the built-in ones.
+            ui.label("No scene is loaded. Open a built-in scene:");
+            ui.horizontal_wrapped(|ui| {
+                for name in crate::scene::builtin::NAMES {
+                    if ui.button(*name).clicked() {
+                        app.load(name.to_string());
+                    }
+                }
+            });
+        }
         if ui.button("Dismiss").clicked() {
             app.load_error = None;
         }

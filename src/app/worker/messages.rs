@@ -70,6 +70,9 @@ pub struct Compared {
 pub enum Command {
     /// A built-in scene name or an OBJ path.
     Load(String),
+    /// A scene loaded already, under its spec (the command line checked it before the
+    /// window opened).
+    Adopt(String, Box<Scene>),
     /// Build the structure these parameters name (traversal settings alone rebuild
     /// nothing).
     Build(StructureParams),

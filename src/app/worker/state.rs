@@ -131,7 +131,7 @@ impl State {
             // across ten values asks for one build, not ten).
             let last_load = batch
                 .iter()
-                .rposition(|(_, c)| matches!(c, Command::Load(_)));
+                .rposition(|(_, c)| matches!(c, Command::Load(_) | Command::Adopt(..)));
             let last_build = batch
                 .iter()
                 .rposition(|(_, c)| matches!(c, Command::Build { .. }));
@@ -139,7 +139,7 @@ impl State {
             let version = self.version;
             for (i, (_, command)) in batch.into_iter().enumerate() {
                 let superseded = match command {
-                    Command::Load(_) => Some(i) != last_load,
+                    Command::Load(_) | Command::Adopt(..) => Some(i) != last_load,
                     Command::Build { .. } => Some(i) != last_build,
                     _ => false,
                 };
@@ -166,32 +166,13 @@ impl State {
     pub(in crate::app) fn apply(&mut self, command: Command) {
         match command {
             Command::Load(spec) => match Scene::load(&spec) {
-                Ok(mut scene) => {
-                    // An interior from a file starts from inside it (see `start_view`).
-                    if crate::app::scene::is_file_spec(&spec) {
-                        scene.view = scene
-                            .view
-                            .or_else(|| crate::app::start_view::interior_view(&scene));
-                    }
-                    self.reply(Reply::Loaded {
-                        spec,
-                        scene: Arc::new(scene.clone()),
-                    });
-                    self.scene = Some(scene);
-                    self.structure = None;
-                    self.instance = None;
-                    self.reference_bvh = None;
-                    self.gesture.clear();
-                    self.undo.clear();
-                    self.version += 1;
-                    self.scene_version += 1;
-                    self.rebuild();
-                }
+                Ok(scene) => self.adopt(spec, scene),
                 Err(e) => self.reply(Reply::LoadFailed {
                     spec,
                     error: e.to_string(),
                 }),
             },
+            Command::Adopt(spec, scene) => self.adopt(spec, *scene),
             Command::Build(params) => {
                 let old = self.params;
                 self.params = params;
@@ -267,6 +248,29 @@ impl State {
 
     /// Builds the structure for the current scene and parameters; false (and the old one
     /// kept) if the parameters are rejected.
+    /// Makes `scene`, loaded from `spec`, the one the worker builds over and traces.
+    fn adopt(&mut self, spec: String, mut scene: Scene) {
+        // An interior from a file starts from inside it (see `start_view`).
+        if crate::app::scene::is_file_spec(&spec) {
+            scene.view = scene
+                .view
+                .or_else(|| crate::app::start_view::interior_view(&scene));
+        }
+        self.reply(Reply::Loaded {
+            spec,
+            scene: Arc::new(scene.clone()),
+        });
+        self.scene = Some(scene);
+        self.structure = None;
+        self.instance = None;
+        self.reference_bvh = None;
+        self.gesture.clear();
+        self.undo.clear();
+        self.version += 1;
+        self.scene_version += 1;
+        self.rebuild();
+    }
+
     pub(in crate::app) fn rebuild(&mut self) -> bool {
         let Some(scene) = &self.scene else {
             return true;
