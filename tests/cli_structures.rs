@@ -595,10 +595,11 @@ fn tradeoff_and_rotation_sweep_write_their_csv_and_plot() {
 /// is refused before a window opens, with the flag to use.
 #[test]
 fn screenshot_instance_needs_the_two_levels() {
+    let never = std::env::temp_dir().join(format!("bvhlab-never-{}.png", std::process::id()));
     let out = bvhlab(&[
         "screenshot",
         "--out",
-        "/nonexistent/never-written.png",
+        never.to_str().unwrap(),
         "--scene",
         "cornell",
         "--mode",
@@ -611,6 +612,7 @@ fn screenshot_instance_needs_the_two_levels() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("use --accel two-level"), "{err}");
+    assert!(!never.exists());
 }
 
 /// `stress --accel two-level` also places the closed meshes as rotated, scaled and

@@ -482,3 +482,48 @@ fn the_command_line_takes_gltf_scenes_and_names_what_is_wrong() {
     );
     assert!(!err.contains("panicked"), "{err}");
 }
+
+/// A glTF file reads no file outside its own folder: not by an absolute path, not up with
+/// `..` (plain or percent-encoded), not through a link that leads out; a buffer beside it
+/// or below it, and a data URI, are read.
+#[test]
+fn buffers_stay_in_the_gltf_files_folder() {
+    let root = temp_dir("confined");
+    let dir = root.join("model");
+    std::fs::create_dir_all(dir.join("sub")).unwrap();
+    let mut b = GltfBuilder::default();
+    let mesh = two_primitive_mesh(&mut b, UNSIGNED_SHORT);
+    let node = b.node(json!({"mesh": mesh}));
+    b.roots.push(node);
+    // The same buffer outside the folder, below it, and linked to from inside it.
+    std::fs::write(root.join("outside.bin"), &b.bin).unwrap();
+    std::fs::write(dir.join("sub/inside.bin"), &b.bin).unwrap();
+    #[cfg(unix)]
+    std::os::unix::fs::symlink(root.join("outside.bin"), dir.join("link.bin")).unwrap();
+    let outside = root.join("outside.bin").display().to_string();
+    let mut refused = vec![
+        outside.clone(),
+        "../outside.bin".to_string(),
+        "%2e%2e/outside.bin".to_string(),
+        "sub/../../outside.bin".to_string(),
+        format!("file://{outside}"),
+    ];
+    if cfg!(unix) {
+        refused.push("link.bin".into());
+    }
+    for (k, uri) in refused.iter().enumerate() {
+        let path =
+            common::gltf::write_json(&dir, &format!("bad{k}"), &b.document(Some(uri.clone())));
+        let e = load_gltf(&path).unwrap_err().to_string();
+        assert!(
+            e.contains("outside the glTF file's folder") || e.contains("unsupported URI"),
+            "{uri}: {e}"
+        );
+    }
+    let path = common::gltf::write_json(&dir, "good", &b.document(Some("sub/inside.bin".into())));
+    assert_eq!(
+        load_gltf(&path).unwrap().triangles.len(),
+        mesh_triangles().len()
+    );
+    std::fs::remove_dir_all(&root).ok();
+}

@@ -247,10 +247,41 @@ fn read_uri(path: &Path, uri: &str) -> Result<Vec<u8>, String> {
         return Err(format!("unsupported URI '{}'", shorten(uri)));
     }
     let relative = percent_decode(uri).ok_or_else(|| format!("bad URI '{}'", shorten(uri)))?;
-    let file = path.parent().unwrap_or(Path::new("")).join(relative);
+    // A file someone sends must not make the tool read outside its own folder: only a
+    // path down from the glTF's folder, never absolute and never up with `..`.
+    let outside = || {
+        format!(
+            "'{}' is outside the glTF file's folder (only files beside it or below it, and \
+             data: URIs, are read)",
+            shorten(uri)
+        )
+    };
+    let down = Path::new(&relative).components().all(|c| {
+        matches!(
+            c,
+            std::path::Component::Normal(_) | std::path::Component::CurDir
+        )
+    });
+    if !down {
+        return Err(outside());
+    }
+    let folder = path.parent().unwrap_or(Path::new(""));
+    let file = folder.join(relative);
     // Only regular files: a URI can name a directory or a device that never ends.
     if !file.is_file() {
         return Err(format!("{} not found", file.display()));
+    }
+    // Nor through a link that leads out of the folder.
+    let real = |p: &Path| {
+        std::fs::canonicalize(if p.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            p
+        })
+    };
+    match (real(folder), real(&file)) {
+        (Ok(folder), Ok(file)) if file.starts_with(&folder) => {}
+        _ => return Err(outside()),
     }
     std::fs::read(&file).map_err(|e| format!("cannot read {}: {e}", file.display()))
 }
