@@ -287,10 +287,12 @@ fn a_bad_preset_on_the_command_line_opens_no_window() {
         "title = \"A\"\nscene = \"cornell\"\n[settings]\nmode = \"Nodez\"\n",
     )
     .unwrap();
+    // Never written: the preset fails first.
+    let never = dir.join("never.png");
     for command in ["app", "screenshot"] {
         let mut args = vec![command, "--preset", path.to_str().unwrap()];
         if command == "screenshot" {
-            args.extend(["--out", "/nonexistent/x.png"]);
+            args.extend(["--out", never.to_str().unwrap()]);
         }
         let out = Command::new(env!("CARGO_BIN_EXE_bvhlab"))
             .args(&args)
@@ -305,6 +307,7 @@ fn a_bad_preset_on_the_command_line_opens_no_window() {
             "{err}"
         );
         assert!(!err.contains("window"), "{err}");
+        assert!(!never.exists());
     }
     let out = Command::new(env!("CARGO_BIN_EXE_bvhlab"))
         .args(["app", "--preset", "lecture:0"])
