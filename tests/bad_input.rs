@@ -44,6 +44,17 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
         Ray::segment(Vec3::new(0.0, 1.0, 3.0), -Vec3::Z, -1.0, 10.0),
     ];
     std::fs::write(dir.join("rays.bin"), rayfile::encode_rays(&rays)).unwrap();
+    // Geometry where ray arithmetic overflows f32, and beyond f32 itself.
+    std::fs::write(
+        dir.join("far.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1e20 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("huge.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1e39 0\nf 1 2 3\n",
+    )
+    .unwrap();
     let before = files_in(&dir);
     let cases: &[(&[&str], &str)] = &[
         (

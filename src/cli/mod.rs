@@ -199,11 +199,13 @@ pub fn parse_vec3(s: &str) -> Result<Vec3, String> {
     let [x, y, z] = parts.as_slice() else {
         return Err(format!("expected x,y,z, got '{s}'"));
     };
-    let f = |v: &str| {
-        v.parse::<f32>()
-            .ok()
-            .filter(|x| x.is_finite())
-            .ok_or_else(|| format!("'{v}' is not a finite number"))
+    let limit = bvhlab::scene::MAX_COORDINATE;
+    let f = |v: &str| match v.parse::<f32>() {
+        Ok(x) if x.is_finite() && x.abs() <= limit => Ok(x),
+        Ok(x) if x.is_finite() => Err(format!(
+            "'{v}' is beyond ±{limit:e}, where ray arithmetic overflows f32"
+        )),
+        _ => Err(format!("'{v}' is not a finite number")),
     };
     Ok(Vec3::new(f(x)?, f(y)?, f(z)?))
 }
@@ -283,5 +285,6 @@ mod tests {
         assert!(parse_vec3("1,2").is_err());
         assert!(parse_vec3("1,2,nan").is_err());
         assert!(parse_vec3("a,b,c").is_err());
+        assert!(parse_vec3("0,1e20,0").unwrap_err().contains("beyond"));
     }
 }

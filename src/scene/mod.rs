@@ -407,22 +407,42 @@ impl Scene {
             return Ok(scene);
         }
         let path = Path::new(spec);
-        if is_gltf_path(path) {
-            return load_gltf(path).map_err(|e| Box::new(e).into());
-        }
-        if path
+        let scene = if is_gltf_path(path) {
+            load_gltf(path).map_err(Box::new)?
+        } else if path
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("obj"))
             || path.exists()
         {
-            return Ok(load_obj(path)?);
+            load_obj(path)?
+        } else {
+            return Err(SceneError::UnknownScene {
+                name: spec.to_string(),
+                known: builtin::NAMES.join(", "),
+            });
+        };
+        scene.check_range(spec)?;
+        Ok(scene)
+    }
+
+    /// Refuses a scene placed where ray arithmetic overflows f32: beyond
+    /// `MAX_COORDINATE`, a box's surface area or a ray's squared length is infinite, and
+    /// the SAH and the traversal would compute with infinities and NaNs.
+    pub fn check_range(&self, spec: &str) -> Result<(), SceneError> {
+        let b = self.bounds();
+        let farthest = b.min.abs().max(b.max.abs()).max_element();
+        if farthest > MAX_COORDINATE {
+            return Err(SceneError::OutOfRange {
+                name: spec.to_string(),
+                coordinate: farthest,
+            });
         }
-        Err(SceneError::UnknownScene {
-            name: spec.to_string(),
-            known: builtin::NAMES.join(", "),
-        })
+        Ok(())
     }
 }
+
+/// The largest coordinate a scene may place (see `Scene::check_range`).
+pub const MAX_COORDINATE: f32 = 1e18;
 
 /// Whether the file name ends in `.gltf` or `.glb` (in any case).
 pub fn is_gltf_path(path: &Path) -> bool {
@@ -445,4 +465,9 @@ pub enum SceneError {
     Flatten(#[from] FlattenError),
     #[error("bad parameter for scene '{name}': {reason}")]
     BadParameter { name: String, reason: String },
+    #[error(
+        "'{name}' places geometry at {coordinate:e}, beyond ±1e18: there ray arithmetic \
+         overflows f32 (box areas, squared lengths); scale the scene down or move it"
+    )]
+    OutOfRange { name: String, coordinate: f32 },
 }

@@ -29,7 +29,10 @@ pub enum ObjError {
         text: String,
         reason: &'static str,
     },
-    #[error("{}:{line}: vertex coordinate is NaN or infinite", path.display())]
+    #[error(
+        "{}:{line}: vertex coordinate is NaN, infinite or beyond the f32 range (±3.4e38)",
+        path.display()
+    )]
     NonFinite { path: PathBuf, line: usize },
     #[error(
         "{}:{line}: {kind} index {index} is out of range ({defined} defined before this line)",
