@@ -99,13 +99,13 @@ pub struct BenchJson {
     pub peer: Option<PeerJson>,
     pub peers: Vec<PeerJson>,
     #[serde(flatten)]
-    pub two_level: Option<TwoLevelJson>,
+    pub instanced: Option<InstancedJson>,
 }
 
 /// Under the two levels: the re-braiding budget, the top level's references and each
 /// level's build (their sum is `build_ms`).
 #[derive(Serialize)]
-pub struct TwoLevelJson {
+pub struct InstancedJson {
     pub rebraid: f64,
     pub references: Option<u64>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -201,7 +201,7 @@ impl BenchResult {
             sah_check: self.sah_check,
             peer: (!peers.is_empty()).then(|| PeerJson::of(&self.peers[0])),
             peers: std::mem::take(&mut peers),
-            two_level: levels.then(|| TwoLevelJson {
+            instanced: levels.then(|| InstancedJson {
                 rebraid: as_typed(b.rebraid),
                 references: r.detail("TLAS references").and_then(|v| v.as_count()),
                 blas_build_ms: r.detail("BLAS builds").and_then(|v| v.as_ms()).map(round3),
