@@ -55,6 +55,7 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
         "v 0 0 0\nv 1 0 0\nv 0 1e39 0\nf 1 2 3\n",
     )
     .unwrap();
+    std::fs::write(dir.join("noise.glb"), [7u8, 1, 2, 3, 250, 0, 9]).unwrap();
     let before = files_in(&dir);
     let cases: &[(&[&str], &str)] = &[
         (

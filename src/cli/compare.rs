@@ -82,6 +82,23 @@ pub fn run(
     b.structure_params_for(b.accel_to_trace(scene).kind()?)
         .validate()
         .map_err(|e| anyhow!("bad --compare flags '{flags}': {e}"))?;
+    // A count only the two levels make would be zero for a structure without them: a
+    // comparison against zeros that looks like a measurement.
+    if let Mode::Heatmap(counter, _) = settings.mode
+        && counter.is_two_level()
+    {
+        for (name, args) in [("A", a), ("B", &b)] {
+            let kind = args.accel_to_trace(scene).kind()?;
+            if !kind.places_instances() {
+                bail!(
+                    "--mode {} counts the two levels' work, which {name} ({}) does not have: \
+                     compare two-level structures",
+                    settings.mode.label(),
+                    kind.title()
+                );
+            }
+        }
+    }
     let trace = |name: &str, args: &BuildArgs| -> Result<Frame> {
         eprint!("{name}: ");
         let built = args.build_to_trace(scene)?;

@@ -98,6 +98,17 @@ pub fn parse_gltf(path: &Path, bytes: &[u8]) -> Result<Scene, GltfError> {
         path: path.to_path_buf(),
         reason: e.to_string(),
     };
+    // A binary glTF starts with its magic; without it the parser would read the bytes as
+    // JSON and say "expected value at line 1".
+    let binary = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("glb"));
+    if binary && !bytes.starts_with(b"glTF") {
+        return Err(GltfError::Parse {
+            path: path.to_path_buf(),
+            reason: "not a binary glTF: a .glb file starts with the bytes 'glTF'".into(),
+        });
+    }
     let ::gltf::Gltf { document, blob } =
         ::gltf::Gltf::from_slice_without_validation(bytes).map_err(parse_error)?;
     validate(document.as_json()).map_err(|reason| GltfError::Parse {
