@@ -160,17 +160,16 @@ pub enum Study {
 impl BenchCommand {
     /// The run's settings, with the study's flag set.
     fn settings(self) -> Result<BenchArgs> {
-        let study = |common: BenchCommon, files: StudyFiles| (common, files);
         let (common, files) = match &self.study {
-            None => study(self.common.clone(), StudyFiles::default()),
+            None => (self.common.clone(), StudyFiles::default()),
             Some(
                 Study::Accuracy { common, files, .. }
                 | Study::Scaling { common, files, .. }
                 | Study::Tradeoff { common, files }
                 | Study::SahScatter { common, files }
                 | Study::RotationSweep { common, files },
-            ) => study(common.clone(), files.clone()),
-            Some(Study::Builders { common }) => study(common.clone(), StudyFiles::default()),
+            ) => (common.clone(), files.clone()),
+            Some(Study::Builders { common }) => (common.clone(), StudyFiles::default()),
         };
         let Some(scene) = common.scene else {
             bail!("--scene is required: the scene to benchmark");
