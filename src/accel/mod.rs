@@ -4,6 +4,7 @@
 
 pub mod brute_force;
 pub mod bvh;
+pub mod controls;
 #[cfg(feature = "embree")]
 pub mod embree;
 pub mod grid;

@@ -254,4 +254,51 @@ mod tests {
             }
         );
     }
+
+    /// Every preset key of a parameter struct has a control (the derive refuses a field
+    /// without `#[param]`; this checks that the controls are the keys, in the same names),
+    /// and each slider's range holds the default.
+    #[test]
+    fn every_parameter_has_a_control() {
+        use crate::accel::controls::{Control, ControlVisitor, Controls, keys_of};
+        fn keys_match(mut params: impl Controls + serde::Serialize + Copy) {
+            let json = serde_json::to_value(params).unwrap();
+            let mut keys: Vec<&str> = json
+                .as_object()
+                .unwrap()
+                .keys()
+                .map(|k| k.as_str())
+                .collect();
+            let mut controls = keys_of(&mut params);
+            controls.dedup();
+            keys.sort();
+            controls.sort();
+            assert_eq!(controls, keys);
+        }
+        keys_match(crate::accel::bvh::BuildParams::default());
+        keys_match(crate::accel::kdtree::KdParams::default());
+        keys_match(crate::accel::grid::GridParams::default());
+        keys_match(crate::accel::octree::OctreeParams::default());
+
+        struct InRange;
+        impl ControlVisitor for InRange {
+            fn whole(&mut self, c: &Control, v: &mut u32) {
+                let (lo, hi) = c.range();
+                assert!((lo..=hi).contains(&(*v as f64)), "{}: {v}", c.key);
+            }
+            fn real(&mut self, c: &Control, v: &mut f32) {
+                let (lo, hi) = c.range();
+                assert!((lo..=hi).contains(&(*v as f64)), "{}: {v}", c.key);
+            }
+            fn flag(&mut self, _: &Control, _: &mut bool) {}
+            fn choice(&mut self, c: &Control, selected: &mut usize, options: &[&'static str]) {
+                assert!(*selected < options.len(), "{}", c.key);
+            }
+        }
+        let mut p = StructureParams::default();
+        p.bvh.visit_controls(&mut InRange);
+        p.kdtree.visit_controls(&mut InRange);
+        p.grid.visit_controls(&mut InRange);
+        p.octree.visit_controls(&mut InRange);
+    }
 }

@@ -1,16 +1,12 @@
-//! The structure's parameters as controls: one editor function per parameter struct of the
-//! library (`BuildParams`, `KdParams`, `GridParams`, `OctreeParams`) and one for the whole
-//! `StructureParams`. The same structs are the CLI's flags and the presets' keys, so a
-//! parameter has one definition; its control is added here.
+//! The structure's parameters as controls. Each parameter struct of the library
+//! (`BuildParams`, `KdParams`, `GridParams`, `OctreeParams`) derives `Controls`, and one
+//! egui visitor draws them all; the structure selector, the traversal order and the SIMD
+//! kernel (settings of `StructureParams` itself) are drawn here. The same structs are the
+//! CLI's flags and the presets' keys, so a parameter has one definition and its slider
+//! follows from it.
 
-use crate::accel::bvh::build::{
-    MAX_BUCKETS, MAX_LEAF_SIZE, MAX_OVERLAP_PENALTY, MAX_REBRAID, MAX_SPLIT_BUDGET,
-    MAX_TREELET_ROUNDS, MAX_TREELET_SIZE, MIN_BUCKETS, MIN_TREELET_SIZE,
-};
-use crate::accel::bvh::{BuildParams, Strategy, TraversalOrder};
-use crate::accel::grid::GridParams;
-use crate::accel::kdtree::{KdParams, KdSplit, MAX_DEPTH as KD_MAX_DEPTH, MIN_BINS as KD_MIN_BINS};
-use crate::accel::octree::{MAX_DEPTH as OCTREE_MAX_DEPTH, OctreeParams};
+use crate::accel::bvh::TraversalOrder;
+use crate::accel::controls::{Control, ControlVisitor, Controls};
 use crate::accel::{AccelKind, StructureParams};
 use crate::geometry::simd::SimdLevel;
 use eframe::egui;
@@ -38,95 +34,91 @@ pub fn structure_params(ui: &mut egui::Ui, p: &mut StructureParams) {
     }
     match p.kind {
         AccelKind::Bvh | AccelKind::TwoLevel => {
-            bvh_params(ui, &mut p.bvh, p.kind.places_instances());
+            let scopes: &[&str] = if p.kind.places_instances() {
+                &["two-level"]
+            } else {
+                &[]
+            };
+            edit(ui, &mut p.bvh, scopes);
             traversal_order(ui, &mut p.order);
         }
         AccelKind::Bvh4 | AccelKind::Bvh8 => {
-            bvh_params(ui, &mut p.bvh, false);
+            edit(ui, &mut p.bvh, &[]);
             traversal_order(ui, &mut p.order);
             simd_level(ui, &mut p.simd);
         }
-        AccelKind::KdTree => kd_params(ui, &mut p.kdtree),
-        AccelKind::Grid => grid_params(ui, &mut p.grid),
-        AccelKind::Octree => octree_params(ui, &mut p.octree),
+        AccelKind::KdTree => edit(ui, &mut p.kdtree, &[]),
+        AccelKind::Grid => edit(ui, &mut p.grid, &[]),
+        AccelKind::Octree => edit(ui, &mut p.octree, &[]),
         AccelKind::BruteForce | AccelKind::BruteForceBbox => {}
     }
 }
 
-/// The BVH builders' parameters; each slider is enabled for the builders that use it. The
-/// re-braiding budget is shown for the two-level structure only.
-pub fn bvh_params(ui: &mut egui::Ui, p: &mut BuildParams, two_level: bool) {
-    ui.label("split strategy");
-    for strategy in Strategy::ALL {
-        let label = match strategy {
-            Strategy::Sbvh => "SBVH (spatial splits)",
-            s => s.label(),
-        };
-        ui.radio_value(&mut p.strategy, strategy, label);
+/// Draws each control of a parameter struct: numbers as sliders, enums as radio buttons,
+/// toggles as checkboxes; a control that does not apply to the current choices is greyed
+/// out, and one scoped to a context (`scope`) is shown only in it. The labels, ranges and
+/// hover texts come from the struct's `#[param]` attributes and doc comments.
+struct Editor<'a> {
+    ui: &'a mut egui::Ui,
+    scopes: &'a [&'a str],
+}
+
+impl Editor<'_> {
+    fn shown(&self, c: &Control) -> bool {
+        c.scope.is_none_or(|scope| self.scopes.contains(&scope))
     }
-    ui.add_enabled(
-        matches!(p.strategy, Strategy::SahBinned | Strategy::Sbvh),
-        egui::Slider::new(&mut p.buckets, MIN_BUCKETS..=MAX_BUCKETS)
-            .logarithmic(true)
-            .text("buckets B"),
-    );
-    let treelets = p.strategy == Strategy::LbvhTreelet;
-    ui.add_enabled(
-        treelets,
-        egui::Slider::new(&mut p.treelet_size, MIN_TREELET_SIZE..=MAX_TREELET_SIZE)
-            .text("treelet size n"),
-    );
-    ui.add_enabled(
-        treelets,
-        egui::Slider::new(&mut p.treelet_rounds, 0..=MAX_TREELET_ROUNDS).text("treelet rounds"),
-    );
-    let sbvh = p.strategy == Strategy::Sbvh;
-    ui.add_enabled(
-        sbvh,
-        egui::Slider::new(&mut p.split_alpha, 1e-8..=1.0)
-            .logarithmic(true)
-            .text("overlap threshold α"),
-    )
-    .on_hover_text(
-        "spatial splits only where the object split's children overlap by more than α × \
-         the root's area",
-    );
-    ui.add_enabled(
-        sbvh,
-        egui::Slider::new(&mut p.overlap_penalty, 0.0..=MAX_OVERLAP_PENALTY)
-            .text("overlap penalty κ"),
-    )
-    .on_hover_text(
-        "weighed against a spatial split, an object split costs × (1 + κ × its children's \
-         overlap / the node's area): 0 = the plain SAH",
-    );
-    ui.add_enabled(
-        sbvh,
-        egui::Slider::new(&mut p.split_budget, 0.0..=MAX_SPLIT_BUDGET).text("split budget × N"),
-    )
-    .on_hover_text("at most this many duplicated references, per triangle");
-    ui.add_enabled(
-        p.strategy.takes_presplit(),
-        egui::Slider::new(&mut p.presplit, 0.0..=MAX_SPLIT_BUDGET).text("pre-split budget × N"),
-    )
-    .on_hover_text("extra references for the triangles that waste most box area (0 = off)");
-    if two_level {
-        ui.add(
-            egui::Slider::new(&mut p.rebraid, 0.0..=MAX_REBRAID)
-                .logarithmic(true)
-                .text("re-braiding budget per instance"),
-        )
-        .on_hover_text(
-            "the top level opens the largest instances into references to their BLAS's \
-             subtrees, up to this many extra references per instance, counting at least \
-             40 960 instances (0 = whole instances)",
-        );
+
+    fn hover(response: egui::Response, c: &Control) {
+        if !c.help.is_empty() {
+            response.on_hover_text(c.help);
+        }
     }
-    ui.add(
-        egui::Slider::new(&mut p.max_leaf_size, 1..=MAX_LEAF_SIZE.min(64)).text("max leaf size"),
-    );
-    ui.add(egui::Slider::new(&mut p.c_trav, 0.0..=10.0).text("C_trav"));
-    ui.add(egui::Slider::new(&mut p.c_isect, 0.05..=10.0).text("C_isect"));
+}
+
+impl ControlVisitor for Editor<'_> {
+    fn whole(&mut self, c: &Control, value: &mut u32) {
+        if self.shown(c) {
+            let (lo, hi) = c.range();
+            let slider = egui::Slider::new(value, lo as u32..=hi as u32)
+                .logarithmic(c.log)
+                .text(c.label);
+            Self::hover(self.ui.add_enabled(c.enabled, slider), c);
+        }
+    }
+
+    fn real(&mut self, c: &Control, value: &mut f32) {
+        if self.shown(c) {
+            let (lo, hi) = c.range();
+            let slider = egui::Slider::new(value, lo as f32..=hi as f32)
+                .logarithmic(c.log)
+                .text(c.label);
+            Self::hover(self.ui.add_enabled(c.enabled, slider), c);
+        }
+    }
+
+    fn flag(&mut self, c: &Control, value: &mut bool) {
+        if self.shown(c) {
+            let checkbox = egui::Checkbox::new(value, c.label);
+            Self::hover(self.ui.add_enabled(c.enabled, checkbox), c);
+        }
+    }
+
+    fn choice(&mut self, c: &Control, selected: &mut usize, options: &[&'static str]) {
+        if self.shown(c) {
+            self.ui.label(c.label);
+            for (i, option) in options.iter().enumerate() {
+                let radio = egui::RadioButton::new(*selected == i, *option);
+                if self.ui.add_enabled(c.enabled, radio).clicked() {
+                    *selected = i;
+                }
+            }
+        }
+    }
+}
+
+/// The controls of one parameter struct, in the contexts `scopes`.
+pub fn edit(ui: &mut egui::Ui, params: &mut impl Controls, scopes: &[&str]) {
+    params.visit_controls(&mut Editor { ui, scopes });
 }
 
 /// Front-to-back or the naive order (a traversal setting: no rebuild).
@@ -153,50 +145,4 @@ pub fn simd_level(ui: &mut egui::Ui, simd: &mut SimdLevel) {
                 ui.selectable_value(simd, level, level.label());
             }
         });
-}
-
-pub fn kd_params(ui: &mut egui::Ui, p: &mut KdParams) {
-    ui.add(egui::Slider::new(&mut p.c_trav, 0.0..=10.0).text("C_trav"));
-    ui.add(
-        egui::Slider::new(&mut p.c_isect, 0.05..=100.0)
-            .logarithmic(true)
-            .text("C_isect"),
-    );
-    ui.add(egui::Slider::new(&mut p.empty_bonus, 0.0..=0.95).text("empty bonus"));
-    ui.add(
-        egui::Slider::new(&mut p.max_depth, 0..=KD_MAX_DEPTH)
-            .text("depth bound (0: 8 + 1.3 log2 N)"),
-    );
-    ui.add(egui::Slider::new(&mut p.max_leaf_size, 1..=64).text("max leaf size"));
-    let mut sweep = p.split == KdSplit::Sweep;
-    if ui
-        .checkbox(&mut sweep, "perfect splits by exact event sweep")
-        .changed()
-    {
-        p.split = if sweep {
-            KdSplit::Sweep
-        } else {
-            KdSplit::Binned(32)
-        };
-    }
-    if let KdSplit::Binned(bins) = &mut p.split {
-        ui.add(
-            egui::Slider::new(bins, KD_MIN_BINS..=256)
-                .logarithmic(true)
-                .text("bins"),
-        );
-    }
-}
-
-pub fn grid_params(ui: &mut egui::Ui, p: &mut GridParams) {
-    ui.add(
-        egui::Slider::new(&mut p.lambda, 1.0 / 16.0..=64.0)
-            .logarithmic(true)
-            .text("λ (cells ≈ λ·N)"),
-    );
-}
-
-pub fn octree_params(ui: &mut egui::Ui, p: &mut OctreeParams) {
-    ui.add(egui::Slider::new(&mut p.max_leaf_size, 1..=64).text("max leaf size"));
-    ui.add(egui::Slider::new(&mut p.max_depth, 0..=OCTREE_MAX_DEPTH).text("max depth"));
 }

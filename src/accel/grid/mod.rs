@@ -32,12 +32,22 @@ pub(crate) const PAD: f64 = 1.0 / (1u64 << 18) as f64;
 
 pub(crate) use crate::accel::mailbox::{SHARED, mark_shared};
 
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize, clap::Args)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    PartialEq,
+    serde::Serialize,
+    serde::Deserialize,
+    clap::Args,
+    bvhlab_derive::Controls,
+)]
 #[serde(default)]
 pub struct GridParams {
     /// Uniform grid: cells ≈ λ · triangles (1/16..=64).
     #[serde(rename = "grid_lambda")]
     #[arg(id = "grid_lambda", long = "lambda", value_name = "LAMBDA", default_value_t = GridParams::default().lambda)]
+    #[param(label = "λ (cells ≈ λ·N)", range = *LAMBDA_RANGE.start()..=*LAMBDA_RANGE.end(), log)]
     pub lambda: f32,
     /// Skip triangles the ray has tested already (they are listed in every cell they
     /// overlap); the grid's `mailbox` field switches it without a rebuild.

@@ -36,34 +36,49 @@ impl KdSplit {
 
 /// Plain-data build parameters, shared by the app, the CLI and the tests. The preset keys
 /// and the flags carry a `kd` prefix where the BVH has a parameter of the same name.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize, clap::Args)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    PartialEq,
+    serde::Serialize,
+    serde::Deserialize,
+    clap::Args,
+    bvhlab_derive::Controls,
+)]
 #[serde(default)]
 pub struct KdParams {
     /// k-d tree: SAH cost of a traversal step (a node and its plane distance).
     #[serde(rename = "kd_c_trav")]
     #[arg(id = "kd_c_trav", long = "kd-c-trav", value_name = "KD_C_TRAV", default_value_t = KdParams::default().c_trav)]
+    #[param(label = "C_trav", range = 0.0..=10.0)]
     pub c_trav: f32,
     /// k-d tree: SAH cost of a ray–triangle test.
     #[serde(rename = "kd_c_isect")]
     #[arg(id = "kd_c_isect", long = "kd-c-isect", value_name = "KD_C_ISECT", default_value_t = KdParams::default().c_isect)]
+    #[param(label = "C_isect", range = 0.05..=100.0, log)]
     pub c_isect: f32,
     /// k-d tree: a split with an empty side costs (1 − bonus) × its SAH cost, since rays
     /// skip empty space in one step (0..1).
     #[serde(rename = "kd_empty_bonus")]
     #[arg(id = "kd_empty_bonus", long = "empty-bonus", value_name = "EMPTY_BONUS", default_value_t = KdParams::default().empty_bonus)]
+    #[param(label = "empty bonus", range = 0.0..=0.95)]
     pub empty_bonus: f32,
     /// k-d tree: depth bound (0 = 8 + 1.3·log2 N, as pbrt; at most 64).
     #[serde(rename = "kd_max_depth")]
     #[arg(id = "kd_max_depth", long = "kd-max-depth", value_name = "KD_MAX_DEPTH", default_value_t = KdParams::default().max_depth)]
+    #[param(label = "depth bound (0: 8 + 1.3 log2 N)", range = 0..=MAX_DEPTH)]
     pub max_depth: u32,
     /// k-d tree: nodes with this many references or fewer become leaves.
     #[serde(rename = "kd_max_leaf_size")]
     #[arg(id = "kd_max_leaf_size", long = "kd-max-leaf", value_name = "KD_MAX_LEAF", default_value_t = KdParams::default().max_leaf_size)]
+    #[param(label = "max leaf size", range = 1..=64)]
     pub max_leaf_size: u32,
     /// k-d tree: split candidates from B bins per axis instead of the exact event sweep
     /// (0 = the sweep).
     #[serde(rename = "kd_bins", with = "kd_bins")]
     #[arg(id = "kd_bins", long = "kd-bins", value_name = "KD_BINS", value_parser = kd_bins::parse, default_value = "0")]
+    #[param(label = "perfect splits by exact event sweep", range = MIN_BINS..=MAX_BINS, log)]
     pub split: KdSplit,
     /// Traversal skips triangles the ray has tested already (a toggle, no rebuild; the
     /// structure's own `mailbox` setting is what the app and the CLI change).
@@ -232,5 +247,28 @@ impl KdTree {
             .filter(|n| n.is_leaf())
             .map(|n| n.count() as usize)
             .sum()
+    }
+}
+
+/// The split search as a toggle (the exact sweep) and, when binned, a slider of bins.
+impl crate::accel::controls::ControlValue for KdSplit {
+    fn visit(
+        &mut self,
+        control: &crate::accel::controls::Control,
+        visitor: &mut dyn crate::accel::controls::ControlVisitor,
+    ) {
+        let mut sweep = *self == KdSplit::Sweep;
+        visitor.flag(control, &mut sweep);
+        match (sweep, &mut *self) {
+            (true, _) => *self = KdSplit::Sweep,
+            (false, KdSplit::Sweep) => *self = KdSplit::Binned(32),
+            (false, KdSplit::Binned(bins)) => {
+                let bins_control = crate::accel::controls::Control {
+                    label: "bins",
+                    ..control.clone()
+                };
+                visitor.whole(&bins_control, bins);
+            }
+        }
     }
 }

@@ -109,48 +109,68 @@ impl Strategy {
 
 /// Plain-data build parameters, shared by the app, the CLI and the tests. The field is the
 /// preset key; the flag is `--` and the field in kebab case unless named below.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize, clap::Args)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    PartialEq,
+    serde::Serialize,
+    serde::Deserialize,
+    clap::Args,
+    bvhlab_derive::Controls,
+)]
 #[serde(default)]
 pub struct BuildParams {
     /// The builder: split strategy.
     #[arg(long = "builder", value_name = "BUILDER", value_enum, default_value_t = BuildParams::default().strategy)]
+    #[param(label = "split strategy")]
     pub strategy: Strategy,
     /// Bucket count B for binned SAH and the SBVH (2..=256).
     #[arg(long, default_value_t = BuildParams::default().buckets)]
+    #[param(label = "buckets B", range = MIN_BUCKETS..=MAX_BUCKETS, log, when = Self::uses_buckets)]
     pub buckets: u32,
     /// Maximum number of triangles in a leaf (1..=4096).
     #[arg(long = "max-leaf", value_name = "MAX_LEAF", default_value_t = BuildParams::default().max_leaf_size)]
+    #[param(label = "max leaf size", range = 1..=64)]
     pub max_leaf_size: u32,
     /// SAH cost of a traversal step (a node visit with its box tests).
     #[arg(long, default_value_t = BuildParams::default().c_trav, allow_negative_numbers = true)]
+    #[param(label = "C_trav", range = 0.0..=10.0)]
     pub c_trav: f32,
     /// SAH cost of a ray–triangle test.
     #[arg(long, default_value_t = BuildParams::default().c_isect, allow_negative_numbers = true)]
+    #[param(label = "C_isect", range = 0.05..=10.0)]
     pub c_isect: f32,
     /// lbvh-treelet: leaves n of a treelet (5..=9).
     #[arg(long, default_value_t = BuildParams::default().treelet_size)]
+    #[param(label = "treelet size n", range = MIN_TREELET_SIZE..=MAX_TREELET_SIZE, when = Self::uses_treelets)]
     pub treelet_size: u32,
     /// lbvh-treelet: rounds of treelet restructuring (0..=16).
     #[arg(long = "rounds", value_name = "ROUNDS", default_value_t = BuildParams::default().treelet_rounds)]
+    #[param(label = "treelet rounds", range = 0..=MAX_TREELET_ROUNDS, when = Self::uses_treelets)]
     pub treelet_rounds: u32,
     /// sbvh: try spatial splits where the object split's children overlap by more than this
     /// fraction of the root's surface area, the overlap threshold α (0..=1).
     #[arg(long, default_value_t = BuildParams::default().split_alpha, allow_negative_numbers = true)]
+    #[param(label = "overlap threshold α", range = 1e-8..=1.0, log, when = Self::uses_spatial_splits)]
     pub split_alpha: f32,
     /// sbvh: the overlap penalty κ. Weighed against a spatial split, an object split costs
     /// its SAH cost × (1 + κ · its children's overlap area / the node's area), for the rays
     /// that front-to-back order cannot stop early in that overlap (0..=16; 0 = the plain
     /// SAH).
     #[arg(long, default_value_t = BuildParams::default().overlap_penalty, allow_negative_numbers = true)]
+    #[param(label = "overlap penalty κ", range = 0.0..=MAX_OVERLAP_PENALTY, when = Self::uses_spatial_splits)]
     pub overlap_penalty: f32,
     /// sbvh: at most this many duplicated references, as a fraction of the triangle count
     /// (0..=16).
     #[arg(long, default_value_t = BuildParams::default().split_budget, allow_negative_numbers = true)]
+    #[param(label = "split budget × N", range = 0.0..=MAX_SPLIT_BUDGET, when = Self::uses_spatial_splits)]
     pub split_budget: f32,
     /// lbvh, lbvh-treelet, sah-binned: pre-split the triangles that waste most box area
     /// (cut along the Morton grid), adding at most this many references as a fraction of
     /// the triangle count (0..=16; 0 = off).
     #[arg(long, default_value_t = BuildParams::default().presplit, allow_negative_numbers = true)]
+    #[param(label = "pre-split budget × N", range = 0.0..=MAX_SPLIT_BUDGET, when = Self::takes_presplit)]
     pub presplit: f32,
     /// two-level: partial re-braiding; the top level may open large instances into
     /// references to their BLAS's subtrees, largest first, up to this many extra references
@@ -158,7 +178,44 @@ pub struct BuildParams {
     /// instance).
     // How: `two_level::rebraid`.
     #[arg(long, default_value_t = BuildParams::default().rebraid, allow_negative_numbers = true)]
+    #[param(label = "re-braiding budget per instance", range = 0.0..=MAX_REBRAID, log, scope = "two-level")]
     pub rebraid: f32,
+}
+
+impl BuildParams {
+    /// Whether the builder bins by B buckets (binned SAH, SBVH).
+    pub fn uses_buckets(&self) -> bool {
+        matches!(self.strategy, Strategy::SahBinned | Strategy::Sbvh)
+    }
+
+    /// Whether the builder restructures treelets.
+    pub fn uses_treelets(&self) -> bool {
+        self.strategy == Strategy::LbvhTreelet
+    }
+
+    /// Whether the builder tries spatial splits.
+    pub fn uses_spatial_splits(&self) -> bool {
+        self.strategy == Strategy::Sbvh
+    }
+
+    /// Whether `presplit` applies (see `Strategy::takes_presplit`).
+    pub fn takes_presplit(&self) -> bool {
+        self.strategy.takes_presplit()
+    }
+}
+
+impl crate::accel::controls::ControlValue for Strategy {
+    fn visit(
+        &mut self,
+        control: &crate::accel::controls::Control,
+        visitor: &mut dyn crate::accel::controls::ControlVisitor,
+    ) {
+        let label = |s: Strategy| match s {
+            Strategy::Sbvh => "SBVH (spatial splits)",
+            s => s.label(),
+        };
+        crate::accel::controls::choose(self, &Strategy::ALL, label, control, visitor);
+    }
 }
 
 impl Default for BuildParams {
