@@ -277,6 +277,76 @@ fn dragging_a_triangle_refits_and_hits_equal_a_fresh_build() {
     );
 }
 
+/// Every node of `outline` is exactly the box of the triangles under it: a leaf's is the
+/// union of its triangles' boxes, an inner node's the union of its children's.
+fn assert_boxes_are_tight(outline: &bvhlab::accel::Outline, scene: &bvhlab::scene::Scene) {
+    for (i, n) in outline.nodes.iter().enumerate().rev() {
+        let tight = if n.is_leaf() {
+            outline
+                .leaf_refs(i)
+                .iter()
+                .fold(bvhlab::geometry::Aabb::EMPTY, |b, &t| {
+                    b.union(scene.triangles[t as usize].bounds())
+                })
+        } else {
+            n.children().fold(bvhlab::geometry::Aabb::EMPTY, |b, c| {
+                b.union(outline.nodes[c].bounds)
+            })
+        };
+        assert_eq!(n.bounds, tight, "node {i} is the box of what it holds");
+    }
+}
+
+#[test]
+fn a_refit_moves_the_level_boxes_and_ctrl_z_puts_them_back() {
+    let mut h = app("cornell");
+    h.get_by_label("show the boxes or cells of one level")
+        .click();
+    settle(&mut h);
+    let built = h.state().outline.clone();
+    let history = h.state().sah_history.clone();
+    let before = h.state().shown.clone().expect("frame").rgba.clone();
+    drag_an_object(&mut h);
+    let after = h.state().outline.clone();
+    assert_eq!(
+        after.nodes.len(),
+        built.nodes.len(),
+        "a refit keeps the tree's shape"
+    );
+    let stretched = (after.nodes.iter().zip(&built.nodes)).filter(|(a, b)| a.bounds != b.bounds);
+    assert!(stretched.count() > 0, "the drawn boxes follow the move");
+    h.state_mut().request_snapshot();
+    settle(&mut h);
+    let moved = h.state().snapshot.clone().expect("snapshot");
+    assert_boxes_are_tight(&after, &moved);
+    let shown = h.state().shown.clone().expect("frame").rgba.clone();
+    assert_ne!(
+        shown, before,
+        "the level's boxes are drawn where they are now"
+    );
+    assert!(h.state().sah_history.len() > history.len());
+
+    // Ctrl+Z with the viewport focused, as a user presses it.
+    h.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    settle(&mut h);
+    let undone = h.state().outline.clone();
+    // Moving back by −delta returns each vertex to within rounding of where it was.
+    for (u, b) in undone.nodes.iter().zip(&built.nodes) {
+        let off = (u.bounds.min - b.bounds.min)
+            .abs()
+            .max((u.bounds.max - b.bounds.max).abs());
+        assert!(
+            off.max_element() < 1e-6,
+            "undo puts the boxes back: {u:?} {b:?}"
+        );
+    }
+    assert_eq!(
+        h.state().sah_history,
+        history,
+        "and takes its points off the chart"
+    );
+}
+
 #[test]
 fn dragging_under_a_wide_bvh_refits_it_in_place() {
     for kind in [

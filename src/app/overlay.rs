@@ -17,6 +17,11 @@ use crate::render::overlay::{
 };
 use std::sync::Arc;
 
+/// A box's extent at the build, under its refitted self.
+const GHOST: [u8; 4] = [210, 210, 210, 90];
+/// The triangles moved since the build.
+const MOVED_TINT: [u8; 4] = [90, 220, 255, 120];
+
 impl State {
     pub(in crate::app) fn draw_overlay(
         &self,
@@ -27,6 +32,15 @@ impl State {
         let outline = &self.outline;
         let o = &job.overlay;
         let triangle_count = self.scene.as_ref().map_or(0, |s| s.triangles.len());
+        if o.level.is_some() && !self.moved.is_empty() {
+            // What moved since the build, so the stretched boxes can be traced to it.
+            let moved = &self.moved;
+            tint_triangles(frame, rgba, |t| {
+                u32::try_from(t)
+                    .is_ok_and(|t| moved.contains(&t))
+                    .then_some(MOVED_TINT)
+            });
+        }
         if let Some(sel) = &o.selected {
             let selection = self.selection_table(sel);
             tint_triangles(frame, rgba, |t| {
@@ -36,6 +50,7 @@ impl State {
         let instance = self.instance.as_deref();
         let levels = Levels::new(outline, instance);
         if let Some(level) = o.level {
+            self.draw_ghost(frame, rgba, job, &levels, level);
             let color = |i: usize| {
                 if o.color_by_node {
                     palette(i)
@@ -234,6 +249,36 @@ impl State {
         }
         outline_boxes(frame, rgba, &job.camera, &boxes, true);
         Some(info)
+    }
+
+    /// After a refit: the shown level's boxes as the build left them, faintly, under the
+    /// refitted ones (drawn only where a box has moved).
+    fn draw_ghost(
+        &self,
+        frame: &Frame,
+        rgba: &mut [u8],
+        job: &RenderJob,
+        levels: &Levels,
+        level: u32,
+    ) {
+        let (now, built) = (&self.outline, &self.built_outline);
+        if Arc::ptr_eq(now, built) || now.nodes.len() != built.nodes.len() {
+            return;
+        }
+        let ghosts: Vec<OutlinedBox> = levels
+            .level(level)
+            .into_iter()
+            .filter_map(|node| match node {
+                WalkNode::Top(i) if built.nodes[i].bounds != now.nodes[i].bounds => {
+                    Some(OutlinedBox {
+                        bounds: built.nodes[i].bounds,
+                        color: GHOST,
+                    })
+                }
+                _ => None,
+            })
+            .collect();
+        outline_boxes(frame, rgba, &job.camera, &ghosts, job.overlay.see_through);
     }
 
     /// Under the two levels: the references in the top-level leaves under outline node

@@ -82,19 +82,33 @@ impl BvhLabApp {
                     sah_before,
                     sah_after,
                     refit_time,
+                    outline,
+                    undo,
                 } => {
                     // A wide BVH's build report has no SAH cost: its first refit gives it.
                     if self.sah_history.is_empty() {
                         self.sah_history.push(sah_before);
                     }
-                    self.sah_history.push(sah_after);
+                    // An undo takes back its move's point; the build's stays.
+                    if !undo {
+                        self.sah_history.push(sah_after);
+                    } else if self.sah_history.len() > 1 {
+                        self.sah_history.pop();
+                    }
+                    self.outline = outline;
                     self.last_refit = Some(refit_time);
                     self.maybe_auto_rebuild();
                 }
                 Reply::RebuiltAfterMove {
                     rebuild_time,
                     bvh_refit_time,
-                } => self.last_rebuild = Some((rebuild_time, bvh_refit_time)),
+                    outline,
+                } => {
+                    self.last_rebuild = Some((rebuild_time, bvh_refit_time));
+                    self.settings.level = self.settings.level.min(outline.max_depth());
+                    self.walk = self.walk.filter(|&w| (w as usize) < outline.nodes.len());
+                    self.outline = outline;
+                }
                 Reply::InstanceMoved {
                     refit_time,
                     flat_refit_time,

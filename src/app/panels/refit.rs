@@ -3,6 +3,7 @@
 
 use crate::app::BvhLabApp;
 use eframe::egui::{self, RichText};
+use egui_plot::{HLine, Line, Plot, PlotPoints};
 
 pub(super) fn refit_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     egui::CollapsingHeader::new("Drag to refit or rebuild")
@@ -110,5 +111,54 @@ pub(super) fn grabbed_instance(app: &BvhLabApp, ui: &mut egui::Ui) {
             "[{:>8.3} {:>8.3} {:>8.3} | {:>9.3}]",
             m.x_axis[row], m.y_axis[row], m.z_axis[row], t[row]
         ));
+    }
+}
+
+/// The SAH cost since the last build, as growth in % of the built tree's cost. The axis
+/// starts at 0 % and spans at least the auto-rebuild threshold (or 10 %), so a refit that
+/// changes the cost by a millionth is drawn flat, as it is, and not as a steep climb.
+pub(super) fn sah_growth(app: &BvhLabApp, ui: &mut egui::Ui) {
+    ui.heading("SAH cost since the last build");
+    let Some(&first) = app.sah_history.first() else {
+        ui.label(RichText::new("Move a triangle (M, then drag) to refit the tree.").weak());
+        return;
+    };
+    let growth = |c: f64| (c / first - 1.0) * 100.0;
+    let points: PlotPoints = app
+        .sah_history
+        .iter()
+        .enumerate()
+        .map(|(i, &c)| [i as f64, growth(c)])
+        .collect();
+    let threshold = app.settings.auto_rebuild_percent;
+    Plot::new("sah history")
+        .height(150.0)
+        .x_axis_label("refits")
+        .y_axis_label("growth %")
+        .include_y(0.0)
+        .include_y(threshold.map_or(10.0, f64::from) * 1.1)
+        .include_x(0.0)
+        .include_x(4.0)
+        .allow_scroll(false)
+        .show(ui, |p| {
+            p.line(Line::new("SAH cost", points));
+            if let Some(t) = threshold {
+                p.hline(HLine::new("rebuild threshold", f64::from(t)));
+            }
+        });
+    let last = *app.sah_history.last().unwrap_or(&first);
+    ui.label(format!(
+        "{} since the build (from {first:.3} to {last:.3})",
+        percent(growth(last))
+    ));
+}
+
+/// A growth in %, with as many digits as it takes to show it is not zero.
+fn percent(p: f64) -> String {
+    match p.abs() {
+        0.0 => "+0 %".to_string(),
+        a if a >= 0.1 => format!("{p:+.1} %"),
+        a if a >= 0.001 => format!("{p:+.3} %"),
+        _ => format!("{} %", if p > 0.0 { "< +0.001" } else { "> -0.001" }),
     }
 }

@@ -25,6 +25,12 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     }
     // With a pinned A, the comparison is what the user is looking at: first.
     crate::app::compare::summary(app, ui);
+    // While moving triangles, what the move does to the tree is the point: first.
+    let moving = app.tool == Tool::Move && app.bvh_report.is_some();
+    if moving {
+        super::refit::sah_growth(app, ui);
+        ui.separator();
+    }
     if app.replay.is_some() || app.replay_error.is_some() || app.tool == Tool::Replay {
         crate::app::replay::section(app, ui);
         ui.separator();
@@ -41,9 +47,15 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             .striped(true)
             .max_col_width(REPORT_VALUE_WIDTH)
             .show(ui, |ui| {
-                for (k, v) in scene_rows.chain(r.rows()) {
+                for (k, mut v) in scene_rows.chain(r.rows()) {
                     if k.starts_with("leaf sizes") {
                         continue;
+                    }
+                    // The report is the build's; after refits the cost has moved on.
+                    if k == "SAH cost"
+                        && let (2.., Some(now)) = (app.sah_history.len(), app.sah_history.last())
+                    {
+                        v = format!("{v} at build, {now:.3} now");
                     }
                     ui.label(k);
                     ui.add(egui::Label::new(v).wrap());
@@ -108,27 +120,9 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     }
     sah_check_section(app, ui);
     crate::app::export::section(app, ui);
-    if app.bvh_report.is_none() {
-        return;
-    }
-    ui.separator();
-    ui.heading("SAH cost since the last build");
-    let points: PlotPoints = app
-        .sah_history
-        .iter()
-        .enumerate()
-        .map(|(i, &c)| [i as f64, c])
-        .collect();
-    Plot::new("sah history")
-        .height(130.0)
-        .x_axis_label("refits")
-        .y_axis_label("SAH cost")
-        .show(ui, |p| p.line(Line::new("SAH cost", points)));
-    if let (Some(first), Some(last)) = (app.sah_history.first(), app.sah_history.last()) {
-        ui.label(format!(
-            "{:+.1} % since the build",
-            (last / first - 1.0) * 100.0
-        ));
+    if app.bvh_report.is_some() && !moving {
+        ui.separator();
+        super::refit::sah_growth(app, ui);
     }
 }
 

@@ -186,12 +186,18 @@ pub enum Reply {
         sah_before: f64,
         sah_after: f64,
         refit_time: Duration,
+        /// The refitted boxes, as the levels and the walk draw them.
+        outline: Arc<Outline>,
+        /// The refit of an undo (its chart point is taken back, not added).
+        undo: bool,
     },
     /// A structure that cannot refit was rebuilt after a move; beside it, what refitting a
     /// BVH over the same triangles took.
     RebuiltAfterMove {
         rebuild_time: Duration,
         bvh_refit_time: Option<Duration>,
+        /// The rebuilt structure's nodes (a k-d tree's or a grid's may differ in number).
+        outline: Arc<Outline>,
     },
     /// An instance moved and the top level was refitted; beside it, what refitting a BVH
     /// over the flattened scene for the same move took (`None` for a scene too large to

@@ -102,6 +102,7 @@ impl State {
         };
         scene.move_triangles(triangles, delta);
         self.scene_version += 1;
+        self.moved.extend(triangles.iter().copied());
         // The standard light from the scene's box in its two parts, the selection's moved.
         if let Some(mut b) = bounds {
             b.selected = Aabb::new(b.selected.min + delta, b.selected.max + delta);
@@ -122,11 +123,17 @@ impl State {
         );
         if let Some(refit) = refit {
             if let Ok(r) = refit {
+                let refit_time = start.elapsed();
+                // The level boxes and the walk are drawn from the outline: it follows the
+                // refitted boxes (the tree's shape is unchanged, so the walk stays valid).
+                self.outline = Arc::new(structure.outline());
                 self.version += 1;
                 self.reply(Reply::Refitted {
                     sah_before: r.sah_before,
                     sah_after: r.sah_after,
-                    refit_time: start.elapsed(),
+                    refit_time,
+                    outline: self.outline.clone(),
+                    undo: self.undoing,
                 });
             }
             return;
@@ -150,9 +157,11 @@ impl State {
             let _ = bvh.refit_moved(index, &scene.triangles, triangles, p.c_trav, p.c_isect);
             start.elapsed()
         });
+        self.built_outline = self.outline.clone();
         self.reply(Reply::RebuiltAfterMove {
             rebuild_time,
             bvh_refit_time,
+            outline: self.outline.clone(),
         });
     }
 

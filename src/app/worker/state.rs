@@ -47,6 +47,11 @@ pub(in crate::app) struct State {
     pub(in crate::app) structure: Option<Structure>,
     pub(in crate::app) params: StructureParams,
     pub(in crate::app) outline: Arc<Outline>,
+    /// The outline as the last build left it: after moves, the level boxes are drawn over
+    /// a faint ghost of these, so a refit's stretching is seen.
+    pub(in crate::app) built_outline: Arc<Outline>,
+    /// The triangles moved since the last build (highlighted while levels are shown).
+    pub(in crate::app) moved: std::collections::HashSet<u32>,
     /// Under the two levels: the selected instance's BLAS, and the instance each top-level
     /// leaf holds.
     pub(in crate::app) instance: Option<Arc<InstanceOutline>>,
@@ -74,6 +79,8 @@ pub(in crate::app) struct State {
     /// Moves of the drag in progress, then finished drags (for undo).
     pub(in crate::app) gesture: Vec<Motion>,
     pub(in crate::app) undo: Vec<Vec<Motion>>,
+    /// While an undo replays its moves backwards (their refits take back chart points).
+    pub(in crate::app) undoing: bool,
     /// The walk node's split costs, kept while the tree, the node and the parameters stay.
     pub(in crate::app) split_costs: RefCell<Option<(SplitCostsKey, Arc<SplitCosts>)>>,
     /// The move tool's selection as a table, kept while the selection and the scene stay.
@@ -232,6 +239,7 @@ impl State {
                 } else {
                     std::mem::take(&mut self.gesture)
                 };
+                self.undoing = true;
                 for motion in step.iter().rev() {
                     match motion {
                         Motion::Triangles(triangles, delta) => {
@@ -241,6 +249,11 @@ impl State {
                             self.move_object(*object, -*delta);
                         }
                     }
+                }
+                self.undoing = false;
+                if self.undo.is_empty() {
+                    // Back to the tree as built: nothing stays highlighted as moved.
+                    self.moved.clear();
                 }
             }
         }
@@ -287,6 +300,8 @@ impl State {
             Ok(built) => {
                 self.refit_index = None;
                 self.outline = Arc::new(built.structure.outline());
+                self.built_outline = self.outline.clone();
+                self.moved.clear();
                 let sah = SahPrediction::of(
                     &built.structure,
                     &self.params,
