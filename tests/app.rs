@@ -925,3 +925,65 @@ fn a_failed_first_load_offers_the_built_in_scenes() {
     assert_eq!(h.state().scene.as_ref().unwrap().name, "walls");
     assert!(h.state().load_error.is_none());
 }
+
+/// The view's share of the window: at least 55 % with the panels at 1280×720, at least
+/// 90 % in the presentation layout, which Tab and F11 toggle; the layout is a setting.
+#[test]
+fn the_view_keeps_its_share_and_tab_presents_it() {
+    let mut h = launch(
+        Harness::builder().with_size(egui::vec2(1280.0, 720.0)),
+        "cornell",
+        |_| {},
+    );
+    let share = |h: &Harness<'static, BvhLabApp>| {
+        let [w, v] = h.state().viewport_px;
+        (w * v) as f32 / (1280.0 * 720.0)
+    };
+    assert!(share(&h) >= 0.55, "normal layout: {}", share(&h));
+    assert!(!h.state().settings.presentation);
+    h.key_press(egui::Key::Tab);
+    settle(&mut h);
+    assert!(h.state().settings.presentation);
+    assert!(share(&h) >= 0.9, "presentation layout: {}", share(&h));
+    h.key_press(egui::Key::F11);
+    settle(&mut h);
+    assert!(!h.state().settings.presentation, "F11 goes back");
+    h.get_by_label("Present (Tab)").click();
+    settle(&mut h);
+    assert!(h.state().settings.presentation, "and so does the button");
+    h.get_by_label("exit presentation").click();
+    settle(&mut h);
+    assert!(!h.state().settings.presentation);
+    assert!(share(&h) >= 0.55);
+}
+
+/// A widget with egui's focus (Tab moves it, as a click may) must not switch the
+/// shortcuts off: only a text field being typed into takes the keys.
+#[test]
+fn shortcuts_answer_while_a_widget_has_the_focus() {
+    let mut h = app("cornell");
+    // Tab: into the presentation layout, and egui moves its focus onto a widget.
+    h.key_press(egui::Key::Tab);
+    settle(&mut h);
+    assert!(h.state().settings.presentation);
+    h.key_press_modifiers(egui::Modifiers::SHIFT, egui::Key::Num4);
+    settle(&mut h);
+    assert_eq!(h.state().settings.mode, bvhlab::render::ViewMode::Nodes);
+    let levels = h.state().settings.show_levels;
+    h.key_press(egui::Key::L);
+    settle(&mut h);
+    assert_ne!(
+        h.state().settings.show_levels,
+        levels,
+        "L toggles the levels"
+    );
+    h.key_press(egui::Key::W);
+    settle(&mut h);
+    assert_eq!(h.state().walk, Some(0), "W opens the tree walk");
+    h.key_press(egui::Key::M);
+    settle(&mut h);
+    assert_eq!(h.state().tool, bvhlab::app::Tool::Move);
+    h.key_press(egui::Key::F11);
+    settle(&mut h);
+    assert!(!h.state().settings.presentation, "F11 goes back");
+}

@@ -113,48 +113,18 @@ pub fn summary(app: &BvhLabApp, ui: &mut egui::Ui) {
     ui.separator();
 }
 
-/// The legend of the difference view: the diverging map from −max (B cheaper) through 0 to
-/// +max (B dearer).
-pub fn difference_legend(ui: &mut egui::Ui, rect: egui::Rect, label: &str, max: u32) {
-    let painter = ui.painter_at(rect);
-    let (w, h) = (200.0, 14.0);
-    let origin = rect.left_bottom() + egui::vec2(12.0, -40.0);
-    let bg = egui::Rect::from_min_size(
-        origin - egui::vec2(6.0, 20.0),
-        egui::vec2(w + 12.0, h + 40.0),
+/// The B − A scale: blue where B does less work, red where more.
+pub fn difference_legend(ui: &mut egui::Ui, rect: egui::Rect, label: &str, max: u32, scale: f32) {
+    crate::app::panels::scale_bar(
+        ui,
+        rect,
+        scale,
+        &format!("B − A: {label}"),
+        |x| diverging(2.0 * x - 1.0),
+        [
+            format!("−{max} (B cheaper)"),
+            "0".to_string(),
+            format!("+{max}"),
+        ],
     );
-    painter.rect_filled(bg, 4.0, egui::Color32::from_black_alpha(170));
-    let steps = 64;
-    for k in 0..steps {
-        let c = diverging(2.0 * k as f32 / (steps - 1) as f32 - 1.0);
-        let x0 = origin.x + w * k as f32 / steps as f32;
-        let r = egui::Rect::from_min_size(
-            egui::pos2(x0, origin.y),
-            egui::vec2(w / steps as f32 + 0.5, h),
-        );
-        let [r8, g8, b8] = [c.x, c.y, c.z].map(|v| (v * 255.0) as u8);
-        painter.rect_filled(r, 0.0, egui::Color32::from_rgb(r8, g8, b8));
-    }
-    let font = egui::FontId::proportional(12.0);
-    let white = egui::Color32::WHITE;
-    painter.text(
-        origin - egui::vec2(0.0, 4.0),
-        egui::Align2::LEFT_BOTTOM,
-        format!("B − A: {label}"),
-        font.clone(),
-        white,
-    );
-    for (x, align, text) in [
-        (0.0, egui::Align2::LEFT_TOP, format!("−{max} (B cheaper)")),
-        (w / 2.0, egui::Align2::CENTER_TOP, "0".to_string()),
-        (w, egui::Align2::RIGHT_TOP, format!("+{max}")),
-    ] {
-        painter.text(
-            origin + egui::vec2(x, h + 2.0),
-            align,
-            text,
-            font.clone(),
-            white,
-        );
-    }
 }

@@ -132,7 +132,8 @@ pub struct BvhLabApp {
     pub walk: Option<u32>,
     /// The pointer over the view (0..1 across and down), when it is there.
     pub probe: Option<[f32; 2]>,
-    viewport_px: [u32; 2],
+    /// The view's size in physical pixels, as last laid out.
+    pub viewport_px: [u32; 2],
     last_job: Option<RenderJob>,
     sent_build: Option<StructureParams>,
     show_help: bool,
@@ -519,21 +520,14 @@ impl eframe::App for BvhLabApp {
         self.take_chosen_preset_file();
         self.shortcuts(&ctx);
 
-        panels::top_bar(self, ui);
-        lecture::caption_bar(self, ui);
-        panels::status_bar(self, ui);
-        egui::Panel::left("controls")
-            .resizable(true)
-            .default_size(300.0)
-            .show(ui, |ui| {
-                egui::ScrollArea::vertical().show(ui, |ui| panels::controls(self, ui));
-            });
-        egui::Panel::right("stats")
-            .resizable(true)
-            .default_size(290.0)
-            .show(ui, |ui| {
-                egui::ScrollArea::vertical().show(ui, |ui| panels::stats(self, ui));
-            });
+        if self.settings.presentation {
+            panels::presentation_bar(self, ui);
+        } else {
+            panels::top_bar(self, ui);
+            lecture::caption_bar(self, ui);
+            panels::status_bar(self, ui);
+            panels::side_panels(self, ui);
+        }
         egui::CentralPanel::no_frame().show(ui, |ui| viewport::show(self, ui));
         panels::help_window(self, &ctx);
 
@@ -546,7 +540,7 @@ impl eframe::App for BvhLabApp {
         }
         let settled = self.settled();
         let action = match &mut self.screenshot {
-            Some(plan) => plan.step(settled, &ctx),
+            Some(plan) => plan.step(settled, self.viewport_px, &ctx),
             None => screenshot::Action::None,
         };
         match action {
@@ -672,7 +666,10 @@ pub fn run(launch: Launch) -> anyhow::Result<()> {
     if let Some(result) = result {
         let outcome = result.lock().map(|r| r.clone()).unwrap_or(None);
         match outcome {
-            Some(Ok(path)) => println!("wrote {path}"),
+            Some(Ok(saved)) => {
+                let [w, h] = saved.viewport;
+                println!("wrote {}\nviewport {w}x{h}", saved.path);
+            }
             Some(Err(e)) => anyhow::bail!(e),
             None => anyhow::bail!("the window closed before the screenshot was taken"),
         }

@@ -103,7 +103,16 @@ pub struct Preset {
 
 /// Settings that belong to the person at the computer, not to a view of the lecture: a
 /// preset neither saves nor sets them.
-const PERSONAL: [&str; 4] = ["scene", "ui_scale", "recent", "bookmarks"];
+/// The layout is among them: a lecture step does not open or close the panels.
+const PERSONAL: [&str; 7] = [
+    "scene",
+    "ui_scale",
+    "presentation",
+    "show_controls",
+    "show_stats",
+    "recent",
+    "bookmarks",
+];
 
 /// A list of presets and where it came from.
 #[derive(Clone, Debug, PartialEq)]
@@ -315,6 +324,9 @@ impl Preset {
         Settings {
             scene: self.scene.clone(),
             ui_scale: current.ui_scale,
+            presentation: current.presentation,
+            show_controls: current.show_controls,
+            show_stats: current.show_stats,
             recent: current.recent.clone(),
             bookmarks: current.bookmarks.clone(),
             ..self.settings.clone()

@@ -62,8 +62,15 @@ pub enum Action {
     Compare(CompareShot),
 }
 
-/// What the screenshot run saved: the path, or why it could not.
-pub type Outcome = Arc<Mutex<Option<Result<String, String>>>>;
+/// What a screenshot run saved: the file, and the view's size in it (pixels).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Saved {
+    pub path: String,
+    pub viewport: [u32; 2],
+}
+
+/// What the screenshot run saved, or why it could not.
+pub type Outcome = Arc<Mutex<Option<Result<Saved, String>>>>;
 
 #[derive(Clone, Debug)]
 pub struct ScreenshotPlan {
@@ -81,6 +88,10 @@ pub struct ScreenshotPlan {
     pub replay: Option<ReplayShot>,
     /// Pin the configuration as A, change to B and compare.
     pub compare: Option<CompareShot>,
+    /// The presentation layout (no side panels, one slim caption bar).
+    pub presentation: bool,
+    /// The UI scale (egui's zoom factor), 1 by default.
+    pub ui_scale: f32,
     pub result: Outcome,
     stage: Stage,
     started: Instant,
@@ -101,6 +112,8 @@ impl ScreenshotPlan {
             instance: None,
             replay: None,
             compare: None,
+            presentation: false,
+            ui_scale: 1.0,
             result: Arc::new(Mutex::new(None)),
             stage: Stage::Settling,
             started: Instant::now(),
@@ -109,6 +122,10 @@ impl ScreenshotPlan {
 
     /// The settings the shot starts from.
     pub fn apply(&self, s: &mut Settings) {
+        s.presentation = self.presentation;
+        s.ui_scale = self.ui_scale;
+        s.show_controls = true;
+        s.show_stats = true;
         s.mode = match self.shot {
             Shot::Nodes => ViewMode::Nodes,
             Shot::Boxes => ViewMode::Boxes,
@@ -129,7 +146,7 @@ impl ScreenshotPlan {
         }
     }
 
-    fn finish(&mut self, outcome: Result<String, String>) {
+    fn finish(&mut self, outcome: Result<Saved, String>) {
         if let Ok(mut r) = self.result.lock() {
             r.get_or_insert(outcome);
         }
@@ -139,7 +156,7 @@ impl ScreenshotPlan {
     /// Advances the plan; `settled` says the worker is idle and the full frame is shown.
     /// Returns, once, what the app is to do before the shot (the scripted drag of a refit
     /// shot, the replay of a replay shot).
-    pub fn step(&mut self, settled: bool, ctx: &egui::Context) -> Action {
+    pub fn step(&mut self, settled: bool, viewport: [u32; 2], ctx: &egui::Context) -> Action {
         if self.started.elapsed() > TIMEOUT && self.stage != Stage::Closing {
             self.finish(Err(format!("the frame did not settle within {TIMEOUT:?}")));
         }
@@ -156,10 +173,12 @@ impl ScreenshotPlan {
                     self.stage = Stage::Comparing;
                     action = Action::Compare(c.clone());
                 } else {
-                    self.request(ctx);
+                    self.request(viewport, ctx);
                 }
             }
-            Stage::Refitting | Stage::Replaying | Stage::Comparing if settled => self.request(ctx),
+            Stage::Refitting | Stage::Replaying | Stage::Comparing if settled => {
+                self.request(viewport, ctx)
+            }
             Stage::Requested if self.result.lock().is_ok_and(|r| r.is_some()) => {
                 self.stage = Stage::Closing;
             }
@@ -171,7 +190,7 @@ impl ScreenshotPlan {
         action
     }
 
-    fn request(&mut self, ctx: &egui::Context) {
+    fn request(&mut self, viewport: [u32; 2], ctx: &egui::Context) {
         self.stage = Stage::Requested;
         let out = self.out.clone();
         let result = self.result.clone();
@@ -180,7 +199,10 @@ impl ScreenshotPlan {
             let [w, h] = image.size;
             let bytes: Vec<u8> = image.pixels.iter().flat_map(|c| c.to_array()).collect();
             let saved = crate::output::write_png(&bytes, w as u32, h as u32, &out)
-                .map(|()| out.display().to_string())
+                .map(|()| Saved {
+                    path: out.display().to_string(),
+                    viewport,
+                })
                 .map_err(|e| e.to_string());
             if let Ok(mut r) = result.lock() {
                 *r = Some(saved);

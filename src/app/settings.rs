@@ -35,6 +35,11 @@ pub struct Settings {
     /// Rebuild automatically when the SAH cost has grown by more than this many percent.
     pub auto_rebuild_percent: Option<f32>,
     pub ui_scale: f32,
+    /// The presentation layout: the view fills the window under one slim caption bar.
+    pub presentation: bool,
+    /// The side panels of the normal layout, each collapsed or not.
+    pub show_controls: bool,
+    pub show_stats: bool,
     pub recent: Vec<String>,
     /// Camera bookmarks per scene (keyed by its spec), kept between runs.
     pub bookmarks: BTreeMap<String, Vec<Bookmark>>,
@@ -64,6 +69,9 @@ impl Default for Settings {
             compare_view: CompareView::Split,
             auto_rebuild_percent: None,
             ui_scale: 1.0,
+            presentation: false,
+            show_controls: true,
+            show_stats: true,
             recent: Vec::new(),
             bookmarks: BTreeMap::new(),
         }

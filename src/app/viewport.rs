@@ -43,10 +43,16 @@ pub fn show(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             .compare
             .is_some_and(|c| c.view == CompareView::Difference)
             && shown.compared.as_ref().is_some_and(|c| c.error.is_none());
-        if difference {
-            super::compare::difference_legend(ui, rect, &shown.job.mode.label(), max);
+        // In the presentation layout the scale grows with the window, as the caption does.
+        let scale = if app.settings.presentation {
+            super::panels::presentation_text(ui.ctx()) / 12.0
         } else {
-            legend(ui, rect, shown.job.mode, max);
+            1.0
+        };
+        if difference {
+            super::compare::difference_legend(ui, rect, &shown.job.mode.label(), max, scale);
+        } else {
+            legend(ui, rect, shown.job.mode, max, scale);
         }
     }
     // A screenshot shows the window, not where the pointer happens to rest.
@@ -244,7 +250,9 @@ fn start_drag(app: &mut BvhLabApp, rect: egui::Rect, pos: egui::Pos2) {
 impl BvhLabApp {
     /// Keyboard shortcuts (listed in the help window).
     pub(super) fn shortcuts(&mut self, ctx: &egui::Context) {
-        if ctx.egui_wants_keyboard_input() {
+        // Only typing into a field takes the keys: a button or slider keeps the focus
+        // after a click (and Tab moves it), which must not switch the shortcuts off.
+        if ctx.text_edit_focused() {
             return;
         }
         let pressed = |k: Key| ctx.input(|i| i.key_pressed(k));
@@ -329,6 +337,9 @@ impl BvhLabApp {
         }
         if pressed(Key::F1) {
             self.show_help = !self.show_help;
+        }
+        if pressed(Key::F11) || pressed(Key::Tab) {
+            self.settings.presentation = !self.settings.presentation;
         }
     }
 }

@@ -110,6 +110,20 @@ pub struct ScreenshotArgs {
     /// caption is shown above the view.
     #[arg(long, value_name = "lecture[:N]|FILE[:N]")]
     pub preset: Option<String>,
+    /// The presentation layout: the view fills the window under one slim bar with the
+    /// caption (Tab or F11 in the app).
+    #[arg(long)]
+    pub presentation: bool,
+    /// The UI scale, as the app's slider sets it (0.75..=2.5).
+    #[arg(long, default_value_t = 1.0, value_parser = parse_ui_scale)]
+    pub ui_scale: f32,
+}
+
+fn parse_ui_scale(s: &str) -> Result<f32, String> {
+    s.parse::<f32>()
+        .ok()
+        .filter(|x| (0.75..=2.5).contains(x))
+        .ok_or_else(|| format!("expected a UI scale from 0.75 to 2.5, got '{s}'"))
 }
 
 fn parse_fraction_pair(s: &str) -> Result<[f32; 2], String> {
@@ -148,6 +162,8 @@ pub fn screenshot(args: ScreenshotArgs) -> Result<()> {
     }
     let mut plan = ScreenshotPlan::new(args.out, shot, args.width, args.height);
     plan.level = args.level;
+    plan.presentation = args.presentation;
+    plan.ui_scale = args.ui_scale;
     plan.walk = args.walk;
     plan.instance = args.instance;
     plan.replay = args.replay.map(|at| bvhlab::app::screenshot::ReplayShot {

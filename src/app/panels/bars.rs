@@ -7,7 +7,8 @@ use std::sync::atomic::Ordering;
 
 pub fn top_bar(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     egui::Panel::top("top").show(ui, |ui| {
-        ui.horizontal(|ui| {
+        // Wraps onto a second row rather than clip at a large UI scale.
+        ui.horizontal_wrapped(|ui| {
             ui.strong("bvhlab");
             ui.separator();
             if ui
@@ -48,20 +49,43 @@ pub fn top_bar(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             ui.selectable_value(&mut app.tool, Tool::Replay, "replay a ray (P)")
                 .on_hover_text("Click a pixel, then step through its ray's traversal with ← / →");
             ui.separator();
-            let scale = ui.add(
-                egui::Slider::new(&mut app.settings.ui_scale, 0.75..=2.5)
-                    .step_by(0.05)
-                    .text("UI scale"),
-            );
-            if scale.drag_stopped() || scale.lost_focus() || (scale.changed() && !scale.dragged()) {
-                ui.ctx().set_zoom_factor(app.settings.ui_scale);
-            }
+            ui_scale_menu(app, ui);
             crate::app::lecture::menu(app, ui);
+            ui.separator();
+            ui.toggle_value(&mut app.settings.show_controls, "controls")
+                .on_hover_text("show or hide the controls panel");
+            ui.toggle_value(&mut app.settings.show_stats, "stats")
+                .on_hover_text("show or hide the statistics panel");
+            if ui
+                .button("Present (Tab)")
+                .on_hover_text("the view fills the window under the caption (Tab or F11)")
+                .clicked()
+            {
+                app.settings.presentation = true;
+            }
             if ui.button("Help (F1)").clicked() {
                 app.show_help = true;
             }
         });
     });
+}
+
+/// The UI scale as a short menu of steps: a slider wider than the bar's row would clip.
+fn ui_scale_menu(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    let current = app.settings.ui_scale;
+    ui.menu_button(format!("UI scale {current:.2}×"), |ui| {
+        for scale in [0.75, 1.0, 1.25, 1.5, 1.75, 2.0, 2.5] {
+            if ui
+                .selectable_label((current - scale).abs() < 1e-3, format!("{scale:.2}×"))
+                .clicked()
+            {
+                app.settings.ui_scale = scale;
+                ui.ctx().set_zoom_factor(scale);
+            }
+        }
+    })
+    .response
+    .on_hover_text("the size of text and controls");
 }
 
 /// On `walls-rotated`: the angle the walls are turned by, from 0° (the axis-aligned

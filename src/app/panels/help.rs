@@ -50,6 +50,10 @@ pub fn help_window(app: &mut BvhLabApp, ctx: &egui::Context) {
                         ("B", "rebuild the structure"),
                         ("Ctrl+Z", "undo the last move"),
                         ("Ctrl+O", "open an OBJ file (or drop one on the window)"),
+                        (
+                            "Tab or F11",
+                            "presentation layout: the view fills the window, the caption above",
+                        ),
                         ("F1", "this help"),
                     ] {
                         ui.strong(k);

@@ -1,66 +1,74 @@
-//! The heatmap legend drawn over the view.
+//! The colour scales drawn over the view: the heatmap's and the B − A difference's. One
+//! bar with a title and three labels (its ends and its middle), at `scale` times the
+//! normal size (the presentation layout scales it with the window).
 
 use crate::render::Mode;
 use eframe::egui::{self};
+use glam::Vec3;
 
-pub fn legend(ui: &mut egui::Ui, rect: egui::Rect, mode: Mode, max: u32) {
+/// The heatmap's scale: 0 to `max` of the counter shown.
+pub fn legend(ui: &mut egui::Ui, rect: egui::Rect, mode: Mode, max: u32, scale: f32) {
     let Mode::Heatmap(counter, rays) = mode else {
         return;
     };
+    scale_bar(
+        ui,
+        rect,
+        scale,
+        &format!("{} ({})", counter.label(), rays.label()),
+        crate::render::colormap::viridis,
+        ["0".to_string(), format!("{}", max / 2), format!("{max}")],
+    );
+}
+
+/// A colour bar over the bottom left of `rect`: `color` maps 0..1 along it.
+pub fn scale_bar(
+    ui: &mut egui::Ui,
+    rect: egui::Rect,
+    scale: f32,
+    title: &str,
+    color: impl Fn(f32) -> Vec3,
+    [low, middle, high]: [String; 3],
+) {
     let painter = ui.painter_at(rect);
-    let (w, h) = (200.0, 14.0);
-    let origin = rect.left_bottom() + egui::vec2(12.0, -40.0);
+    let (w, h) = (200.0 * scale, 14.0 * scale);
+    let origin = rect.left_bottom() + egui::vec2(12.0, -40.0 * scale);
     let bg = egui::Rect::from_min_size(
-        origin - egui::vec2(6.0, 20.0),
-        egui::vec2(w + 12.0, h + 40.0),
+        origin - egui::vec2(6.0, 20.0 * scale),
+        egui::vec2(w + 12.0, h + 40.0 * scale),
     );
     painter.rect_filled(bg, 4.0, egui::Color32::from_black_alpha(170));
     let steps = 64;
     for k in 0..steps {
-        let c = crate::render::colormap::viridis(k as f32 / (steps - 1) as f32);
+        let c = color(k as f32 / (steps - 1) as f32);
         let x0 = origin.x + w * k as f32 / steps as f32;
         let r = egui::Rect::from_min_size(
             egui::pos2(x0, origin.y),
             egui::vec2(w / steps as f32 + 0.5, h),
         );
-        painter.rect_filled(
-            r,
-            0.0,
-            egui::Color32::from_rgb(
-                (c.x * 255.0) as u8,
-                (c.y * 255.0) as u8,
-                (c.z * 255.0) as u8,
-            ),
-        );
+        let [r8, g8, b8] = [c.x, c.y, c.z].map(|v| (v.clamp(0.0, 1.0) * 255.0) as u8);
+        painter.rect_filled(r, 0.0, egui::Color32::from_rgb(r8, g8, b8));
     }
-    let font = egui::FontId::proportional(12.0);
+    let font = egui::FontId::proportional(12.0 * scale);
     let white = egui::Color32::WHITE;
     painter.text(
         origin - egui::vec2(0.0, 4.0),
         egui::Align2::LEFT_BOTTOM,
-        format!("{} ({})", counter.label(), rays.label()),
+        title,
         font.clone(),
         white,
     );
-    painter.text(
-        origin + egui::vec2(0.0, h + 2.0),
-        egui::Align2::LEFT_TOP,
-        "0",
-        font.clone(),
-        white,
-    );
-    painter.text(
-        origin + egui::vec2(w / 2.0, h + 2.0),
-        egui::Align2::CENTER_TOP,
-        format!("{}", max / 2),
-        font.clone(),
-        white,
-    );
-    painter.text(
-        origin + egui::vec2(w, h + 2.0),
-        egui::Align2::RIGHT_TOP,
-        format!("{max}"),
-        font,
-        white,
-    );
+    for (x, align, text) in [
+        (0.0, egui::Align2::LEFT_TOP, low),
+        (w / 2.0, egui::Align2::CENTER_TOP, middle),
+        (w, egui::Align2::RIGHT_TOP, high),
+    ] {
+        painter.text(
+            origin + egui::vec2(x, h + 2.0),
+            align,
+            text,
+            font.clone(),
+            white,
+        );
+    }
 }

@@ -3,6 +3,7 @@
 
 mod bars;
 mod help;
+mod layout;
 mod legend;
 mod levels;
 mod refit;
@@ -11,7 +12,8 @@ mod walk;
 
 pub use bars::{status_bar, top_bar};
 pub use help::help_window;
-pub use legend::legend;
+pub use layout::{presentation_bar, presentation_text, side_panels};
+pub use legend::{legend, scale_bar};
 pub use stats::stats;
 pub use walk::Step;
 

@@ -8,6 +8,8 @@ use egui_plot::{Bar, BarChart, Line, Plot, PlotPoints};
 
 /// The widest a column of the build report grows before its values wrap.
 const REPORT_VALUE_WIDTH: f32 = 180.0;
+/// Below this width (points) the report's rows are lines, not a two-column table.
+const NARROW: f32 = 280.0;
 
 pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     ui.add_space(4.0);
@@ -39,29 +41,42 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     if let Some(r) = &app.report {
         // A scene with instances of its own first says how it is instanced, as `bvhlab
         // stats` does: the instanced triangles and the memory a flattened copy would take.
-        let scene_rows = app.scene_rows.iter().cloned();
-        // Long values (the island's re-braiding budget) wrap within their column instead
-        // of widening the panel and squeezing the view.
-        egui::Grid::new("report")
-            .num_columns(2)
-            .striped(true)
-            .max_col_width(REPORT_VALUE_WIDTH)
-            .show(ui, |ui| {
-                for (k, mut v) in scene_rows.chain(r.rows()) {
-                    if k.starts_with("leaf sizes") {
-                        continue;
-                    }
-                    // The report is the build's; after refits the cost has moved on.
-                    if k == "SAH cost"
-                        && let (2.., Some(now)) = (app.sah_history.len(), app.sah_history.last())
-                    {
-                        v = format!("{v} at build, {now:.3} now");
-                    }
-                    ui.label(k);
-                    ui.add(egui::Label::new(v).wrap());
-                    ui.end_row();
+        let rows: Vec<(String, String)> = (app.scene_rows.iter().cloned())
+            .chain(r.rows())
+            .filter(|(k, _)| !k.starts_with("leaf sizes"))
+            .map(|(k, v)| {
+                // The report is the build's; after refits the cost has moved on.
+                match (k.as_str(), app.sah_history.len(), app.sah_history.last()) {
+                    ("SAH cost", 2.., Some(now)) => (k, format!("{v} at build, {now:.3} now")),
+                    _ => (k, v),
                 }
-            });
+            })
+            .collect();
+        if ui.available_width() < NARROW {
+            // A narrow panel (the view keeps its share of a small window): each row on
+            // one wrapped line, the name dimmed, rather than a value column squeezed to
+            // a letter.
+            for (k, v) in rows {
+                ui.horizontal_wrapped(|ui| {
+                    ui.label(egui::RichText::new(k).weak());
+                    ui.label(v);
+                });
+            }
+        } else {
+            // Long values (the island's re-braiding budget) wrap within their column
+            // instead of widening the panel and squeezing the view.
+            egui::Grid::new("report")
+                .num_columns(2)
+                .striped(true)
+                .max_col_width(REPORT_VALUE_WIDTH)
+                .show(ui, |ui| {
+                    for (k, v) in rows {
+                        ui.label(k);
+                        ui.add(egui::Label::new(v).wrap());
+                        ui.end_row();
+                    }
+                });
+        }
     }
     if let Some(r) = &app.bvh_report {
         ui.label("leaf sizes");
