@@ -349,3 +349,45 @@ fn a_dragged_selection_is_lit_and_tinted_as_the_scene_it_moved() {
     assert!(lights[4].distance(lights[0]) < 1e-5, "{lights:?}");
     let _ = std::fs::remove_file(&path);
 }
+
+/// A slow frame (the uniform grid's triangle tests over the teapot in a stadium, at
+/// 1280×720) asked for just before a quick one: the quick one's frame is the last shown,
+/// and the slow one's full frame never comes (its trace is given up for the newer request;
+/// at most its coarse first image is shown before).
+#[test]
+fn a_newer_request_cancels_a_slow_frame_in_flight() {
+    let mut worker = Worker::spawn(|| {});
+    worker.send(Command::Build(StructureParams {
+        kind: AccelKind::Grid,
+        ..Default::default()
+    }));
+    let scene = load(&mut worker, "teapot-in-stadium");
+    let heat = Mode::Heatmap(bvhlab::accel::Counter::TriangleTests, Default::default());
+    let slow = RenderJob {
+        width: 1280,
+        height: 720,
+        ..job(&scene, heat, false)
+    };
+    let mut quick = job(&scene, Mode::Shaded, false);
+    quick.camera.eye += glam::Vec3::splat(0.01);
+    worker.send(Command::Render(slow.clone()));
+    std::thread::sleep(Duration::from_millis(50));
+    worker.send(Command::Render(quick.clone()));
+    let (frames, _) = frames_and_counts(worker.wait_idle(Duration::from_secs(120)));
+    let jobs: Vec<&RenderJob> = frames
+        .iter()
+        .filter_map(|r| match r {
+            Reply::Frame(f) => Some(&f.job),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        jobs.last(),
+        Some(&&quick),
+        "the newest request's frame is shown last"
+    );
+    assert!(
+        !jobs.contains(&&slow),
+        "the slow full frame was given up, not shown after or before it"
+    );
+}

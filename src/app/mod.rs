@@ -91,6 +91,8 @@ pub struct BvhLabApp {
     pub bvh_report: Option<BuildReport>,
     pub build_error: Option<String>,
     building: bool,
+    /// Since when the worker has had work in hand (none: idle).
+    busy_since: Option<Instant>,
     /// The structure's nodes or cells, for the levels view and the tree walk.
     pub outline: Arc<Outline>,
     /// Under the two levels: the selected instance's BLAS, which the levels and the walk
@@ -213,6 +215,7 @@ impl BvhLabApp {
             bvh_report: None,
             build_error: None,
             building: true,
+            busy_since: None,
             outline: Arc::new(Outline::default()),
             instance_outline: None,
             leaf_instances: Arc::default(),
@@ -534,8 +537,13 @@ impl eframe::App for BvhLabApp {
         self.sync_build();
         self.refresh_selected_set();
         self.sync_render(&ctx);
-        if self.building {
-            // Poll the build's progress while it runs.
+        if self.worker.is_idle() {
+            self.busy_since = None;
+        } else {
+            self.busy_since.get_or_insert_with(Instant::now);
+        }
+        if self.building || self.busy_since.is_some() {
+            // Poll the build's or the trace's progress while it runs.
             ctx.request_repaint_after(Duration::from_millis(100));
         }
         let settled = self.settled();

@@ -27,6 +27,7 @@ pub fn show(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         let uv = egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0));
         painter.image(tex.id(), rect, uv, egui::Color32::WHITE);
     }
+    busy_overlay(app, ui, &painter, rect);
     handle_input(app, ui, &response, rect);
     super::replay::draw(app, &painter, rect);
     app.probe = response.hover_pos().map(|p| {
@@ -65,6 +66,64 @@ pub fn show(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             ui.label(text);
         });
     }
+}
+
+/// Work slower than this is shown over the view: the old image dimmed, what is being done
+/// and how far along (a quicker answer only flickers).
+const BUSY_AFTER: std::time::Duration = std::time::Duration::from_millis(100);
+
+/// While the worker builds or traces for longer than `BUSY_AFTER`: the image on screen is
+/// the previous one, so it is dimmed and the work in hand is named with its progress.
+fn busy_overlay(app: &BvhLabApp, ui: &egui::Ui, painter: &egui::Painter, rect: egui::Rect) {
+    use std::sync::atomic::Ordering;
+    let busy = app.busy_since.is_some_and(|t| t.elapsed() > BUSY_AFTER);
+    if !busy && !app.building {
+        return;
+    }
+    let (what, (done, all)) = if app.building {
+        let p = &app.worker.progress;
+        let kind = app.settings.structure.kind.title();
+        (
+            format!("building the {kind}"),
+            (p.0.load(Ordering::Relaxed), p.1.load(Ordering::Relaxed)),
+        )
+    } else {
+        let p = &app.worker.trace_progress;
+        (
+            "tracing".to_string(),
+            (p.0.load(Ordering::Relaxed), p.1.load(Ordering::Relaxed)),
+        )
+    };
+    let fraction = (done as f32 / all.max(1) as f32).min(1.0);
+    let text = if app.building {
+        format!("{what}… {:.0} %", fraction * 100.0)
+    } else {
+        format!("{what}… {:.0} % of tiles", fraction * 100.0)
+    };
+    painter.rect_filled(rect, 0.0, egui::Color32::from_black_alpha(120));
+    let scale = if app.settings.presentation {
+        super::panels::presentation_text(ui.ctx()) / 14.0
+    } else {
+        1.0
+    };
+    let centre = rect.center();
+    let width = (rect.width() * 0.4).clamp(160.0, 520.0);
+    let bar = egui::Rect::from_center_size(centre, egui::vec2(width, 10.0 * scale));
+    painter.rect_filled(
+        bar.expand(6.0 * scale),
+        4.0,
+        egui::Color32::from_black_alpha(180),
+    );
+    painter.rect_filled(bar, 2.0, egui::Color32::from_gray(60));
+    let filled = egui::Rect::from_min_size(bar.min, egui::vec2(width * fraction, bar.height()));
+    painter.rect_filled(filled, 2.0, egui::Color32::from_rgb(90, 170, 255));
+    painter.text(
+        bar.center_top() - egui::vec2(0.0, 10.0 * scale),
+        egui::Align2::CENTER_BOTTOM,
+        text,
+        egui::FontId::proportional(16.0 * scale),
+        egui::Color32::WHITE,
+    );
 }
 
 /// The frame pixel under a screen position.

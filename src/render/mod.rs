@@ -86,6 +86,12 @@ impl RenderSettings {
 /// Rows per tile: the image is split into tiles of whole rows for the worker threads. A
 /// tile is one packet high.
 const TILE_ROWS: u32 = 8;
+
+/// The tiles a frame of `height` rows is traced in (`trace_unless` asks its `stop` once
+/// before each, so counting the asks counts the tiles begun).
+pub fn tile_count(height: u32) -> usize {
+    height.max(1).div_ceil(TILE_ROWS) as usize
+}
 /// Columns per primary-ray packet: a packet is an 8 × 8 block of a tile.
 const PACKET_COLUMNS: u32 = 8;
 const _: () = assert!((TILE_ROWS * PACKET_COLUMNS) as usize == PACKET_SIZE);

@@ -7,7 +7,17 @@ use crate::accel::structure::{self, StructureParams};
 use crate::geometry::Watertight;
 use crate::render::compare::{compare_image, compared_counters, summarize};
 use crate::render::replay::{Replay, replay_pixel};
-use crate::render::{Frame, Mode, RenderSettings, colorize, trace, trace_uncoloured_unless};
+use crate::render::{
+    Frame, Mode, RenderSettings, colorize, tile_count, trace, trace_uncoloured_unless, trace_unless,
+};
+use std::time::Duration;
+
+/// A coarse first image is this many times smaller each way (1/16 of the rays).
+const COARSE: u32 = 4;
+/// Smaller frames come at once, without a coarse one first.
+const COARSE_MIN_PIXELS: u32 = 320 * 240;
+/// A full frame slower than this is preceded by a coarse one next time.
+const SLOW_FRAME: Duration = Duration::from_millis(150);
 use glam::Vec3;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -30,26 +40,77 @@ impl State {
             .map_err(|e| e.to_string())
     }
 
-    pub(in crate::app) fn render(&mut self, job: RenderJob) {
-        let light = self.light();
-        let (Some(scene), Some(structure)) = (&self.scene, &self.structure) else {
-            return;
-        };
-        self.last_job = Some(job.clone());
-        let key = TraceKey {
+    /// Traces (or recolours) the job's frame and sends it. A full frame that may be slow
+    /// (a new structure, or the last full frame took long) is preceded by a coarse one, so
+    /// an image of the change is up at once. The trace is given up when a command newer
+    /// than `seq` arrives; the job then waits in `pending` for the newer commands.
+    pub(in crate::app) fn render(&mut self, job: RenderJob, seq: u64) {
+        let large = job.width * job.height >= COARSE_MIN_PIXELS;
+        if !job.preview && large && self.slow_trace && self.cached(&job).is_none() {
+            let coarse = RenderJob {
+                width: (job.width / COARSE).max(1),
+                height: (job.height / COARSE).max(1),
+                preview: true,
+                ..job.clone()
+            };
+            if !self.render_now(coarse, seq) {
+                self.pending = Some(job);
+                return;
+            }
+        }
+        if !self.render_now(job.clone(), seq) {
+            self.pending = Some(job);
+        }
+    }
+
+    /// The traced frame that serves `job`, if the last trace does.
+    fn cached(&self, job: &RenderJob) -> Option<Arc<Frame>> {
+        let counters = Self::trace_settings(Vec3::ZERO, job).counters;
+        let t = self.traced.as_ref()?;
+        // A counted frame serves every mode; an uncounted one only a mode without counts.
+        (t.key == self.trace_key(job) && (t.counted || !counters)).then(|| t.frame.clone())
+    }
+
+    fn trace_key(&self, job: &RenderJob) -> TraceKey {
+        TraceKey {
             camera: job.camera,
             width: job.width,
             height: job.height,
             version: self.version,
+        }
+    }
+
+    /// `render`'s one frame; false if a newer command stopped its trace.
+    fn render_now(&mut self, job: RenderJob, seq: u64) -> bool {
+        let light = self.light();
+        let cached = self.cached(&job);
+        let key = self.trace_key(&job);
+        let (Some(scene), Some(structure)) = (&self.scene, &self.structure) else {
+            return true;
         };
+        self.last_job = Some(job.clone());
         let settings = Self::trace_settings(light, &job);
-        let (frame, traced) = match &self.traced {
-            // A counted frame serves every mode; an uncounted one only a mode without counts.
-            Some(t) if t.key == key && (t.counted || !settings.counters) => {
-                (t.frame.clone(), false)
-            }
-            _ => {
-                let f = Arc::new(trace(structure, scene, &settings));
+        let (frame, traced) = match cached {
+            Some(f) => (f, false),
+            None => {
+                let progress = &self.trace_progress;
+                progress.0.store(0, Ordering::Relaxed);
+                progress
+                    .1
+                    .store(tile_count(settings.height), Ordering::Relaxed);
+                let latest = &self.latest;
+                let stop = || {
+                    progress.0.fetch_add(1, Ordering::Relaxed);
+                    latest.load(Ordering::Relaxed) > seq
+                };
+                let Some(f) = trace_unless::<_, Watertight>(structure, scene, &settings, &stop)
+                else {
+                    return false;
+                };
+                if !job.preview {
+                    self.slow_trace = f.summary.trace_time > SLOW_FRAME;
+                }
+                let f = Arc::new(f);
                 self.traced = Some(Traced {
                     key,
                     frame: f.clone(),
@@ -82,6 +143,7 @@ impl State {
             compared,
             pinned_frame,
         })));
+        true
     }
 
     /// The scene's light, worked out again only when the scene changed (the standard

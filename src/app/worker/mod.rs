@@ -36,6 +36,8 @@ pub struct Worker {
     done: u64,
     /// Triangles placed by the build in progress, and how many there are in all.
     pub progress: Arc<(AtomicUsize, AtomicUsize)>,
+    /// Tiles begun of the frame being traced, and how many it has.
+    pub trace_progress: Arc<(AtomicUsize, AtomicUsize)>,
     thread: Option<JoinHandle<()>>,
 }
 
@@ -45,6 +47,7 @@ impl Worker {
         let (tx, commands) = channel();
         let (replies, rx) = channel();
         let progress = Arc::new((AtomicUsize::new(0), AtomicUsize::new(0)));
+        let trace_progress = Arc::new((AtomicUsize::new(0), AtomicUsize::new(0)));
         let latest = Arc::new(AtomicU64::new(0));
         let state = State {
             latest: latest.clone(),
@@ -52,6 +55,9 @@ impl Worker {
             replies,
             wake: Box::new(wake),
             progress: progress.clone(),
+            trace_progress: trace_progress.clone(),
+            pending: None,
+            slow_trace: true,
             scene: None,
             structure: None,
             params: StructureParams::default(),
@@ -89,6 +95,7 @@ impl Worker {
             latest,
             done: 0,
             progress,
+            trace_progress,
             thread,
         }
     }

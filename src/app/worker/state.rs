@@ -43,6 +43,13 @@ pub(in crate::app) struct State {
     pub(in crate::app) light: Option<(u64, Vec3)>,
     pub(in crate::app) wake: Box<dyn Fn() + Send>,
     pub(in crate::app) progress: Arc<(AtomicUsize, AtomicUsize)>,
+    pub(in crate::app) trace_progress: Arc<(AtomicUsize, AtomicUsize)>,
+    /// A frame given up for a newer command: traced once the commands are handled, unless
+    /// a newer frame is asked for.
+    pub(in crate::app) pending: Option<RenderJob>,
+    /// Whether the last full frame took long (or the structure is new since): the next
+    /// full frame then shows a coarse image first.
+    pub(in crate::app) slow_trace: bool,
     pub(in crate::app) scene: Option<Scene>,
     pub(in crate::app) structure: Option<Structure>,
     pub(in crate::app) params: StructureParams,
@@ -162,8 +169,10 @@ impl State {
             let again = (self.version != version)
                 .then(|| self.last_job.clone())
                 .flatten();
-            if let Some(j) = job.or(again) {
-                self.render(j);
+            // A frame given up earlier is wanted only if nothing newer is.
+            let pending = self.pending.take();
+            if let Some(j) = job.or(again).or(pending) {
+                self.render(j, last_seq);
             }
             self.count_shown(last_seq);
             self.reply(Reply::Idle(last_seq));
@@ -183,6 +192,8 @@ impl State {
             Command::Build(params) => {
                 let old = self.params;
                 self.params = params;
+                // Another structure's frame time is unknown: its first frame comes coarse.
+                self.slow_trace |= old.kind != params.kind;
                 if old.needs_rebuild_for(&params) || self.structure.is_none() {
                     if !self.rebuild() {
                         self.params = old;
@@ -281,6 +292,8 @@ impl State {
         self.undo.clear();
         self.version += 1;
         self.scene_version += 1;
+        // So is a new scene's.
+        self.slow_trace = true;
         self.rebuild();
     }
 
