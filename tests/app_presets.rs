@@ -70,6 +70,29 @@ fn digit_keys_open_presets_and_page_keys_step_through_them() {
     assert!(!h.state().settings.structure.mailbox);
 }
 
+/// What is kept at exit while a lecture step is shown is the state from before the
+/// lecture (the personal settings as they are now), so the next plain launch opens that.
+#[test]
+fn a_lecture_step_is_not_what_the_next_launch_opens() {
+    let mut h = app("cornell");
+    let before = h.state().settings.clone();
+    h.key_press(Key::Num4);
+    settle(&mut h);
+    h.key_press(Key::Tab);
+    settle(&mut h);
+    let app = h.state();
+    assert_ne!(app.settings, before, "the step changed the settings");
+    let kept = app.lecture.settings_to_keep(&app.settings);
+    assert!(kept.presentation, "the layout is the user's");
+    assert_eq!(
+        kept,
+        bvhlab::app::settings::Settings {
+            presentation: true,
+            ..before
+        }
+    );
+}
+
 #[test]
 fn shift_digits_pick_the_view_modes() {
     let mut h = app("cornell");

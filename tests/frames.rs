@@ -145,6 +145,7 @@ fn job(scene: &Scene, mode: Mode, preview: bool) -> RenderJob {
         height: 48,
         mode,
         heat_max: None,
+        heat_style: Default::default(),
         overlay: Overlay::default(),
         preview,
         compare: None,

@@ -5,7 +5,7 @@
 use super::BvhLabApp;
 use super::orbit::Orbit;
 use super::preset::{Preset, PresetError, Sequence, View};
-use super::settings::Bookmark;
+use super::settings::{Bookmark, Settings};
 use crate::render::ViewMode;
 use crate::scene::Camera;
 use eframe::egui::{self, Key, RichText};
@@ -50,6 +50,9 @@ pub struct Lecture {
     /// panels know only the old structure's depth, and would clamp them to it.
     pending_structure: Option<(Option<u32>, u32)>,
     chosen: Arc<Mutex<Option<Chosen>>>,
+    /// The settings from before the first preset opened: what is saved at exit while a
+    /// preset is shown, so a lecture does not change what the next plain launch opens.
+    pub before: Option<Settings>,
 }
 
 impl Default for Lecture {
@@ -62,15 +65,17 @@ impl Default for Lecture {
             pending: None,
             pending_structure: None,
             chosen: Arc::new(Mutex::new(None)),
+            before: None,
         }
     }
 }
 
 impl Lecture {
     /// A lecture starting at `index` of `sequence` (as `--preset` asks).
-    pub fn at(sequence: Sequence, index: usize) -> Self {
+    pub fn at(sequence: Sequence, index: usize, before: Settings) -> Self {
         let mut lecture = Lecture {
             sequence,
+            before: Some(before),
             ..Default::default()
         };
         lecture.current = Some(index);
@@ -78,6 +83,18 @@ impl Lecture {
             lecture.pending = Some(Pending::of(p));
         }
         lecture
+    }
+}
+
+impl Lecture {
+    /// The settings to keep at exit: with a preset on screen, those from before the
+    /// lecture, with the personal ones (UI scale, layout, recent files, bookmarks) as they
+    /// are now; else the current ones.
+    pub fn settings_to_keep(&self, current: &Settings) -> Settings {
+        match (&self.before, self.current) {
+            (Some(before), Some(_)) => before.with_personal_of(current),
+            _ => current.clone(),
+        }
     }
 }
 
@@ -107,6 +124,9 @@ impl BvhLabApp {
     }
 
     fn apply_preset(&mut self, preset: &Preset) {
+        if self.lecture.before.is_none() {
+            self.lecture.before = Some(self.settings.clone());
+        }
         self.settings = preset.settings_over(&self.settings);
         self.tool = preset.tool;
         self.pinned = preset.pinned;

@@ -185,11 +185,12 @@ impl BvhLabApp {
         let mut tool = Tool::Orbit;
         let lecture = match launch.preset {
             Some((sequence, index)) => {
+                let before = settings.clone();
                 if let Some(p) = sequence.presets.get(index) {
                     settings = p.settings_over(&settings);
                     tool = p.tool;
                 }
-                lecture::Lecture::at(sequence, index)
+                lecture::Lecture::at(sequence, index, before)
             }
             None => lecture::Lecture::default(),
         };
@@ -336,6 +337,7 @@ impl BvhLabApp {
             height: ((h as f32 * scale) as u32).max(1),
             mode: s.mode.render_mode(s.shadow_rays),
             heat_max: s.heat_max,
+            heat_style: s.heat_style,
             overlay: Overlay {
                 selected: self.selected_set.as_ref().map(|(.., set)| set.clone()),
                 level: s.show_levels.then_some(s.level),
@@ -569,7 +571,8 @@ impl eframe::App for BvhLabApp {
 
     fn save(&mut self, storage: &mut dyn eframe::Storage) {
         if self.persist {
-            eframe::set_value(storage, settings::STORAGE_KEY, &self.settings);
+            let kept = self.lecture.settings_to_keep(&self.settings);
+            eframe::set_value(storage, settings::STORAGE_KEY, &kept);
         }
     }
 }

@@ -17,6 +17,18 @@ use crate::render::overlay::{
 };
 use std::sync::Arc;
 
+/// `tint_triangles` unless `tints` is false (the walk over counts only outlines).
+fn tint_walk(
+    tints: bool,
+    frame: &Frame,
+    rgba: &mut [u8],
+    tint_of: impl Fn(u64) -> Option<[u8; 4]> + Sync,
+) {
+    if tints {
+        tint_triangles(frame, rgba, tint_of);
+    }
+}
+
 /// A box's extent at the build, under its refitted self.
 const GHOST: [u8; 4] = [210, 210, 210, 90];
 /// The triangles moved since the build.
@@ -112,6 +124,9 @@ impl State {
             }
         }
         let id = o.walk?;
+        // Over counts (a heatmap, B − A) the walk only outlines: a tint would change the
+        // colours the legend reads.
+        let tints = !matches!(job.mode, crate::render::Mode::Heatmap(..));
         let node = levels.node(id)?;
         if let (WalkNode::Bottom(k), Some(inst)) = (node, instance) {
             return Some(self.draw_blas_walk(frame, rgba, job, &levels, inst, k));
@@ -154,7 +169,9 @@ impl State {
             info.sah_cost = p.c_isect * info.triangles as f32;
             let corners = inst.world_corners(b as usize);
             outline_corners(frame, rgba, &job.camera, &corners, FIRST_CHILD, true);
-            tint_triangles(frame, rgba, |t| under.contains(&t).then_some(FIRST_CHILD));
+            tint_walk(tints, frame, rgba, |t| {
+                under.contains(&t).then_some(FIRST_CHILD)
+            });
         } else if let Some(tl) = self.structure.as_ref().filter(|s| s.places_instances()) {
             // The top level's nodes hold references: their triangles are counted and tinted
             // by reference, never listed (the island places 10^10).
@@ -191,7 +208,7 @@ impl State {
             let locator = self
                 .reference_locator
                 .get_or_init(|| tl.reference_locator().unwrap_or_default());
-            tint_triangles(frame, rgba, |t| {
+            tint_walk(tints, frame, rgba, |t| {
                 let r = tl.reference_of_triangle(locator, t)?;
                 side.get(&r).map(|&k| child_color(k as usize, count))
             });
@@ -205,7 +222,7 @@ impl State {
                     *m = true;
                 }
             }
-            tint_triangles(frame, rgba, |t| {
+            tint_walk(tints, frame, rgba, |t| {
                 (mark.get(t as usize) == Some(&true)).then_some(FIRST_CHILD)
             });
         } else {
@@ -236,7 +253,7 @@ impl State {
             if count == 2 {
                 info.split_costs = self.split_costs_of(outline, node, all);
             }
-            tint_triangles(frame, rgba, |t| match side.get(t as usize) {
+            tint_walk(tints, frame, rgba, |t| match side.get(t as usize) {
                 Some(&k) if k != u8::MAX => Some(child_color(k as usize, count)),
                 _ => None,
             });

@@ -323,13 +323,7 @@ impl Preset {
     pub fn settings_over(&self, current: &Settings) -> Settings {
         Settings {
             scene: self.scene.clone(),
-            ui_scale: current.ui_scale,
-            presentation: current.presentation,
-            show_controls: current.show_controls,
-            show_stats: current.show_stats,
-            recent: current.recent.clone(),
-            bookmarks: current.bookmarks.clone(),
-            ..self.settings.clone()
+            ..self.settings.with_personal_of(current)
         }
     }
 

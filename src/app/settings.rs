@@ -6,6 +6,7 @@ use super::preset::View;
 use crate::accel::{AccelKind, StructureParams};
 use crate::render::ViewMode;
 use crate::render::compare::CompareView;
+use crate::render::heat::HeatStyle;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -25,6 +26,9 @@ pub struct Settings {
     pub shadow_rays: bool,
     /// Fixed top of the heatmap scale; `None` = each frame's maximum.
     pub heat_max: Option<u32>,
+    /// A heatmap's curve (linear or log), clipping at a percentile and shaded underlay.
+    #[serde(flatten)]
+    pub heat_style: HeatStyle,
     pub show_levels: bool,
     pub level: u32,
     pub see_through: bool,
@@ -52,6 +56,22 @@ pub struct Bookmark {
     pub view: View,
 }
 
+impl Settings {
+    /// These settings with the personal ones of `current`: the UI scale, the layout, the
+    /// recent files and the bookmarks (`preset::PERSONAL` lists their keys).
+    pub fn with_personal_of(&self, current: &Settings) -> Settings {
+        Settings {
+            ui_scale: current.ui_scale,
+            presentation: current.presentation,
+            show_controls: current.show_controls,
+            show_stats: current.show_stats,
+            recent: current.recent.clone(),
+            bookmarks: current.bookmarks.clone(),
+            ..self.clone()
+        }
+    }
+}
+
 impl Default for Settings {
     fn default() -> Self {
         Settings {
@@ -61,6 +81,7 @@ impl Default for Settings {
             mode: ViewMode::Shaded,
             shadow_rays: false,
             heat_max: None,
+            heat_style: HeatStyle::default(),
             show_levels: false,
             level: 0,
             see_through: false,

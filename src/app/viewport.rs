@@ -53,7 +53,7 @@ pub fn show(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         if difference {
             super::compare::difference_legend(ui, rect, &shown.job.mode.label(), max, scale);
         } else {
-            legend(ui, rect, shown.job.mode, max, scale);
+            legend(ui, rect, &shown.job, max, scale);
         }
     }
     // A screenshot shows the window, not where the pointer happens to rest.

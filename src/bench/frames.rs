@@ -136,6 +136,7 @@ pub fn run(
         height,
         mode,
         heat_max: None,
+        heat_style: Default::default(),
         overlay: Overlay::default(),
         preview,
         compare: None,

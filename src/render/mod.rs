@@ -6,6 +6,7 @@ pub mod colormap;
 pub mod compare;
 pub mod export;
 pub mod frame;
+pub mod heat;
 pub mod overlay;
 pub mod replay;
 mod sample_pool;
@@ -19,7 +20,7 @@ use crate::accel::{Accel, Counter, Counters, Hit, NoStats, Stats};
 use crate::geometry::spawn::SurfacePoint;
 use crate::geometry::{Intersector, Ray, Triangle, Watertight};
 use crate::scene::{Camera, Scene};
-use colormap::{Srgb8, to_rgba8, viridis};
+use colormap::{Srgb8, to_rgba8};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -408,6 +409,17 @@ impl Frame {
 /// The pixels of `frame` in `mode`, and for heatmaps the count at the top of the scale
 /// (`heat_max`, or the frame's maximum).
 pub fn colorize(frame: &Frame, mode: Mode, heat_max: Option<u32>) -> (Vec<u8>, Option<u32>) {
+    colorize_styled(frame, mode, heat_max, &heat::HeatStyle::default())
+}
+
+/// `colorize` with a heatmap's curve, clipping and underlay (`heat::HeatStyle`); the count
+/// returned is the top of the scale as drawn.
+pub fn colorize_styled(
+    frame: &Frame,
+    mode: Mode,
+    heat_max: Option<u32>,
+    style: &heat::HeatStyle,
+) -> (Vec<u8>, Option<u32>) {
     let samples = &frame.samples;
     // Only the depth mode needs the range of distances.
     let (t_near, t_far) = if mode == Mode::Depth {
@@ -421,20 +433,15 @@ pub fn colorize(frame: &Frame, mode: Mode, heat_max: Option<u32>) -> (Vec<u8>, O
         (0.0, 1.0)
     };
     let scale = match mode {
-        Mode::Heatmap(c, r) => Some(
-            heat_max
-                .unwrap_or_else(|| frame.summary.counter(r, c).max)
-                .max(1),
-        ),
+        Mode::Heatmap(c, r) => Some(style.top(heat_max, frame.summary.counter(r, c).max, || {
+            samples.iter().map(|s| s.counters(r).get(c)).collect()
+        })),
         _ => None,
     };
     let background = to_rgba8(BACKGROUND);
     let srgb = Srgb8::tables();
     let color = |s: &Sample| match mode {
-        Mode::Heatmap(c, r) => {
-            let max = scale.unwrap_or(1) as f32;
-            to_rgba8(viridis(s.counters(r).get(c) as f32 / max))
-        }
+        Mode::Heatmap(c, r) => to_rgba8(style.color(s.counters(r).get(c), scale.unwrap_or(1), s)),
         Mode::Shaded => shaded_color(s, srgb),
         _ if !s.is_hit() => background,
         Mode::Normals => to_rgba8(s.normal * 0.5 + 0.5),

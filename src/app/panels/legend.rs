@@ -2,22 +2,39 @@
 //! bar with a title and three labels (its ends and its middle), at `scale` times the
 //! normal size (the presentation layout scales it with the window).
 
+use crate::app::worker::RenderJob;
 use crate::render::Mode;
+use crate::render::heat::HeatCurve;
 use eframe::egui::{self};
 use glam::Vec3;
 
-/// The heatmap's scale: 0 to `max` of the counter shown.
-pub fn legend(ui: &mut egui::Ui, rect: egui::Rect, mode: Mode, max: u32, scale: f32) {
-    let Mode::Heatmap(counter, rays) = mode else {
+/// The heatmap's scale: 0 to `max` of the counter shown, on the job's curve; a top set
+/// by a percentile reads "max+" (the brightest pixels count more).
+pub fn legend(ui: &mut egui::Ui, rect: egui::Rect, job: &RenderJob, max: u32, scale: f32) {
+    let Mode::Heatmap(counter, rays) = job.mode else {
         return;
+    };
+    let style = &job.heat_style;
+    let clipped = job.heat_max.is_none() && style.clip_percentile.is_some();
+    let curve = match style.curve {
+        HeatCurve::Linear => "",
+        HeatCurve::Log => ", log scale",
     };
     scale_bar(
         ui,
         rect,
         scale,
-        &format!("{} ({})", counter.label(), rays.label()),
+        &format!("{} ({}){curve}", counter.label(), rays.label()),
         crate::render::colormap::viridis,
-        ["0".to_string(), format!("{}", max / 2), format!("{max}")],
+        [
+            "0".to_string(),
+            format!("{}", style.curve.count_at(0.5, max)),
+            if clipped {
+                format!("{max}+")
+            } else {
+                format!("{max}")
+            },
+        ],
     );
 }
 

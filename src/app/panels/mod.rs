@@ -80,6 +80,7 @@ fn view_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             });
             if s.mode.is_heatmap() {
                 ui.checkbox(&mut s.shadow_rays, "count shadow rays (instead of primary)");
+                heat_style(ui, &mut s.heat_style, s.heat_max.is_some());
                 let mut fixed = s.heat_max.is_some();
                 ui.horizontal(|ui| {
                     ui.checkbox(&mut fixed, "fixed scale maximum");
@@ -97,4 +98,25 @@ fn view_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 app.frame_all();
             }
         });
+}
+
+/// The heatmap's curve, its clipping at the 99th percentile (without a fixed maximum) and
+/// the shaded scene under it.
+fn heat_style(ui: &mut egui::Ui, style: &mut crate::render::heat::HeatStyle, fixed: bool) {
+    use crate::render::heat::HeatCurve;
+    ui.horizontal(|ui| {
+        ui.label("scale");
+        for curve in HeatCurve::ALL {
+            ui.selectable_value(&mut style.curve, curve, curve.label());
+        }
+    });
+    let mut clip = style.clip_percentile.is_some();
+    ui.add_enabled(
+        !fixed,
+        egui::Checkbox::new(&mut clip, "top at the 99th percentile"),
+    )
+    .on_hover_text("the brightest 1 % of pixels do not set the scale (a fixed maximum does)");
+    style.clip_percentile = clip.then_some(99.0);
+    ui.checkbox(&mut style.underlay, "shaded scene under the heat")
+        .on_hover_text("the surfaces shaded faintly under the colours, so the geometry shows");
 }

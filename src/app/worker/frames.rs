@@ -8,7 +8,8 @@ use crate::geometry::Watertight;
 use crate::render::compare::{compare_image, compared_counters, summarize};
 use crate::render::replay::{Replay, replay_pixel};
 use crate::render::{
-    Frame, Mode, RenderSettings, colorize, tile_count, trace, trace_uncoloured_unless, trace_unless,
+    Frame, Mode, RenderSettings, colorize_styled, tile_count, trace, trace_uncoloured_unless,
+    trace_unless,
 };
 use std::time::Duration;
 
@@ -129,7 +130,11 @@ impl State {
             None if job.mode == Mode::Shaded && !frame.rgba.is_empty() => {
                 ((frame.rgba.clone(), None), None, None)
             }
-            None => (colorize(&frame, job.mode, job.heat_max), None, None),
+            None => (
+                colorize_styled(&frame, job.mode, job.heat_max, &job.heat_style),
+                None,
+                None,
+            ),
         };
         let walk = self.draw_overlay(&frame, &mut rgba, &job);
         self.reply(Reply::Frame(Arc::new(Shown {
@@ -234,7 +239,7 @@ impl State {
     ) -> (Image, Compared, Option<Arc<Frame>>) {
         let b_alone = |error: String| {
             (
-                colorize(b, job.mode, job.heat_max),
+                colorize_styled(b, job.mode, job.heat_max, &job.heat_style),
                 Compared {
                     summaries: Vec::new(),
                     error: Some(error),

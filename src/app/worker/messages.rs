@@ -8,6 +8,7 @@ use crate::accel::structure::StructureParams;
 use crate::accel::two_level::InstanceOutline;
 use crate::accel::{Outline, StructureReport};
 use crate::render::compare::{CompareSummary, CompareView};
+use crate::render::heat::HeatStyle;
 use crate::render::replay::Replay;
 use crate::render::{Frame, Mode, RayKind};
 use crate::scene::{Camera, Scene};
@@ -42,6 +43,8 @@ pub struct RenderJob {
     pub height: u32,
     pub mode: Mode,
     pub heat_max: Option<u32>,
+    /// A heatmap's curve, clipping and shaded underlay.
+    pub heat_style: HeatStyle,
     pub overlay: Overlay,
     /// A reduced-resolution frame while the user interacts.
     pub preview: bool,
