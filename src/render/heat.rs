@@ -8,6 +8,9 @@ use super::colormap::viridis;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
+/// The darkest a pixel of the underlay gets (a face turned from the light, or a miss).
+const UNDERLAY_FLOOR: f32 = 0.6;
+
 /// The curve from counts to the colour scale.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 pub enum HeatCurve {
@@ -88,11 +91,12 @@ impl HeatStyle {
         if !self.underlay {
             return c;
         }
-        // Faces towards the light bright, away from it darker, misses darker still.
+        // Faces towards the light bright, away from it darker, misses as the darkest
+        // face: the hue (the count) stays readable against the legend.
         let shade = if s.is_hit() {
-            0.45 + 0.55 * s.cos_light.clamp(0.0, 1.0)
+            UNDERLAY_FLOOR + (1.0 - UNDERLAY_FLOOR) * s.cos_light.clamp(0.0, 1.0)
         } else {
-            0.3
+            UNDERLAY_FLOOR
         };
         c * shade
     }
