@@ -825,3 +825,39 @@ fn embree_peers_are_reported_or_refused_clearly() {
         }
     }
 }
+
+/// `frames --preset lecture:N --json`: the step as the app shows it, its first image no
+/// later than its full frame; the flags of one form are refused with the other.
+#[test]
+fn frames_times_a_lecture_step_as_the_app_shows_it() {
+    let out = bvhlab(&[
+        "frames",
+        "--preset",
+        "lecture:2",
+        "--width",
+        "320",
+        "--height",
+        "240",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let steps = json["steps"].as_array().unwrap();
+    assert_eq!(steps.len(), 1);
+    let step = &steps[0];
+    assert_eq!(step["step"], 2);
+    assert_eq!(step["title"], "Early out");
+    let (first, full) = (
+        step["first_image_ms"].as_f64().unwrap(),
+        step["full_frame_ms"].as_f64().unwrap(),
+    );
+    assert!(first > 0.0 && first <= full, "{first} {full}");
+    let both = bvhlab(&["frames", "--preset", "lecture", "--scene", "cornell"]);
+    assert!(!both.status.success());
+    let json_alone = bvhlab(&["frames", "--scene", "cornell", "--json"]);
+    assert!(!json_alone.status.success(), "--json is for --preset");
+}

@@ -55,9 +55,8 @@ pub struct DragTime {
 struct Step {
     /// Time spent tracing the frame, if one came.
     trace: Option<Duration>,
-    /// When the first image came (a coarse one before a slow full frame), when the frame
-    /// asked for came, and when its counts came if they came after it.
-    first: Option<Instant>,
+    /// When the frame asked for came (a coarse one before a slow full frame stands in
+    /// until it comes), and when its counts came if they came after it.
     shown: Option<Instant>,
     counted: Option<Instant>,
     refit: Duration,
@@ -74,13 +73,10 @@ fn frame_after(worker: &mut Worker) -> Option<Step> {
             break;
         };
         match r {
-            Reply::Frame(f) => {
-                step.first.get_or_insert_with(Instant::now);
-                // A coarse first image stands in for a full frame until it comes.
-                if step.shown.is_none() || !f.job.preview {
-                    step.trace = Some(f.frame.summary.trace_time);
-                    step.shown = Some(Instant::now());
-                }
+            // A coarse first image stands in for a full frame until it comes.
+            Reply::Frame(f) if step.shown.is_none() || !f.job.preview => {
+                step.trace = Some(f.frame.summary.trace_time);
+                step.shown = Some(Instant::now());
             }
             Reply::Counted { .. } => step.counted = Some(Instant::now()),
             Reply::Refitted { refit_time, .. } => step.refit += refit_time,

@@ -7,6 +7,7 @@ pub mod compare;
 pub mod cpu_time;
 pub mod frames;
 pub mod json;
+pub mod lecture_frames;
 pub mod plot;
 pub mod rays;
 pub mod rotation;

@@ -9,8 +9,22 @@ use clap::Args;
 #[derive(Args)]
 pub struct FramesArgs {
     /// Built-in scene name (optionally NAME:N) or path to an .obj, .gltf or .glb file.
+    #[arg(long, required_unless_present = "preset", conflicts_with = "preset")]
+    pub scene: Option<String>,
+    /// Instead of one scene: step through a preset sequence (`lecture`, `lecture:N`, a
+    /// preset file, `FILE:N`) as the app shows it, timing each step's first image and full
+    /// frame from the step opening.
+    #[arg(long, value_name = "lecture[:N]|FILE[:N]")]
+    pub preset: Option<String>,
+    /// With --preset: the view's size in pixels.
+    #[arg(long, default_value_t = 1280)]
+    pub width: u32,
+    #[arg(long, default_value_t = 720)]
+    pub height: u32,
+    /// With --preset: one JSON object, its `steps` array holding each step's
+    /// `first_image_ms` and `full_frame_ms`.
     #[arg(long)]
-    pub scene: String,
+    pub json: bool,
     #[command(flatten)]
     pub view: ViewArgs,
     /// Frames per measurement (the median is reported; at least 1).
@@ -21,14 +35,20 @@ pub struct FramesArgs {
 }
 
 pub fn run(args: FramesArgs) -> Result<()> {
-    let scene = load_scene(&args.scene)?;
+    let Some(spec) = &args.scene else {
+        return lecture(&args);
+    };
+    if args.json {
+        anyhow::bail!("--json is for --preset (the steps' times); --scene prints a table");
+    }
+    let scene = load_scene(spec)?;
     let camera = (args.view.eye.is_some() || args.view.look.is_some())
         .then(|| args.view.camera(&scene))
         .transpose()?;
     let sizes = [(640, 360, true), (640, 360, false), (1280, 720, false)];
     let params = args.build.structure_params(&scene)?;
     params.validate()?;
-    let r = frames::run(&args.scene, &params, camera, &sizes, args.runs).map_err(|e| anyhow!(e))?;
+    let r = frames::run(spec, &params, camera, &sizes, args.runs).map_err(|e| anyhow!(e))?;
     out!(
         "{}: {} triangles, {}, {} threads",
         r.scene,
@@ -97,6 +117,53 @@ pub fn run(args: FramesArgs) -> Result<()> {
             r.moved,
             sizes[0].0,
             sizes[0].1
+        );
+    }
+    Ok(())
+}
+
+/// `frames --preset`: each step of a sequence, timed as the app shows it.
+fn lecture(args: &FramesArgs) -> Result<()> {
+    let spec = args.preset.as_deref().unwrap_or("lecture");
+    crate::cli::check_size(args.width, args.height)?;
+    let (mut sequence, index) = bvhlab::app::preset::Sequence::open(spec)?;
+    // `NAME:N` times step N alone (numbered N).
+    let alone = spec
+        .rsplit_once(':')
+        .is_some_and(|(_, n)| n.parse::<usize>().is_ok());
+    if alone {
+        sequence.presets = vec![sequence.presets[index].clone()];
+    }
+    let mut steps = bvhlab::bench::lecture_frames::run(&sequence, args.width, args.height)
+        .map_err(|e| anyhow!(e))?;
+    if alone {
+        steps.iter_mut().for_each(|s| s.step = index + 1);
+    }
+    if args.json {
+        let json = serde_json::json!({
+            "preset": spec,
+            "width": args.width,
+            "height": args.height,
+            "threads": rayon::current_num_threads(),
+            "steps": steps,
+        });
+        out!("{}", serde_json::to_string_pretty(&json)?);
+        return Ok(());
+    }
+    out!(
+        "{spec}: {} steps at {}×{}, {} threads (ms from opening the step)",
+        steps.len(),
+        args.width,
+        args.height,
+        rayon::current_num_threads()
+    );
+    for s in &steps {
+        out!(
+            "  {:>2} {:<34} first image {:>8.1}  full frame {:>8.1}",
+            s.step,
+            s.title,
+            s.first_image_ms,
+            s.full_frame_ms
         );
     }
     Ok(())
