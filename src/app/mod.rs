@@ -641,8 +641,10 @@ impl BvhLabApp {
             return;
         };
         self.selection = Some(triangle);
+        // The move tool: the SAH chart heads the statistics, as in a real drag.
+        self.tool = Tool::Move;
         let set = self.drag_set(triangle);
-        let step = self.orbit.pixel_size(self.viewport_px[1] as f32) * 80.0;
+        let step = self.orbit.pixel_size(self.viewport_px[1] as f32) * 25.0;
         let (right, up, _) = self.orbit.camera().basis();
         for k in 0..12 {
             let d = if k % 2 == 0 { right } else { up * 0.6 };

@@ -141,6 +141,8 @@ impl ScreenshotPlan {
                 s.show_levels = true;
                 s.level = 4;
                 s.see_through = true;
+                // The object under the centre moves as a whole: its boxes stretch visibly.
+                s.move_whole_object = true;
             }
             _ => {}
         }

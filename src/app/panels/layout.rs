@@ -156,7 +156,12 @@ pub fn presentation_bar(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         if let Some((_, _, preset)) = &step
             && !preset.caption.is_empty()
         {
-            ui.label(RichText::new(&preset.caption).size(size * 0.8));
+            let strong = ui.visuals().strong_text_color();
+            ui.label(
+                RichText::new(&preset.caption)
+                    .size(size * 0.8)
+                    .color(strong),
+            );
         }
         ui.add_space(2.0);
     });
