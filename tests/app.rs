@@ -987,3 +987,23 @@ fn shortcuts_answer_while_a_widget_has_the_focus() {
     settle(&mut h);
     assert!(!h.state().settings.presentation, "F11 goes back");
 }
+
+/// Open… where no desktop portal answers (no D-Bus session, as here and in a kiosk): the
+/// in-app file browser opens, listing scene files, and Cancel closes it.
+#[test]
+fn open_without_a_desktop_portal_opens_the_in_app_browser() {
+    let mut h = app("cornell");
+    if std::env::var_os("DBUS_SESSION_BUS_ADDRESS").is_none() {
+        h.get_by_label("Open…").click();
+    } else {
+        // A session bus here: the portal may answer; open the browser as its fallback would.
+        h.state_mut().open.open_browser(None);
+    }
+    h.run_steps(3);
+    assert!(h.state().open.browsing(), "the in-app browser is open");
+    assert!(h.query_by_label_contains("Open a scene").is_some());
+    h.get_by_label("Cancel").click();
+    h.run_steps(3);
+    assert!(!h.state().open.browsing(), "Cancel closes it");
+    assert!(h.state().load_error.is_none());
+}

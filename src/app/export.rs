@@ -27,9 +27,7 @@ impl Export {
     }
 }
 
-/// Shared slot for a file chosen in a dialog running on its own thread.
-pub type Picked = Arc<Mutex<Option<PathBuf>>>;
-
+/// Shared slot for a save path chosen in a dialog running on its own thread.
 pub type SaveSlot = Arc<Mutex<Option<(Export, PathBuf)>>>;
 
 impl BvhLabApp {

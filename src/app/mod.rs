@@ -5,6 +5,7 @@
 mod bucket_plot;
 mod compare;
 pub mod export;
+pub mod file_browser;
 mod lecture;
 pub mod levels;
 mod orbit;
@@ -141,7 +142,8 @@ pub struct BvhLabApp {
     show_help: bool,
     /// The scene as the worker has it, after moves (see `request_snapshot`).
     pub snapshot: Option<Arc<Scene>>,
-    picked: export::Picked,
+    /// Open…: the system's dialog, or the in-app browser where no portal answers.
+    pub open: file_browser::OpenDialog,
     pub screenshot: Option<ScreenshotPlan>,
     /// The ray replay being stepped through, and why the last one failed.
     pub replay: Option<replay::ReplayView>,
@@ -248,7 +250,7 @@ impl BvhLabApp {
             last_job: None,
             show_help: false,
             snapshot: None,
-            picked: Arc::new(Mutex::new(None)),
+            open: Default::default(),
             screenshot: launch.screenshot,
             replay: None,
             replay_error: None,
@@ -519,7 +521,7 @@ impl eframe::App for BvhLabApp {
         let ctx = ui.ctx().clone();
         let replies = self.worker.poll();
         self.handle_replies(&ctx, replies);
-        self.take_picked_file();
+        self.take_picked_file(&ctx);
         self.take_save_path();
         self.take_dropped_files(&ctx);
         self.take_chosen_preset_file();
@@ -578,9 +580,8 @@ impl eframe::App for BvhLabApp {
 }
 
 impl BvhLabApp {
-    fn take_picked_file(&mut self) {
-        let picked = self.picked.lock().ok().and_then(|mut p| p.take());
-        if let Some(path) = picked {
+    fn take_picked_file(&mut self, ctx: &egui::Context) {
+        if let Some(path) = self.open.poll(ctx) {
             self.load(path.display().to_string());
         }
     }
@@ -595,22 +596,13 @@ impl BvhLabApp {
         }
     }
 
-    /// Opens the file dialog on its own thread so the UI keeps drawing.
-    pub fn open_dialog(&self, ctx: &egui::Context) {
-        let slot = self.picked.clone();
-        let ctx = ctx.clone();
-        std::thread::spawn(move || {
-            let file = rfd::FileDialog::new()
-                .add_filter(
-                    "Scenes (OBJ, glTF)",
-                    &["obj", "OBJ", "gltf", "GLTF", "glb", "GLB"],
-                )
-                .pick_file();
-            if let (Some(f), Ok(mut s)) = (file, slot.lock()) {
-                *s = Some(f);
-                ctx.request_repaint();
-            }
-        });
+    /// Open…: the system's file dialog on its own thread (the UI keeps drawing), or the
+    /// in-app browser where no desktop portal answers; it starts in the open file's folder.
+    pub fn open_dialog(&mut self, ctx: &egui::Context) {
+        let folder = std::path::Path::new(&self.settings.scene)
+            .parent()
+            .map(std::path::Path::to_path_buf);
+        self.open.start(ctx, folder.as_deref());
     }
 
     /// For a replay screenshot: replay the ray through a point of the view.

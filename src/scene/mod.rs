@@ -32,7 +32,7 @@ pub const FLAT_BYTES_PER_TRIANGLE: u64 = 36 + 4;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
 #[error(
     "the scene places {triangles} triangles: flattened they would take {:.1} GiB (the limit \
-     is {MAX_FLATTENED} triangles); use --accel two-level",
+     is {MAX_FLATTENED} triangles); only the two-level structure builds over its instances",
     *bytes as f64 / (1u64 << 30) as f64
 )]
 pub struct FlattenError {

@@ -56,7 +56,15 @@ fn build_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     egui::CollapsingHeader::new("Build")
         .default_open(true)
         .show(ui, |ui| {
+            // The section keeps the height of the tallest parameter list shown so far, so
+            // the controls below it stay where they are when the structure changes.
+            let top = ui.cursor().top();
             crate::app::params::structure_params(ui, &mut app.settings.structure);
+            let used = ui.cursor().top() - top;
+            let id = ui.scope_id().with("parameters height");
+            let tallest = ui.data(|d| d.get_temp::<f32>(id)).unwrap_or(0.0).max(used);
+            ui.data_mut(|d| d.insert_temp(id, tallest));
+            ui.add_space(tallest - used);
             if let Some(e) = &app.build_error {
                 ui.colored_label(ui.visuals().error_fg_color, e);
             }
