@@ -65,6 +65,9 @@ fn clicking_a_pixel_replays_its_ray_and_the_keys_step_through_it() {
     assert_eq!(visits as u32, sample.primary.nodes_visited);
     assert_eq!(view.stop, 0);
     assert!(h.query_by_label(&format!("visit 1 of {visits}")).is_some());
+    // The visited box's slab test, from the replay's numbers: a visited box is entered.
+    assert!(h.query_by_label("The slab test of this box").is_some());
+    assert!(h.query_by_label_contains("enter at max(near)").is_some());
 
     h.key_press(Key::ArrowRight);
     h.run_steps(2);

@@ -17,6 +17,7 @@ pub mod replay;
 mod replies;
 pub mod screenshot;
 pub mod settings;
+mod slab_picture;
 pub mod start_view;
 mod viewport;
 pub mod worker;

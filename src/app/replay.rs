@@ -186,6 +186,21 @@ pub fn section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             }
         }
     });
+    // The visit's box as the slab test sees it (a BLAS box is in its object space, where
+    // the world ray is not: it is drawn for one-level and top-level boxes).
+    let visited = replay
+        .stop_range(stop)
+        .find_map(|i| match &replay.steps[i] {
+            crate::accel::replay::Step::Visit { bounds, level, .. }
+                if *level != crate::accel::replay::Level::Bottom =>
+            {
+                Some(*bounds)
+            }
+            _ => None,
+        });
+    if let Some(bounds) = visited {
+        crate::app::slab_picture::show(ui, &replay.ray, &bounds);
+    }
     let c = &replay.counters;
     ui.label(format!(
         "whole ray: {} nodes visited, {} box tests, {} triangle tests",

@@ -8,6 +8,7 @@ pub mod intersect;
 pub mod overlap;
 pub mod ray;
 pub mod simd;
+pub mod slab;
 pub mod spawn;
 pub mod triangle;
 

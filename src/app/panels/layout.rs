@@ -1,6 +1,6 @@
 //! The two layouts. Normal: controls on the left, statistics on the right, each
 //! resizable and collapsible, sized so the view keeps at least `VIEW_SHARE` of the window
-//! at any UI scale (a panel's contents scroll rather than squeeze the view). Presentation
+//! at any UI scale (a panel's contents wrap and scroll rather than squeeze the view). Presentation
 //! (Tab or F11): no side panels, the view fills the window under one slim bar with the
 //! step, its title and its caption in type scaled with the window, for the back of a room.
 
@@ -12,6 +12,8 @@ pub const VIEW_SHARE: f32 = 0.56;
 /// A side panel is not made narrower than this (points) by the share, unless the share
 /// leaves no room at all.
 const MIN_PANEL: f32 = 140.0;
+/// The room a panel's scroll bar takes beside its contents (points).
+const SCROLL_BAR: f32 = 12.0;
 /// Narrower than this (points), the two panels share one as tabs.
 const COMFORTABLE: f32 = 200.0;
 
@@ -40,11 +42,8 @@ pub fn side_panels(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         .show_collapsible(ui, &mut open, |ui| controls_contents(app, ui));
     app.settings.show_controls = open;
     let mut open = stats;
-    side_panel(egui::Panel::right("stats"), 290.0, right).show_collapsible(ui, &mut open, |ui| {
-        egui::ScrollArea::both()
-            .id_salt("stats scroll")
-            .show(ui, |ui| super::stats(app, ui));
-    });
+    side_panel(egui::Panel::right("stats"), 290.0, right)
+        .show_collapsible(ui, &mut open, |ui| stats_contents(app, ui));
     app.settings.show_stats = open;
 }
 
@@ -62,7 +61,21 @@ fn controls_contents(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     ui.spacing_mut().slider_width = (width - 190.0).clamp(48.0, 150.0);
     egui::ScrollArea::both()
         .id_salt("controls scroll")
-        .show(ui, |ui| super::controls(app, ui));
+        .show(ui, |ui| {
+            // Text wraps at the panel's width; a wider widget scrolls sideways.
+            ui.set_max_width(width - SCROLL_BAR);
+            super::controls(app, ui)
+        });
+}
+
+fn stats_contents(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    let width = ui.available_width();
+    egui::ScrollArea::both()
+        .id_salt("stats scroll")
+        .show(ui, |ui| {
+            ui.set_max_width(width - SCROLL_BAR);
+            super::stats(app, ui)
+        });
 }
 
 /// Which of the two panels the shared one shows.
@@ -85,11 +98,7 @@ fn tabbed_panel(app: &mut BvhLabApp, ui: &mut egui::Ui, room: f32) {
         ui.separator();
         match tab {
             Tab::Controls => controls_contents(app, ui),
-            Tab::Stats => {
-                egui::ScrollArea::both()
-                    .id_salt("stats scroll")
-                    .show(ui, |ui| super::stats(app, ui));
-            }
+            Tab::Stats => stats_contents(app, ui),
         }
     });
     ui.data_mut(|d| d.insert_temp(id, tab));

@@ -52,7 +52,8 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 }
             })
             .collect();
-        if ui.available_width() < NARROW {
+        // The visible width: inside a sideways scroll area the available one is unbounded.
+        if ui.clip_rect().width() < NARROW {
             // A narrow panel (the view keeps its share of a small window): each row on
             // one wrapped line, the name dimmed, rather than a value column squeezed to
             // a letter.
