@@ -207,6 +207,7 @@ impl BvhLabApp {
             _ => worker.send(Command::Load(settings.scene.clone())),
         }
         cc.egui_ctx.set_zoom_factor(settings.ui_scale);
+        add_fallback_fonts(&cc.egui_ctx);
         BvhLabApp {
             sent_build: Some(settings.structure),
             settings,
@@ -644,6 +645,29 @@ impl BvhLabApp {
             self.move_triangles(set.clone(), d * step);
         }
         self.end_gesture();
+    }
+}
+
+/// The emoji and symbol fonts egui ships, behind the text font: a symbol it lacks (an
+/// arrow, the file browser's folder icons) is drawn, never missing.
+fn add_fallback_fonts(ctx: &egui::Context) {
+    use egui::epaint::text::{FontInsert, FontPriority, InsertFontFamily};
+    for (name, data) in [
+        ("noto-emoji", epaint_default_fonts::NOTO_EMOJI_REGULAR),
+        ("emoji-icon-font", epaint_default_fonts::EMOJI_ICON),
+    ] {
+        let families = [egui::FontFamily::Proportional, egui::FontFamily::Monospace]
+            .into_iter()
+            .map(|family| InsertFontFamily {
+                family,
+                priority: FontPriority::Lowest,
+            })
+            .collect();
+        ctx.add_font(FontInsert::new(
+            name,
+            egui::FontData::from_static(data),
+            families,
+        ));
     }
 }
 

@@ -75,25 +75,32 @@ impl Editor<'_> {
     }
 }
 
-impl ControlVisitor for Editor<'_> {
-    fn whole(&mut self, c: &Control, value: &mut u32) {
+impl Editor<'_> {
+    /// A number's slider over `range`, greyed out where the control does not apply.
+    fn slider<N: egui::emath::Numeric>(
+        &mut self,
+        c: &Control,
+        value: &mut N,
+        range: std::ops::RangeInclusive<N>,
+    ) {
         if self.shown(c) {
-            let (lo, hi) = c.range();
-            let slider = egui::Slider::new(value, lo as u32..=hi as u32)
+            let slider = egui::Slider::new(value, range)
                 .logarithmic(c.log)
                 .text(c.label);
             Self::hover(self.ui.add_enabled(c.enabled, slider), c);
         }
     }
+}
+
+impl ControlVisitor for Editor<'_> {
+    fn whole(&mut self, c: &Control, value: &mut u32) {
+        let (lo, hi) = c.range();
+        self.slider(c, value, lo as u32..=hi as u32);
+    }
 
     fn real(&mut self, c: &Control, value: &mut f32) {
-        if self.shown(c) {
-            let (lo, hi) = c.range();
-            let slider = egui::Slider::new(value, lo as f32..=hi as f32)
-                .logarithmic(c.log)
-                .text(c.label);
-            Self::hover(self.ui.add_enabled(c.enabled, slider), c);
-        }
+        let (lo, hi) = c.range();
+        self.slider(c, value, lo as f32..=hi as f32);
     }
 
     fn flag(&mut self, c: &Control, value: &mut bool) {

@@ -46,6 +46,9 @@ impl State {
     /// an image of the change is up at once. The trace is given up when a command newer
     /// than `seq` arrives; the job then waits in `pending` for the newer commands.
     pub(in crate::app) fn render(&mut self, job: RenderJob, seq: u64) {
+        // The job asked for is the one to trace again when the scene or tree changes (not
+        // its coarse stand-in).
+        self.last_job = Some(job.clone());
         let large = job.width * job.height >= COARSE_MIN_PIXELS;
         if !job.preview && large && self.slow_trace && self.cached(&job).is_none() {
             let coarse = RenderJob {
@@ -89,7 +92,6 @@ impl State {
         let (Some(scene), Some(structure)) = (&self.scene, &self.structure) else {
             return true;
         };
-        self.last_job = Some(job.clone());
         let settings = Self::trace_settings(light, &job);
         let (frame, traced) = match cached {
             Some(f) => (f, false),

@@ -169,9 +169,10 @@ impl State {
             let again = (self.version != version)
                 .then(|| self.last_job.clone())
                 .flatten();
-            // A frame given up earlier is wanted only if nothing newer is.
+            // A frame given up earlier is wanted unless a newer one is asked for (it is the
+            // last job, so it also serves as the frame again after a change).
             let pending = self.pending.take();
-            if let Some(j) = job.or(again).or(pending) {
+            if let Some(j) = job.or(pending).or(again) {
                 self.render(j, last_seq);
             }
             self.count_shown(last_seq);
