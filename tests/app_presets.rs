@@ -268,3 +268,34 @@ fn bookmarks_keep_views_of_each_scene() {
     assert!(h.state().bookmarks().is_empty());
     assert!(h.state().settings.bookmarks.is_empty());
 }
+
+/// A preset that compares, opened at launch (`app --preset lecture:4`), pins its A as
+/// stepping to it does.
+#[test]
+fn a_comparing_preset_opened_at_launch_pins_its_a() {
+    let sequence = bvhlab::app::preset::Sequence::lecture();
+    let (index, preset) = sequence
+        .presets
+        .iter()
+        .enumerate()
+        .find(|(_, p)| p.pinned.is_some())
+        .expect("the lecture has a step that compares");
+    let expected = preset.pinned;
+    let scene = preset.scene.clone();
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(1280.0, 720.0))
+        .with_max_steps(16)
+        .build_eframe(move |cc| {
+            BvhLabApp::new(
+                cc,
+                bvhlab::app::Launch {
+                    scene: Some(scene),
+                    preset: Some((sequence, index)),
+                    fresh: true,
+                    ..Default::default()
+                },
+            )
+        });
+    settle(&mut h);
+    assert_eq!(h.state().pinned, expected);
+}

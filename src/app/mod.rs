@@ -186,12 +186,15 @@ impl BvhLabApp {
             plan.apply(&mut settings);
         }
         let mut tool = Tool::Orbit;
+        // A preset that compares pins its A at launch too, as when stepped to.
+        let mut pinned = None;
         let lecture = match launch.preset {
             Some((sequence, index)) => {
                 let before = settings.clone();
                 if let Some(p) = sequence.presets.get(index) {
                     settings = p.settings_over(&settings);
                     tool = p.tool;
+                    pinned = p.pinned;
                 }
                 lecture::Lecture::at(sequence, index, before)
             }
@@ -258,7 +261,7 @@ impl BvhLabApp {
             replay_error: None,
             export_status: None,
             save_slot: Arc::new(Mutex::new(None)),
-            pinned: None,
+            pinned,
             compared: None,
             lecture,
         }

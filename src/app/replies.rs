@@ -82,7 +82,6 @@ impl BvhLabApp {
                     sah_before,
                     sah_after,
                     refit_time,
-                    outline,
                     undo,
                 } => {
                     // A wide BVH's build report has no SAH cost: its first refit gives it.
@@ -95,10 +94,10 @@ impl BvhLabApp {
                     } else if self.sah_history.len() > 1 {
                         self.sah_history.pop();
                     }
-                    self.outline = outline;
                     self.last_refit = Some(refit_time);
                     self.maybe_auto_rebuild();
                 }
+                Reply::Outline(outline) => self.outline = outline,
                 Reply::RebuiltAfterMove {
                     rebuild_time,
                     bvh_refit_time,

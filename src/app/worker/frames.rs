@@ -138,6 +138,9 @@ impl State {
                 None,
             ),
         };
+        if job.overlay.level.is_some() || job.overlay.walk.is_some() {
+            self.fresh_outline();
+        }
         let walk = self.draw_overlay(&frame, &mut rgba, &job);
         self.reply(Reply::Frame(Arc::new(Shown {
             job,
@@ -339,5 +342,18 @@ impl State {
         let frame = Arc::new(trace(structure, scene, &settings));
         self.pinned_traced = Some((key, frame.clone()));
         Ok(frame)
+    }
+
+    /// Makes the outline again after refits, when a frame is to draw it, and sends it to
+    /// the app (its levels and walk panels read it too).
+    pub(in crate::app) fn fresh_outline(&mut self) {
+        if !self.outline_stale {
+            return;
+        }
+        if let Some(structure) = &self.structure {
+            self.outline = Arc::new(structure.outline());
+            self.outline_stale = false;
+            self.reply(Reply::Outline(self.outline.clone()));
+        }
     }
 }

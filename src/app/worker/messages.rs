@@ -189,13 +189,13 @@ pub enum Reply {
         sah_before: f64,
         sah_after: f64,
         refit_time: Duration,
-        /// The refitted boxes, as the levels and the walk draw them.
-        outline: Arc<Outline>,
         /// The refit of an undo (its chart point is taken back, not added).
         undo: bool,
     },
     /// A structure that cannot refit was rebuilt after a move; beside it, what refitting a
     /// BVH over the same triangles took.
+    /// The outline made again after refits (the boxes the levels and the walk draw).
+    Outline(Arc<Outline>),
     RebuiltAfterMove {
         rebuild_time: Duration,
         bvh_refit_time: Option<Duration>,

@@ -63,6 +63,7 @@ impl Worker {
             params: StructureParams::default(),
             outline: Arc::new(Outline::default()),
             instance: None,
+            outline_stale: false,
             built_outline: Arc::default(),
             moved: Default::default(),
             leaf_instances: Arc::default(),

@@ -125,14 +125,14 @@ impl State {
             if let Ok(r) = refit {
                 let refit_time = start.elapsed();
                 // The level boxes and the walk are drawn from the outline: it follows the
-                // refitted boxes (the tree's shape is unchanged, so the walk stays valid).
-                self.outline = Arc::new(structure.outline());
+                // refitted boxes (the tree's shape is unchanged, so the walk stays valid),
+                // made again when a frame draws it (`fresh_outline`), not on every move.
+                self.outline_stale = true;
                 self.version += 1;
                 self.reply(Reply::Refitted {
                     sah_before: r.sah_before,
                     sah_after: r.sah_after,
                     refit_time,
-                    outline: self.outline.clone(),
                     undo: self.undoing,
                 });
             }
@@ -145,6 +145,7 @@ impl State {
         let rebuild_time = start.elapsed();
         *structure = built.structure;
         self.outline = Arc::new(structure.outline());
+        self.outline_stale = false;
         self.version += 1;
         if self.reference_bvh.is_none()
             && let Ok((bvh, _)) = bvh::build(&scene.triangles, &bvh::BuildParams::default())

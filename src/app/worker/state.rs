@@ -54,6 +54,8 @@ pub(in crate::app) struct State {
     pub(in crate::app) structure: Option<Structure>,
     pub(in crate::app) params: StructureParams,
     pub(in crate::app) outline: Arc<Outline>,
+    /// The structure was refitted since `outline` was made: its boxes are out of date.
+    pub(in crate::app) outline_stale: bool,
     /// The outline as the last build left it: after moves, the level boxes are drawn over
     /// a faint ghost of these, so a refit's stretching is seen.
     pub(in crate::app) built_outline: Arc<Outline>,
@@ -314,6 +316,7 @@ impl State {
             Ok(built) => {
                 self.refit_index = None;
                 self.outline = Arc::new(built.structure.outline());
+                self.outline_stale = false;
                 self.built_outline = self.outline.clone();
                 self.moved.clear();
                 let sah = SahPrediction::of(
