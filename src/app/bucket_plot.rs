@@ -6,7 +6,8 @@ use crate::accel::split_costs::SplitCosts;
 use egui::Color32;
 use egui_plot::{HLine, Line, LineStyle, Plot, PlotPoints, Points};
 
-const AXIS_COLORS: [Color32; 3] = [
+/// The x, y and z axes' colours, in every plot and picture of the three axes.
+pub(super) const AXIS_COLORS: [Color32; 3] = [
     Color32::from_rgb(230, 80, 70),
     Color32::from_rgb(90, 190, 90),
     Color32::from_rgb(80, 140, 240),

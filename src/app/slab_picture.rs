@@ -5,15 +5,10 @@
 //! it a miss. The lecture's "intersect with all planes, take the intersection of the
 //! intervals", drawn from the replay's real numbers.
 
+use super::bucket_plot::AXIS_COLORS;
 use crate::geometry::slab::Slabs;
 use crate::geometry::{Aabb, Ray};
 use eframe::egui::{self, Color32, Stroke};
-
-const AXIS_COLORS: [Color32; 3] = [
-    Color32::from_rgb(230, 80, 70),
-    Color32::from_rgb(90, 190, 90),
-    Color32::from_rgb(80, 140, 240),
-];
 
 pub fn show(ui: &mut egui::Ui, ray: &Ray, bounds: &Aabb) {
     let s = Slabs::of(ray, bounds);
