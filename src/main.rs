@@ -60,7 +60,7 @@ enum Command {
 }
 
 fn main() -> Result<()> {
-    let cli = Cli::parse();
+    let cli = Cli::parse_from(study_first(std::env::args_os().collect()));
     let result = match cli.command {
         None => cli::app::run(cli::app::AppArgs::default()),
         Some(Command::App(args)) => cli::app::run(args),
@@ -84,10 +84,72 @@ fn main() -> Result<()> {
     }
 }
 
+/// `bvhlab bench --scene X builders` means `bvhlab bench builders --scene X`: a study named
+/// after `bench`'s options moves to just after `bench`, so the options may come in either
+/// order. A token that is an option's value (as in `--csv builders`) stays where it is.
+fn study_first(mut args: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> {
+    use clap::CommandFactory;
+    let cli = Cli::command();
+    let Some(bench) = cli.find_subcommand("bench") else {
+        return args;
+    };
+    let Some(at) = args.iter().position(|a| a == "bench") else {
+        return args;
+    };
+    let takes_value = |token: &std::ffi::OsStr| {
+        let token = token.to_string_lossy();
+        let Some(name) = token.strip_prefix("--") else {
+            return false;
+        };
+        let studies = bench.get_subcommands().flat_map(|s| s.get_arguments());
+        !name.contains('=')
+            && bench
+                .get_arguments()
+                .chain(studies)
+                .any(|a| a.get_long() == Some(name) && a.get_action().takes_values())
+    };
+    let mut i = at + 1;
+    while i < args.len() {
+        let is_study = bench
+            .get_subcommands()
+            .any(|s| args[i].to_str() == Some(s.get_name()));
+        if is_study && i > at + 1 && !takes_value(&args[i - 1]) {
+            let study = args.remove(i);
+            args.insert(at + 1, study);
+            break;
+        }
+        if args[i] == "--" || is_study {
+            break;
+        }
+        i += 1;
+    }
+    args
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use clap::CommandFactory;
+
+    fn words(line: &str) -> Vec<std::ffi::OsString> {
+        line.split(' ').map(Into::into).collect()
+    }
+
+    #[test]
+    fn a_study_may_follow_benchs_options() {
+        assert_eq!(
+            study_first(words("bvhlab bench --scene cornell builders --accel bvh8")),
+            words("bvhlab bench builders --scene cornell --accel bvh8")
+        );
+        // Already first, or an option's value: left alone.
+        for line in [
+            "bvhlab bench builders --scene cornell",
+            "bvhlab bench --scene cornell --csv builders",
+            "bvhlab render --scene builders",
+        ] {
+            assert_eq!(study_first(words(line)), words(line));
+        }
+    }
 
     #[test]
     fn cli_is_well_formed() {

@@ -106,7 +106,7 @@ fn bench_traces_with_the_chosen_intersector() {
         };
         let r = bench::run(&scene, &cfg).unwrap();
         assert_eq!(r.intersector, kind);
-        assert_eq!(r.to_json()["intersector"], kind.label());
+        assert_eq!(r.json().intersector, kind.label());
         hits.push((r.primary.hits, r.shadow.hits));
     }
     // The exact tests agree on every hit and occlusion of the standard sets here.

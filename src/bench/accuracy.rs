@@ -124,7 +124,44 @@ pub struct AccuracyRow {
     pub agreement: Agreement,
 }
 
+/// One row of `bench accuracy --json`.
+#[derive(serde::Serialize)]
+pub struct AccuracyJson {
+    pub scene: String,
+    pub builder: String,
+    pub intersector: &'static str,
+    pub build_ms: f64,
+    pub sah_vs_full_sweep: f64,
+    pub primary_mrays_s: f64,
+    pub diffuse_mrays_s: f64,
+    pub shadow_mrays_s: f64,
+    pub ns_per_ray: f64,
+    pub crossing_rays: u64,
+    pub leaks: u64,
+    pub compared_rays: u64,
+    pub mismatches: u64,
+}
+
 impl AccuracyRow {
+    /// The row as its JSON's fields.
+    pub fn json(&self) -> AccuracyJson {
+        AccuracyJson {
+            scene: self.scene.clone(),
+            builder: self.builder.label.clone(),
+            intersector: self.intersector.label(),
+            build_ms: self.build_ms,
+            sah_vs_full_sweep: self.sah_vs_sweep,
+            primary_mrays_s: self.sets[0].mrays_per_s(),
+            diffuse_mrays_s: self.sets[1].mrays_per_s(),
+            shadow_mrays_s: self.sets[2].mrays_per_s(),
+            ns_per_ray: self.ns_per_ray(),
+            crossing_rays: self.crossings.rays,
+            leaks: self.crossings.missed + self.crossings.passed_through,
+            compared_rays: self.agreement.rays,
+            mismatches: self.agreement.mismatches,
+        }
+    }
+
     /// Wall-clock nanoseconds per ray over the three sets together.
     pub fn ns_per_ray(&self) -> f64 {
         let secs: f64 = self.sets.iter().map(|s| s.best.as_secs_f64()).sum();

@@ -5,6 +5,7 @@
 
 use super::{BenchResult, MeanWork, PeerResult, RaySetResult, as_typed, builder_label, round3};
 use crate::bench::sah_check::SahCheck;
+use crate::scene::Scene;
 use serde::Serialize;
 
 /// One ray set: its rays, its hits (occluded rays for shadow rays), its speed, and where it
@@ -209,10 +210,70 @@ impl BenchResult {
             }),
         }
     }
+}
 
-    /// The run as a JSON object, for a caller that adds keys of its own (the scene's
-    /// instancing, its load time).
-    pub fn to_json(&self) -> serde_json::Value {
-        serde_json::to_value(self.json()).unwrap_or_default()
+/// An instanced scene's counts: how many instances place how many unique triangles
+/// (`triangles` counts them placed), and the bytes a flattened copy would take.
+#[derive(Serialize)]
+pub struct InstancingJson {
+    pub instances: usize,
+    pub unique_triangles: usize,
+    pub instanced_triangles: usize,
+    pub flattened_bytes: u64,
+}
+
+impl InstancingJson {
+    /// `None` for a scene without instances.
+    pub fn of(scene: &Scene) -> Option<InstancingJson> {
+        if scene.instances.is_empty() {
+            return None;
+        }
+        let instancing = scene.instancing();
+        Some(InstancingJson {
+            instances: instancing.instances.len(),
+            unique_triangles: instancing.unique_triangles(),
+            instanced_triangles: instancing.instanced_triangles(),
+            flattened_bytes: scene.flattened_bytes(),
+        })
     }
+}
+
+/// `bench` of one structure: its run, the scene's instancing and the scene's load time.
+#[derive(Serialize)]
+pub struct SingleJson {
+    #[serde(flatten)]
+    pub run: BenchJson,
+    #[serde(flatten)]
+    pub instancing: Option<InstancingJson>,
+    pub load_ms: f64,
+}
+
+/// `bench --accel all`: the scene and each structure's run.
+#[derive(Serialize)]
+pub struct AllJson {
+    pub scene: String,
+    pub triangles: usize,
+    pub threads: usize,
+    pub structures: Vec<BenchJson>,
+    #[serde(flatten)]
+    pub instancing: Option<InstancingJson>,
+}
+
+/// `bench builders`: the scene, each builder's run, and with `--tradeoff` the range of
+/// rays per frame where each builder is best.
+#[derive(Serialize)]
+pub struct BuildersJson {
+    pub scene: String,
+    pub triangles: usize,
+    pub threads: usize,
+    pub builders: Vec<BenchJson>,
+    pub tradeoff_best: Option<Vec<BestJson>>,
+}
+
+/// A builder best from `from_rays` to `to_rays` diffuse rays per frame.
+#[derive(Serialize)]
+pub struct BestJson {
+    pub builder: String,
+    pub from_rays: f64,
+    pub to_rays: f64,
 }

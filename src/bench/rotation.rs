@@ -55,16 +55,20 @@ pub fn builders(base: &BuildParams) -> Vec<BuildParams> {
 }
 
 /// One builder at one angle.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize)]
 pub struct RotationRow {
     pub degrees: f32,
     pub builder: String,
     pub build_ms: f64,
     pub duplicated_references: usize,
     /// Mean per primary ray.
+    #[serde(rename = "mean_nodes")]
     pub nodes: f64,
+    #[serde(rename = "mean_triangle_tests")]
     pub triangle_tests: f64,
+    #[serde(rename = "primary_mrays_per_s")]
     pub primary_mrays: f64,
+    #[serde(rename = "diffuse_mrays_per_s")]
     pub diffuse_mrays: f64,
 }
 

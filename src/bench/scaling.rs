@@ -55,23 +55,28 @@ pub enum ScalingError {
 }
 
 /// One structure at one scene size.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct ScalingRow {
     pub scene: String,
     /// The size asked for; `triangles` is what the scene has (spheres fill their last ring).
     pub size: usize,
     pub triangles: usize,
+    #[serde(rename = "structure", serialize_with = "label_of")]
     pub kind: AccelKind,
     pub threads: usize,
     pub build_ms: f64,
     /// Primary rays of the view, and how many were traced (brute force over a large scene
     /// traces every `sampled`-th only).
     pub rays: usize,
+    #[serde(rename = "rays_traced")]
     pub traced: usize,
+    #[serde(rename = "sampled_every")]
     pub sampled: usize,
     pub hits: usize,
     /// Mean nodes visited and triangle tests per traced primary ray (exact per ray).
+    #[serde(rename = "mean_nodes")]
     pub nodes: f64,
+    #[serde(rename = "mean_triangle_tests")]
     pub triangle_tests: f64,
     /// Wall-clock nanoseconds per ray over the traced rays, best of the runs.
     pub ns_per_ray: f64,
@@ -107,13 +112,31 @@ impl Metric {
 
 /// The exponents k of cost ∝ N^k of one structure, per metric (`None` where fewer than two
 /// points have a positive cost).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct Slopes {
+    #[serde(rename = "structure", serialize_with = "label_of")]
     pub kind: AccelKind,
     /// Least squares over every size.
+    #[serde(rename = "all_sizes", serialize_with = "by_metric")]
     pub all: [Option<f64>; 3],
     /// Least squares over the larger half of the sizes.
+    #[serde(rename = "upper_half", serialize_with = "by_metric")]
     pub upper: [Option<f64>; 3],
+}
+
+/// A structure in the JSON: its label, as the tables print it.
+fn label_of<S: serde::Serializer>(kind: &AccelKind, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(kind.label())
+}
+
+/// A slope per metric in the JSON: an object keyed by the metrics' labels.
+fn by_metric<S: serde::Serializer>(slopes: &[Option<f64>; 3], s: S) -> Result<S::Ok, S::Error> {
+    use serde::ser::SerializeMap;
+    let mut map = s.serialize_map(Some(3))?;
+    for (metric, v) in Metric::ALL.iter().zip(slopes) {
+        map.serialize_entry(metric.label(), v)?;
+    }
+    map.end()
 }
 
 /// The spec of `scene` at about `triangles` triangles (`grass` has two per blade, on a
@@ -390,43 +413,6 @@ pub fn figure(rows: &[ScalingRow]) -> Figure {
         ],
         notes,
         size: (1560, 560),
-    }
-}
-
-impl ScalingRow {
-    pub fn to_json(&self) -> serde_json::Value {
-        serde_json::json!({
-            "scene": self.scene,
-            "size": self.size,
-            "triangles": self.triangles,
-            "structure": self.kind.label(),
-            "threads": self.threads,
-            "build_ms": self.build_ms,
-            "rays": self.rays,
-            "rays_traced": self.traced,
-            "sampled_every": self.sampled,
-            "hits": self.hits,
-            "mean_nodes": self.nodes,
-            "mean_triangle_tests": self.triangle_tests,
-            "ns_per_ray": self.ns_per_ray,
-        })
-    }
-}
-
-impl Slopes {
-    pub fn to_json(&self) -> serde_json::Value {
-        let obj = |s: &[Option<f64>; 3]| {
-            let mut m = serde_json::Map::new();
-            for (metric, v) in Metric::ALL.iter().zip(s) {
-                m.insert(metric.label().into(), serde_json::json!(v));
-            }
-            serde_json::Value::Object(m)
-        };
-        serde_json::json!({
-            "structure": self.kind.label(),
-            "all_sizes": obj(&self.all),
-            "upper_half": obj(&self.upper),
-        })
     }
 }
 

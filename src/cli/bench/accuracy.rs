@@ -35,25 +35,8 @@ pub(super) fn run_accuracy(
     bvhlab::output::write(&csv_path, accuracy::csv(&rows).as_bytes())?;
     let svg_path = plot::save(&accuracy::pareto_plot(&rows), &plot_path)?;
     if args.json {
-        let json: Vec<serde_json::Value> = rows
-            .iter()
-            .map(|r| {
-                serde_json::json!({
-                    "scene": r.scene, "builder": r.builder.label,
-                    "intersector": r.intersector.label(), "build_ms": r.build_ms,
-                    "sah_vs_full_sweep": r.sah_vs_sweep,
-                    "primary_mrays_s": r.sets[0].mrays_per_s(),
-                    "diffuse_mrays_s": r.sets[1].mrays_per_s(),
-                    "shadow_mrays_s": r.sets[2].mrays_per_s(),
-                    "ns_per_ray": r.ns_per_ray(),
-                    "crossing_rays": r.crossings.rays,
-                    "leaks": r.crossings.missed + r.crossings.passed_through,
-                    "compared_rays": r.agreement.rays,
-                    "mismatches": r.agreement.mismatches,
-                })
-            })
-            .collect();
-        out!("{}", serde_json::Value::Array(json));
+        let json: Vec<_> = rows.iter().map(|r| r.json()).collect();
+        out!("{}", serde_json::to_string(&json)?);
         return Ok(());
     }
     out!(

@@ -4,6 +4,7 @@
 use super::{BenchArgs, output_paths};
 use anyhow::{Context, Result};
 use bvhlab::accel::bvh::Strategy;
+use bvhlab::bench::json::{BestJson, BuildersJson};
 use bvhlab::bench::{self, BenchConfig, plot, sah_scatter, tradeoff};
 use bvhlab::scene::Scene;
 use std::path::PathBuf;
@@ -53,27 +54,22 @@ pub(super) fn run_builders(
         None => None,
     };
     if args.json {
-        let builders: Vec<serde_json::Value> = results.iter().map(|r| r.to_json()).collect();
-        let best: Vec<serde_json::Value> = tradeoff::best_ranges(&lines)
+        let best = tradeoff::best_ranges(&lines)
             .iter()
-            .map(|b| {
-                serde_json::json!({
-                    "builder": lines[b.line].builder,
-                    "from_rays": b.from_rays,
-                    "to_rays": b.to_rays,
-                })
+            .map(|b| BestJson {
+                builder: lines[b.line].builder.clone(),
+                from_rays: b.from_rays,
+                to_rays: b.to_rays,
             })
             .collect();
-        out!(
-            "{}",
-            serde_json::json!({
-                "scene": scene.name,
-                "triangles": scene.placed_triangles(),
-                "threads": threads,
-                "builders": builders,
-                "tradeoff_best": args.tradeoff.then_some(best),
-            })
-        );
+        let json = BuildersJson {
+            scene: scene.name.clone(),
+            triangles: scene.placed_triangles(),
+            threads,
+            builders: results.iter().map(|r| r.json()).collect(),
+            tradeoff_best: args.tradeoff.then_some(best),
+        };
+        out!("{}", serde_json::to_string(&json)?);
         return Ok(());
     }
     // Percentages of SBVH's, as the paper's Table 1 gives them (of the best builder's if

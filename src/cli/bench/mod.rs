@@ -14,7 +14,6 @@ use anyhow::{Result, bail};
 use bvhlab::accel::AccelKind;
 use bvhlab::bench::{self, BenchConfig};
 use bvhlab::geometry::IntersectorKind;
-use bvhlab::scene::Scene;
 use clap::{Args, Subcommand};
 use std::path::PathBuf;
 
@@ -349,10 +348,12 @@ fn run_settings(args: BenchArgs) -> Result<()> {
     }
     let result = pool.install(|| bench::run(&scene, &cfg))?;
     if args.json {
-        let mut json = result.to_json();
-        add_instancing(&mut json, &scene);
-        json["load_ms"] = (load_time.as_secs_f64() * 1e3).into();
-        out!("{}", json);
+        let json = bench::json::SingleJson {
+            run: result.json(),
+            instancing: bench::json::InstancingJson::of(&scene),
+            load_ms: load_time.as_secs_f64() * 1e3,
+        };
+        out!("{}", serde_json::to_string(&json)?);
         return Ok(());
     }
     let r = &result;
@@ -454,19 +455,6 @@ fn run_settings(args: BenchArgs) -> Result<()> {
         timing::print_peer(r, p)?;
     }
     Ok(())
-}
-
-/// An instanced scene's JSON also says how many instances place how many unique
-/// triangles (`triangles` counts them placed).
-pub(super) fn add_instancing(json: &mut serde_json::Value, scene: &Scene) {
-    if scene.instances.is_empty() {
-        return;
-    }
-    let instancing = scene.instancing();
-    json["instances"] = instancing.instances.len().into();
-    json["unique_triangles"] = instancing.unique_triangles().into();
-    json["instanced_triangles"] = instancing.instanced_triangles().into();
-    json["flattened_bytes"] = scene.flattened_bytes().into();
 }
 
 pub(super) fn output_paths(args: &BenchArgs, study: &str, scene: &str) -> (PathBuf, PathBuf) {

@@ -64,25 +64,16 @@ pub(super) fn run_rotation_sweep(args: &BenchArgs, width: u32, height: u32) -> R
     bvhlab::output::write(&csv_path, rotation::csv(&rows).as_bytes())?;
     let svg_path = plot::save(&rotation::figure(&rows, threads), &plot_path)?;
     if args.json {
-        let rows: Vec<serde_json::Value> = rows
-            .iter()
-            .map(|r| {
-                serde_json::json!({
-                    "degrees": r.degrees,
-                    "builder": r.builder,
-                    "build_ms": r.build_ms,
-                    "duplicated_references": r.duplicated_references,
-                    "mean_nodes": r.nodes,
-                    "mean_triangle_tests": r.triangle_tests,
-                    "primary_mrays_per_s": r.primary_mrays,
-                    "diffuse_mrays_per_s": r.diffuse_mrays,
-                })
-            })
-            .collect();
-        out!(
-            "{}",
-            serde_json::json!({ "threads": threads, "rows": rows })
-        );
+        #[derive(serde::Serialize)]
+        struct RotationJson<'a> {
+            threads: usize,
+            rows: &'a [rotation::RotationRow],
+        }
+        let json = RotationJson {
+            threads,
+            rows: &rows,
+        };
+        out!("{}", serde_json::to_string(&json)?);
         return Ok(());
     }
     out!(

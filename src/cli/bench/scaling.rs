@@ -62,18 +62,26 @@ pub(super) fn run_scaling(args: &BenchArgs, width: u32, height: u32) -> Result<(
     let svg_path = plot::save(&scaling::figure(&rows), &plot_path)?;
     let threads = rows.first().map_or(0, |r| r.threads);
     if args.json {
-        out!(
-            "{}",
-            serde_json::json!({
-                "scene": name,
-                "threads": threads,
-                "width": width,
-                "height": height,
-                "note": note,
-                "rows": rows.iter().map(|r| r.to_json()).collect::<Vec<_>>(),
-                "slopes": slopes.iter().map(|s| s.to_json()).collect::<Vec<_>>(),
-            })
-        );
+        #[derive(serde::Serialize)]
+        struct ScalingJson<'a> {
+            scene: &'a str,
+            threads: usize,
+            width: u32,
+            height: u32,
+            note: Option<&'a str>,
+            rows: &'a [scaling::ScalingRow],
+            slopes: &'a [scaling::Slopes],
+        }
+        let json = ScalingJson {
+            scene: name,
+            threads,
+            width,
+            height,
+            note: note.as_deref(),
+            rows: &rows,
+            slopes: &slopes,
+        };
+        out!("{}", serde_json::to_string(&json)?);
         return Ok(());
     }
     out!(

@@ -1,7 +1,7 @@
 //! `bench --accel all`: every structure on the same ray sets; and the rows of the peers
 //! (Embree) beside bvhlab's.
 
-use super::{BenchArgs, add_instancing};
+use super::BenchArgs;
 use anyhow::Result;
 use bvhlab::accel::AccelKind;
 use bvhlab::bench::{self, BenchConfig};
@@ -24,15 +24,14 @@ pub(super) fn run_all(
         })
     })?;
     if args.json {
-        let structures: Vec<serde_json::Value> = results.iter().map(|r| r.to_json()).collect();
-        let mut json = serde_json::json!({
-            "scene": scene.name,
-            "triangles": scene.placed_triangles(),
-            "threads": results.first().map_or(0, |r| r.threads),
-            "structures": structures,
-        });
-        add_instancing(&mut json, scene);
-        out!("{}", json);
+        let json = bench::json::AllJson {
+            scene: scene.name.clone(),
+            triangles: scene.placed_triangles(),
+            threads: results.first().map_or(0, |r| r.threads),
+            structures: results.iter().map(|r| r.json()).collect(),
+            instancing: bench::json::InstancingJson::of(scene),
+        };
+        out!("{}", serde_json::to_string(&json)?);
         return Ok(());
     }
     out!(
