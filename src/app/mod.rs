@@ -19,6 +19,7 @@ pub mod screenshot;
 pub mod settings;
 mod slab_picture;
 pub mod start_view;
+pub mod timing;
 mod viewport;
 pub mod worker;
 

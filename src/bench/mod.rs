@@ -5,9 +5,7 @@
 pub mod accuracy;
 pub mod compare;
 pub mod cpu_time;
-pub mod frames;
 pub mod json;
-pub mod lecture_frames;
 pub mod plot;
 pub mod rays;
 pub mod rotation;

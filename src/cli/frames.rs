@@ -3,7 +3,7 @@
 
 use super::{BuildArgs, ViewArgs, load_scene};
 use anyhow::{Result, anyhow};
-use bvhlab::bench::frames;
+use bvhlab::app::timing::frames;
 use clap::Args;
 
 #[derive(Args)]
@@ -134,7 +134,7 @@ fn lecture(args: &FramesArgs) -> Result<()> {
     if alone {
         sequence.presets = vec![sequence.presets[index].clone()];
     }
-    let mut steps = bvhlab::bench::lecture_frames::run(&sequence, args.width, args.height)
+    let mut steps = bvhlab::app::timing::lecture::run(&sequence, args.width, args.height)
         .map_err(|e| anyhow!(e))?;
     if alone {
         steps.iter_mut().for_each(|s| s.step = index + 1);
