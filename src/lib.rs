@@ -26,6 +26,7 @@
 pub mod accel;
 pub mod app;
 pub mod bench;
+pub mod budget;
 pub mod geometry;
 pub mod huge_pages;
 pub mod output;

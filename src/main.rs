@@ -31,6 +31,11 @@ static ALLOCATOR: bvhlab::huge_pages::HugePages = bvhlab::huge_pages::HugePages;
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
+    /// The memory the run may plan for: images, ray sets, scenes and structures are sized
+    /// before they are made, and one that would not fit is refused at once (default: half
+    /// of this machine's memory; e.g. 16G, 512M).
+    #[arg(long, global = true, value_parser = bvhlab::budget::parse_size)]
+    memory_limit: Option<u64>,
 }
 
 // Parsed once per run: the size of its largest variant (bench with its studies) costs nothing.
@@ -61,6 +66,14 @@ enum Command {
 
 fn main() -> Result<()> {
     let cli = Cli::parse_from(study_first(std::env::args_os().collect()));
+    // The app's messages do not speak of flags; the other commands say how to go further.
+    let in_window = matches!(cli.command, None | Some(Command::App(_)));
+    let hint = if in_window {
+        ""
+    } else {
+        "; --memory-limit raises it"
+    };
+    bvhlab::budget::set_limit(cli.memory_limit, hint);
     let result = match cli.command {
         None => cli::app::run(cli::app::AppArgs::default()),
         Some(Command::App(args)) => cli::app::run(args),

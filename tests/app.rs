@@ -1007,3 +1007,53 @@ fn open_without_a_desktop_portal_opens_the_in_app_browser() {
     assert!(!h.state().open.browsing(), "Cancel closes it");
     assert!(h.state().load_error.is_none());
 }
+
+/// A screenshot told to open the tree walk at a node the tree does not have, or to show a
+/// replay visit the ray does not make, ends with an error naming it instead of a shot of
+/// something else.
+#[test]
+fn a_screenshot_of_a_node_or_visit_that_does_not_exist_fails() {
+    use bvhlab::app::Launch;
+    use bvhlab::app::screenshot::{ReplayShot, ScreenshotPlan, Shot};
+    let out = std::env::temp_dir().join(format!("bvhlab-never-{}.png", std::process::id()));
+    let mut walk = ScreenshotPlan::new(out.clone(), Shot::Levels, 800, 500);
+    walk.walk = Some(99_999_999);
+    let mut replay = ScreenshotPlan::new(out.clone(), Shot::Shaded, 800, 500);
+    replay.replay = Some(ReplayShot {
+        at: [0.5, 0.5],
+        visit: 100_000,
+    });
+    for (plan, expected) in [
+        (walk, "there is no node 99999999 to walk from"),
+        (replay, "there is no visit 100000"),
+    ] {
+        let result = plan.result.clone();
+        let mut h = Harness::builder()
+            .with_size(egui::vec2(800.0, 500.0))
+            .with_max_steps(16)
+            .build_eframe(move |cc| {
+                BvhLabApp::new(
+                    cc,
+                    Launch {
+                        scene: Some("cornell".into()),
+                        accel: Some(bvhlab::accel::AccelKind::Bvh),
+                        fresh: true,
+                        screenshot: Some(plan),
+                        ..Default::default()
+                    },
+                )
+            });
+        for _ in 0..200 {
+            if result.lock().unwrap().is_some() {
+                break;
+            }
+            h.run_steps(1);
+            let ctx = h.ctx.clone();
+            h.state_mut().wait_for_worker(&ctx);
+        }
+        let outcome = result.lock().unwrap().clone().expect("the run ended");
+        let err = outcome.expect_err("no shot");
+        assert!(err.contains(expected), "{err}");
+        assert!(!out.exists());
+    }
+}

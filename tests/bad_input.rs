@@ -56,6 +56,11 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
     )
     .unwrap();
     std::fs::write(dir.join("noise.glb"), [7u8, 1, 2, 3, 250, 0, 9]).unwrap();
+    std::fs::write(
+        dir.join("island.toml"),
+        "title = \"t\"\nscene = \"island:99999999\"\n",
+    )
+    .unwrap();
     let before = files_in(&dir);
     let cases: &[(&[&str], &str)] = &[
         (
@@ -147,10 +152,96 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
             &["bench", "builders", "--scene", "cornell", "--accel", "grid"],
             "bench builders",
         ),
+        // Sized before they are made: past the memory budget, one line and no allocation.
+        (
+            &[
+                "render", "--scene", "cornell", "--width", "16384", "--height", "16384",
+            ],
+            "memory limit",
+        ),
+        (
+            &[
+                "bench", "--scene", "cornell", "--width", "16384", "--height", "16384",
+            ],
+            "memory limit",
+        ),
+        (
+            &[
+                "bench",
+                "accuracy",
+                "--scene",
+                "cornell",
+                "--random-rays",
+                "10000000000",
+            ],
+            "--random-rays 10000000000 would need about",
+        ),
+        (
+            &["stress", "--quick", "--scene-rays", "10000000000"],
+            "memory limit",
+        ),
+        (
+            &["stress", "--quick", "--leak-rays", "10000000000"],
+            "memory limit",
+        ),
+        (
+            &[
+                "stats",
+                "--scene",
+                "island:50",
+                "--accel",
+                "bvh",
+                "--memory-limit",
+                "64M",
+            ],
+            "placed triangles would need about",
+        ),
+        (
+            &["stats", "--scene", "soup:1000000", "--memory-limit", "16M"],
+            "soup:1000000 (1000000 triangles) would need",
+        ),
+        (
+            &["stats", "--scene", "cornell", "--memory-limit", "12Q"],
+            "unit",
+        ),
+        // What a screenshot is told to show exists.
+        (
+            &[
+                "screenshot",
+                "--scene",
+                "cornell",
+                "--out",
+                "s.png",
+                "--replay",
+                "0.5,0.5",
+                "--replay-visit",
+                "0",
+            ],
+            "at least 1",
+        ),
+        (
+            &[
+                "screenshot",
+                "--scene",
+                "island:3",
+                "--accel",
+                "two-level",
+                "--instance",
+                "99999",
+                "--out",
+                "s.png",
+            ],
+            "there is no instance 99999",
+        ),
+        // A preset's scene is checked when the file is read, and the file is named.
+        (
+            &["frames", "--preset", "island.toml"],
+            "island.toml: preset 1",
+        ),
     ];
     for (args, expected) in cases {
         let mut all: Vec<&str> = args.to_vec();
-        if matches!(args[0], "render" | "bench") {
+        if matches!(args[0], "render" | "bench") && !args.contains(&"--width") {
             all.extend(SMALL);
         }
         let out = bvhlab(&dir, &all);
@@ -196,5 +287,20 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert_eq!(std::fs::read(dir.join("h.bin")).unwrap().len(), 8);
+    // A study may follow bench's options.
+    let out = bvhlab(
+        &dir,
+        &[
+            "bench", "--scene", "cornell", "--builds", "1", "--runs", "1", "builders", "--width",
+            "8", "--height", "6", "--json",
+        ],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(json["scene"], "cornell");
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -400,6 +400,32 @@ fn broken_files_are_each_rejected_with_their_own_error() {
     assert!(matches!(e, GltfError::Io { .. }), "{e}");
 }
 
+/// A large uniform scale is not singular (its determinant overflows f32, not the placement):
+/// the mesh loads, placed and with the instance's inverse right.
+#[test]
+fn a_large_uniform_scale_places_the_mesh() {
+    let mut b = valid();
+    b.nodes[0]["scale"] = json!([1e13, 1e13, 1e13]);
+    let dir = temp_dir("large-scale");
+    let doc = b.document(Some(format!(
+        "data:application/octet-stream;base64,{}",
+        common::gltf::base64(&b.bin)
+    )));
+    let path = common::gltf::write_json(&dir, "large-scale", &doc);
+    let scene = load_gltf(&path).unwrap();
+    let placed = scene.flattened().unwrap();
+    let want = mesh_triangles();
+    assert_eq!(placed.len(), want.len());
+    for (g, w) in placed.iter().zip(&want) {
+        for k in 0..3 {
+            assert!((g.v[k] / 1e13 - w.v[k]).length() < 1e-5, "{g:?} vs {w:?}");
+        }
+    }
+    let instance = &scene.instances[0];
+    let back = instance.inverse.transform_point3(Vec3::splat(1e13));
+    assert!((back - Vec3::ONE).length() < 1e-5, "{back:?}");
+}
+
 #[test]
 fn a_gltf_without_a_scene_places_its_root_nodes() {
     let b = valid();

@@ -12,6 +12,7 @@ pub mod hit;
 pub mod instances;
 pub mod kdtree;
 pub mod mailbox;
+pub mod memory;
 pub mod octree;
 pub mod outline;
 pub mod params;

@@ -20,6 +20,7 @@ use super::report::StructureReport;
 use super::two_level::{self, TwoLevel};
 use super::{Accel, BruteForce, Hit, Stats, TraversalOrder};
 use crate::accel::report::Detail;
+use crate::budget::BudgetError;
 use crate::geometry::simd::SimdLevel;
 use crate::geometry::{Intersector, Ray, Triangle};
 use crate::scene::{FlattenError, Instancing, Scene};
@@ -176,6 +177,8 @@ pub enum StructureError {
     Simd(#[from] UnsupportedSimd),
     #[error(transparent)]
     Flatten(#[from] FlattenError),
+    #[error(transparent)]
+    Memory(#[from] BudgetError),
 }
 
 /// A built structure.
@@ -224,6 +227,7 @@ pub fn build_scene(
     params: &StructureParams,
     progress: &AtomicUsize,
 ) -> Result<Built, StructureError> {
+    super::memory::check_scene(params, scene)?;
     if params.kind == AccelKind::TwoLevel {
         return build_two_level(&scene.instancing(), params, progress);
     }
@@ -254,6 +258,7 @@ pub fn build(
     params: &StructureParams,
     progress: &AtomicUsize,
 ) -> Result<Built, StructureError> {
+    super::memory::check_triangles(params, triangles.len())?;
     let start = Instant::now();
     let mut built = match params.kind {
         AccelKind::TwoLevel => build_two_level(&Instancing::single(triangles), params, progress)?,

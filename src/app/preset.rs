@@ -289,7 +289,10 @@ fn key_names(value: impl Serialize) -> Vec<String> {
 fn resolve_scene(spec: &str, dir: Option<&Path>) -> Result<String, String> {
     let base = spec.split([':', '@']).next().unwrap_or(spec);
     if builtin::NAMES.contains(&base) {
-        return Ok(spec.to_string());
+        // Its size is checked here, so the message names the preset file.
+        if builtin::check(spec).map_err(|e| e.to_string())? {
+            return Ok(spec.to_string());
+        }
     }
     if Path::new(spec).is_file() {
         return Ok(spec.to_string());

@@ -59,7 +59,18 @@ impl BvhLabApp {
                     self.walk = self.walk.filter(|&w| (w as usize) < outline.nodes.len());
                     // A screenshot of the tree walk opens it at the node it names.
                     if let Some(node) = self.screenshot.as_ref().and_then(|p| p.walk) {
-                        self.walk = Some(node.min(outline.nodes.len().saturating_sub(1) as u32));
+                        let nodes = outline.nodes.len();
+                        if node as usize >= nodes {
+                            let why = format!(
+                                "there is no node {node} to walk from: the tree has {nodes} \
+                                 nodes, 0 to {}",
+                                nodes.saturating_sub(1)
+                            );
+                            if let Some(p) = self.screenshot.as_mut() {
+                                p.fail(why);
+                            }
+                        }
+                        self.walk = Some(node.min(nodes.saturating_sub(1) as u32));
                     }
                     // A screenshot of an instance's BLAS selects it once the levels exist.
                     if let Some(i) = self.screenshot.as_ref().and_then(|p| p.instance) {
@@ -148,7 +159,17 @@ impl BvhLabApp {
                 Reply::Replayed(Ok(replay)) => {
                     let mut view = replay::ReplayView::new(replay);
                     if let Some(r) = self.screenshot.as_ref().and_then(|p| p.replay) {
-                        view.stop = r.visit.saturating_sub(1).min(view.replay.stops() - 1);
+                        let stops = view.replay.stops();
+                        if r.visit != usize::MAX && r.visit > stops {
+                            let why = format!(
+                                "there is no visit {}: the ray visits {stops} nodes",
+                                r.visit
+                            );
+                            if let Some(p) = self.screenshot.as_mut() {
+                                p.fail(why);
+                            }
+                        }
+                        view.stop = r.visit.saturating_sub(1).min(stops - 1);
                     }
                     self.replay = Some(view);
                     self.replay_error = None;

@@ -148,6 +148,11 @@ impl ScreenshotPlan {
         }
     }
 
+    /// Ends the run without a shot: what it was asked to show does not exist.
+    pub fn fail(&mut self, why: String) {
+        self.finish(Err(why));
+    }
+
     fn finish(&mut self, outcome: Result<Saved, String>) {
         if let Ok(mut r) = self.result.lock() {
             r.get_or_insert(outcome);
@@ -197,8 +202,24 @@ impl ScreenshotPlan {
         let out = self.out.clone();
         let result = self.result.clone();
         let repaint = ctx.clone();
+        let asked = [self.width as usize, self.height as usize];
+        let native = ctx.native_pixels_per_point().unwrap_or(1.0);
         ctx.request_screenshot(move |image| {
             let [w, h] = image.size;
+            // A window larger than the screen (or the driver's largest surface) comes out
+            // smaller: say so rather than save a shot of another size.
+            let expected = asked.map(|n| (n as f32 * native).round() as usize);
+            if image.size != expected {
+                if let Ok(mut r) = result.lock() {
+                    *r = Some(Err(format!(
+                        "the window came out {w}×{h} pixels, not the {}×{} asked for: the \
+                         screen (or the graphics driver) has no room for it",
+                        expected[0], expected[1]
+                    )));
+                }
+                repaint.request_repaint();
+                return;
+            }
             let bytes: Vec<u8> = image.pixels.iter().flat_map(|c| c.to_array()).collect();
             let saved = crate::output::write_png(&bytes, w as u32, h as u32, &out)
                 .map(|()| Saved {

@@ -95,7 +95,7 @@ pub struct ScreenshotArgs {
     #[arg(long, value_parser = parse_fraction_pair)]
     pub replay: Option<[f32; 2]>,
     /// With --replay: the visit shown, counted from 1 (default: the last).
-    #[arg(long, requires = "replay")]
+    #[arg(long, requires = "replay", value_parser = crate::cli::at_least_one::<usize>)]
     pub replay_visit: Option<usize>,
     /// Pin the configuration (--accel and the defaults) as A, then change to B: build flags
     /// in one quoted argument, as `render --compare` takes them, e.g. '--builder
@@ -140,7 +140,7 @@ fn parse_fraction_pair(s: &str) -> Result<[f32; 2], String> {
 }
 
 pub fn screenshot(args: ScreenshotArgs) -> Result<()> {
-    check_size(args.width, args.height)?;
+    check_size(args.width, args.height, 2)?;
     bvhlab::output::check(&args.out, &["png"])?;
     let shot = match args.mode {
         ShotArg::Shaded => Shot::Shaded,
@@ -190,6 +190,16 @@ pub fn screenshot(args: ScreenshotArgs) -> Result<()> {
     }
     // The scene is loaded here, so a bad one is an error before the window opens.
     let loaded = load_scene(&args.scene)?;
+    if let Some(i) = args.instance {
+        let n = loaded.instancing().instances.len();
+        if i >= n {
+            anyhow::bail!(
+                "there is no instance {i}: {} has {n}, 0 to {}",
+                loaded.name,
+                n - 1
+            );
+        }
+    }
     run_app(Launch {
         scene: Some(args.scene),
         loaded: Some(loaded),

@@ -125,7 +125,7 @@ pub fn run(args: FramesArgs) -> Result<()> {
 /// `frames --preset`: each step of a sequence, timed as the app shows it.
 fn lecture(args: &FramesArgs) -> Result<()> {
     let spec = args.preset.as_deref().unwrap_or("lecture");
-    crate::cli::check_size(args.width, args.height)?;
+    crate::cli::check_size(args.width, args.height, 2)?;
     let (mut sequence, index) = bvhlab::app::preset::Sequence::open(spec)?;
     // `NAME:N` times step N alone (numbered N).
     let alone = spec

@@ -257,10 +257,30 @@ pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     pool.build().context("cannot start the worker threads")
 }
 
-pub fn check_size(width: u32, height: u32) -> Result<()> {
+/// `rays` rays of a study's list (with their hits and the f64 reference's answers), `lists`
+/// such lists held at once, within the memory budget.
+pub fn rays_within_budget(flag: &str, rays: usize, lists: u64) -> Result<usize> {
+    let each = bvhlab::budget::BYTES_PER_RAY * lists;
+    bvhlab::budget::check(
+        format!("{flag} {rays}"),
+        bvhlab::budget::times(rays as u64, each),
+    )?;
+    Ok(rays)
+}
+
+/// An image size within 1..=16384 on each side, whose `frames` frames (two for an A | B
+/// comparison) fit the memory budget.
+pub fn check_size(width: u32, height: u32, frames: u64) -> Result<()> {
     if !(1..=16384).contains(&width) || !(1..=16384).contains(&height) {
         bail!("image size {width}×{height} must be within 1..=16384 on each side");
     }
+    let pixels = width as u64 * height as u64;
+    let what = match frames {
+        1 => format!("an image of {width}×{height} pixels"),
+        n => format!("{n} images of {width}×{height} pixels"),
+    };
+    let each = bvhlab::budget::FRAME_BYTES_PER_PIXEL * frames;
+    bvhlab::budget::check(what, bvhlab::budget::times(pixels, each))?;
     Ok(())
 }
 

@@ -51,7 +51,11 @@ pub struct RenderArgs {
 }
 
 pub fn run(args: RenderArgs) -> Result<()> {
-    check_size(args.width, args.height)?;
+    check_size(
+        args.width,
+        args.height,
+        if args.compare.is_some() { 2 } else { 1 },
+    )?;
     if let Some(out) = &args.out {
         bvhlab::output::check(out, &["png"])?;
     }

@@ -59,7 +59,7 @@ fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
 }
 
 pub fn run(args: ReplayArgs) -> Result<()> {
-    check_size(args.width, args.height)?;
+    check_size(args.width, args.height, 1)?;
     let scene = load_scene(&args.scene)?;
     let mut camera = args.view.camera(&scene)?;
     if let Some(fov) = args.fov {

@@ -71,11 +71,11 @@ pub fn run(args: StressArgs) -> Result<()> {
         StressConfig::full()
     };
     if let Some(n) = args.leak_rays {
-        cfg.leak_rays = n;
+        cfg.leak_rays = super::rays_within_budget("--leak-rays", n, 1)?;
         cfg.brute_rays = cfg.brute_rays.min(n);
     }
     if let Some(n) = args.scene_rays {
-        cfg.scene_rays = n;
+        cfg.scene_rays = super::rays_within_budget("--scene-rays", n, 3)?;
     }
     if let Some(s) = args.seed {
         cfg.seed = s;

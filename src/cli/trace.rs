@@ -78,6 +78,13 @@ fn hit_format(asked: Option<HitBits>, triangles: u64) -> Result<HitFormat> {
 
 pub fn run(args: TraceArgs) -> Result<()> {
     bvhlab::output::check(&args.out, &[])?;
+    // The file, its rays decoded and their hits are held at once: about three times its size.
+    if let Ok(meta) = std::fs::metadata(&args.rays) {
+        bvhlab::budget::check(
+            format!("tracing the rays of {}", args.rays.display()),
+            bvhlab::budget::times(meta.len(), 3),
+        )?;
+    }
     let bytes = std::fs::read(&args.rays)
         .with_context(|| format!("cannot read {}", args.rays.display()))?;
     let rays = rayfile::decode_rays(&bytes)

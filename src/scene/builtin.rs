@@ -34,15 +34,52 @@ pub const MAX_TRIANGLES: usize = 50_000_000;
 /// splits its stands into seat blocks to come within 160 of N, and needs at least
 /// `TEAPOT_IN_STADIUM_MIN_TRIANGLES`).
 pub fn by_name(spec: &str) -> Result<Option<Scene>, SceneError> {
+    let Some(recipe) = recipe(spec)? else {
+        return Ok(None);
+    };
+    let scene = match recipe {
+        Recipe::Cornell => cornell(),
+        Recipe::TeapotInStadium(n) => teapot_in_stadium(n)?,
+        Recipe::Grass(n) => grass(n),
+        Recipe::Walls(n, degrees, name) => walls(n, degrees, name),
+        Recipe::SameCentroid(n) => same_centroid(n),
+        Recipe::SameBbox(n) => same_bbox(n),
+        Recipe::Soup(n) => soup(n),
+        Recipe::Sphere(n) => sphere(n),
+        Recipe::Island(n) => island::island(n, &island::Detail::FULL),
+    };
+    Ok(Some(scene))
+}
+
+/// Whether `spec` names a built-in scene with a size it can make (`Ok(false)`: not a
+/// built-in name), without making it: a preset file is checked this way when it is read.
+pub fn check(spec: &str) -> Result<bool, SceneError> {
+    recipe(spec).map(|r| r.is_some())
+}
+
+/// A built-in scene, read from its spec and checked, before it is made.
+enum Recipe<'a> {
+    Cornell,
+    TeapotInStadium(usize),
+    Grass(usize),
+    Walls(usize, f32, &'a str),
+    SameCentroid(usize),
+    SameBbox(usize),
+    Soup(usize),
+    Sphere(usize),
+    Island(usize),
+}
+
+fn recipe(spec: &str) -> Result<Option<Recipe<'_>>, SceneError> {
     let (name, param) = match spec.split_once(':') {
         Some((name, param)) => (name, Some(param)),
         None => (spec, None),
     };
     let sized = |default, triangles_each| size(name, param, default, triangles_each);
-    let scene = match name {
+    let recipe = match name {
         "cornell" => {
             no_parameter(name, param)?;
-            cornell()
+            Recipe::Cornell
         }
         "teapot-in-stadium" => {
             let n = sized(TEAPOT_IN_STADIUM_MIN_TRIANGLES, 1)?;
@@ -55,19 +92,19 @@ pub fn by_name(spec: &str) -> Result<Option<Scene>, SceneError> {
                     ),
                 });
             }
-            teapot_in_stadium(n)?
+            Recipe::TeapotInStadium(n)
         }
-        "grass" => grass(sized(100_000, 2)?),
-        "walls" => walls(sized(200, 12)?, 0.0, "walls"),
-        "walls-rotated" => walls(sized(200, 12)?, WALLS_ROTATION_DEG, "walls-rotated"),
+        "grass" => Recipe::Grass(sized(100_000, 2)?),
+        "walls" => Recipe::Walls(sized(200, 12)?, 0.0, "walls"),
+        "walls-rotated" => Recipe::Walls(sized(200, 12)?, WALLS_ROTATION_DEG, "walls-rotated"),
         _ if name.starts_with("walls-rotated@") => {
             let degrees = walls_angle(name)?;
-            walls(sized(200, 12)?, degrees, name)
+            Recipe::Walls(sized(200, 12)?, degrees, name)
         }
-        "same-centroid" => same_centroid(sized(10_000, 1)?),
-        "same-bbox" => same_bbox(sized(10_000, 1)?),
-        "soup" => soup(sized(10_000, 1)?),
-        "sphere" => sphere(sized(20_000, 1)?),
+        "same-centroid" => Recipe::SameCentroid(sized(10_000, 1)?),
+        "same-bbox" => Recipe::SameBbox(sized(10_000, 1)?),
+        "soup" => Recipe::Soup(sized(10_000, 1)?),
+        "sphere" => Recipe::Sphere(sized(20_000, 1)?),
         "island" => {
             // Bounded by its instances below, not by triangles (it never stores its placed ones).
             let n = size(name, param, island::DEFAULT_INSTANCES, 0)?;
@@ -77,11 +114,11 @@ pub fn by_name(spec: &str) -> Result<Option<Scene>, SceneError> {
                     reason: format!("at most {} instances", island::MAX_INSTANCES),
                 });
             }
-            island::island(n, &island::Detail::FULL)
+            Recipe::Island(n)
         }
         _ => return Ok(None),
     };
-    Ok(Some(scene))
+    Ok(Some(recipe))
 }
 
 /// How far `walls-rotated` turns the walls about +Y, in degrees.
@@ -140,6 +177,11 @@ fn size(
             "{n} would make more than {MAX_TRIANGLES} triangles"
         )));
     }
+    let triangles = (n * triangles_each) as u64;
+    crate::budget::check(
+        format!("{name}:{n} ({triangles} triangles)"),
+        crate::budget::times(triangles, super::FLAT_BYTES_PER_TRIANGLE),
+    )?;
     Ok(n)
 }
 

@@ -3,7 +3,7 @@
 //! instance keeps its inverse, which carries rays into the mesh's own space.
 
 use crate::geometry::{Aabb, Triangle};
-use glam::{Affine3A, Mat3A, Vec3A};
+use glam::{Affine3A, DAffine3, DMat3, Mat3, Mat3A, Vec3A};
 
 /// Triangles in their own (object) space, placed in the scene by instances.
 #[derive(Clone, Debug, PartialEq)]
@@ -41,10 +41,27 @@ impl Instance {
         if !transform.is_finite() {
             return Err(TransformError::NonFinite);
         }
-        if is_singular(transform.matrix3) {
+        // In f64: a large uniform scale (1e13) cubes past f32's range in the determinant
+        // without being singular.
+        let m = transform.matrix3;
+        let linear = DMat3::from_cols(
+            m.x_axis.as_dvec3(),
+            m.y_axis.as_dvec3(),
+            m.z_axis.as_dvec3(),
+        );
+        if is_singular(linear) {
             return Err(TransformError::Singular);
         }
-        let inverse = transform.inverse();
+        let inverse =
+            DAffine3::from_mat3_translation(linear, transform.translation.as_dvec3()).inverse();
+        let inverse = Affine3A::from_mat3_translation(
+            Mat3::from_cols(
+                inverse.matrix3.x_axis.as_vec3(),
+                inverse.matrix3.y_axis.as_vec3(),
+                inverse.matrix3.z_axis.as_vec3(),
+            ),
+            inverse.translation.as_vec3(),
+        );
         if !inverse.is_finite() {
             return Err(TransformError::Singular);
         }
@@ -152,7 +169,7 @@ impl Instance {
     }
 }
 
-fn is_singular(m: Mat3A) -> bool {
+fn is_singular(m: DMat3) -> bool {
     let longest = m
         .x_axis
         .length()
@@ -160,7 +177,7 @@ fn is_singular(m: Mat3A) -> bool {
         .max(m.z_axis.length());
     let scale = longest * longest * longest;
     // Written so that a NaN determinant counts as singular.
-    let regular = m.determinant().abs() > SINGULAR_RATIO * scale;
+    let regular = m.determinant().abs() > SINGULAR_RATIO as f64 * scale;
     !regular
 }
 

@@ -454,6 +454,8 @@ pub fn is_gltf_path(path: &Path) -> bool {
 pub enum SceneError {
     #[error(transparent)]
     Obj(#[from] ObjError),
+    #[error(transparent)]
+    Memory(#[from] crate::budget::BudgetError),
     /// Boxed: a glTF error carries the file, the node and the mesh.
     #[error(transparent)]
     Gltf(#[from] Box<GltfError>),

@@ -19,8 +19,8 @@ pub(super) fn run_accuracy(
         height: cfg.height,
         builds: cfg.builds,
         runs: cfg.runs,
-        random_rays: args.random_rays,
-        crossing_rays: args.crossing_rays,
+        random_rays: crate::cli::rays_within_budget("--random-rays", args.random_rays, 1)?,
+        crossing_rays: crate::cli::rays_within_budget("--crossing-rays", args.crossing_rays, 1)?,
         seed: 1,
     };
     let quiet = args.json;

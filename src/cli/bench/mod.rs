@@ -268,7 +268,14 @@ fn run_settings(args: BenchArgs) -> Result<()> {
     } else {
         (args.width.unwrap_or(1024), args.height.unwrap_or(768))
     };
-    check_size(width, height)?;
+    check_size(width, height, 1)?;
+    bvhlab::budget::check(
+        format!("the ray sets of {width}×{height} pixels"),
+        bvhlab::budget::times(
+            width as u64 * height as u64,
+            bvhlab::budget::RAY_SETS_BYTES_PER_PIXEL,
+        ),
+    )?;
     let peers = args.embree || args.embree_robust;
     if peers && !bench::EMBREE_AVAILABLE {
         anyhow::bail!(bench::EMBREE_MISSING);
