@@ -213,7 +213,8 @@ impl ScreenshotPlan {
                 if let Ok(mut r) = result.lock() {
                     *r = Some(Err(format!(
                         "the window came out {w}×{h} pixels, not the {}×{} asked for: the \
-                         screen (or the graphics driver) has no room for it",
+                         screen (or the graphics driver) has no room for it; ask for a smaller \
+                         --width and --height",
                         expected[0], expected[1]
                     )));
                 }
