@@ -114,23 +114,22 @@ pub fn parse_size(text: &str) -> Result<u64, String> {
         .strip_suffix("iB")
         .or_else(|| t.strip_suffix('B'))
         .unwrap_or(t);
-    let (number, shift) = match t.char_indices().last() {
-        Some((i, c)) if c.is_ascii_alphabetic() => {
-            let shift = match c.to_ascii_uppercase() {
-                'K' => 10,
-                'M' => 20,
-                'G' => 30,
-                'T' => 40,
-                _ => return Err(format!("'{text}': the unit must be K, M, G or T")),
-            };
-            (&t[..i], shift)
-        }
-        _ => (t, 0),
+    let (number, unit) = match t.char_indices().last() {
+        Some((i, c)) if c.is_ascii_alphabetic() => (&t[..i], Some(c)),
+        _ => (t, None),
     };
     let value: f64 = number
         .trim()
         .parse()
         .map_err(|_| format!("'{text}' is not a size (e.g. 16G or 512M)"))?;
+    let shift = match unit.map(|c| c.to_ascii_uppercase()) {
+        None => 0,
+        Some('K') => 10,
+        Some('M') => 20,
+        Some('G') => 30,
+        Some('T') => 40,
+        Some(_) => return Err(format!("'{text}': the unit must be K, M, G or T")),
+    };
     let bytes = value * (1u64 << shift) as f64;
     if !bytes.is_finite() || bytes < (1u64 << 20) as f64 || bytes > (1u64 << 50) as f64 {
         return Err(format!("'{text}' must be between 1M and 1024T"));

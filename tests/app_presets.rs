@@ -68,6 +68,33 @@ fn digit_keys_open_presets_and_page_keys_step_through_them() {
     assert_eq!(h.state().lecture.current, Some(10));
     assert_eq!(h.state().settings.structure.kind, AccelKind::KdTree);
     assert!(!h.state().settings.structure.mailbox);
+    // Two digits typed quickly: step 17, which compares (A pinned).
+    h.key_press(Key::Num1);
+    h.key_press(Key::Num7);
+    settle(&mut h);
+    assert_eq!(h.state().lecture.current, Some(16));
+    assert!(h.state().pinned.is_some());
+    // Step 5 is about the SAH's prediction: the panel scrolled to it (the focus is used
+    // up once its section is drawn).
+    h.key_press(Key::Num5);
+    settle(&mut h);
+    assert_eq!(h.state().lecture.current, Some(4));
+    assert_eq!(h.state().panel_focus, None);
+    assert!(h.query_by_label("SAH predicted against measured").is_some());
+}
+
+/// The steps meant to be compared with the step before them pin it as A.
+#[test]
+fn comparing_steps_pin_the_step_before_as_a() {
+    let h = app("cornell");
+    let steps = &h.state().lecture.sequence.presets;
+    for (step, before) in [(2, 1), (7, 6), (12, 11)] {
+        let pinned = steps[step - 1].pinned.expect("A pinned");
+        let a = &steps[before - 1].settings.structure;
+        assert_eq!(pinned.kind, a.kind, "step {step}");
+        assert_eq!(pinned.mailbox, a.mailbox, "step {step}");
+        assert_eq!(pinned.order, a.order, "step {step}");
+    }
 }
 
 /// What is kept at exit while a lecture step is shown is the state from before the

@@ -99,6 +99,7 @@ fn full_preset() -> Preset {
         }),
         tool: Tool::Replay,
         walk: Some(5),
+        focus: Some(bvhlab::app::preset::Focus::Replay),
         settings,
         pinned: Some(StructureParams {
             kind: AccelKind::Grid,

@@ -6,7 +6,7 @@ use super::bvh::Strategy;
 use super::params::StructureParams;
 use super::structure::AccelKind;
 use crate::budget::{self, BudgetError};
-use crate::scene::{FLAT_BYTES_PER_TRIANGLE, Scene};
+use crate::scene::{FLAT_BYTES_PER_TRIANGLE, MAX_FLATTENED, Scene};
 
 /// Bytes per instance of the two-level structure's top level (its references, boxes and
 /// transforms, with room for re-braiding).
@@ -54,6 +54,10 @@ pub fn check_scene(params: &StructureParams, scene: &Scene) -> Result<(), Budget
         );
     }
     let placed = scene.placed_triangles();
+    if !scene.is_flattened() && placed > MAX_FLATTENED {
+        // Not flattened at all: the flatten error says why, and what to use instead.
+        return Ok(());
+    }
     let copy = if scene.is_flattened() {
         0
     } else {

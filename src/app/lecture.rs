@@ -53,7 +53,12 @@ pub struct Lecture {
     /// The settings from before the first preset opened: what is saved at exit while a
     /// preset is shown, so a lecture does not change what the next plain launch opens.
     pub before: Option<Settings>,
+    /// The last digit typed and when: a second one soon after makes a two-digit step.
+    typed: Option<(usize, std::time::Instant)>,
 }
+
+/// Two digits typed within this time name one step (1 then 7: step 17).
+const TWO_DIGITS: std::time::Duration = std::time::Duration::from_millis(800);
 
 impl Default for Lecture {
     fn default() -> Self {
@@ -66,6 +71,7 @@ impl Default for Lecture {
             pending_structure: None,
             chosen: Arc::new(Mutex::new(None)),
             before: None,
+            typed: None,
         }
     }
 }
@@ -130,6 +136,8 @@ impl BvhLabApp {
         self.settings = preset.settings_over(&self.settings);
         self.tool = preset.tool;
         self.pinned = preset.pinned;
+        self.panels_to_top = true;
+        self.panel_focus = preset.focus;
         self.compared = None;
         self.replay = None;
         self.replay_error = None;
@@ -164,13 +172,10 @@ impl BvhLabApp {
 
     /// The app's state as a preset: the settings, the camera, the tool and the tree walk.
     pub fn preset_here(&self, title: &str) -> Preset {
-        let caption = self
-            .lecture
-            .current
-            .and_then(|i| self.lecture.sequence.presets.get(i))
-            .map(|p| p.caption.clone())
-            .unwrap_or_default();
+        let shown = (self.lecture.current).and_then(|i| self.lecture.sequence.presets.get(i));
+        let caption = shown.map(|p| p.caption.clone()).unwrap_or_default();
         Preset {
+            focus: shown.and_then(|p| p.focus),
             title: title.to_string(),
             caption,
             scene: self.settings.scene.clone(),
@@ -297,8 +302,28 @@ impl BvhLabApp {
         }
     }
 
-    /// The digit keys: 1–9 open presets 1–9, Shift+1…0 the view modes, Ctrl+1–9 the
-    /// scene's bookmarks; Page Down / Page Up the next and previous preset.
+    /// The digit keys: 1–9 open presets 1–9 and two digits typed quickly the presets from
+    /// 10 on, Shift+1…0 the view modes, Ctrl+1–9 the scene's bookmarks; Page Down / Page Up
+    /// the next and previous preset.
+    /// A digit typed: step `digit` at once, or with the digit typed just before it the
+    /// two-digit step they make, if the sequence has it.
+    pub fn digit_typed(&mut self, digit: usize) {
+        let now = std::time::Instant::now();
+        let count = self.lecture.sequence.presets.len();
+        let earlier = self.lecture.typed.take();
+        if let Some((first, _)) = earlier.filter(|(_, at)| now - *at < TWO_DIGITS) {
+            let step = first * 10 + digit;
+            if (10..=count).contains(&step) {
+                self.go_to_preset(step - 1);
+                return;
+            }
+        }
+        if digit > 0 {
+            self.go_to_preset(digit - 1);
+            self.lecture.typed = Some((digit, now));
+        }
+    }
+
     pub(super) fn lecture_keys(&mut self, ctx: &egui::Context) {
         for (digit, m) in digits_pressed(ctx) {
             if m.shift && !m.command {
@@ -306,8 +331,8 @@ impl BvhLabApp {
                 self.settings.mode = ViewMode::ALL[(digit + 9) % 10];
             } else if m.command && digit > 0 {
                 self.recall_bookmark(digit - 1);
-            } else if !m.command && !m.alt && digit > 0 {
-                self.go_to_preset(digit - 1);
+            } else if !m.command && !m.alt {
+                self.digit_typed(digit);
             }
         }
         let pressed = |k: Key| ctx.input(|i| i.key_pressed(k));
@@ -433,7 +458,8 @@ pub fn menu(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         let source = app.lecture.sequence.source.clone();
         ui.label(
             RichText::new(if source == super::preset::LECTURE {
-                "the built-in lecture (keys 1–9, Page Down / Page Up)".to_string()
+                "the built-in lecture (keys 1–9, two digits for 10 on, Page Down / Page Up)"
+                    .to_string()
             } else {
                 format!("presets of {source}")
             })

@@ -161,6 +161,10 @@ pub struct BvhLabApp {
     pub compared: Option<Compared>,
     /// The lecture's presets and the one shown.
     pub lecture: lecture::Lecture,
+    /// A lecture step just opened: the side panels scroll back to their top, then to the
+    /// section it is about, once that section is drawn.
+    panels_to_top: bool,
+    pub panel_focus: Option<preset::Focus>,
 }
 
 impl BvhLabApp {
@@ -252,6 +256,8 @@ impl BvhLabApp {
             drag_latency: None,
             walk: None,
             probe: None,
+            panels_to_top: false,
+            panel_focus: None,
             viewport_px: [0, 0],
             last_job: None,
             show_help: false,

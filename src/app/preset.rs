@@ -72,6 +72,20 @@ impl View {
     }
 }
 
+/// A section of the stats panel a preset can open at.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Focus {
+    /// "SAH predicted against measured".
+    SahCheck,
+    /// The ray replay's list of visits.
+    Replay,
+    /// The SAH cost's growth since the build.
+    Refit,
+    /// A against B.
+    Compare,
+}
+
 /// One view of the lecture.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -91,6 +105,10 @@ pub struct Preset {
     /// The tree walk opened at this node (0 = the root).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub walk: Option<u32>,
+    /// The stats panel's section the step is about, scrolled into sight when it opens
+    /// (without it the panels open at their top).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub focus: Option<Focus>,
     /// The structure, its parameters, the view mode and the overlays: the app's settings,
     /// every one optional (missing = its default).
     #[serde(default)]

@@ -27,6 +27,7 @@ pub fn help_window(app: &mut BvhLabApp, ctx: &egui::Context) {
                         ),
                         ("Esc", "close the replay"),
                         ("1 … 9", "lecture presets 1 to 9"),
+                        ("two digits quickly", "presets 10 on (1, 7: preset 17)"),
                         ("Page Down / Page Up", "next / previous preset"),
                         (
                             "Shift+1 … 7",

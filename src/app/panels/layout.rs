@@ -5,6 +5,7 @@
 //! step, its title and its caption in type scaled with the window, for the back of a room.
 
 use crate::app::BvhLabApp;
+use crate::app::preset::Focus;
 use eframe::egui::{self, RichText};
 
 /// The least share of the window's area the view keeps in the normal layout.
@@ -29,6 +30,7 @@ pub fn side_panels(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     let (controls, stats) = (app.settings.show_controls, app.settings.show_stats);
     if controls && stats && room < 2.0 * COMFORTABLE {
         tabbed_panel(app, ui, room);
+        app.panels_to_top = false;
         return;
     }
     let (left, right) = if controls && stats {
@@ -45,6 +47,7 @@ pub fn side_panels(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     side_panel(egui::Panel::right("stats"), 290.0, right)
         .show_collapsible(ui, &mut open, |ui| stats_contents(app, ui));
     app.settings.show_stats = open;
+    app.panels_to_top = false;
 }
 
 /// A resizable side panel of at most `max` points.
@@ -61,6 +64,7 @@ fn controls_contents(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     ui.spacing_mut().slider_width = (width - 190.0).clamp(48.0, 150.0);
     egui::ScrollArea::both()
         .id_salt("controls scroll")
+        .vertical_scroll_offset_if(app.panels_to_top)
         .show(ui, |ui| {
             // Text wraps at the panel's width; a wider widget scrolls sideways.
             ui.set_max_width(width - SCROLL_BAR);
@@ -72,10 +76,35 @@ fn stats_contents(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     let width = ui.available_width();
     egui::ScrollArea::both()
         .id_salt("stats scroll")
+        .vertical_scroll_offset_if(app.panels_to_top)
         .show(ui, |ui| {
             ui.set_max_width(width - SCROLL_BAR);
             super::stats(app, ui)
         });
+}
+
+/// A scroll area opened at its top when `to_top` says so (a lecture step just opened).
+trait ToTop {
+    fn vertical_scroll_offset_if(self, to_top: bool) -> Self;
+}
+
+impl ToTop for egui::ScrollArea {
+    fn vertical_scroll_offset_if(self, to_top: bool) -> Self {
+        if to_top {
+            self.vertical_scroll_offset(0.0)
+        } else {
+            self
+        }
+    }
+}
+
+/// Where a section of the stats panel starts: scrolled into sight if the lecture step
+/// that just opened is about it.
+pub(super) fn section_starts(app: &mut BvhLabApp, ui: &mut egui::Ui, section: Focus) {
+    if app.panel_focus == Some(section) {
+        ui.scroll_to_cursor(Some(egui::Align::TOP));
+        app.panel_focus = None;
+    }
 }
 
 /// Which of the two panels the shared one shows.

@@ -75,10 +75,11 @@ pub(super) fn selected_instance(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     let mut chosen = current.unwrap_or(0);
     let mut send = None;
     ui.horizontal(|ui| {
-        ui.label("selected instance");
+        let label = ui.label("selected instance").id;
         let max = count.unwrap_or(1).saturating_sub(1);
         if ui
             .add(egui::DragValue::new(&mut chosen).range(0..=max))
+            .labelled_by(label)
             .on_hover_text("or click an object with the move tool")
             .changed()
         {

@@ -91,11 +91,12 @@ fn view_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 heat_style(ui, &mut s.heat_style, s.heat_max.is_some());
                 let mut fixed = s.heat_max.is_some();
                 ui.horizontal(|ui| {
-                    ui.checkbox(&mut fixed, "fixed scale maximum");
+                    let label = ui.checkbox(&mut fixed, "fixed scale maximum").id;
                     let shown_max = app.shown.as_ref().and_then(|f| f.heat_max).unwrap_or(100);
                     match (fixed, &mut s.heat_max) {
                         (true, Some(m)) => {
-                            ui.add(egui::DragValue::new(m).range(1..=100_000));
+                            ui.add(egui::DragValue::new(m).range(1..=100_000))
+                                .labelled_by(label);
                         }
                         (true, m @ None) => *m = Some(shown_max),
                         (false, m) => *m = None,

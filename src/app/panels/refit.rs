@@ -32,14 +32,15 @@ pub(super) fn refit_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             });
             let mut auto = app.settings.auto_rebuild_percent.is_some();
             ui.horizontal(|ui| {
-                ui.checkbox(&mut auto, "rebuild when SAH cost grows by");
+                let label = ui.checkbox(&mut auto, "rebuild when SAH cost grows by").id;
                 let mut p = app.settings.auto_rebuild_percent.unwrap_or(25.0);
                 ui.add_enabled(
                     auto,
                     egui::DragValue::new(&mut p)
                         .range(1.0..=1000.0)
                         .suffix(" %"),
-                );
+                )
+                .labelled_by(label);
                 app.settings.auto_rebuild_percent = auto.then_some(p);
             });
             if app.settings.structure.kind.places_instances() {

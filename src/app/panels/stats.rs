@@ -2,6 +2,7 @@
 //! against measured.
 
 use crate::accel::split_costs::SplitMethod;
+use crate::app::preset::Focus;
 use crate::app::{BvhLabApp, Tool};
 use eframe::egui::{self};
 use egui_plot::{Bar, BarChart, Line, Plot, PlotPoints};
@@ -26,14 +27,17 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         ui.separator();
     }
     // With a pinned A, the comparison is what the user is looking at: first.
+    super::layout::section_starts(app, ui, Focus::Compare);
     crate::app::compare::summary(app, ui);
     // While moving triangles, what the move does to the tree is the point: first.
     let moving = app.tool == Tool::Move && app.bvh_report.is_some();
     if moving {
+        super::layout::section_starts(app, ui, Focus::Refit);
         super::refit::sah_growth(app, ui);
         ui.separator();
     }
     if app.replay.is_some() || app.replay_error.is_some() || app.tool == Tool::Replay {
+        super::layout::section_starts(app, ui, Focus::Replay);
         crate::app::replay::section(app, ui);
         ui.separator();
     }
@@ -138,6 +142,7 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     crate::app::export::section(app, ui);
     if app.bvh_report.is_some() && !moving {
         ui.separator();
+        super::layout::section_starts(app, ui, Focus::Refit);
         super::refit::sah_growth(app, ui);
     }
 }
@@ -177,8 +182,8 @@ pub(super) fn counter_grid(ui: &mut egui::Ui, s: &crate::render::FrameSummary) {
 
 /// The SAH's prediction against the cost per ray measured: on the random lines it assumes,
 /// and on the frame's own rays, which start at the camera or on surfaces and stop at hits.
-pub(super) fn sah_check_section(app: &BvhLabApp, ui: &mut egui::Ui) {
-    let (Some(p), Some(s)) = (&app.sah_prediction, &app.full_summary) else {
+pub(super) fn sah_check_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    let (Some(p), Some(s)) = (app.sah_prediction, app.full_summary.clone()) else {
         return;
     };
     // Nothing measured yet: the counted pass is still on its way.
@@ -192,6 +197,7 @@ pub(super) fn sah_check_section(app: &BvhLabApp, ui: &mut egui::Ui) {
             + p.c_isect as f64 * s.counter(rays, Counter::TriangleTests).mean
     };
     ui.separator();
+    super::layout::section_starts(app, ui, Focus::SahCheck);
     ui.heading("SAH predicted against measured");
     ui.label("cost per ray: C_trav · nodes visited + C_isect · triangle tests");
     egui::Grid::new("sah check")
