@@ -193,6 +193,7 @@ impl BvhLabApp {
         let mut tool = Tool::Orbit;
         // A preset that compares pins its A at launch too, as when stepped to.
         let mut pinned = None;
+        let mut panel_focus = None;
         let lecture = match launch.preset {
             Some((sequence, index)) => {
                 let before = settings.clone();
@@ -200,6 +201,7 @@ impl BvhLabApp {
                     settings = p.settings_over(&settings);
                     tool = p.tool;
                     pinned = p.pinned;
+                    panel_focus = p.focus;
                 }
                 lecture::Lecture::at(sequence, index, before)
             }
@@ -257,7 +259,7 @@ impl BvhLabApp {
             walk: None,
             probe: None,
             panels_to_top: false,
-            panel_focus: None,
+            panel_focus,
             viewport_px: [0, 0],
             last_job: None,
             show_help: false,

@@ -20,6 +20,7 @@ pub fn structure_params(ui: &mut egui::Ui, p: &mut StructureParams) {
         p.kind.title().to_string()
     };
     egui::ComboBox::from_label("structure")
+        .width(combo_width(ui, "structure"))
         .selected_text(selected)
         .show_ui(ui, |ui| {
             for kind in AccelKind::ALL {
@@ -143,9 +144,23 @@ pub fn traversal_order(ui: &mut egui::Ui, order: &mut TraversalOrder) {
     }
 }
 
+/// A combo box's width that leaves its label room on the same line in a narrow panel
+/// (squeezed, the label would wrap a letter per line).
+fn combo_width(ui: &egui::Ui, label: &str) -> f32 {
+    let text = egui::WidgetText::from(label).into_galley(
+        ui,
+        Some(egui::TextWrapMode::Extend),
+        f32::INFINITY,
+        egui::TextStyle::Button,
+    );
+    let room = ui.available_width() - text.size().x - 3.0 * ui.spacing().item_spacing.x;
+    room.clamp(60.0, 220.0)
+}
+
 /// The wide BVHs' slab kernel, among those this CPU has.
 pub fn simd_level(ui: &mut egui::Ui, simd: &mut SimdLevel) {
     egui::ComboBox::from_label("SIMD kernel")
+        .width(combo_width(ui, "SIMD kernel"))
         .selected_text(simd.label())
         .show_ui(ui, |ui| {
             for level in SimdLevel::available() {

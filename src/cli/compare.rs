@@ -107,7 +107,15 @@ pub fn run(
     };
     let frame_a = trace("A", a)?;
     let frame_b = trace("B", &b)?;
-    let (rgba, scale) = compare_image(&frame_a, &frame_b, settings.mode, settings.heat_max, view)?;
+    let style = bvhlab::render::heat::HeatStyle::default();
+    let (rgba, scale) = compare_image(
+        &frame_a,
+        &frame_b,
+        settings.mode,
+        settings.heat_max,
+        &style,
+        view,
+    )?;
     bvhlab::output::write_png(&rgba, frame_b.width, frame_b.height, out)?;
     out!(
         "wrote {} ({}×{}, {}, {})",

@@ -5,7 +5,8 @@
 //! B made cheaper, left equal or made dearer.
 
 use super::colormap::to_rgba8;
-use super::{Frame, Mode, RayKind, colorize};
+use super::heat::HeatStyle;
+use super::{Frame, Mode, RayKind, colorize_styled};
 use crate::accel::Counter;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -328,28 +329,34 @@ fn draw_label(rgba: &mut [u8], w: usize, h: usize, x0: usize, y0: usize, glyph: 
 }
 
 /// The image of A and B in `view` for `mode`, and the scale of its colour map: for a
-/// heatmap split, the count at the top of both halves (`heat_max`, or the larger of the two
-/// frames' maxima, so equal colours mean equal counts); for the difference, the symmetric
-/// scale ±max of B − A.
+/// heatmap split, both halves drawn in `style` up to one count (`heat_max`, or the larger
+/// of the two frames' tops, so equal colours mean equal counts); for the difference, the
+/// symmetric scale ±max of B − A.
 pub fn compare_image(
     a: &Frame,
     b: &Frame,
     mode: Mode,
     heat_max: Option<u32>,
+    style: &HeatStyle,
     view: CompareView,
 ) -> Result<(Vec<u8>, Option<u32>), CompareError> {
     match view {
-        CompareView::BOnly => Ok(colorize(b, mode, heat_max)),
+        CompareView::BOnly => Ok(colorize_styled(b, mode, heat_max, style)),
         CompareView::Split => {
             check_sizes(a, b)?;
             let common = match mode {
                 Mode::Heatmap(c, r) => Some(heat_max.unwrap_or_else(|| {
-                    a.summary.counter(r, c).max.max(b.summary.counter(r, c).max)
+                    let top = |f: &Frame| {
+                        style.top(None, f.summary.counter(r, c).max, || {
+                            f.samples.iter().map(|s| s.counters(r).get(c)).collect()
+                        })
+                    };
+                    top(a).max(top(b))
                 })),
                 _ => None,
             };
-            let (left, _) = colorize(a, mode, common);
-            let (right, scale) = colorize(b, mode, common);
+            let (left, _) = colorize_styled(a, mode, common, style);
+            let (right, scale) = colorize_styled(b, mode, common, style);
             Ok((split(&left, &right, b.width, b.height), scale))
         }
         CompareView::Difference => {
@@ -403,7 +410,15 @@ mod tests {
         assert_eq!((s.cheaper, s.equal, s.dearer), (0, 6, 0));
         assert_eq!(s.total_difference(), 0);
         // Every pixel is the neutral grey of zero.
-        let (rgba, _) = compare_image(&a, &a, NODES, None, CompareView::Difference).unwrap();
+        let (rgba, _) = compare_image(
+            &a,
+            &a,
+            NODES,
+            None,
+            &HeatStyle::default(),
+            CompareView::Difference,
+        )
+        .unwrap();
         let grey = to_rgba8(diverging(0.0));
         assert!(rgba.chunks_exact(4).all(|p| p == grey));
     }
@@ -481,7 +496,14 @@ mod tests {
             Err(CompareError::SizeMismatch(..))
         ));
         assert!(matches!(
-            compare_image(&a, &a, Mode::Shaded, None, CompareView::Difference),
+            compare_image(
+                &a,
+                &a,
+                Mode::Shaded,
+                None,
+                &HeatStyle::default(),
+                CompareView::Difference
+            ),
             Err(CompareError::NotAHeatmap(_))
         ));
     }

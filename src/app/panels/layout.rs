@@ -119,6 +119,10 @@ enum Tab {
 fn tabbed_panel(app: &mut BvhLabApp, ui: &mut egui::Ui, room: f32) {
     let id = ui.scope_id().with("side panel tab");
     let mut tab: Tab = ui.data(|d| d.get_temp(id)).unwrap_or_default();
+    // A lecture step about a section of the statistics shows them.
+    if app.panel_focus.is_some() {
+        tab = Tab::Stats;
+    }
     side_panel(egui::Panel::left("controls and stats"), room, room).show(ui, |ui| {
         ui.horizontal(|ui| {
             ui.selectable_value(&mut tab, Tab::Controls, "Controls");

@@ -266,7 +266,7 @@ impl State {
         } else {
             Vec::new()
         };
-        match compare_image(&a, b, job.mode, job.heat_max, c.view) {
+        match compare_image(&a, b, job.mode, job.heat_max, &job.heat_style, c.view) {
             Ok(image) => (
                 image,
                 Compared {
