@@ -988,24 +988,48 @@ fn shortcuts_answer_while_a_widget_has_the_focus() {
     assert!(!h.state().settings.presentation, "F11 goes back");
 }
 
-/// Open… where no desktop portal answers (no D-Bus session, as here and in a kiosk): the
-/// in-app file browser opens, listing scene files, and Cancel closes it.
+/// Open… and Save… where no desktop portal answers (no D-Bus session, as here and in a
+/// kiosk): the in-app file browser opens with the title of what it is for, and Cancel
+/// closes it.
 #[test]
-fn open_without_a_desktop_portal_opens_the_in_app_browser() {
+fn open_and_save_without_a_desktop_portal_open_the_in_app_browser() {
+    use bvhlab::app::export::Export;
+    use bvhlab::app::file_browser::{Purpose, Start};
     let mut h = app("cornell");
-    if std::env::var_os("DBUS_SESSION_BUS_ADDRESS").is_none() {
-        h.get_by_label("Open…").click();
-    } else {
-        // A session bus here: the portal may answer; open the browser as its fallback would.
-        h.state_mut().open.open_browser(None);
+    for (button, purpose, title) in [
+        ("Open…", Purpose::OpenScene, "Open a scene"),
+        (
+            "Save view as PNG…",
+            Purpose::Export(Export::ViewPng),
+            "Save the view as a PNG",
+        ),
+    ] {
+        if std::env::var_os("DBUS_SESSION_BUS_ADDRESS").is_none() {
+            match purpose {
+                Purpose::Export(what) => {
+                    // Below the fold of the statistics: asked for as its button does.
+                    let ctx = h.ctx.clone();
+                    h.state_mut().save_dialog(what, &ctx);
+                }
+                _ => h.get_by_label(button).click(),
+            }
+        } else {
+            // A session bus here: the portal may answer; open the browser as its fallback
+            // would.
+            h.state_mut().files.open_browser(purpose, &Start::default());
+        }
+        h.run_steps(3);
+        assert!(
+            h.state().files.browsing(),
+            "{button}: the in-app browser is open"
+        );
+        assert!(h.query_by_label_contains(title).is_some(), "{button}");
+        h.get_by_label("Cancel").click();
+        h.run_steps(3);
+        assert!(!h.state().files.browsing(), "{button}: Cancel closes it");
     }
-    h.run_steps(3);
-    assert!(h.state().open.browsing(), "the in-app browser is open");
-    assert!(h.query_by_label_contains("Open a scene").is_some());
-    h.get_by_label("Cancel").click();
-    h.run_steps(3);
-    assert!(!h.state().open.browsing(), "Cancel closes it");
     assert!(h.state().load_error.is_none());
+    assert!(h.state().export_status.is_none());
 }
 
 /// A screenshot told to open the tree walk at a node the tree does not have, or to show a

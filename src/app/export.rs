@@ -6,8 +6,7 @@ use super::BvhLabApp;
 use crate::render::export::{ExportError, save_counters_csv, save_png};
 use crate::render::replay::draw_picture;
 use eframe::egui;
-use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex};
+use std::path::Path;
 
 /// What to save.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -26,9 +25,6 @@ impl Export {
         }
     }
 }
-
-/// Shared slot for a save path chosen in a dialog running on its own thread.
-pub type SaveSlot = Arc<Mutex<Option<(Export, PathBuf)>>>;
 
 impl BvhLabApp {
     /// Saves `what` to `path` now, and says how it went in `export_status`.
@@ -58,31 +54,16 @@ impl BvhLabApp {
         }
     }
 
-    /// Asks for a path in a save dialog on its own thread; the file is written when it
-    /// comes back (`take_save_path`).
-    pub fn save_dialog(&self, what: Export, ctx: &egui::Context) {
-        let slot = self.save_slot.clone();
-        let ctx = ctx.clone();
-        let (name, ext) = what.filter();
-        let file_name = format!("bvhlab-{}.{ext}", short(&self.settings.scene));
-        std::thread::spawn(move || {
-            let file = rfd::FileDialog::new()
-                .add_filter(name, &[ext])
-                .set_file_name(file_name)
-                .save_file();
-            if let (Some(f), Ok(mut s)) = (file, slot.lock()) {
-                *s = Some((what, f));
-                ctx.request_repaint();
-            }
-        });
-    }
-
-    pub(super) fn take_save_path(&mut self) {
-        let chosen = self.save_slot.lock().ok().and_then(|mut s| s.take());
-        if let Some((what, path)) = chosen {
-            // The outcome is shown in `export_status`.
-            let _ = self.export(what, &path);
-        }
+    /// Asks for a path in a save dialog (the system's, or the in-app browser); the file
+    /// is written when it comes back.
+    pub fn save_dialog(&mut self, what: Export, ctx: &egui::Context) {
+        let (_, ext) = what.filter();
+        let start = super::file_browser::Start {
+            folder: None,
+            file_name: Some(format!("bvhlab-{}.{ext}", short(&self.settings.scene))),
+        };
+        self.files
+            .start(ctx, super::file_browser::Purpose::Export(what), start);
     }
 }
 

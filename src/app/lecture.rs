@@ -9,14 +9,7 @@ use super::settings::{Bookmark, Settings};
 use crate::render::ViewMode;
 use crate::scene::Camera;
 use eframe::egui::{self, Key, RichText};
-use std::path::{Path, PathBuf};
-use std::sync::{Arc, Mutex};
-
-/// A file chosen in a dialog, and what to do with it.
-enum Chosen {
-    Load(PathBuf),
-    Save(PathBuf),
-}
+use std::path::Path;
 
 struct Pending {
     camera: Option<Camera>,
@@ -49,7 +42,6 @@ pub struct Lecture {
     /// Its tree-walk node and level, set once its structure is built: until then the
     /// panels know only the old structure's depth, and would clamp them to it.
     pending_structure: Option<(Option<u32>, u32)>,
-    chosen: Arc<Mutex<Option<Chosen>>>,
     /// The settings from before the first preset opened: what is saved at exit while a
     /// preset is shown, so a lecture does not change what the next plain launch opens.
     pub before: Option<Settings>,
@@ -69,7 +61,6 @@ impl Default for Lecture {
             saved: None,
             pending: None,
             pending_structure: None,
-            chosen: Arc::new(Mutex::new(None)),
             before: None,
             typed: None,
         }
@@ -226,38 +217,18 @@ impl BvhLabApp {
         self.go_to_preset(0);
     }
 
-    fn preset_dialog(&self, ctx: &egui::Context, save: bool) {
-        let slot = self.lecture.chosen.clone();
-        let ctx = ctx.clone();
-        std::thread::spawn(move || {
-            let dialog = rfd::FileDialog::new().add_filter("Presets (TOML)", &["toml"]);
-            let chosen = if save {
-                dialog
-                    .set_file_name("preset.toml")
-                    .save_file()
-                    .map(Chosen::Save)
-            } else {
-                dialog.pick_file().map(Chosen::Load)
-            };
-            if let (Some(c), Ok(mut s)) = (chosen, slot.lock()) {
-                *s = Some(c);
-                ctx.request_repaint();
-            }
-        });
-    }
-
-    pub(super) fn take_chosen_preset_file(&mut self) {
-        let chosen = self.lecture.chosen.lock().ok().and_then(|mut s| s.take());
-        // Either outcome is shown in the Lecture section.
-        match chosen {
-            Some(Chosen::Load(path)) => {
-                let _ = self.load_presets(&path);
-            }
-            Some(Chosen::Save(path)) => {
-                let _ = self.save_preset(&path);
-            }
-            None => {}
-        }
+    fn preset_dialog(&mut self, ctx: &egui::Context, save: bool) {
+        use super::file_browser::{Purpose, Start};
+        let (purpose, file_name) = if save {
+            (Purpose::SavePreset, Some("preset.toml".to_string()))
+        } else {
+            (Purpose::LoadPresets, None)
+        };
+        let start = Start {
+            folder: None,
+            file_name,
+        };
+        self.files.start(ctx, purpose, start);
     }
 
     /// Keeps the current camera as a bookmark of the scene.

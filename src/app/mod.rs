@@ -32,7 +32,7 @@ use orbit::Orbit;
 use screenshot::ScreenshotPlan;
 
 use settings::Settings;
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 use worker::{Command, CompareJob, Compared, Overlay, RenderJob, Shown, Worker};
 
@@ -144,16 +144,14 @@ pub struct BvhLabApp {
     show_help: bool,
     /// The scene as the worker has it, after moves (see `request_snapshot`).
     pub snapshot: Option<Arc<Scene>>,
-    /// Open…: the system's dialog, or the in-app browser where no portal answers.
-    pub open: file_browser::OpenDialog,
+    /// Open… and Save…: the system's dialog, or the in-app browser where no portal answers.
+    pub files: file_browser::FileDialog,
     pub screenshot: Option<ScreenshotPlan>,
     /// The ray replay being stepped through, and why the last one failed.
     pub replay: Option<replay::ReplayView>,
     pub replay_error: Option<String>,
     /// The outcome of the last export (the file written, or why not).
     pub export_status: Option<Result<String, String>>,
-    /// A path chosen in a save dialog, and what to save there.
-    save_slot: export::SaveSlot,
     /// Configuration A of a comparison; the settings are configuration B. A stays pinned
     /// when another scene loads and is built again over it.
     pub pinned: Option<StructureParams>,
@@ -264,12 +262,11 @@ impl BvhLabApp {
             last_job: None,
             show_help: false,
             snapshot: None,
-            open: Default::default(),
+            files: Default::default(),
             screenshot: launch.screenshot,
             replay: None,
             replay_error: None,
             export_status: None,
-            save_slot: Arc::new(Mutex::new(None)),
             pinned,
             compared: None,
             lecture,
@@ -535,10 +532,8 @@ impl eframe::App for BvhLabApp {
         let ctx = ui.ctx().clone();
         let replies = self.worker.poll();
         self.handle_replies(&ctx, replies);
-        self.take_picked_file(&ctx);
-        self.take_save_path();
+        self.take_chosen_file(&ctx);
         self.take_dropped_files(&ctx);
-        self.take_chosen_preset_file();
         self.shortcuts(&ctx);
 
         if self.settings.presentation {
@@ -594,9 +589,25 @@ impl eframe::App for BvhLabApp {
 }
 
 impl BvhLabApp {
-    fn take_picked_file(&mut self, ctx: &egui::Context) {
-        if let Some(path) = self.open.poll(ctx) {
-            self.load(path.display().to_string());
+    /// A file chosen in a dialog: opened, loaded or written, as it was chosen for. Each
+    /// outcome is shown where it was asked for (the status bar, the Lecture section, the
+    /// export line).
+    fn take_chosen_file(&mut self, ctx: &egui::Context) {
+        use file_browser::Purpose;
+        let Some((purpose, path)) = self.files.poll(ctx) else {
+            return;
+        };
+        match purpose {
+            Purpose::OpenScene => self.load(path.display().to_string()),
+            Purpose::LoadPresets => {
+                let _ = self.load_presets(&path);
+            }
+            Purpose::SavePreset => {
+                let _ = self.save_preset(&path);
+            }
+            Purpose::Export(what) => {
+                let _ = self.export(what, &path);
+            }
         }
     }
 
@@ -616,7 +627,12 @@ impl BvhLabApp {
         let folder = std::path::Path::new(&self.settings.scene)
             .parent()
             .map(std::path::Path::to_path_buf);
-        self.open.start(ctx, folder.as_deref());
+        let start = file_browser::Start {
+            folder,
+            file_name: None,
+        };
+        self.files
+            .start(ctx, file_browser::Purpose::OpenScene, start);
     }
 
     /// For a replay screenshot: replay the ray through a point of the view.
