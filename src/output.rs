@@ -11,6 +11,8 @@ use std::path::{Path, PathBuf};
 pub enum OutputError {
     #[error("cannot write {path}: it is a folder")]
     IsFolder { path: PathBuf },
+    #[error("cannot write {path}: it is also {other}")]
+    SameFile { path: PathBuf, other: String },
     #[error("cannot write {path}: the folder {folder} does not exist")]
     NoFolder { path: PathBuf, folder: PathBuf },
     #[error("cannot write {path}: {format} files are not written here; use {expected}")]
@@ -30,6 +32,24 @@ pub enum OutputError {
         path: PathBuf,
         error: image::ImageError,
     },
+}
+
+/// Refuses to write `path` when it names the same file as `other` (described as `what`:
+/// "the ray file read", "the CSV"), which would be read and overwritten, or lost.
+pub fn check_distinct(path: &Path, other: &Path, what: &str) -> Result<(), OutputError> {
+    let absolute = |p: &Path| {
+        std::fs::canonicalize(p).unwrap_or_else(|_| {
+            let folder = std::fs::canonicalize(folder_of(p)).unwrap_or_else(|_| folder_of(p));
+            folder.join(p.file_name().unwrap_or_default())
+        })
+    };
+    if absolute(path) == absolute(other) {
+        return Err(OutputError::SameFile {
+            path: path.to_path_buf(),
+            other: what.to_string(),
+        });
+    }
+    Ok(())
 }
 
 /// Checks that `path` can be written as one of `extensions` (lower case, without the dot;
@@ -87,26 +107,60 @@ pub fn check(path: &Path, extensions: &[&str]) -> Result<(), OutputError> {
 /// Writes `bytes` to `path` whole: to a temporary file in the same folder, then renamed
 /// onto `path`. On any failure the temporary file is removed and `path` is untouched.
 pub fn write(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
+    stage(path, bytes)?.commit()
+}
+
+/// A file written whole beside its target but not yet in its place: `commit` renames it
+/// there; dropped uncommitted, it is removed. A command that writes several files stages
+/// each and commits them once all are written, so a failure leaves none of them.
+pub struct Staged {
+    temp: PathBuf,
+    path: PathBuf,
+    committed: bool,
+}
+
+/// Writes `bytes` for `path` to a temporary file in its folder.
+pub fn stage(path: &Path, bytes: &[u8]) -> Result<Staged, OutputError> {
     check(path, &[])?;
-    let io = |source| OutputError::Io {
-        path: path.to_path_buf(),
-        error: source,
-    };
     let name = path.file_name().map_or_else(
         || "output".to_string(),
         |n| n.to_string_lossy().into_owned(),
     );
-    let temp = folder_of(path).join(format!(".{name}.{}.partial", std::process::id()));
-    let written = std::fs::File::create(&temp).and_then(|mut f| {
+    let staged = Staged {
+        temp: folder_of(path).join(format!(".{name}.{}.partial", std::process::id())),
+        path: path.to_path_buf(),
+        committed: false,
+    };
+    let written = std::fs::File::create(&staged.temp).and_then(|mut f| {
         f.write_all(bytes)?;
         f.sync_all()
     });
-    let renamed = written.and_then(|()| std::fs::rename(&temp, path));
-    if let Err(e) = renamed {
-        let _ = std::fs::remove_file(&temp);
-        return Err(io(e));
+    written.map_err(|error| staged.io(error))?;
+    Ok(staged)
+}
+
+impl Staged {
+    /// Renames the file into its place.
+    pub fn commit(mut self) -> Result<(), OutputError> {
+        std::fs::rename(&self.temp, &self.path).map_err(|error| self.io(error))?;
+        self.committed = true;
+        Ok(())
     }
-    Ok(())
+
+    fn io(&self, error: std::io::Error) -> OutputError {
+        OutputError::Io {
+            path: self.path.clone(),
+            error,
+        }
+    }
+}
+
+impl Drop for Staged {
+    fn drop(&mut self) {
+        if !self.committed {
+            let _ = std::fs::remove_file(&self.temp);
+        }
+    }
 }
 
 /// An RGBA8 image as PNG bytes.

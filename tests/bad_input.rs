@@ -57,6 +57,17 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
     .unwrap();
     std::fs::write(dir.join("noise.glb"), [7u8, 1, 2, 3, 250, 0, 9]).unwrap();
     std::fs::write(
+        dir.join("far.toml"),
+        "title = \"t\"\nscene = \"cornell\"\ncamera = { eye = [1e30, 0, 0], look = [0, 0, 0] }\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("tiny.bin"),
+        rayfile::encode_rays(&[Ray::new(Vec3::ZERO, Vec3::new(1e-42, 2e-42, -1e-40))]),
+    )
+    .unwrap();
+    std::fs::write(dir.join("escape.obj"), "v \x1b[31mRED 0 0\n").unwrap();
+    std::fs::write(
         dir.join("island.toml"),
         "title = \"t\"\nscene = \"island:99999999\"\n",
     )
@@ -238,6 +249,67 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
             &["frames", "--preset", "island.toml"],
             "island.toml: preset 1",
         ),
+        (&["frames", "--preset", "far.toml"], "within ±1e18"),
+        // An output that is an input, or another output of the same run.
+        (
+            &[
+                "trace", "--scene", "cornell", "--rays", "rays.bin", "--out", "rays.bin",
+            ],
+            "it is also the ray file read",
+        ),
+        (
+            &[
+                "bench", "accuracy", "--scene", "cornell", "--csv", "x.png", "--plot", "x.png",
+            ],
+            "it is also the plot",
+        ),
+        // Values that cannot mean anything, said as such.
+        (
+            &[
+                "render",
+                "--scene",
+                "cornell",
+                "--mode",
+                "nodes",
+                "--heat-max",
+                "0",
+            ],
+            "at least 1",
+        ),
+        (
+            &["render", "--scene", "cornell", "--fov", "0"],
+            "not an angle from 1 to 170",
+        ),
+        (
+            &["bench", "--scene", "cornell", "--builds", "99999999999"],
+            "too large",
+        ),
+        (&["frames", "--runs", "1"], "say what to time"),
+        (
+            &["frames", "--scene", "cornell", "--width", "16"],
+            "are for --preset",
+        ),
+        (
+            &["frames", "--preset", "lecture:1", "--accel", "grid"],
+            "sets its own structure",
+        ),
+        (
+            &[
+                "stress",
+                "--scene",
+                "cornell",
+                "--scenes-dir",
+                "/nonexistent",
+            ],
+            "cannot be used with",
+        ),
+        (
+            &[
+                "trace", "--scene", "cornell", "--rays", "tiny.bin", "--out", "h.bin",
+            ],
+            "direction is too short",
+        ),
+        (&["stats", "--scene", "escape.obj"], "\\u{1b}[31m"),
     ];
     for (args, expected) in cases {
         let mut all: Vec<&str> = args.to_vec();

@@ -159,6 +159,16 @@ mod naive_order {
     }
 }
 
+/// What a cost parameter must be: C_isect a positive number (a free triangle test makes
+/// every tree a single leaf), the other costs finite and 0 or more.
+pub fn cost_rule(name: &str) -> &'static str {
+    if name == "C_isect" {
+        "a finite number above 0"
+    } else {
+        "a finite number, 0 or more"
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

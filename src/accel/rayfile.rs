@@ -39,14 +39,22 @@ fn list_invalid(first: &[(usize, &'static str)]) -> String {
         .join("; ")
 }
 
+/// The shortest direction traced: a shorter one's components square to 0 in f32 (a
+/// subnormal direction would silently miss everything).
+const MIN_DIRECTION: f32 = 1e-18;
+
 /// Why a ray cannot be traced, or `None` if it can.
 pub fn invalid_reason(ray: &Ray) -> Option<&'static str> {
     if !ray.origin.is_finite() {
         Some("origin is NaN or infinite")
     } else if !ray.direction.is_finite() {
         Some("direction is NaN or infinite")
+    } else if ray.origin.abs().max_element() > crate::scene::MAX_COORDINATE {
+        Some("origin is beyond ±1e18, where ray arithmetic overflows f32")
     } else if ray.direction == Vec3::ZERO {
         Some("direction is zero")
+    } else if ray.direction.length() < MIN_DIRECTION {
+        Some("direction is too short to trace (its length is below 1e-18)")
     } else if ray.tmin.is_nan() || ray.tmax.is_nan() {
         Some("tmin or tmax is NaN")
     } else if !(ray.tmin.is_finite() && ray.tmin >= 0.0) {

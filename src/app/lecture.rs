@@ -408,11 +408,8 @@ fn sequence_list(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         .map(|p| p.title.clone())
         .collect();
     for (i, title) in titles.iter().enumerate() {
-        let key = if i < 9 {
-            format!("{}  ", i + 1)
-        } else {
-            "    ".into()
-        };
+        // Every step by the key (or two) that opens it.
+        let key = format!("{:>2}  ", i + 1);
         if ui
             .selectable_label(app.lecture.current == Some(i), format!("{key}{title}"))
             .clicked()

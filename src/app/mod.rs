@@ -701,6 +701,16 @@ fn add_fallback_fonts(ctx: &egui::Context) {
 
 /// Opens the app window and runs until it is closed.
 pub fn run(launch: Launch) -> anyhow::Result<()> {
+    // Said plainly, before the windowing library reports it with its source path.
+    #[cfg(target_os = "linux")]
+    if ["DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET"]
+        .iter()
+        .all(|v| std::env::var_os(v).is_none())
+    {
+        anyhow::bail!(
+            "cannot open the window: no display (neither DISPLAY nor WAYLAND_DISPLAY is set)"
+        );
+    }
     let size = launch
         .screenshot
         .as_ref()

@@ -153,7 +153,8 @@ fn combo_width(ui: &egui::Ui, label: &str) -> f32 {
         f32::INFINITY,
         egui::TextStyle::Button,
     );
-    let room = ui.available_width() - text.size().x - 3.0 * ui.spacing().item_spacing.x;
+    // The icon, the spacing and the scroll bar's room besides the label.
+    let room = ui.available_width() - text.size().x - 4.0 * ui.spacing().item_spacing.x - 24.0;
     room.clamp(60.0, 220.0)
 }
 

@@ -59,6 +59,12 @@ impl View {
         if !finite {
             return Err("camera: eye and look must be finite numbers".into());
         }
+        let limit = crate::scene::MAX_COORDINATE;
+        if self.eye.iter().chain(&self.look).any(|x| x.abs() > limit) {
+            return Err(format!(
+                "camera: eye and look must be within ±{limit:e}, where ray arithmetic stays in f32"
+            ));
+        }
         if Vec3::from(self.eye).distance(Vec3::from(self.look)) < 1e-6 {
             return Err("camera: eye and look are the same point".into());
         }

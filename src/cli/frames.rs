@@ -9,18 +9,19 @@ use clap::Args;
 #[derive(Args)]
 pub struct FramesArgs {
     /// Built-in scene name (optionally NAME:N) or path to an .obj, .gltf or .glb file.
-    #[arg(long, required_unless_present = "preset", conflicts_with = "preset")]
+    #[arg(long, conflicts_with = "preset")]
     pub scene: Option<String>,
     /// Instead of one scene: step through a preset sequence (`lecture`, `lecture:N`, a
     /// preset file, `FILE:N`) as the app shows it, timing each step's first image and full
     /// frame from the step opening.
     #[arg(long, value_name = "lecture[:N]|FILE[:N]")]
     pub preset: Option<String>,
-    /// With --preset: the view's size in pixels.
-    #[arg(long, default_value_t = 1280)]
-    pub width: u32,
-    #[arg(long, default_value_t = 720)]
-    pub height: u32,
+    /// With --preset: the view's size in pixels, 1280 × 720 unless given (--scene times
+    /// 640×360 and 1280×720).
+    #[arg(long)]
+    pub width: Option<u32>,
+    #[arg(long)]
+    pub height: Option<u32>,
     /// With --preset: one JSON object, its `steps` array holding each step's
     /// `first_image_ms` and `full_frame_ms`.
     #[arg(long)]
@@ -36,10 +37,18 @@ pub struct FramesArgs {
 
 pub fn run(args: FramesArgs) -> Result<()> {
     let Some(spec) = &args.scene else {
+        if args.preset.is_none() {
+            anyhow::bail!(
+                "say what to time: --scene (one view's frames) or --preset (the lecture's steps)"
+            );
+        }
         return lecture(&args);
     };
     if args.json {
         anyhow::bail!("--json is for --preset (the steps' times); --scene prints a table");
+    }
+    if args.width.is_some() || args.height.is_some() {
+        anyhow::bail!("--width and --height are for --preset: --scene times 640×360 and 1280×720");
     }
     let scene = load_scene(spec)?;
     let camera = (args.view.eye.is_some() || args.view.look.is_some())
@@ -125,7 +134,11 @@ pub fn run(args: FramesArgs) -> Result<()> {
 /// `frames --preset`: each step of a sequence, timed as the app shows it.
 fn lecture(args: &FramesArgs) -> Result<()> {
     let spec = args.preset.as_deref().unwrap_or("lecture");
-    crate::cli::check_size(args.width, args.height, 2)?;
+    if args.build.accel.is_some() {
+        anyhow::bail!("each step of --preset sets its own structure: --accel is for --scene");
+    }
+    let (width, height) = (args.width.unwrap_or(1280), args.height.unwrap_or(720));
+    crate::cli::check_size(width, height, 2)?;
     let (mut sequence, index) = bvhlab::app::preset::Sequence::open(spec)?;
     // `NAME:N` times step N alone (numbered N).
     let alone = spec
@@ -134,16 +147,16 @@ fn lecture(args: &FramesArgs) -> Result<()> {
     if alone {
         sequence.presets = vec![sequence.presets[index].clone()];
     }
-    let mut steps = bvhlab::app::timing::lecture::run(&sequence, args.width, args.height)
-        .map_err(|e| anyhow!(e))?;
+    let mut steps =
+        bvhlab::app::timing::lecture::run(&sequence, width, height).map_err(|e| anyhow!(e))?;
     if alone {
         steps.iter_mut().for_each(|s| s.step = index + 1);
     }
     if args.json {
         let json = serde_json::json!({
             "preset": spec,
-            "width": args.width,
-            "height": args.height,
+            "width": width,
+            "height": height,
             "threads": rayon::current_num_threads(),
             "steps": steps,
         });
@@ -153,8 +166,8 @@ fn lecture(args: &FramesArgs) -> Result<()> {
     out!(
         "{spec}: {} steps at {}×{}, {} threads (ms from opening the step)",
         steps.len(),
-        args.width,
-        args.height,
+        width,
+        height,
         rayon::current_num_threads()
     );
     for s in &steps {

@@ -241,6 +241,10 @@ pub fn at_least_one<T: std::str::FromStr + PartialEq + From<u8>>(text: &str) -> 
     match text.parse::<T>() {
         Ok(n) if n == T::from(0) => Err("must be at least 1".into()),
         Ok(n) => Ok(n),
+        // A whole number too large for the count (u64::MAX and beyond).
+        Err(_) if !text.is_empty() && text.bytes().all(|b| b.is_ascii_digit()) => {
+            Err(format!("'{text}' is too large"))
+        }
         Err(_) => Err(format!("'{text}' is not a whole number")),
     }
 }
@@ -255,6 +259,14 @@ pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
         pool = pool.num_threads(n);
     }
     pool.build().context("cannot start the worker threads")
+}
+
+/// A vertical field of view in degrees, from 1 to 170 (as a preset's camera takes it).
+pub fn parse_fov(text: &str) -> Result<f32, String> {
+    match text.parse::<f32>() {
+        Ok(f) if (1.0..=170.0).contains(&f) => Ok(f),
+        _ => Err(format!("'{text}' is not an angle from 1 to 170 degrees")),
+    }
 }
 
 /// `rays` rays of a study's list (with their hits and the f64 reference's answers), `lists`

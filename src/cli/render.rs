@@ -23,15 +23,16 @@ pub struct RenderArgs {
     /// For heatmaps: count the shadow rays instead of the primary rays.
     #[arg(long)]
     pub shadow: bool,
-    /// For heatmaps: the count at the top of the colour scale (default: the frame's maximum).
-    #[arg(long)]
+    /// For heatmaps: the count at the top of the colour scale, at least 1 (default: the
+    /// frame's maximum).
+    #[arg(long, value_parser = crate::cli::at_least_one::<u32>)]
     pub heat_max: Option<u32>,
     #[arg(long, default_value_t = 1024)]
     pub width: u32,
     #[arg(long, default_value_t = 768)]
     pub height: u32,
     /// Vertical field of view in degrees.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli::parse_fov)]
     pub fov: Option<f32>,
     #[command(flatten)]
     pub view: ViewArgs,
@@ -62,9 +63,6 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let scene = load_scene(&args.scene)?;
     let mut camera = args.view.camera(&scene)?;
     if let Some(fov) = args.fov {
-        if !(fov > 0.0 && fov < 180.0) {
-            bail!("--fov {fov} must be between 0 and 180 degrees");
-        }
         camera.fov_y_deg = fov;
     }
     let mode = args.mode.render_mode(args.shadow);

@@ -2,7 +2,7 @@
 //! code as `render`, printed as text or as one JSON object.
 
 use super::{BuildArgs, ViewArgs, check_size, load_scene};
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use bvhlab::geometry::IntersectorKind;
 use bvhlab::render::replay::replay_pixel;
 use bvhlab::render::{RayKind, RenderSettings};
@@ -33,7 +33,7 @@ pub struct ReplayArgs {
     #[arg(long, default_value_t = 768)]
     pub height: u32,
     /// Vertical field of view in degrees.
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli::parse_fov)]
     pub fov: Option<f32>,
     #[command(flatten)]
     pub view: ViewArgs,
@@ -63,9 +63,6 @@ pub fn run(args: ReplayArgs) -> Result<()> {
     let scene = load_scene(&args.scene)?;
     let mut camera = args.view.camera(&scene)?;
     if let Some(fov) = args.fov {
-        if !(fov > 0.0 && fov < 180.0) {
-            bail!("--fov {fov} must be between 0 and 180 degrees");
-        }
         camera.fov_y_deg = fov;
     }
     let settings = RenderSettings {

@@ -40,8 +40,9 @@ pub struct StressArgs {
     /// sponza, sibenik and conference).
     #[arg(long = "scene")]
     pub scenes: Vec<String>,
-    /// Folder of the shared scenes (default: $BVHLAB_SCENES if set).
-    #[arg(long)]
+    /// Folder of the shared scenes (default: $BVHLAB_SCENES if set); for the default scene
+    /// list, so not with --scene.
+    #[arg(long, conflicts_with = "scenes")]
     pub scenes_dir: Option<PathBuf>,
     /// Must-hit rays per closed mesh and placement (at least 1).
     #[arg(long, value_parser = crate::cli::at_least_one::<usize>)]

@@ -78,6 +78,7 @@ fn hit_format(asked: Option<HitBits>, triangles: u64) -> Result<HitFormat> {
 
 pub fn run(args: TraceArgs) -> Result<()> {
     bvhlab::output::check(&args.out, &[])?;
+    bvhlab::output::check_distinct(&args.out, &args.rays, "the ray file read")?;
     // The file, its rays decoded and their hits are held at once: about three times its size.
     if let Ok(meta) = std::fs::metadata(&args.rays) {
         bvhlab::budget::check(

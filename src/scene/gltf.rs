@@ -24,7 +24,7 @@ pub enum GltfError {
     },
     #[error("{}: not a valid glTF 2.0 file: {reason}", path.display())]
     Parse { path: PathBuf, reason: String },
-    #[error("{}: buffer {buffer} is missing: {reason}", path.display())]
+    #[error("{}: buffer {buffer} cannot be read: {reason}", path.display())]
     MissingBuffer {
         path: PathBuf,
         buffer: usize,
@@ -236,7 +236,7 @@ fn load_buffers(
         };
         if data.len() < buffer.length() {
             return Err(missing(format!(
-                "it holds {} bytes, the file says {}",
+                "it is too short: it holds {} bytes, the file says {}",
                 data.len(),
                 buffer.length()
             )));

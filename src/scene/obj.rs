@@ -360,7 +360,19 @@ fn check_face_vertex(word: &str, defined: &Defined) -> Result<(), FaceProblem> {
 fn excerpt(line: &[u8]) -> String {
     const MAX: usize = 80;
     let text = String::from_utf8_lossy(&line[..line.len().min(MAX)]);
-    let text = text.trim_end_matches('\r');
+    // Control characters (a terminal's escape sequences in a crafted file) are shown
+    // escaped, never passed to the terminal.
+    let text: String = text
+        .trim_end_matches('\r')
+        .chars()
+        .map(|c| {
+            if c.is_control() {
+                c.escape_default().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect();
     if line.len() > MAX {
         format!("{text}…")
     } else {

@@ -193,7 +193,7 @@ impl KdParams {
 
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum KdError {
-    #[error("{name} = {value} must be finite and non-negative (C_isect positive)")]
+    #[error("{name} = {value} must be {}", crate::accel::params::cost_rule(name))]
     Cost { name: &'static str, value: f32 },
     #[error("empty bonus {0} is outside [0, 1)")]
     EmptyBonus(f32),

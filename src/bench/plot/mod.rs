@@ -155,9 +155,13 @@ pub fn save(figure: &Figure, png: &Path) -> Result<PathBuf, PlotError> {
     let image = render_png(figure)?;
     let rgba = image::DynamicImage::ImageRgb8(image).into_rgba8();
     let svg = render_svg(figure)?;
-    output::write_png(rgba.as_raw(), rgba.width(), rgba.height(), png)?;
+    // Both written before either is put in place: a failure leaves neither.
+    let bytes = output::png_bytes(rgba.as_raw(), rgba.width(), rgba.height(), png)?;
+    let png_file = output::stage(png, &bytes)?;
     let svg_path = png.with_extension("svg");
-    output::write(&svg_path, svg.as_bytes())?;
+    let svg_file = output::stage(&svg_path, svg.as_bytes())?;
+    png_file.commit()?;
+    svg_file.commit()?;
     Ok(svg_path)
 }
 

@@ -32,8 +32,10 @@ pub(super) fn run_accuracy(
         })
     })?;
     let (csv_path, plot_path) = output_paths(args, "accuracy", &scene.name);
-    bvhlab::output::write(&csv_path, accuracy::csv(&rows).as_bytes())?;
+    // Written once the plot is: a plot that cannot be written leaves no CSV either.
+    let csv = bvhlab::output::stage(&csv_path, accuracy::csv(&rows).as_bytes())?;
     let svg_path = plot::save(&accuracy::pareto_plot(&rows), &plot_path)?;
+    csv.commit()?;
     if args.json {
         let json: Vec<_> = rows.iter().map(|r| r.json()).collect();
         out!("{}", serde_json::to_string(&json)?);

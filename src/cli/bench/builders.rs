@@ -45,8 +45,9 @@ pub(super) fn run_builders(
     let mut written = None;
     if args.tradeoff {
         let (csv_path, plot_path) = output_paths(args, "tradeoff", &scene.name);
-        bvhlab::output::write(&csv_path, tradeoff::csv(&scene.name, &lines).as_bytes())?;
+        let csv = bvhlab::output::stage(&csv_path, tradeoff::csv(&scene.name, &lines).as_bytes())?;
         let svg_path = plot::save(&tradeoff::figure(&scene.name, threads, &lines), &plot_path)?;
+        csv.commit()?;
         written = Some((csv_path, plot_path, svg_path));
     }
     let scatter = match scatter_rows {
@@ -260,7 +261,9 @@ pub(super) fn write_sah_scatter(
         })
         .collect();
     let rows = sah_scatter::merge(earlier, new);
-    bvhlab::output::write(&csv_path, sah_scatter::csv(&rows).as_bytes())?;
+    // The shared CSV changes only once the plot is written.
+    let csv = bvhlab::output::stage(&csv_path, sah_scatter::csv(&rows).as_bytes())?;
     let svg_path = plot::save(&sah_scatter::figure(&rows), &plot_path)?;
+    csv.commit()?;
     Ok((csv_path, plot_path, svg_path))
 }

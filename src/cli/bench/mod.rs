@@ -263,6 +263,10 @@ fn run_settings(args: BenchArgs) -> Result<()> {
     if let Some(png) = &args.plot {
         bvhlab::bench::plot::check(png)?;
     }
+    if let (Some(csv), Some(png)) = (&args.csv, &args.plot) {
+        bvhlab::output::check_distinct(csv, png, "the plot")?;
+        bvhlab::output::check_distinct(csv, &png.with_extension("svg"), "the plot's SVG")?;
+    }
     let (width, height) = if args.scaling {
         (args.width.unwrap_or(256), args.height.unwrap_or(192))
     } else {

@@ -61,8 +61,10 @@ pub(super) fn run_rotation_sweep(args: &BenchArgs, width: u32, height: u32) -> R
     })?;
     let threads = pool.current_num_threads();
     let (csv_path, plot_path) = output_paths(args, "rotation", &args.scene);
-    bvhlab::output::write(&csv_path, rotation::csv(&rows).as_bytes())?;
+    // Written once the plot is: a plot that cannot be written leaves no CSV either.
+    let csv = bvhlab::output::stage(&csv_path, rotation::csv(&rows).as_bytes())?;
     let svg_path = plot::save(&rotation::figure(&rows, threads), &plot_path)?;
+    csv.commit()?;
     if args.json {
         #[derive(serde::Serialize)]
         struct RotationJson<'a> {

@@ -58,8 +58,10 @@ pub(super) fn run_scaling(args: &BenchArgs, width: u32, height: u32) -> Result<(
     })?;
     let slopes = scaling::slopes(&rows);
     let (csv_path, plot_path) = output_paths(args, "scaling", name);
-    bvhlab::output::write(&csv_path, scaling::csv(&rows).as_bytes())?;
+    // Written once the plot is: a plot that cannot be written leaves no CSV either.
+    let csv = bvhlab::output::stage(&csv_path, scaling::csv(&rows).as_bytes())?;
     let svg_path = plot::save(&scaling::figure(&rows), &plot_path)?;
+    csv.commit()?;
     let threads = rows.first().map_or(0, |r| r.threads);
     if args.json {
         #[derive(serde::Serialize)]

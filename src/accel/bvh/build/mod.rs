@@ -336,7 +336,7 @@ pub enum BuildError {
         value: f32,
         max: f32,
     },
-    #[error("{name} = {value} must be finite and non-negative (C_isect positive)")]
+    #[error("{name} = {value} must be {}", crate::accel::params::cost_rule(name))]
     Cost { name: &'static str, value: f32 },
     #[error("triangle {0} has a NaN or infinite vertex")]
     NonFinite(usize),
