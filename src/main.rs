@@ -65,7 +65,18 @@ enum Command {
 }
 
 fn main() -> Result<()> {
-    let cli = Cli::parse_from(study_first(std::env::args_os().collect()));
+    let command = {
+        use clap::CommandFactory;
+        Cli::command()
+    };
+    let matches = command
+        .clone()
+        .get_matches_from(study_first(std::env::args_os().collect()));
+    cli::note_given(&command, &matches);
+    let cli = {
+        use clap::FromArgMatches;
+        Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit())
+    };
     // The app's messages do not speak of flags; the other commands say how to go further.
     let in_window = matches!(cli.command, None | Some(Command::App(_)));
     let hint = if in_window {

@@ -285,6 +285,30 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
             "too large",
         ),
         (&["frames", "--runs", "1"], "say what to time"),
+        // A structure's parameter given for another structure, or a builder's for another
+        // builder, is not ignored.
+        (
+            &["render", "--scene", "cornell", "--lambda", "1"],
+            "--lambda is the grid's; the structure here is",
+        ),
+        (
+            &[
+                "stats",
+                "--scene",
+                "cornell",
+                "--builder",
+                "lbvh",
+                "--buckets",
+                "4",
+            ],
+            "--buckets is not used by the LBVH builder",
+        ),
+        (
+            &[
+                "stats", "--scene", "cornell", "--accel", "bvh", "--simd", "avx2",
+            ],
+            "--simd is BVH4's, BVH8's and the two levels'",
+        ),
         (
             &["frames", "--scene", "cornell", "--width", "16"],
             "are for --preset",

@@ -511,10 +511,9 @@ fn negative_budgets_name_their_flag_and_presplit_says_where_it_applies() {
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert!(stderr.contains(name), "{flag}: {stderr}");
     }
-    // A pre-split budget for a builder that does not take one is said to be unused.
-    let note = "--presplit applies to lbvh, lbvh-treelet and sah-binned";
+    // A pre-split budget for a builder that does not take one is an error naming it.
     let stats = |builder: &str| {
-        let out = bvhlab(&[
+        bvhlab(&[
             "stats",
             "--scene",
             "soup:50",
@@ -522,13 +521,16 @@ fn negative_budgets_name_their_flag_and_presplit_says_where_it_applies() {
             builder,
             "--presplit",
             "0.3",
-        ]);
-        assert!(out.status.success());
-        String::from_utf8(out.stderr).unwrap()
+        ])
     };
-    assert!(stats("sbvh").contains(note));
-    assert!(stats("object-median").contains(note));
-    assert!(!stats("lbvh").contains(note));
+    for (builder, label) in [("sbvh", "SBVH"), ("object-median", "object median")] {
+        let out = stats(builder);
+        assert!(!out.status.success(), "{builder}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        let said = format!("--presplit is not used by the {label} builder");
+        assert!(err.contains(&said), "{err}");
+    }
+    assert!(stats("lbvh").status.success());
 }
 
 #[test]

@@ -9,7 +9,7 @@
 /// What a front end needs to show one parameter.
 #[derive(Clone, Debug)]
 pub struct Control {
-    /// The preset key (the serde name).
+    /// The preset key (the serde name), which is also its command-line flag's id.
     pub key: &'static str,
     /// The control's short label.
     pub label: &'static str,
@@ -110,4 +110,27 @@ pub fn keys_of(params: &mut impl Controls) -> Vec<&'static str> {
     let mut keys = Keys(Vec::new());
     params.visit_controls(&mut keys);
     keys.0
+}
+
+/// Every control of `params`, each with whether it applies as the struct's values stand
+/// (its `when`).
+pub fn controls_of(params: &mut impl Controls) -> Vec<Control> {
+    struct All(Vec<Control>);
+    impl ControlVisitor for All {
+        fn whole(&mut self, c: &Control, _: &mut u32) {
+            self.0.push(c.clone());
+        }
+        fn real(&mut self, c: &Control, _: &mut f32) {
+            self.0.push(c.clone());
+        }
+        fn flag(&mut self, c: &Control, _: &mut bool) {
+            self.0.push(c.clone());
+        }
+        fn choice(&mut self, c: &Control, _: &mut usize, _: &[&'static str]) {
+            self.0.push(c.clone());
+        }
+    }
+    let mut all = All(Vec::new());
+    params.visit_controls(&mut all);
+    all.0
 }

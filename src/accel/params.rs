@@ -159,6 +159,78 @@ mod naive_order {
     }
 }
 
+/// A parameter of `StructureParams` that does nothing for its structure: its key (the
+/// preset key, also its flag's id) and why, as "is the grid's; the structure here is BVH8".
+#[derive(Clone, Debug, PartialEq)]
+pub struct NotApplied {
+    pub key: &'static str,
+    pub why: String,
+}
+
+impl StructureParams {
+    /// The parameters that do nothing for `self.kind` as the others stand (the grid's λ
+    /// under a BVH, the buckets under the LBVH, the SIMD kernel of a BVH2): a front end
+    /// that was told one of them says so instead of ignoring it.
+    pub fn not_applied(&self) -> Vec<NotApplied> {
+        use super::controls::controls_of;
+        let kind = self.kind;
+        let mut copy = *self;
+        let bvh_family = kind.is_bvh() || kind.places_instances();
+        let other = |whose: &str| format!("is {whose}; the structure here is {}", kind.title());
+        let mut out = Vec::new();
+        let mut add = |controls: Vec<super::controls::Control>, applies: bool, whose: &str| {
+            for c in controls {
+                let why = if !applies {
+                    other(whose)
+                } else if c.scope == Some("two-level") && !kind.places_instances() {
+                    other("the two levels'")
+                } else if !c.enabled {
+                    format!("is not used by the {} builder", self.bvh.strategy.label())
+                } else {
+                    continue;
+                };
+                out.push(NotApplied { key: c.key, why });
+            }
+        };
+        add(controls_of(&mut copy.bvh), bvh_family, "the BVHs'");
+        add(
+            controls_of(&mut copy.kdtree),
+            kind == AccelKind::KdTree,
+            "the k-d tree's",
+        );
+        add(
+            controls_of(&mut copy.grid),
+            kind == AccelKind::Grid,
+            "the grid's",
+        );
+        add(
+            controls_of(&mut copy.octree),
+            kind == AccelKind::Octree,
+            "the octree's",
+        );
+        let mut fixed = |key, applies: bool, whose: &str| {
+            if !applies {
+                out.push(NotApplied {
+                    key,
+                    why: other(whose),
+                });
+            }
+        };
+        fixed("order", bvh_family, "the BVHs'");
+        fixed(
+            "mailbox",
+            kind.is_spatial(),
+            "the k-d tree's, the grid's and the octree's",
+        );
+        fixed(
+            "simd",
+            kind.is_wide() || kind.places_instances(),
+            "BVH4's, BVH8's and the two levels'",
+        );
+        out
+    }
+}
+
 /// What a cost parameter must be: C_isect a positive number (a free triangle test makes
 /// every tree a single leaf), the other costs finite and 0 or more.
 pub fn cost_rule(name: &str) -> &'static str {

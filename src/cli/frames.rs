@@ -56,6 +56,7 @@ pub fn run(args: FramesArgs) -> Result<()> {
         .transpose()?;
     let sizes = [(640, 360, true), (640, 360, false), (1280, 720, false)];
     let params = args.build.structure_params(&scene)?;
+    crate::cli::check_given_apply(&params)?;
     params.validate()?;
     let r = frames::run(spec, &params, camera, &sizes, args.runs).map_err(|e| anyhow!(e))?;
     out!(

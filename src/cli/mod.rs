@@ -69,6 +69,49 @@ impl AccelArg {
     }
 }
 
+/// The flags given on the command line (their ids, the fields' names), the subcommands'
+/// among them: a structure's parameter given for a structure it does nothing for is an
+/// error rather than ignored.
+static GIVEN: std::sync::OnceLock<Vec<(String, String)>> = std::sync::OnceLock::new();
+
+/// Notes the flags of `matches` and of its subcommands that the command line gave: each
+/// one's id and its long name.
+pub fn note_given(command: &clap::Command, matches: &clap::ArgMatches) {
+    fn collect(c: &clap::Command, m: &clap::ArgMatches, out: &mut Vec<(String, String)>) {
+        for id in m.ids() {
+            if m.value_source(id.as_str()) == Some(clap::parser::ValueSource::CommandLine) {
+                let long = c
+                    .get_arguments()
+                    .find(|a| a.get_id() == id)
+                    .and_then(|a| a.get_long())
+                    .unwrap_or(id.as_str());
+                out.push((id.to_string(), long.to_string()));
+            }
+        }
+        if let Some((name, sub)) = m.subcommand()
+            && let Some(c) = c.find_subcommand(name)
+        {
+            collect(c, sub, out);
+        }
+    }
+    let mut given = Vec::new();
+    collect(command, matches, &mut given);
+    let _ = GIVEN.set(given);
+}
+
+/// Refuses a parameter the command line gave that does nothing for `params`' structure.
+/// A value out of its range is said first: it is wrong whatever the structure.
+pub fn check_given_apply(params: &StructureParams) -> Result<()> {
+    params.validate()?;
+    let given = GIVEN.get().map_or(&[][..], |g| g.as_slice());
+    for n in params.not_applied() {
+        if let Some((_, long)) = given.iter().find(|(id, _)| id == n.key) {
+            bail!("--{long} {}", n.why);
+        }
+    }
+    Ok(())
+}
+
 impl BuildArgs {
     /// The parameters of every structure, for the structure `kind`.
     pub fn structure_params_for(&self, kind: AccelKind) -> StructureParams {
@@ -101,19 +144,6 @@ impl BuildArgs {
         }
     }
 
-    /// A note when `--presplit` is given to a builder that does not take it (it would
-    /// otherwise be dropped without a word: the SBVH splits its references itself, the
-    /// median and sweep builders never do).
-    pub fn presplit_ignored(&self) -> Option<String> {
-        let strategy = self.params.bvh.strategy;
-        (self.params.bvh.presplit > 0.0 && !strategy.takes_presplit()).then(|| {
-            format!(
-                "note: --presplit applies to lbvh, lbvh-treelet and sah-binned; {} builds without it",
-                strategy.label()
-            )
-        })
-    }
-
     /// Whether `accel_to_trace` chose the fastest layout because no `--accel` was given.
     pub fn fastest_by_default(&self, scene: &Scene) -> bool {
         self.accel.is_none() && scene.instances.is_empty()
@@ -142,9 +172,7 @@ impl BuildArgs {
 
     fn build_kind(&self, scene: &Scene, accel: AccelArg, note: &str) -> Result<Built> {
         let params = self.structure_params_for(accel.kind()?);
-        if let Some(ignored) = self.presplit_ignored() {
-            eprintln!("{ignored}");
-        }
+        check_given_apply(&params)?;
         let built = structure::build_scene(scene, &params, &Default::default())
             .with_context(|| format!("cannot build the {}", params.kind.title()))?;
         let simd = built

@@ -88,6 +88,7 @@ pub fn run(args: StressArgs) -> Result<()> {
             .kind()?,
     );
     cfg.structure.validate()?;
+    super::check_given_apply(&cfg.structure)?;
     if args.embree {
         return run_embree(&args, &cfg);
     }

@@ -318,6 +318,11 @@ fn run_settings(args: BenchArgs) -> Result<()> {
         embree_robust: args.embree_robust,
     };
     let all = args.build.accel == Some(super::AccelArg::All);
+    // One structure timed (not every structure, not a study's own builders): a parameter
+    // given for another is an error.
+    if !all && !compares_builds && !args.tradeoff && !args.scaling {
+        super::check_given_apply(&cfg.params)?;
+    }
     if all && (peers || args.accuracy) {
         anyhow::bail!(
             "--accel all times bvhlab's structures only: leave out --embree (and `bench accuracy` takes one structure)"
