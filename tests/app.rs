@@ -1052,21 +1052,14 @@ fn a_screenshot_of_a_node_or_visit_that_does_not_exist_fails() {
         (replay, "there is no visit 100000"),
     ] {
         let result = plan.result.clone();
-        let mut h = Harness::builder()
-            .with_size(egui::vec2(800.0, 500.0))
-            .with_max_steps(16)
-            .build_eframe(move |cc| {
-                BvhLabApp::new(
-                    cc,
-                    Launch {
-                        scene: Some("cornell".into()),
-                        accel: Some(bvhlab::accel::AccelKind::Bvh),
-                        fresh: true,
-                        screenshot: Some(plan),
-                        ..Default::default()
-                    },
-                )
-            });
+        let launch = Launch {
+            scene: Some("cornell".into()),
+            accel: Some(bvhlab::accel::AccelKind::Bvh),
+            fresh: true,
+            screenshot: Some(plan),
+            ..Default::default()
+        };
+        let mut h = common::app::open(800.0, 500.0, launch);
         for _ in 0..200 {
             if result.lock().unwrap().is_some() {
                 break;

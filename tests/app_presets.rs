@@ -309,20 +309,13 @@ fn a_comparing_preset_opened_at_launch_pins_its_a() {
         .expect("the lecture has a step that compares");
     let expected = preset.pinned;
     let scene = preset.scene.clone();
-    let mut h = Harness::builder()
-        .with_size(egui::vec2(1280.0, 720.0))
-        .with_max_steps(16)
-        .build_eframe(move |cc| {
-            BvhLabApp::new(
-                cc,
-                bvhlab::app::Launch {
-                    scene: Some(scene),
-                    preset: Some((sequence, index)),
-                    fresh: true,
-                    ..Default::default()
-                },
-            )
-        });
+    let launch = bvhlab::app::Launch {
+        scene: Some(scene),
+        preset: Some((sequence, index)),
+        fresh: true,
+        ..Default::default()
+    };
+    let mut h = common::app::open(1280.0, 720.0, launch);
     settle(&mut h);
     assert_eq!(h.state().pinned, expected);
 }

@@ -92,6 +92,9 @@ pub struct ScreenshotPlan {
     pub presentation: bool,
     /// The UI scale (egui's zoom factor), 1 by default.
     pub ui_scale: f32,
+    /// The size was asked for: a window that comes out another size is an error (the
+    /// default size gives way to a smaller screen).
+    pub exact_size: bool,
     pub result: Outcome,
     stage: Stage,
     started: Instant,
@@ -114,6 +117,7 @@ impl ScreenshotPlan {
             compare: None,
             presentation: false,
             ui_scale: 1.0,
+            exact_size: true,
             result: Arc::new(Mutex::new(None)),
             stage: Stage::Settling,
             started: Instant::now(),
@@ -203,13 +207,14 @@ impl ScreenshotPlan {
         let result = self.result.clone();
         let repaint = ctx.clone();
         let asked = [self.width as usize, self.height as usize];
+        let exact = self.exact_size;
         let native = ctx.native_pixels_per_point().unwrap_or(1.0);
         ctx.request_screenshot(move |image| {
             let [w, h] = image.size;
             // A window larger than the screen (or the driver's largest surface) comes out
             // smaller: say so rather than save a shot of another size.
             let expected = asked.map(|n| (n as f32 * native).round() as usize);
-            if image.size != expected {
+            if exact && image.size != expected {
                 if let Ok(mut r) = result.lock() {
                     *r = Some(Err(format!(
                         "the window came out {w}×{h} pixels, not the {}×{} asked for: the \

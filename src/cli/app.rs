@@ -70,12 +70,13 @@ pub struct ScreenshotArgs {
     pub scene: String,
     #[arg(long, value_enum, default_value_t = ShotArg::Shaded)]
     pub mode: ShotArg,
-    /// Window width in pixels.
-    #[arg(long, default_value_t = 1400)]
-    pub width: u32,
-    /// Window height in pixels.
-    #[arg(long, default_value_t = 860)]
-    pub height: u32,
+    /// Window width in pixels (default 1400, or what the screen has room for; a size given
+    /// is the size saved, or an error).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Window height in pixels (default 860, or what the screen has room for).
+    #[arg(long)]
+    pub height: Option<u32>,
     /// The structure to build.
     #[arg(long, value_enum, default_value_t = AccelKind::Bvh)]
     pub accel: AccelKind,
@@ -140,7 +141,9 @@ fn parse_fraction_pair(s: &str) -> Result<[f32; 2], String> {
 }
 
 pub fn screenshot(args: ScreenshotArgs) -> Result<()> {
-    check_size(args.width, args.height, 2)?;
+    let exact = args.width.is_some() || args.height.is_some();
+    let (width, height) = (args.width.unwrap_or(1400), args.height.unwrap_or(860));
+    check_size(width, height, 2)?;
     bvhlab::output::check(&args.out, &["png"])?;
     let shot = match args.mode {
         ShotArg::Shaded => Shot::Shaded,
@@ -160,7 +163,8 @@ pub fn screenshot(args: ScreenshotArgs) -> Result<()> {
     if args.instance.is_some() && !accel.places_instances() {
         anyhow::bail!("--instance selects an instance of the two levels: use --accel two-level");
     }
-    let mut plan = ScreenshotPlan::new(args.out, shot, args.width, args.height);
+    let mut plan = ScreenshotPlan::new(args.out, shot, width, height);
+    plan.exact_size = exact;
     plan.level = args.level;
     plan.presentation = args.presentation;
     plan.ui_scale = args.ui_scale;

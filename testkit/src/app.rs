@@ -28,6 +28,15 @@ pub fn launch(
     harness
 }
 
+/// The app opened as `launch` says (a preset, a screenshot plan) in a `width` × `height`
+/// window, not yet settled.
+pub fn open(width: f32, height: f32, launch: Launch) -> Harness<'static, BvhLabApp> {
+    Harness::builder()
+        .with_size([width, height])
+        .with_max_steps(16)
+        .build_eframe(move |cc| BvhLabApp::new(cc, launch))
+}
+
 /// Runs frames and waits for the worker until the full-resolution frame is shown and stays
 /// so over two more frames (a panel that grows once the report is filled in resizes the
 /// viewport, which asks for another frame).
