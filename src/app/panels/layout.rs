@@ -62,40 +62,30 @@ fn controls_contents(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     // Sliders shrink with a narrow panel, so their labels stay in sight.
     let width = ui.available_width();
     ui.spacing_mut().slider_width = (width - 190.0).clamp(48.0, 150.0);
-    egui::ScrollArea::both()
-        .id_salt("controls scroll")
-        .vertical_scroll_offset_if(app.panels_to_top)
-        .show(ui, |ui| {
-            // Text wraps at the panel's width; a wider widget scrolls sideways.
-            ui.set_max_width(width - SCROLL_BAR);
-            super::controls(app, ui)
-        });
+    scrolled(app, ui, "controls scroll", super::controls);
 }
 
 fn stats_contents(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    scrolled(app, ui, "stats scroll", super::stats);
+}
+
+/// A panel's contents in a scroll area: text wraps at the panel's width, a wider widget
+/// scrolls sideways, and a lecture step just opened starts it at its top.
+fn scrolled(
+    app: &mut BvhLabApp,
+    ui: &mut egui::Ui,
+    salt: &str,
+    contents: fn(&mut BvhLabApp, &mut egui::Ui),
+) {
     let width = ui.available_width();
-    egui::ScrollArea::both()
-        .id_salt("stats scroll")
-        .vertical_scroll_offset_if(app.panels_to_top)
-        .show(ui, |ui| {
-            ui.set_max_width(width - SCROLL_BAR);
-            super::stats(app, ui)
-        });
-}
-
-/// A scroll area opened at its top when `to_top` says so (a lecture step just opened).
-trait ToTop {
-    fn vertical_scroll_offset_if(self, to_top: bool) -> Self;
-}
-
-impl ToTop for egui::ScrollArea {
-    fn vertical_scroll_offset_if(self, to_top: bool) -> Self {
-        if to_top {
-            self.vertical_scroll_offset(0.0)
-        } else {
-            self
-        }
+    let mut area = egui::ScrollArea::both().id_salt(salt);
+    if app.panels_to_top {
+        area = area.vertical_scroll_offset(0.0);
     }
+    area.show(ui, |ui| {
+        ui.set_max_width(width - SCROLL_BAR);
+        contents(app, ui)
+    });
 }
 
 /// Where a section of the stats panel starts: scrolled into sight if the lecture step
