@@ -67,11 +67,27 @@ enum Command {
 fn main() -> Result<()> {
     let command = {
         use clap::CommandFactory;
-        Cli::command()
+        negative_numbers_are_values(Cli::command())
     };
-    let matches = command
-        .clone()
-        .get_matches_from(study_first(std::env::args_os().collect()));
+    let args: Vec<std::ffi::OsString> = std::env::args_os().collect();
+    // A global option may stand before and after the command; clap would keep the last.
+    let limits = args
+        .iter()
+        .filter(|a| {
+            let a = a.to_string_lossy();
+            a == "--memory-limit" || a.starts_with("--memory-limit=")
+        })
+        .count();
+    if limits > 1 {
+        command
+            .clone()
+            .error(
+                clap::error::ErrorKind::ArgumentConflict,
+                "the argument '--memory-limit <MEMORY_LIMIT>' cannot be used multiple times",
+            )
+            .exit();
+    }
+    let matches = command.clone().get_matches_from(study_first(args));
     cli::note_given(&command, &matches);
     let cli = {
         use clap::FromArgMatches;
@@ -111,6 +127,14 @@ fn main() -> Result<()> {
 /// `bvhlab bench --scene X builders` means `bvhlab bench builders --scene X`: a study named
 /// after `bench`'s options moves to just after `bench`, so the options may come in either
 /// order. A token that is an option's value (as in `--csv builders`) stays where it is.
+/// `--width -5` reaches the width's own check ("invalid value '-5' for '--width'"), where
+/// clap would otherwise call `-5` an unknown flag.
+fn negative_numbers_are_values(command: clap::Command) -> clap::Command {
+    command
+        .allow_negative_numbers(true)
+        .mut_subcommands(negative_numbers_are_values)
+}
+
 fn study_first(mut args: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> {
     use clap::CommandFactory;
     let cli = Cli::command();

@@ -68,6 +68,11 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
     .unwrap();
     std::fs::write(dir.join("escape.obj"), "v \x1b[31mRED 0 0\n").unwrap();
     std::fs::write(
+        dir.join("line.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2\n",
+    )
+    .unwrap();
+    std::fs::write(
         dir.join("island.toml"),
         "title = \"t\"\nscene = \"island:99999999\"\n",
     )
@@ -334,6 +339,54 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
             "direction is too short",
         ),
         (&["stats", "--scene", "escape.obj"], "\\u{1b}[31m"),
+        (
+            &["bench", "scaling", "--scene", "soup", "--sizes", "100,100"],
+            "given twice",
+        ),
+        (
+            &[
+                "--memory-limit",
+                "1G",
+                "stats",
+                "--scene",
+                "cornell",
+                "--memory-limit",
+                "2G",
+            ],
+            "cannot be used multiple times",
+        ),
+        (&["render", "--shadow", "--out", "a.png"], "is for heatmaps"),
+        (
+            &["render", "--heat-max", "3", "--mode", "depth"],
+            "is for heatmaps",
+        ),
+        (&["render", "--mode", "repeated"], "has none"),
+        (
+            &[
+                "render",
+                "--accel",
+                "two-level",
+                "--mode",
+                "top-nodes",
+                "--compare",
+                "--accel bvh",
+            ],
+            "--mode top-nodes counts the two levels' work, which B (BVH2)",
+        ),
+        (
+            &["render", "--width", "-5"],
+            "invalid value '-5' for '--width",
+        ),
+        (
+            &["frames", "--preset", "lecture:abc"],
+            "'abc' is not a preset number",
+        ),
+        (
+            &[
+                "trace", "--scene", "cornell", "--rays", "tiny.bin", "--out", "hits.png",
+            ],
+            "binary hits",
+        ),
     ];
     for (args, expected) in cases {
         let mut all: Vec<&str> = args.to_vec();
@@ -370,6 +423,30 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert!(image::open(dir.join("ok.png")).is_ok());
+    // A negative coordinate is a value, and a sphere rounded up says so.
+    let out = bvhlab(
+        &dir,
+        &[
+            "render", "--scene", "sphere:1", "--eye", "-1,0.5,3", "-o", "ok2.png", "--width", "16",
+            "--height", "12",
+        ],
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("sphere:1 has 6 triangles"), "{err}");
+    // A face of two corners is skipped with a word.
+    std::fs::write(
+        dir.join("line.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2\n",
+    )
+    .unwrap();
+    let out = bvhlab(&dir, &["stats", "--scene", "line.obj"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("1 face of fewer than three vertices skipped") && err.contains("line 5"),
+        "{err}"
+    );
     std::fs::write(dir.join("good.bin"), rayfile::encode_rays(&rays[..1])).unwrap();
     let out = bvhlab(
         &dir,

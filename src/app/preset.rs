@@ -177,6 +177,15 @@ impl Sequence {
             Some((name, n)) if n.parse::<usize>().is_ok() && !Path::new(spec).exists() => {
                 (name, n.parse::<usize>().ok())
             }
+            // `lecture:abc` or `file.toml:abc`: a sequence named, with no number after it.
+            Some((name, n))
+                if !Path::new(spec).exists() && (name == LECTURE || Path::new(name).is_file()) =>
+            {
+                return Err(PresetError {
+                    origin: name.to_string(),
+                    message: format!("'{n}' is not a preset number (they count from 1)"),
+                });
+            }
             _ => (spec, None),
         };
         let sequence = if name == LECTURE {

@@ -48,6 +48,8 @@ pub enum ScalingError {
     NotScalable(String),
     #[error("the scaling study needs at least one size and one structure")]
     Empty,
+    #[error("size {0} is given twice in --sizes")]
+    Duplicate(usize),
     #[error(transparent)]
     Scene(#[from] SceneError),
     #[error(transparent)]
@@ -160,6 +162,10 @@ pub fn plan_sizes(
 ) -> Result<(Vec<usize>, Option<String>), ScalingError> {
     sized_spec(scene, 1)?;
     let mut out: Vec<usize> = sizes.to_vec();
+    out.sort_unstable();
+    if let Some(twice) = out.windows(2).find(|w| w[0] == w[1]) {
+        return Err(ScalingError::Duplicate(twice[0]));
+    }
     let mut note = None;
     if scene == "teapot-in-stadium" && out.iter().any(|&n| n < TEAPOT_IN_STADIUM_MIN_TRIANGLES) {
         out = out
@@ -446,7 +452,11 @@ mod tests {
         assert_eq!(sizes[0], TEAPOT_IN_STADIUM_MIN_TRIANGLES);
         assert_eq!(sizes.len(), 5);
         assert!(note.is_some());
-        let (sizes, note) = plan_sizes("soup", &[800, 200, 800]).unwrap();
+        let (sizes, note) = plan_sizes("soup", &[800, 200]).unwrap();
         assert_eq!((sizes, note), (vec![200, 800], None));
+        assert!(matches!(
+            plan_sizes("soup", &[800, 200, 800]),
+            Err(ScalingError::Duplicate(800))
+        ));
     }
 }

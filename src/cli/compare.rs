@@ -66,6 +66,7 @@ pub fn run(
     settings: &RenderSettings,
     intersector: bvhlab::geometry::IntersectorKind,
     a: &BuildArgs,
+    mode: bvhlab::render::ViewMode,
     flags: &str,
     view: CompareView,
     out: &Path,
@@ -74,7 +75,7 @@ pub fn run(
         bail!(
             "--compare-view difference needs a heatmap --mode (nodes, boxes, triangles, \
              repeated, top-nodes, bottom-nodes, instances), not {}",
-            settings.mode.label()
+            super::render::mode_flag(mode)
         );
     }
     let b = b_over_a(a, flags)?;
@@ -82,22 +83,9 @@ pub fn run(
     b.structure_params_for(b.accel_to_trace(scene).kind()?)
         .validate()
         .map_err(|e| anyhow!("bad --compare flags '{flags}': {e}"))?;
-    // A count only the two levels make would be zero for a structure without them: a
-    // comparison against zeros that looks like a measurement.
-    if let Mode::Heatmap(counter, _) = settings.mode
-        && counter.is_two_level()
-    {
-        for (name, args) in [("A", a), ("B", &b)] {
-            let kind = args.accel_to_trace(scene).kind()?;
-            if !kind.places_instances() {
-                bail!(
-                    "--mode {} counts the two levels' work, which {name} ({}) does not have: \
-                     compare two-level structures",
-                    settings.mode.label(),
-                    kind.title()
-                );
-            }
-        }
+    for (name, args) in [("A", a), ("B", &b)] {
+        let kind = args.accel_to_trace(scene).kind()?;
+        super::render::check_counts(mode, Some(name), kind)?;
     }
     let trace = |name: &str, args: &BuildArgs| -> Result<Frame> {
         eprint!("{name}: ");

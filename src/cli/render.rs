@@ -51,6 +51,42 @@ pub struct RenderArgs {
     pub compare_view: CompareView,
 }
 
+/// `mode` as `--mode` spells it.
+pub fn mode_flag(mode: ViewMode) -> String {
+    mode.to_possible_value()
+        .map_or_else(String::new, |v| v.get_name().to_string())
+}
+
+/// Refuses a heatmap of a count `kind` never makes: all zeros that would look like a
+/// measurement. A flat structure has no levels (top-level and instance counts); only a
+/// structure that references a triangle from several cells can test it twice.
+/// `side` names A or B in a comparison.
+pub fn check_counts(mode: ViewMode, side: Option<&str>, kind: AccelKind) -> Result<()> {
+    let who = match side {
+        Some(side) => format!("{side} ({})", kind.title()),
+        None => kind.title().to_string(),
+    };
+    if mode.is_two_level() && !kind.places_instances() {
+        bail!(
+            "--mode {} counts the two levels' work, which {who} does not have: {}",
+            mode_flag(mode),
+            if side.is_none() {
+                "add --accel two-level"
+            } else {
+                "compare two-level structures"
+            }
+        );
+    }
+    if mode == ViewMode::Repeated && !kind.is_spatial() {
+        bail!(
+            "--mode repeated counts the triangles a ray tests again, which only the mailbox of \
+             a k-d tree, grid or octree records ({who} has none): use one of those with \
+             --mailbox false"
+        );
+    }
+    Ok(())
+}
+
 pub fn run(args: RenderArgs) -> Result<()> {
     check_size(
         args.width,
@@ -64,6 +100,19 @@ pub fn run(args: RenderArgs) -> Result<()> {
     let mut camera = args.view.camera(&scene)?;
     if let Some(fov) = args.fov {
         camera.fov_y_deg = fov;
+    }
+    if !args.mode.is_heatmap() {
+        for (given, flag) in [
+            (args.shadow, "--shadow"),
+            (args.heat_max.is_some(), "--heat-max"),
+        ] {
+            if given {
+                bail!(
+                    "{flag} is for heatmaps; --mode {} is not one",
+                    mode_flag(args.mode)
+                );
+            }
+        }
     }
     let mode = args.mode.render_mode(args.shadow);
     let settings = RenderSettings {
@@ -89,23 +138,13 @@ pub fn run(args: RenderArgs) -> Result<()> {
             &settings,
             kind,
             &args.build,
+            args.mode,
             flags,
             args.compare_view,
             &out,
         );
     }
-    // A flat structure has no levels: its top-level and instance counts are all zero, a
-    // black heatmap that would look like a measurement.
-    let accel = args.build.accel_to_trace(&scene);
-    if args.mode.is_two_level() && !accel.kind().is_ok_and(AccelKind::places_instances) {
-        bail!(
-            "--mode {} counts the two levels' work, which {} does not have: add --accel two-level",
-            args.mode
-                .to_possible_value()
-                .map_or_else(String::new, |v| v.get_name().to_string()),
-            accel.kind()?.title()
-        );
-    }
+    check_counts(args.mode, None, args.build.accel_to_trace(&scene).kind()?)?;
     let built = args.build.build_to_trace(&scene)?;
     let frame = with_intersector!(kind, I => render::render_with::<_, I>(&built.structure, &scene, &settings));
     let out = out_or_default("");

@@ -76,8 +76,25 @@ fn hit_format(asked: Option<HitBits>, triangles: u64) -> Result<HitFormat> {
     }
 }
 
+/// Names that promise a picture or text a viewer would try to open; the hits are binary.
+const NOT_HITS: [&str; 9] = [
+    "png", "jpg", "jpeg", "svg", "gif", "csv", "json", "txt", "obj",
+];
+
 pub fn run(args: TraceArgs) -> Result<()> {
     bvhlab::output::check(&args.out, &[])?;
+    if let Some(ext) = args
+        .out
+        .extension()
+        .map(|e| e.to_string_lossy().to_lowercase())
+        && NOT_HITS.contains(&ext.as_str())
+    {
+        anyhow::bail!(
+            "{}: trace writes binary hits (the README's hit format), not a .{ext} file; \
+             name it e.g. hits.bin",
+            args.out.display()
+        );
+    }
     bvhlab::output::check_distinct(&args.out, &args.rays, "the ray file read")?;
     // The file, its rays decoded and their hits are held at once: about three times its size.
     if let Ok(meta) = std::fs::metadata(&args.rays) {

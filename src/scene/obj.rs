@@ -71,9 +71,7 @@ pub(crate) fn parse_obj(
     mut bytes: Vec<u8>,
     mtl_dir: Option<&Path>,
 ) -> Result<Scene, ObjError> {
-    validate(path, &mut bytes)?;
-
-    let warnings = RefCell::new(Vec::new());
+    let warnings = RefCell::new(validate(path, &mut bytes)?);
     let options = tobj::LoadOptions {
         triangulate: true,
         single_index: false,
@@ -194,11 +192,13 @@ struct Defined {
 /// Checks every line tobj would act on, with the line number on failure. Also blanks, in
 /// place, the parts tobj would misread: polylines (`l a b c` would become a triangle) and
 /// vertex colours (tobj fails when only some vertices have one), and a UTF-8 byte order mark.
-fn validate(path: &Path, bytes: &mut [u8]) -> Result<(), ObjError> {
+/// Returns the warnings for what is skipped: faces of fewer than three corners.
+fn validate(path: &Path, bytes: &mut [u8]) -> Result<Vec<String>, ObjError> {
     if bytes.starts_with(b"\xEF\xBB\xBF") {
         bytes[..3].fill(b' ');
     }
     let mut defined = Defined::default();
+    let mut short_faces = Vec::new();
     // Byte ranges to overwrite with spaces once the (borrowing) pass is over.
     let mut blank = Vec::new();
     let mut start = 0;
@@ -279,8 +279,11 @@ fn validate(path: &Path, bytes: &mut [u8]) -> Result<(), ObjError> {
                     })?;
                     corners += 1;
                 }
-                if corners == 0 {
-                    return Err(fail("face without vertices"));
+                match corners {
+                    0 => return Err(fail("face without vertices")),
+                    // tobj skips a face of one or two corners; it is said below.
+                    1 | 2 => short_faces.push(number + 1),
+                    _ => {}
                 }
             }
             Some(word @ "l") => blank.push(offset(word)..offset(word) + 1),
@@ -299,7 +302,16 @@ fn validate(path: &Path, bytes: &mut [u8]) -> Result<(), ObjError> {
     for range in blank {
         bytes[range].fill(b' ');
     }
-    Ok(())
+    let mut warnings = Vec::new();
+    if let Some(first) = short_faces.first() {
+        warnings.push(format!(
+            "{} face{} of fewer than three vertices skipped (a point or a line, not a \
+             surface; the first on line {first})",
+            short_faces.len(),
+            if short_faces.len() == 1 { "" } else { "s" }
+        ));
+    }
+    Ok(warnings)
 }
 
 /// Whether the first `n` words are numbers (tobj ignores any further ones).
