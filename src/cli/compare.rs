@@ -59,18 +59,17 @@ pub fn params_over(a: &StructureParams, flags: &str) -> Result<StructureParams> 
     Ok(b)
 }
 
-/// Traces A (`a`) and B (`flags` over `a`) with `settings`, writes the comparison to `out`
+/// Traces A (`args`' build flags) and B (`flags` over A) with `settings`, writes the comparison to `out`
 /// and prints the summary.
 pub fn run(
     scene: &Scene,
     settings: &RenderSettings,
-    intersector: bvhlab::geometry::IntersectorKind,
-    a: &BuildArgs,
-    mode: bvhlab::render::ViewMode,
+    args: &super::render::RenderArgs,
     flags: &str,
-    view: CompareView,
     out: &Path,
 ) -> Result<()> {
+    let (a, mode, view, intersector) =
+        (&args.build, args.mode, args.compare_view, args.intersector);
     if view == CompareView::Difference && !matches!(settings.mode, Mode::Heatmap(..)) {
         bail!(
             "--compare-view difference needs a heatmap --mode (nodes, boxes, triangles, \

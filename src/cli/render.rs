@@ -133,16 +133,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     };
     if let Some(flags) = &args.compare {
         let out = out_or_default("-compare");
-        return super::compare::run(
-            &scene,
-            &settings,
-            kind,
-            &args.build,
-            args.mode,
-            flags,
-            args.compare_view,
-            &out,
-        );
+        return super::compare::run(&scene, &settings, &args, flags, &out);
     }
     check_counts(args.mode, None, args.build.accel_to_trace(&scene).kind()?)?;
     let built = args.build.build_to_trace(&scene)?;
