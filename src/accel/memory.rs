@@ -16,7 +16,8 @@ const BYTES_PER_INSTANCE: u64 = 512;
 /// Measured as the peak resident size over the triangle count of a million-triangle soup
 /// (`/usr/bin/time -f %M bvhlab stats --scene soup:1000000 --accel …`) and rounded up:
 /// brute force 78, BVH2 229 (SBVH 369), BVH4 309, BVH8 337, k-d tree 174, grid 347 at
-/// λ = 2 and 1,270 at λ = 64, octree 128, two levels 337.
+/// λ = 2 and 1,270 at λ = 64, octree 128, two levels 337. The k-d tree's worst case is
+/// long thin triangles that reach its reference cap (3 × triangles): 264 on `grass:500000`.
 pub fn bytes_per_triangle(params: &StructureParams) -> u64 {
     let split = params.bvh.strategy == Strategy::Sbvh || params.bvh.presplit > 0.0;
     let splits = if split { 160 } else { 0 };
@@ -25,7 +26,9 @@ pub fn bytes_per_triangle(params: &StructureParams) -> u64 {
         AccelKind::Bvh => 256 + splits,
         AccelKind::Bvh4 => 336 + splits,
         AccelKind::Bvh8 | AccelKind::TwoLevel => 368 + splits,
-        AccelKind::KdTree => 256,
+        AccelKind::KdTree => {
+            96 + (64.0 * params.kdtree.max_references_factor.max(1.0)).ceil() as u64
+        }
         AccelKind::Grid => 320 + (16.0 * params.grid.lambda.max(0.0)).ceil() as u64,
         AccelKind::Octree => 200,
     }
