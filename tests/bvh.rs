@@ -506,7 +506,7 @@ fn build_progress_counts_every_triangle_once() {
             bvhlab::accel::bvh::build_with_progress(
                 &tris,
                 &BuildParams::with_strategy(strategy),
-                &progress,
+                &bvhlab::accel::progress::BuildProgress::counting(&progress),
             )
             .unwrap();
             assert_eq!(progress.load(Ordering::Relaxed), n, "{strategy:?}");

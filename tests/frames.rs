@@ -7,7 +7,6 @@ use bvhlab::accel::structure::{self, AccelKind, Structure, StructureParams};
 use bvhlab::app::worker::{Command, Overlay, RenderJob, Reply, Worker};
 use bvhlab::render::{Frame, Mode, RenderSettings, colorize, trace, trace_unless};
 use bvhlab::scene::Scene;
-use std::sync::atomic::AtomicUsize;
 use std::time::Duration;
 
 const KINDS: [AccelKind; 5] = [
@@ -42,7 +41,7 @@ fn built(scene: &Scene, kind: AccelKind) -> Structure {
         kind,
         ..Default::default()
     };
-    structure::build_scene(scene, &params, &AtomicUsize::new(0))
+    structure::build_scene(scene, &params, &Default::default())
         .unwrap()
         .structure
 }
@@ -326,7 +325,7 @@ fn a_dragged_selection_is_lit_and_tinted_as_the_scene_it_moved() {
             })
             .expect("a frame after the move");
         lights.push(moved.light());
-        let built = structure::build_scene(&moved, &params, &AtomicUsize::new(0)).unwrap();
+        let built = structure::build_scene(&moved, &params, &Default::default()).unwrap();
         let settings = RenderSettings {
             camera: dragged.camera,
             mode: Mode::Shaded,
@@ -391,4 +390,36 @@ fn a_newer_request_cancels_a_slow_frame_in_flight() {
         !jobs.contains(&&slow),
         "the slow full frame was given up, not shown after or before it"
     );
+}
+
+/// A slow build followed by a fast one: the slow one is abandoned in flight, and only the
+/// newest structure is reported built (nothing queues behind the slow structure).
+#[test]
+fn a_newer_structure_abandons_the_build_in_flight() {
+    let mut worker = Worker::spawn(|| {});
+    let scene = load(&mut worker, "soup:300000");
+    let shaded = job(&scene, Mode::Shaded, false);
+    let of = |kind| {
+        Command::Build(StructureParams {
+            kind,
+            ..Default::default()
+        })
+    };
+    worker.send(of(AccelKind::KdTree));
+    worker.send(Command::Render(shaded.clone()));
+    // Time for the worker to start the k-d tree (hundreds of ms over 300,000 triangles).
+    std::thread::sleep(Duration::from_millis(50));
+    worker.send(of(AccelKind::Bvh));
+    worker.send(Command::Render(shaded));
+    let replies = worker.wait_idle(Duration::from_secs(120));
+    let built: Vec<&str> = replies
+        .iter()
+        .filter_map(|r| match r {
+            Reply::Built { report, .. } => Some(report.structure),
+            Reply::BuildFailed(e) => panic!("a build failed: {e}"),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(built, [AccelKind::Bvh.label()]);
+    assert!(replies.iter().any(|r| matches!(r, Reply::Frame(_))));
 }

@@ -9,7 +9,6 @@ use bvhlab::render::ViewMode;
 use bvhlab::scene::Scene;
 use std::path::PathBuf;
 use std::process::Command;
-use std::sync::atomic::AtomicUsize;
 
 fn temp_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("bvhlab-presets-{}-{name}", std::process::id()));
@@ -62,7 +61,7 @@ fn every_step_of_the_lecture_loads_and_builds() {
         params.validate().unwrap();
         // The island is traced through its two levels only (the app test builds it).
         if scene.is_flattened() {
-            bvhlab::accel::structure::build(&scene.triangles, &params, &AtomicUsize::new(0))
+            bvhlab::accel::structure::build(&scene.triangles, &params, &Default::default())
                 .unwrap_or_else(|e| panic!("step {} ({}): {e}", i + 1, p.title));
         } else {
             assert_eq!(p.settings.structure.kind, AccelKind::TwoLevel);

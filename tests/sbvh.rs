@@ -524,13 +524,12 @@ fn wide_reports_count_split_references() {
     // references per triangle must show the spatial splits' duplicates.
     use bvhlab::accel::structure::{self, AccelKind, StructureParams};
     let rotated = Scene::load("walls-rotated").unwrap().triangles;
-    let progress = std::sync::atomic::AtomicUsize::new(0);
     let of = |kind| {
         let params = StructureParams {
             bvh: sbvh(),
             ..StructureParams::of_kind(kind)
         };
-        structure::build(&rotated, &params, &progress)
+        structure::build(&rotated, &params, &Default::default())
             .unwrap()
             .report
     };

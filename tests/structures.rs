@@ -303,3 +303,48 @@ fn every_structure_matches_brute_force_on_stacked_coplanar_triangles() {
         }
     }
 }
+
+/// A build a newer request replaced answers `Abandoned`, for every structure; a builder
+/// abandoned from the start still makes a valid tree (it stops searching for splits, it
+/// does not unwind), holding every triangle once within the leaf size.
+#[test]
+fn an_abandoned_build_stops_and_says_so() {
+    use bvhlab::accel::bvh::{BuildParams, Strategy};
+    use bvhlab::accel::progress::BuildProgress;
+    use std::sync::atomic::{AtomicU64, AtomicUsize};
+    let tris = soup(3000, 21);
+    let newest = AtomicU64::new(2);
+    let placed = AtomicUsize::new(0);
+    let abandoned = BuildProgress::counting(&placed).abandoned_after(&newest, 1);
+    let wanted = BuildProgress::counting(&placed).abandoned_after(&newest, 2);
+    for kind in AccelKind::ALL {
+        let params = StructureParams::of_kind(kind);
+        assert!(
+            matches!(
+                structure::build(&tris, &params, &abandoned),
+                Err(structure::StructureError::Abandoned)
+            ),
+            "{kind:?}"
+        );
+        assert!(
+            structure::build(&tris, &params, &wanted).is_ok(),
+            "{kind:?}"
+        );
+    }
+    for strategy in Strategy::ALL {
+        let params = BuildParams::with_strategy(strategy);
+        let (bvh, _) = bvhlab::accel::bvh::build_with_progress(&tris, &params, &abandoned)
+            .unwrap_or_else(|e| panic!("{strategy:?}: {e}"));
+        let mut seen = vec![0; tris.len()];
+        for node in bvh.nodes.iter().filter(|n| n.is_leaf()) {
+            assert!(
+                node.prim_range().len() <= params.max_leaf_size as usize,
+                "{strategy:?}"
+            );
+            for k in node.prim_range() {
+                seen[bvh.prim_indices[k] as usize] += 1;
+            }
+        }
+        assert!(seen.iter().all(|&s| s >= 1), "{strategy:?}");
+    }
+}

@@ -16,6 +16,7 @@ pub mod memory;
 pub mod octree;
 pub mod outline;
 pub mod params;
+pub mod progress;
 pub mod query;
 pub mod rayfile;
 pub mod replay;

@@ -16,6 +16,7 @@ use super::kdtree::{self, KdError, KdTree};
 use super::octree::{self, Octree, OctreeError};
 use super::outline::Outline;
 pub use super::params::StructureParams;
+use super::progress::BuildProgress;
 use super::report::StructureReport;
 use super::two_level::{self, TwoLevel};
 use super::{Accel, BruteForce, Hit, Stats, TraversalOrder};
@@ -24,7 +25,6 @@ use crate::budget::BudgetError;
 use crate::geometry::simd::SimdLevel;
 use crate::geometry::{Intersector, Ray, Triangle};
 use crate::scene::{FlattenError, Instancing, Scene};
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 /// Which structure to build, as the CLI's `--accel`, the presets' `accel` and the app's
@@ -179,6 +179,9 @@ pub enum StructureError {
     Flatten(#[from] FlattenError),
     #[error(transparent)]
     Memory(#[from] BudgetError),
+    /// A newer request replaced the build in flight (`BuildProgress::is_abandoned`).
+    #[error("the build was abandoned for a newer request")]
+    Abandoned,
 }
 
 /// A built structure.
@@ -225,7 +228,7 @@ macro_rules! with_structure {
 pub fn build_scene(
     scene: &Scene,
     params: &StructureParams,
-    progress: &AtomicUsize,
+    progress: &BuildProgress,
 ) -> Result<Built, StructureError> {
     super::memory::check_scene(params, scene)?;
     if params.kind == AccelKind::TwoLevel {
@@ -238,9 +241,12 @@ pub fn build_scene(
 pub fn build_two_level(
     scene: &Instancing,
     params: &StructureParams,
-    progress: &AtomicUsize,
+    progress: &BuildProgress,
 ) -> Result<Built, StructureError> {
     let (mut tl, report) = two_level::build(scene, &params.bvh, progress)?;
+    if progress.is_abandoned() {
+        return Err(StructureError::Abandoned);
+    }
     tl.set_order(params.order);
     tl.set_simd(params.simd)?;
     Ok(Built {
@@ -256,7 +262,7 @@ pub fn build_two_level(
 pub fn build(
     triangles: &[Triangle],
     params: &StructureParams,
-    progress: &AtomicUsize,
+    progress: &BuildProgress,
 ) -> Result<Built, StructureError> {
     super::memory::check_triangles(params, triangles.len())?;
     let start = Instant::now();
@@ -274,8 +280,8 @@ pub fn build(
         AccelKind::Bvh4 => build_wide::<4>(triangles, params, progress, Structure::Bvh4)?,
         AccelKind::Bvh8 => build_wide::<8>(triangles, params, progress, Structure::Bvh8)?,
         AccelKind::KdTree => {
-            let (tree, report) = kdtree::build(triangles, &params.kdtree)?;
-            progress.store(triangles.len(), Ordering::Relaxed);
+            let (tree, report) = kdtree::build_with_progress(triangles, &params.kdtree, progress)?;
+            progress.finish(triangles.len());
             Built {
                 structure: Structure::KdTree(tree),
                 report,
@@ -284,7 +290,7 @@ pub fn build(
         }
         AccelKind::Grid => {
             let (grid, report) = grid::build(triangles, &params.grid)?;
-            progress.store(triangles.len(), Ordering::Relaxed);
+            progress.finish(triangles.len());
             Built {
                 structure: Structure::Grid(grid),
                 report,
@@ -292,8 +298,9 @@ pub fn build(
             }
         }
         AccelKind::Octree => {
-            let (octree, report) = octree::build(triangles, &params.octree)?;
-            progress.store(triangles.len(), Ordering::Relaxed);
+            let (octree, report) =
+                octree::build_with_progress(triangles, &params.octree, progress)?;
+            progress.finish(triangles.len());
             Built {
                 structure: Structure::Octree(octree),
                 report,
@@ -303,7 +310,7 @@ pub fn build(
         AccelKind::BruteForce | AccelKind::BruteForceBbox => {
             let early_out = params.kind == AccelKind::BruteForceBbox;
             let brute = BruteForce::new(triangles, early_out);
-            progress.store(triangles.len(), Ordering::Relaxed);
+            progress.finish(triangles.len());
             let report = StructureReport {
                 structure: params.kind.label(),
                 triangles: triangles.len(),
@@ -330,6 +337,9 @@ pub fn build(
             }
         }
     };
+    if progress.is_abandoned() {
+        return Err(StructureError::Abandoned);
+    }
     built.structure.set_mailbox(params.mailbox);
     built.structure.set_simd(params.simd)?;
     Ok(built)
@@ -477,13 +487,16 @@ impl Accel for Structure {
 fn build_wide<const W: usize>(
     triangles: &[Triangle],
     params: &StructureParams,
-    progress: &AtomicUsize,
+    progress: &BuildProgress,
     wrap: fn(WideBvh<W>) -> Structure,
 ) -> Result<Built, StructureError>
 where
     Lanes<W>: NodeWidth,
 {
     let (bvh2, bvh_report) = bvh::build_with_progress(triangles, &params.bvh, progress)?;
+    if progress.is_abandoned() {
+        return Err(StructureError::Abandoned);
+    }
     let start = Instant::now();
     let collapse = CollapseParams {
         c_trav: params.bvh.c_trav,

@@ -11,6 +11,7 @@ use super::node::KdNode;
 use super::split::{KdRef, Split, best_split};
 use super::{KdError, KdParams, KdTree, MAX_TRIANGLES};
 use crate::accel::StructureReport;
+use crate::accel::progress::BuildProgress;
 use crate::geometry::clip::clipped_bounds;
 use crate::geometry::{Aabb, Triangle};
 use rayon::prelude::*;
@@ -26,6 +27,15 @@ const MAX_BAD_REFINES: u32 = 3;
 pub fn build(
     triangles: &[Triangle],
     params: &KdParams,
+) -> Result<(KdTree, StructureReport), KdError> {
+    build_with_progress(triangles, params, &BuildProgress::default())
+}
+
+/// `build`; an abandoned build (`progress`) makes every node it has not split yet a leaf.
+pub fn build_with_progress(
+    triangles: &[Triangle],
+    params: &KdParams,
+    progress: &BuildProgress,
 ) -> Result<(KdTree, StructureReport), KdError> {
     params.validate()?;
     if triangles.len() > MAX_TRIANGLES {
@@ -48,6 +58,7 @@ pub fn build(
     let builder = Builder {
         triangles,
         params,
+        progress,
         max_depth: params.depth_bound(n),
         depth_cap_hit: AtomicBool::new(false),
         refs_cap_hit: AtomicBool::new(false),
@@ -105,6 +116,7 @@ enum Tmp {
 struct Builder<'a> {
     triangles: &'a [Triangle],
     params: &'a KdParams,
+    progress: &'a BuildProgress<'a>,
     max_depth: u32,
     depth_cap_hit: AtomicBool,
     refs_cap_hit: AtomicBool,
@@ -125,7 +137,7 @@ impl Builder<'_> {
     ) -> (Tmp, usize) {
         let n = refs.len();
         let p = self.params;
-        if n <= p.max_leaf_size as usize {
+        if n <= p.max_leaf_size as usize || self.progress.is_abandoned() {
             return leaf(refs);
         }
         let Some(split) = best_split(&refs, &cell, p) else {

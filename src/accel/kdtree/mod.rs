@@ -10,7 +10,7 @@ mod split;
 mod split_costs;
 mod traverse;
 
-pub use build::build;
+pub use build::{build, build_with_progress};
 pub use node::KdNode;
 
 use crate::geometry::{Aabb, Triangle};

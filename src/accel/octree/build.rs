@@ -6,6 +6,7 @@
 use super::{MAX_REFERENCES_PER_TRIANGLE, Node, Octree, OctreeError, OctreeParams};
 use crate::accel::StructureReport;
 use crate::accel::grid::{PAD, mark_shared};
+use crate::accel::progress::BuildProgress;
 use crate::accel::report::Detail;
 use crate::geometry::overlap::TriangleSat;
 use crate::geometry::{Aabb, Triangle};
@@ -18,9 +19,19 @@ use std::time::Instant;
 /// them.
 const DUPLICATION: usize = 4;
 
+/// Builds the octree over `triangles`.
 pub fn build(
     triangles: &[Triangle],
     params: &OctreeParams,
+) -> Result<(Octree, StructureReport), OctreeError> {
+    build_with_progress(triangles, params, &BuildProgress::default())
+}
+
+/// `build`; an abandoned build (`progress`) makes every cell it has not split yet a leaf.
+pub fn build_with_progress(
+    triangles: &[Triangle],
+    params: &OctreeParams,
+    progress: &BuildProgress,
 ) -> Result<(Octree, StructureReport), OctreeError> {
     params.validate()?;
     if triangles.len() >= (u32::MAX / 2) as usize {
@@ -45,6 +56,7 @@ pub fn build(
     let mut b = Builder {
         triangles,
         params,
+        progress,
         pad: root_size * PAD,
         nodes: vec![Node {
             first: 0,
@@ -108,6 +120,7 @@ struct Caps {
 struct Builder<'a> {
     triangles: &'a [Triangle],
     params: &'a OctreeParams,
+    progress: &'a BuildProgress<'a>,
     pad: f64,
     nodes: Vec<Node>,
     refs: Vec<u32>,
@@ -127,7 +140,7 @@ impl Builder<'_> {
         budget: usize,
     ) {
         let n = tris.len();
-        if n <= self.params.max_leaf_size as usize {
+        if n <= self.params.max_leaf_size as usize || self.progress.is_abandoned() {
             return self.leaf(index, tris, depth);
         }
         if depth >= self.params.max_depth {

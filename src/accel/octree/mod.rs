@@ -6,7 +6,7 @@
 mod build;
 mod traverse;
 
-pub use build::build;
+pub use build::{build, build_with_progress};
 
 use super::grid::SHARED;
 use super::{Outline, OutlineNode};

@@ -23,13 +23,13 @@ pub use refit::{MovedReference, TopLevelIndex};
 use super::bvh::wide::{CollapseParams, UnsupportedSimd};
 use super::bvh::{self, BuildError, Bvh8, Subtree};
 use super::{BuildParams, Outline, OutlineNode, StructureReport, TraversalOrder};
+use crate::accel::progress::BuildProgress;
 use crate::accel::report::Detail;
 use crate::geometry::simd::SimdLevel;
 use crate::geometry::{Aabb, Triangle};
 use crate::scene::{Instance, Instancing, TransformError};
 use glam::Affine3A;
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 /// A TLAS over instances of BLASes. Hits name triangles of the flattened scene: instance
@@ -89,7 +89,7 @@ pub struct LevelTimes {
 pub fn build(
     scene: &Instancing,
     params: &BuildParams,
-    progress: &AtomicUsize,
+    progress: &BuildProgress,
 ) -> Result<(TwoLevel, StructureReport), BuildError> {
     params.validate()?;
     let instanced = scene.instanced_triangles();
@@ -143,7 +143,7 @@ pub fn build(
         blas: blas_time,
         tlas: start.elapsed(),
     };
-    progress.store(scene.unique_triangles(), Ordering::Relaxed);
+    progress.finish(scene.unique_triangles());
     let two_level = TwoLevel {
         top_index: TopLevelIndex::new(&tlas, references.len()),
         leaves: leaf_references(&tlas, &references, &scene.instances),

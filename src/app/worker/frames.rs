@@ -21,7 +21,7 @@ const COARSE_MIN_PIXELS: u32 = 320 * 240;
 const SLOW_FRAME: Duration = Duration::from_millis(150);
 use glam::Vec3;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::Ordering;
 
 impl State {
     /// Replays a pixel through the structure as it is now, in the scene as it is now.
@@ -312,7 +312,7 @@ impl State {
             Some(_) => {}
             None => {
                 self.pinned_builds += 1;
-                let structure = structure::build_scene(scene, params, &AtomicUsize::new(0))
+                let structure = structure::build_scene(scene, params, &Default::default())
                     .map(|built| built.structure)
                     .map_err(|e| e.to_string());
                 self.pinned = Some(PinnedStructure {

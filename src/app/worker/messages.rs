@@ -70,6 +70,17 @@ pub struct Compared {
     pub error: Option<String>,
 }
 
+impl Command {
+    /// Whether the command makes a build in flight pointless: it asks for another scene or
+    /// another structure, which builds again anyway.
+    pub fn replaces_the_build(&self) -> bool {
+        matches!(
+            self,
+            Command::Load(_) | Command::Adopt(..) | Command::Build(_) | Command::Rebuild
+        )
+    }
+}
+
 pub enum Command {
     /// A built-in scene name or an OBJ path.
     Load(String),

@@ -32,6 +32,8 @@ pub struct Worker {
     sent: u64,
     /// `sent`, for the worker: a counted pass stops when a newer command is waiting.
     latest: Arc<AtomicU64>,
+    /// The newest command that replaces a build: the build in flight is abandoned.
+    newest_build: Arc<AtomicU64>,
     /// The newest command the worker has reported done.
     done: u64,
     /// Triangles placed by the build in progress, and how many there are in all.
@@ -49,8 +51,11 @@ impl Worker {
         let progress = Arc::new((AtomicUsize::new(0), AtomicUsize::new(0)));
         let trace_progress = Arc::new((AtomicUsize::new(0), AtomicUsize::new(0)));
         let latest = Arc::new(AtomicU64::new(0));
+        let newest_build = Arc::new(AtomicU64::new(0));
         let state = State {
             latest: latest.clone(),
+            newest_build: newest_build.clone(),
+            applying: 0,
             light: None,
             replies,
             wake: Box::new(wake),
@@ -94,6 +99,7 @@ impl Worker {
             rx,
             sent: 0,
             latest,
+            newest_build,
             done: 0,
             progress,
             trace_progress,
@@ -104,6 +110,9 @@ impl Worker {
     pub fn send(&mut self, command: Command) {
         self.sent += 1;
         self.latest.store(self.sent, Ordering::Relaxed);
+        if command.replaces_the_build() {
+            self.newest_build.store(self.sent, Ordering::Relaxed);
+        }
         if let Some(tx) = &self.tx {
             // A failed send means the worker is gone; the UI keeps its last state.
             let _ = tx.send((self.sent, command));

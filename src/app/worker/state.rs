@@ -7,9 +7,10 @@ use super::motion::{DragBounds, SelectionTable};
 use crate::accel::Outline;
 use crate::accel::bvh::Bvh;
 use crate::accel::bvh::refit::RefitIndex;
+use crate::accel::progress::BuildProgress;
 use crate::accel::sah_check::SahPrediction;
 use crate::accel::split_costs::SplitCosts;
-use crate::accel::structure::{self, Structure, StructureParams};
+use crate::accel::structure::{self, Structure, StructureError, StructureParams};
 use crate::accel::two_level::{InstanceOutline, ReferenceLocator};
 use crate::render::Frame;
 use crate::scene::{Camera, Scene};
@@ -39,6 +40,11 @@ pub(in crate::app) struct State {
     pub(in crate::app) replies: Sender<Reply>,
     /// The newest command the UI has sent.
     pub(in crate::app) latest: Arc<AtomicU64>,
+    /// The newest command sent that replaces a build (`Command::replaces_the_build`).
+    pub(in crate::app) newest_build: Arc<AtomicU64>,
+    /// The number of the command being applied: its build is abandoned once
+    /// `newest_build` passes it.
+    pub(in crate::app) applying: u64,
     /// The light (the scene's, or the standard one from its box) at `scene_version`.
     pub(in crate::app) light: Option<(u64, Vec3)>,
     pub(in crate::app) wake: Box<dyn Fn() + Send>,
@@ -153,7 +159,7 @@ impl State {
                 .rposition(|(_, c)| matches!(c, Command::Build { .. }));
             let mut job = None;
             let version = self.version;
-            for (i, (_, command)) in batch.into_iter().enumerate() {
+            for (i, (seq, command)) in batch.into_iter().enumerate() {
                 let superseded = match command {
                     Command::Load(_) | Command::Adopt(..) => Some(i) != last_load,
                     Command::Build { .. } => Some(i) != last_build,
@@ -162,6 +168,7 @@ impl State {
                 if superseded {
                     continue;
                 }
+                self.applying = seq;
                 match command {
                     Command::Render(j) => job = Some(j),
                     other => self.apply(other),
@@ -312,7 +319,9 @@ impl State {
             scene.triangles.len()
         };
         self.progress.1.store(total, Ordering::Relaxed);
-        match structure::build_scene(scene, &self.params, &self.progress.0) {
+        let progress = BuildProgress::counting(&self.progress.0)
+            .abandoned_after(&self.newest_build, self.applying);
+        match structure::build_scene(scene, &self.params, &progress) {
             Ok(built) => {
                 self.refit_index = None;
                 self.outline = Arc::new(built.structure.outline());
@@ -343,6 +352,12 @@ impl State {
                 // the structure has no instances any more).
                 let selected = self.instance.as_ref().map(|i| i.instance);
                 self.select_instance(selected);
+                true
+            }
+            // A newer scene or structure is waiting and builds next: the old tree no
+            // longer matches the parameters, and nothing failed.
+            Err(StructureError::Abandoned) => {
+                self.structure = None;
                 true
             }
             Err(e) => {

@@ -37,10 +37,11 @@ pub use split_costs::split_costs;
 use super::node::{Node, Nodes};
 use super::report::{BuildPhases, BuildReport};
 use super::{Bvh, TraversalOrder};
+use crate::accel::progress::BuildProgress;
 use crate::geometry::{Aabb, Triangle};
 use prim::{NodeInfo, PrimRef, Split};
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 /// A BVH builder: the split strategy of the top-down builders, or a bottom-up one. The
@@ -390,15 +391,16 @@ pub fn build(
     triangles: &[Triangle],
     params: &BuildParams,
 ) -> Result<(Bvh, BuildReport), BuildError> {
-    build_with_progress(triangles, params, &AtomicUsize::new(0))
+    build_with_progress(triangles, params, &BuildProgress::default())
 }
 
 /// `build`, counting into `progress` the triangles already placed in finished subtrees, so
-/// another thread can show how far a long build is.
+/// another thread can show how far a long build is; an abandoned build halves the rest
+/// by count instead of searching for splits.
 pub fn build_with_progress(
     triangles: &[Triangle],
     params: &BuildParams,
-    progress: &AtomicUsize,
+    progress: &BuildProgress,
 ) -> Result<(Bvh, BuildReport), BuildError> {
     params.validate()?;
     if triangles.len() >= (u32::MAX / 2) as usize {
@@ -425,16 +427,16 @@ pub fn build_with_progress(
             phases.times.extend(lbvh_phases.times);
             phases.sah_before_rounds = lbvh_phases.sah_before_rounds;
             phases.sah_after_round = lbvh_phases.sah_after_round;
-            progress.fetch_add(triangles.len(), Ordering::Relaxed);
+            progress.add(triangles.len());
             in_leaf_order(triangles, nodes, prim_indices)
         }
         Strategy::Sbvh if !triangles.is_empty() => {
             // The same phases as the other top-down builds, so that a slow SBVH build shows
             // where its time went (the clipping happens in the recursion).
             let recursion = Instant::now();
-            let tree = sbvh::build(triangles, params);
+            let tree = sbvh::build(triangles, params, progress);
             phases.add("splits (whole recursion)", recursion.elapsed());
-            progress.fetch_add(triangles.len(), Ordering::Relaxed);
+            progress.add(triangles.len());
             phases.spatial_splits = Some((tree.spatial_splits, tree.unsplit));
             let leaf_order = Instant::now();
             let bvh = in_leaf_order(triangles, Nodes::from_flat(&tree.nodes), tree.prims);
@@ -515,7 +517,7 @@ fn build_tree(
     triangles: &[Triangle],
     mut refs: Vec<PrimRef>,
     params: &BuildParams,
-    progress: &AtomicUsize,
+    progress: &BuildProgress,
     phases: &mut BuildPhases,
 ) -> Bvh {
     let n = refs.len();
@@ -539,7 +541,7 @@ fn build_tree(
         let root = builder.subtree(&mut refs, 0, 0, info, &mut slots[1..], 1);
         slots[0] = root;
         if n < PARALLEL_SUBTREE {
-            progress.fetch_add(n, Ordering::Relaxed);
+            progress.add(n);
         }
         Nodes::from_flat(&compact(&slots))
     };
@@ -566,7 +568,7 @@ struct Builder<'a> {
     params: &'a BuildParams,
     clock: &'a TopSplitClock,
     /// Counted per sequential subtree, not per leaf, to keep the atomic out of the way.
-    progress: &'a AtomicUsize,
+    progress: &'a BuildProgress<'a>,
 }
 
 impl Builder<'_> {
@@ -586,7 +588,7 @@ impl Builder<'_> {
         let parallel = n >= PARALLEL_SUBTREE;
         let Some((m, left_info, right_info)) = self.split(refs, &info, depth) else {
             if parallel {
-                self.progress.fetch_add(n, Ordering::Relaxed);
+                self.progress.add(n);
             }
             return Node::leaf(info.bounds.to_aabb(), first as u32, n as u32);
         };
@@ -619,7 +621,7 @@ impl Builder<'_> {
             let lr = rayon::join(left, right);
             for size in [m, n - m] {
                 if size < PARALLEL_SUBTREE {
-                    self.progress.fetch_add(size, Ordering::Relaxed);
+                    self.progress.add(size);
                 }
             }
             lr
@@ -639,6 +641,11 @@ impl Builder<'_> {
         let must_split = n > p.max_leaf_size as usize;
         if n == 1 {
             return None;
+        }
+        // Abandoned, or all centroids are equal: halving by count is the cheapest split
+        // that keeps the leaf size limit.
+        if self.progress.is_abandoned() {
+            return must_split.then(|| prim::split_at(refs, n / 2));
         }
         if info.centroid_axis().1 {
             // All centroids are equal: no plane separates them, and no split can make rays

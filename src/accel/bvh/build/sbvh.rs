@@ -18,6 +18,7 @@ use super::{
     sah_worth_splitting,
 };
 use crate::accel::bvh::node::Node;
+use crate::accel::progress::BuildProgress;
 use crate::geometry::clip::clipped_bounds;
 use crate::geometry::{Aabb, Triangle};
 use glam::Vec3A;
@@ -54,8 +55,9 @@ impl Subtree {
     }
 }
 
-/// Builds the SBVH over `triangles` (not empty). Node 0 of the result is the root.
-pub fn build(triangles: &[Triangle], params: &BuildParams) -> Subtree {
+/// Builds the SBVH over `triangles` (not empty). Node 0 of the result is the root. An
+/// abandoned build (`progress`) stops searching for splits and halves the rest.
+pub fn build(triangles: &[Triangle], params: &BuildParams, progress: &BuildProgress) -> Subtree {
     let refs: Vec<PrimRef> = triangles
         .par_iter()
         .enumerate()
@@ -66,6 +68,7 @@ pub fn build(triangles: &[Triangle], params: &BuildParams) -> Subtree {
     let builder = Builder {
         triangles,
         params,
+        progress,
         root_area: info.bounds.surface_area(),
     };
     let mut out = Subtree {
@@ -80,6 +83,7 @@ pub fn build(triangles: &[Triangle], params: &BuildParams) -> Subtree {
 struct Builder<'a> {
     triangles: &'a [Triangle],
     params: &'a BuildParams,
+    progress: &'a BuildProgress<'a>,
     root_area: f32,
 }
 
@@ -119,7 +123,13 @@ impl Builder<'_> {
     ) -> Node {
         let n = refs.len();
         let bounds = info.bounds.to_aabb();
-        let mut choice = self.choose(&refs, &info, budget, depth);
+        let mut choice = if !self.progress.is_abandoned() {
+            self.choose(&refs, &info, budget, depth)
+        } else if n > self.params.max_leaf_size as usize {
+            Choice::Median
+        } else {
+            Choice::Leaf
+        };
         if let Choice::Spatial(s) = &choice {
             if let Some(sides) = self.spatial_partition(&refs, s) {
                 out.spatial_splits += 1;
