@@ -29,6 +29,7 @@ pub mod bench;
 pub mod budget;
 pub mod geometry;
 pub mod huge_pages;
+pub mod input;
 pub mod output;
 pub mod random;
 pub mod render;

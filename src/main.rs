@@ -64,7 +64,19 @@ enum Command {
     Stress(cli::stress::StressArgs),
 }
 
-fn main() -> Result<()> {
+/// An error is one line, its causes joined by colons ("cannot load scene 'x': …"), never a
+/// "Caused by:" list or a backtrace.
+fn main() -> std::process::ExitCode {
+    match run() {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn run() -> Result<()> {
     let command = {
         use clap::CommandFactory;
         negative_numbers_are_values(Cli::command())
@@ -124,9 +136,6 @@ fn main() -> Result<()> {
     }
 }
 
-/// `bvhlab bench --scene X builders` means `bvhlab bench builders --scene X`: a study named
-/// after `bench`'s options moves to just after `bench`, so the options may come in either
-/// order. A token that is an option's value (as in `--csv builders`) stays where it is.
 /// `--width -5` reaches the width's own check ("invalid value '-5' for '--width'"), where
 /// clap would otherwise call `-5` an unknown flag.
 fn negative_numbers_are_values(command: clap::Command) -> clap::Command {
@@ -135,6 +144,9 @@ fn negative_numbers_are_values(command: clap::Command) -> clap::Command {
         .mut_subcommands(negative_numbers_are_values)
 }
 
+/// `bvhlab bench --scene X builders` means `bvhlab bench builders --scene X`: a study named
+/// after `bench`'s options moves to just after `bench`, so the options may come in either
+/// order. A token that is an option's value (as in `--csv builders`) stays where it is.
 fn study_first(mut args: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> {
     use clap::CommandFactory;
     let cli = Cli::command();

@@ -163,7 +163,7 @@ impl Sequence {
     /// Reads a preset file (one preset or a sequence).
     pub fn load(path: &Path) -> Result<Sequence, PresetError> {
         let origin = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| PresetError {
+        let text = crate::input::read_text(path, 1).map_err(|e| PresetError {
             origin: origin.clone(),
             message: format!("cannot read it: {e}"),
         })?;

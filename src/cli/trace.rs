@@ -97,13 +97,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
     }
     bvhlab::output::check_distinct(&args.out, &args.rays, "the ray file read")?;
     // The file, its rays decoded and their hits are held at once: about three times its size.
-    if let Ok(meta) = std::fs::metadata(&args.rays) {
-        bvhlab::budget::check(
-            format!("tracing the rays of {}", args.rays.display()),
-            bvhlab::budget::times(meta.len(), 3),
-        )?;
-    }
-    let bytes = std::fs::read(&args.rays)
+    let bytes = bvhlab::input::read(&args.rays, 3)
         .with_context(|| format!("cannot read {}", args.rays.display()))?;
     let rays = rayfile::decode_rays(&bytes)
         .with_context(|| format!("bad ray file {}", args.rays.display()))?;

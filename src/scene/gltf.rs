@@ -84,7 +84,8 @@ pub enum AccessorProblem {
 
 /// Loads a `.gltf` (buffers next to it or embedded as data URIs) or `.glb` file.
 pub fn load_gltf(path: &Path) -> Result<Scene, GltfError> {
-    let bytes = std::fs::read(path).map_err(|source| GltfError::Io {
+    // The JSON or binary, its buffers and the triangles made of them.
+    let bytes = crate::input::read(path, 4).map_err(|source| GltfError::Io {
         path: path.to_path_buf(),
         error: source,
     })?;
@@ -294,7 +295,7 @@ fn read_uri(path: &Path, uri: &str) -> Result<Vec<u8>, String> {
         (Ok(folder), Ok(file)) if file.starts_with(&folder) => {}
         _ => return Err(outside()),
     }
-    std::fs::read(&file).map_err(|e| format!("cannot read {}: {e}", file.display()))
+    crate::input::read(&file, 2).map_err(|e| format!("cannot read {}: {e}", file.display()))
 }
 
 fn shorten(s: &str) -> String {

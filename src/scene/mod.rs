@@ -412,7 +412,6 @@ impl Scene {
         } else if path
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("obj"))
-            || path.exists()
         {
             load_obj(path)?
         } else {

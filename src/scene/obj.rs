@@ -57,7 +57,8 @@ pub enum ObjError {
 /// Loads an OBJ file; its .mtl libraries are looked up next to it. A missing or broken
 /// material library is only a warning (on stderr): its objects get `DEFAULT_COLOR`.
 pub fn load_obj(path: &Path) -> Result<Scene, ObjError> {
-    let bytes = std::fs::read(path).map_err(|source| ObjError::Io {
+    // The text, tobj's arrays and the triangles made of them: about 4 × the file.
+    let bytes = crate::input::read(path, 4).map_err(|source| ObjError::Io {
         path: path.to_path_buf(),
         error: source,
     })?;

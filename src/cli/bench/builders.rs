@@ -234,7 +234,7 @@ pub(super) fn sah_scatter_paths(args: &BenchArgs) -> (PathBuf, PathBuf) {
 /// The rows already in the `sah-scatter` CSV (none if it does not exist yet).
 pub(super) fn read_sah_scatter(args: &BenchArgs) -> Result<Vec<sah_scatter::Row>> {
     let (csv_path, _) = sah_scatter_paths(args);
-    match std::fs::read_to_string(&csv_path) {
+    match bvhlab::input::read_text(&csv_path, 1) {
         Ok(text) => sah_scatter::parse_csv(&text)
             .map_err(|e| anyhow::anyhow!("{} is not a SAH scatter CSV: {e}", csv_path.display())),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(Vec::new()),
