@@ -28,8 +28,8 @@ pub struct FramesArgs {
     pub json: bool,
     #[command(flatten)]
     pub view: ViewArgs,
-    /// Frames per measurement (the median is reported; at least 1).
-    #[arg(long, default_value_t = 15, value_parser = crate::cli::at_least_one::<usize>)]
+    /// Frames per measurement (the median is reported; 1 to 1000).
+    #[arg(long, default_value_t = 15, value_parser = crate::cli::repeats::<usize>)]
     pub runs: usize,
     #[command(flatten)]
     pub build: BuildArgs,

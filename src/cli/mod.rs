@@ -263,6 +263,23 @@ pub fn parse_threads(text: &str) -> Result<usize, String> {
     }
 }
 
+/// The most repetitions `--builds` and `--runs` take: more only waits longer for the
+/// same best or median.
+pub const MAX_REPEATS: u32 = 1000;
+
+/// `--builds N` or `--runs N`: from 1 to `MAX_REPEATS`.
+pub fn repeats<T: std::str::FromStr + PartialEq + From<u8> + TryFrom<u32> + PartialOrd>(
+    text: &str,
+) -> Result<T, String> {
+    let n: T = at_least_one(text)?;
+    match T::try_from(MAX_REPEATS) {
+        Ok(most) if n > most => Err(format!(
+            "at most {MAX_REPEATS} repetitions (the best or the median settles long before)"
+        )),
+        _ => Ok(n),
+    }
+}
+
 /// A count that must be at least 1 (`--builds`, `--runs`, ray counts): 0 would measure
 /// or test nothing and report it as if it had.
 pub fn at_least_one<T: std::str::FromStr + PartialEq + From<u8>>(text: &str) -> Result<T, String> {

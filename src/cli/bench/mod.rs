@@ -35,11 +35,11 @@ pub struct BenchCommon {
     /// Worker threads, at most 4 × the cores (default: all cores).
     #[arg(long, value_parser = crate::cli::parse_threads)]
     pub threads: Option<usize>,
-    /// Builds to time; the best is reported (at least 1).
-    #[arg(long, default_value_t = 5, value_parser = crate::cli::at_least_one::<u32>)]
+    /// Builds to time; the best is reported (1 to 1000).
+    #[arg(long, default_value_t = 5, value_parser = crate::cli::repeats::<u32>)]
     pub builds: u32,
-    /// Runs over each ray set; the best is reported (at least 1).
-    #[arg(long, default_value_t = 5, value_parser = crate::cli::at_least_one::<u32>)]
+    /// Runs over each ray set; the best is reported (1 to 1000).
+    #[arg(long, default_value_t = 5, value_parser = crate::cli::repeats::<u32>)]
     pub runs: u32,
     /// Print exactly one JSON object.
     #[arg(long)]
