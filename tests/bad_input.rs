@@ -67,6 +67,17 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
     )
     .unwrap();
     std::fs::write(dir.join("escape.obj"), "v \x1b[31mRED 0 0\n").unwrap();
+    std::os::unix::fs::symlink("/dev/zero", dir.join("zero.obj")).unwrap();
+    std::fs::write(
+        dir.join("notes.txt"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("two_level_mode.toml"),
+        "title = \"T\"\nscene = \"cornell\"\n[settings]\naccel = \"Grid\"\nmode = \"TopNodes\"\n",
+    )
+    .unwrap();
     std::fs::write(
         dir.join("line.obj"),
         "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2\n",
@@ -266,7 +277,7 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
             &[
                 "bench", "accuracy", "--scene", "cornell", "--csv", "x.png", "--plot", "x.png",
             ],
-            "it is also the plot",
+            "use .csv",
         ),
         // Values that cannot mean anything, said as such.
         (
@@ -360,7 +371,10 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
             &["render", "--heat-max", "3", "--mode", "depth"],
             "is for heatmaps",
         ),
-        (&["render", "--mode", "repeated"], "has none"),
+        (
+            &["render", "--mode", "repeated"],
+            "shows nothing under BVH8",
+        ),
         (
             &[
                 "render",
@@ -371,7 +385,7 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
                 "--compare",
                 "--accel bvh",
             ],
-            "--mode top-nodes counts the two levels' work, which B (BVH2)",
+            "--mode top-nodes shows nothing under B (BVH2)",
         ),
         (
             &["render", "--width", "-5"],
@@ -380,6 +394,40 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
         (
             &["frames", "--preset", "lecture:abc"],
             "'abc' is not a preset number",
+        ),
+        (&["stats", "--scene", "zero.obj"], "not a regular file"),
+        (
+            &[
+                "trace",
+                "--scene",
+                "cornell",
+                "--rays",
+                "/dev/zero",
+                "--out",
+                "h.bin",
+            ],
+            "not a regular file",
+        ),
+        (
+            &["stats", "--scene", "notes.txt"],
+            "unknown scene 'notes.txt'",
+        ),
+        (
+            &["bench", "--runs", "4294967295"],
+            "at most 1000 repetitions",
+        ),
+        (&["render", "--compare", ""], "needs B's build flags"),
+        (
+            &["render", "--accel", "bvh8", "--compare", "--accel bvh8"],
+            "changes nothing",
+        ),
+        (
+            &["bench", "tradeoff", "--scene", "cornell", "--csv", "x.png"],
+            "use .csv",
+        ),
+        (
+            &["frames", "--preset", "two_level_mode.toml"],
+            "shows nothing here",
         ),
         (
             &[

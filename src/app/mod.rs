@@ -711,6 +711,15 @@ pub fn run(launch: Launch) -> anyhow::Result<()> {
             "cannot open the window: no display (neither DISPLAY nor WAYLAND_DISPLAY is set)"
         );
     }
+    // Mesa's software renderer complains on every window without a runtime directory.
+    // It is made here and removed when the window closes.
+    let runtime_dir = std::env::temp_dir().join(format!("bvhlab-runtime-{}", std::process::id()));
+    #[cfg(target_os = "linux")]
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() && std::fs::create_dir(&runtime_dir).is_ok() {
+        // SAFETY: no thread reads the environment now: the window, the renderer and the
+        // worker start below; rayon's workers, if started, are idle.
+        unsafe { std::env::set_var("XDG_RUNTIME_DIR", &runtime_dir) };
+    }
     let size = launch
         .screenshot
         .as_ref()
@@ -725,12 +734,13 @@ pub fn run(launch: Launch) -> anyhow::Result<()> {
         ..Default::default()
     };
     let result = launch.screenshot.as_ref().map(|p| p.result.clone());
-    eframe::run_native(
+    let ran = eframe::run_native(
         "bvhlab",
         options,
         Box::new(move |cc| Ok(Box::new(BvhLabApp::new(cc, launch)))),
-    )
-    .map_err(|e| anyhow::anyhow!("cannot open the window: {e}"))?;
+    );
+    let _ = std::fs::remove_dir_all(&runtime_dir);
+    ran.map_err(|e| anyhow::anyhow!("cannot open the window: {e}"))?;
     if let Some(result) = result {
         let outcome = result.lock().map(|r| r.clone()).unwrap_or(None);
         match outcome {

@@ -349,6 +349,15 @@ impl Preset {
             .structure
             .validate()
             .map_err(|e| e.to_string())?;
+        if let Some(reason) = self.settings.mode.missing_counts(&self.settings.structure) {
+            return Err(format!(
+                "mode {:?} shows nothing here: {reason}",
+                self.settings.mode
+            ));
+        }
+        if self.settings.heat_max == Some(0) {
+            return Err("heat_max must be at least 1".into());
+        }
         match &self.pinned {
             Some(a) => a.validate().map_err(|e| format!("pinned: {e}")),
             None => Ok(()),

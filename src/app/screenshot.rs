@@ -11,6 +11,9 @@ use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+/// The smallest view, in pixels each way, a screenshot is taken of.
+const MIN_VIEW: u32 = 64;
+
 /// Which view of the app to capture.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Shot {
@@ -202,6 +205,14 @@ impl ScreenshotPlan {
     }
 
     fn request(&mut self, viewport: [u32; 2], ctx: &egui::Context) {
+        // A window too small for its panels leaves the view a sliver: no picture of it.
+        if viewport.iter().any(|&n| n < MIN_VIEW) {
+            return self.finish(Err(format!(
+                "the window leaves the view only {}×{} pixels (at least {MIN_VIEW}×{MIN_VIEW} \
+                 needed): ask for a larger --width and --height, or --presentation",
+                viewport[0], viewport[1]
+            )));
+        }
         self.stage = Stage::Requested;
         let out = self.out.clone();
         let result = self.result.clone();

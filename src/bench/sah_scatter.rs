@@ -79,9 +79,16 @@ pub fn parse_csv(text: &str) -> Result<Vec<Row>, String> {
         }
         let f = fields(line);
         let number = |i: usize| -> Result<f64, String> {
-            f[i].trim()
-                .parse::<f64>()
-                .map_err(|_| format!("line {}: \"{}\" is not a number", k + 1, f[i]))
+            // Costs and counts: finite, not negative, and within f32 where they are read so.
+            match f[i].trim().parse::<f64>() {
+                Ok(x) if x.is_finite() && x >= 0.0 && x <= f64::from(f32::MAX) => Ok(x),
+                Ok(_) => Err(format!(
+                    "line {}: \"{}\" is not a cost (a finite number, at least 0)",
+                    k + 1,
+                    f[i]
+                )),
+                Err(_) => Err(format!("line {}: \"{}\" is not a number", k + 1, f[i])),
+            }
         };
         if f.len() != 9 {
             return Err(format!("line {}: {} fields, not 9", k + 1, f.len()));
@@ -261,6 +268,13 @@ mod tests {
         assert!(parse_csv(&text).unwrap_err().contains("line 2"));
         let text = format!("{HEADER}\n\"s\",\"b\",1\n");
         assert!(parse_csv(&text).unwrap_err().contains("fields"));
+        for bad in ["nan", "-inf", "-5", "1e300"] {
+            let text = format!("{HEADER}\n\"s\",\"b\",1,1,{bad},1,1,1,1\n");
+            assert!(
+                parse_csv(&text).unwrap_err().contains("not a cost"),
+                "{bad}"
+            );
+        }
     }
 
     #[test]

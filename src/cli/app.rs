@@ -159,6 +159,9 @@ pub fn screenshot(args: ScreenshotArgs) -> Result<()> {
         Some((sequence, i)) => bvhlab::scene::Scene::load(&sequence.presets[*i].scene)?,
         None => bvhlab::scene::Scene::load(&args.scene)?,
     };
+    if args.level.is_some() && shot != Shot::Levels {
+        anyhow::bail!("--level is the depth of --mode levels");
+    }
     let accel = args.accel;
     if args.instance.is_some() && !accel.places_instances() {
         anyhow::bail!("--instance selects an instance of the two levels: use --accel two-level");

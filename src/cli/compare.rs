@@ -24,6 +24,9 @@ struct CompareFlags {
 /// The flags `flags` gives, and only those: without their defaults, so that applied over
 /// a configuration they change only what they name.
 fn given(flags: &str) -> Result<ArgMatches> {
+    if flags.trim().is_empty() {
+        bail!("--compare needs B's build flags, e.g. --compare '--builder sbvh'");
+    }
     CompareFlags::command()
         .mut_args(|arg| arg.default_value(None))
         .try_get_matches_from(flags.split_whitespace())
@@ -79,12 +82,17 @@ pub fn run(
     }
     let b = b_over_a(a, flags)?;
     // B's parameters are checked before A is traced.
-    b.structure_params_for(b.accel_to_trace(scene).kind()?)
+    let params_b = b.structure_params_for(b.accel_to_trace(scene).kind()?);
+    params_b
         .validate()
         .map_err(|e| anyhow!("bad --compare flags '{flags}': {e}"))?;
+    if params_b == a.structure_params_for(a.accel_to_trace(scene).kind()?)
+        && b.accel_to_trace(scene).kind()? == a.accel_to_trace(scene).kind()?
+    {
+        bail!("--compare '{flags}' changes nothing: B is the same configuration as A");
+    }
     for (name, args) in [("A", a), ("B", &b)] {
-        let kind = args.accel_to_trace(scene).kind()?;
-        super::render::check_counts(mode, Some(name), kind)?;
+        super::render::check_counts(mode, Some(name), args, scene)?;
     }
     let trace = |name: &str, args: &BuildArgs| -> Result<Frame> {
         eprint!("{name}: ");

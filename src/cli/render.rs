@@ -2,10 +2,11 @@
 
 use super::{BuildArgs, ViewArgs, check_size, load_scene};
 use anyhow::{Result, bail};
-use bvhlab::accel::{AccelKind, Counter};
+use bvhlab::accel::Counter;
 use bvhlab::geometry::IntersectorKind;
 use bvhlab::render::compare::CompareView;
 use bvhlab::render::{self, RayKind, RenderSettings, ViewMode};
+use bvhlab::scene::Scene;
 use bvhlab::with_intersector;
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
@@ -57,31 +58,24 @@ pub fn mode_flag(mode: ViewMode) -> String {
         .map_or_else(String::new, |v| v.get_name().to_string())
 }
 
-/// Refuses a heatmap of a count `kind` never makes: all zeros that would look like a
-/// measurement. A flat structure has no levels (top-level and instance counts); only a
-/// structure that references a triangle from several cells can test it twice.
-/// `side` names A or B in a comparison.
-pub fn check_counts(mode: ViewMode, side: Option<&str>, kind: AccelKind) -> Result<()> {
-    let who = match side {
-        Some(side) => format!("{side} ({})", kind.title()),
-        None => kind.title().to_string(),
-    };
-    if mode.is_two_level() && !kind.places_instances() {
+/// Refuses a heatmap of a count the structure never makes (`ViewMode::missing_counts`):
+/// all zeros that would look like a measurement. `side` names A or B in a comparison.
+pub fn check_counts(
+    mode: ViewMode,
+    side: Option<&str>,
+    build: &BuildArgs,
+    scene: &Scene,
+) -> Result<()> {
+    let kind = build.accel_to_trace(scene).kind()?;
+    let params = build.structure_params_for(kind);
+    if let Some(reason) = mode.missing_counts(&params) {
+        let who = match side {
+            Some(side) => format!("{side} ({})", kind.title()),
+            None => kind.title().to_string(),
+        };
         bail!(
-            "--mode {} counts the two levels' work, which {who} does not have: {}",
-            mode_flag(mode),
-            if side.is_none() {
-                "add --accel two-level"
-            } else {
-                "compare two-level structures"
-            }
-        );
-    }
-    if mode == ViewMode::Repeated && !kind.is_spatial() {
-        bail!(
-            "--mode repeated counts the triangles a ray tests again, which only the mailbox of \
-             a k-d tree, grid or octree records ({who} has none): use one of those with \
-             --mailbox false"
+            "--mode {} shows nothing under {who}: {reason}",
+            mode_flag(mode)
         );
     }
     Ok(())
@@ -135,7 +129,13 @@ pub fn run(args: RenderArgs) -> Result<()> {
         let out = out_or_default("-compare");
         return super::compare::run(&scene, &settings, &args, flags, &out);
     }
-    check_counts(args.mode, None, args.build.accel_to_trace(&scene).kind()?)?;
+    check_counts(args.mode, None, &args.build, &scene)?;
+    if args.mode == ViewMode::Repeated && args.build.structure_params(&scene)?.mailbox {
+        eprintln!(
+            "note: with mailboxing on no triangle is tested twice, so the map is all zeros \
+             (--mailbox false shows the repeats)"
+        );
+    }
     let built = args.build.build_to_trace(&scene)?;
     let frame = with_intersector!(kind, I => render::render_with::<_, I>(&built.structure, &scene, &settings));
     let out = out_or_default("");

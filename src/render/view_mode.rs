@@ -2,7 +2,7 @@
 //! `--mode` names; one enum for all three.
 
 use super::{Mode, RayKind};
-use crate::accel::Counter;
+use crate::accel::{Counter, StructureParams};
 use serde::{Deserialize, Serialize};
 
 /// What a frame shows, as plain data: the app's view mode, the presets' `mode` and the
@@ -82,6 +82,24 @@ impl ViewMode {
             self,
             ViewMode::TopNodes | ViewMode::BottomNodes | ViewMode::Instances
         )
+    }
+
+    /// Why `params`' structure has nothing for this mode to show (a heatmap of zeros that
+    /// would look like a measurement), or `None` if it has: only the two levels count their
+    /// levels' work, and only a spatial structure's mailbox records a triangle tested again
+    /// (with mailboxing on, its zeros are the lesson: no test is repeated).
+    pub fn missing_counts(self, params: &StructureParams) -> Option<&'static str> {
+        let kind = params.kind;
+        if self.is_two_level() && !kind.places_instances() {
+            return Some("it counts the two levels' work, which only the two-level structure has");
+        }
+        if self == ViewMode::Repeated && !kind.is_spatial() {
+            return Some(
+                "it counts the triangles a ray tests again, which only the mailbox of a k-d \
+                 tree, grid or octree records",
+            );
+        }
+        None
     }
 
     pub fn render_mode(self, shadow: bool) -> Mode {

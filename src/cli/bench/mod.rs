@@ -258,7 +258,7 @@ pub struct BenchArgs {
 fn run_settings(args: BenchArgs) -> Result<()> {
     // A study's files are checked before its work, which can take minutes.
     if let Some(csv) = &args.csv {
-        bvhlab::output::check(csv, &[])?;
+        bvhlab::output::check(csv, &["csv"])?;
     }
     if let Some(png) = &args.plot {
         bvhlab::bench::plot::check(png)?;
