@@ -331,7 +331,7 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
         ),
         (
             &["frames", "--preset", "lecture:1", "--accel", "grid"],
-            "sets its own structure",
+            "sets its own scene, camera and structure",
         ),
         (
             &[

@@ -72,10 +72,10 @@ pub struct ScreenshotArgs {
     pub mode: ShotArg,
     /// Window width in pixels (default 1400, or what the screen has room for; a size given
     /// is the size saved, or an error).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli::parse_side)]
     pub width: Option<u32>,
     /// Window height in pixels (default 860, or what the screen has room for).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli::parse_side)]
     pub height: Option<u32>,
     /// The structure to build.
     #[arg(long, value_enum, default_value_t = AccelKind::Bvh)]

@@ -18,9 +18,9 @@ pub struct FramesArgs {
     pub preset: Option<String>,
     /// With --preset: the view's size in pixels, 1280 × 720 unless given (--scene times
     /// 640×360 and 1280×720).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli::parse_side)]
     pub width: Option<u32>,
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli::parse_side)]
     pub height: Option<u32>,
     /// With --preset: one JSON object, its `steps` array holding each step's
     /// `first_image_ms` and `full_frame_ms`.
@@ -135,9 +135,11 @@ pub fn run(args: FramesArgs) -> Result<()> {
 /// `frames --preset`: each step of a sequence, timed as the app shows it.
 fn lecture(args: &FramesArgs) -> Result<()> {
     let spec = args.preset.as_deref().unwrap_or("lecture");
-    if args.build.accel.is_some() {
-        anyhow::bail!("each step of --preset sets its own structure: --accel is for --scene");
-    }
+    crate::cli::refuse_unused(
+        &["preset", "width", "height", "json"],
+        "each step of --preset sets its own scene, camera and structure (the flags are for \
+         --scene)",
+    )?;
     let (width, height) = (args.width.unwrap_or(1280), args.height.unwrap_or(720));
     crate::cli::check_size(width, height, 2)?;
     let (mut sequence, index) = bvhlab::app::preset::Sequence::open(spec)?;

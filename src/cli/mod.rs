@@ -99,6 +99,26 @@ pub fn note_given(command: &clap::Command, matches: &clap::ArgMatches) {
     let _ = GIVEN.set(given);
 }
 
+/// Whether the command line gave the flag `long`.
+pub fn was_given(long: &str) -> bool {
+    GIVEN
+        .get()
+        .is_some_and(|g| g.iter().any(|(_, l)| l == long))
+}
+
+/// Refuses any flag the command line gave but `used` (long names): the run would ignore
+/// it. `why` says what decides instead.
+pub fn refuse_unused(used: &[&str], why: &str) -> Result<()> {
+    let given = GIVEN.get().map_or(&[][..], |g| g.as_slice());
+    match given
+        .iter()
+        .find(|(_, long)| !used.contains(&long.as_str()) && long != "memory-limit")
+    {
+        Some((_, long)) => bail!("--{long} does nothing here: {why}"),
+        None => Ok(()),
+    }
+}
+
 /// Refuses a parameter the command line gave that does nothing for `params`' structure.
 /// A value out of its range is said first: it is wrong whatever the structure.
 pub fn check_given_apply(params: &StructureParams) -> Result<()> {
@@ -230,9 +250,10 @@ pub fn parse_vec3(s: &str) -> Result<Vec3, String> {
     let limit = bvhlab::scene::MAX_COORDINATE;
     let f = |v: &str| match v.parse::<f32>() {
         Ok(x) if x.is_finite() && x.abs() <= limit => Ok(x),
-        Ok(x) if x.is_finite() => Err(format!(
-            "'{v}' is beyond ±{limit:e}, where ray arithmetic overflows f32"
-        )),
+        // A number past f32's range reads as infinite: it is beyond the limit too.
+        Ok(x) if x.is_finite() || v.trim().parse::<f64>().is_ok_and(f64::is_finite) => Err(
+            format!("'{v}' is beyond ±{limit:e}, where ray arithmetic overflows f32"),
+        ),
         _ => Err(format!("'{v}' is not a finite number")),
     };
     Ok(Vec3::new(f(x)?, f(y)?, f(z)?))
@@ -324,6 +345,19 @@ pub fn rays_within_budget(flag: &str, rays: usize, lists: u64) -> Result<usize> 
     )?;
     Ok(rays)
 }
+
+/// `--width` or `--height`: pixels from 1 to `MAX_SIDE`.
+pub fn parse_side(text: &str) -> Result<u32, String> {
+    match text.parse::<i64>() {
+        Ok(n) if (1..=MAX_SIDE as i64).contains(&n) => Ok(n as u32),
+        _ => Err(format!(
+            "'{text}' is not a size in pixels from 1 to {MAX_SIDE}"
+        )),
+    }
+}
+
+/// The largest image side.
+pub const MAX_SIDE: u32 = 16384;
 
 /// An image size within 1..=16384 on each side, whose `frames` frames (two for an A | B
 /// comparison) fit the memory budget.

@@ -28,9 +28,9 @@ pub struct RenderArgs {
     /// frame's maximum).
     #[arg(long, value_parser = crate::cli::at_least_one::<u32>)]
     pub heat_max: Option<u32>,
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = 1024, value_parser = crate::cli::parse_side)]
     pub width: u32,
-    #[arg(long, default_value_t = 768)]
+    #[arg(long, default_value_t = 768, value_parser = crate::cli::parse_side)]
     pub height: u32,
     /// Vertical field of view in degrees.
     #[arg(long, value_parser = crate::cli::parse_fov)]
@@ -73,8 +73,17 @@ pub fn check_counts(
             Some(side) => format!("{side} ({})", kind.title()),
             None => kind.title().to_string(),
         };
+        let hint = if mode.is_two_level() {
+            if side.is_none() {
+                "add --accel two-level"
+            } else {
+                "compare two-level structures"
+            }
+        } else {
+            "use --accel kdtree, grid or octree with --mailbox false"
+        };
         bail!(
-            "--mode {} shows nothing under {who}: {reason}",
+            "--mode {} shows nothing under {who}: {reason}; {hint}",
             mode_flag(mode)
         );
     }

@@ -28,9 +28,9 @@ pub struct ReplayArgs {
     /// The pixel x,y (0,0 is the top left) of a --width × --height image.
     #[arg(long, value_parser = parse_pixel)]
     pub pixel: (u32, u32),
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = 1024, value_parser = crate::cli::parse_side)]
     pub width: u32,
-    #[arg(long, default_value_t = 768)]
+    #[arg(long, default_value_t = 768, value_parser = crate::cli::parse_side)]
     pub height: u32,
     /// Vertical field of view in degrees.
     #[arg(long, value_parser = crate::cli::parse_fov)]
@@ -60,6 +60,16 @@ fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
 
 pub fn run(args: ReplayArgs) -> Result<()> {
     check_size(args.width, args.height, 1)?;
+    let (x, y) = args.pixel;
+    if x >= args.width || y >= args.height {
+        anyhow::bail!(
+            "pixel {x},{y} is outside the {}×{} image (x from 0 to {}, y from 0 to {})",
+            args.width,
+            args.height,
+            args.width - 1,
+            args.height - 1
+        );
+    }
     let scene = load_scene(&args.scene)?;
     let mut camera = args.view.camera(&scene)?;
     if let Some(fov) = args.fov {

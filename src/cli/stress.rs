@@ -66,6 +66,11 @@ pub struct StressArgs {
 }
 
 pub fn run(args: StressArgs) -> Result<()> {
+    for (i, scene) in args.scenes.iter().enumerate() {
+        if args.scenes[..i].contains(scene) {
+            anyhow::bail!("--scene {scene} is given twice");
+        }
+    }
     let mut cfg = if args.quick {
         StressConfig::tests()
     } else {

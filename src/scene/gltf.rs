@@ -175,6 +175,11 @@ pub fn parse_gltf(path: &Path, bytes: &[u8]) -> Result<Scene, GltfError> {
 /// checking it: a primitive's attribute accessors (it indexes out of bounds otherwise).
 fn validate(root: &::gltf::json::Root) -> Result<(), String> {
     use ::gltf::json::validation::Validate;
+    // glTF 1.0 differs in layout; the parser would read it as 2.0 and make nonsense.
+    let version = root.asset.version.as_str();
+    if version.split('.').next() != Some("2") {
+        return Err(format!("glTF {version} is not supported (glTF 2.0 only)"));
+    }
     for (m, mesh) in root.meshes.iter().enumerate() {
         for (p, primitive) in mesh.primitives.iter().enumerate() {
             if let Some(a) = primitive

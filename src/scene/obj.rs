@@ -81,7 +81,7 @@ pub(crate) fn parse_obj(
     };
     let (models, materials) =
         tobj::load_obj_buf(&mut bytes.as_slice(), &options, |library| match mtl_dir {
-            Some(dir) => load_materials(&dir.join(library), &warnings),
+            Some(dir) => load_materials(dir, library, &warnings),
             None => Ok(Default::default()),
         })
         .map_err(|e| ObjError::Rejected {
@@ -149,8 +149,13 @@ pub(crate) fn parse_obj(
 
 /// Reads a material library for tobj, turning every problem into a warning (tobj's result
 /// type needs an error too; it only keeps it when no library loaded at all).
-fn load_materials(path: &Path, warnings: &RefCell<Vec<String>>) -> tobj::MTLLoadResult {
-    let reason = match read_material_text(path) {
+fn load_materials(
+    dir: &Path,
+    library: &Path,
+    warnings: &RefCell<Vec<String>>,
+) -> tobj::MTLLoadResult {
+    let path = dir.join(library);
+    let reason = match read_material_text(dir, &path) {
         Ok(text) => match tobj::load_mtl_buf(&mut text.as_bytes()) {
             Ok(loaded) => return Ok(loaded),
             Err(e) => e.to_string(),
@@ -165,21 +170,45 @@ fn load_materials(path: &Path, warnings: &RefCell<Vec<String>>) -> tobj::MTLLoad
 }
 
 /// The text of a material library that tobj can read without panicking.
-fn read_material_text(path: &Path) -> Result<String, String> {
-    // `mtllib` can name anything; only read regular files (not a directory or /dev/zero).
-    if !path.is_file() {
-        return Err("not found".into());
+fn read_material_text(folder: &Path, path: &Path) -> Result<String, String> {
+    // `mtllib` can name anything: only a regular file in the OBJ's folder (or below) is
+    // read, as a glTF's buffers are.
+    let inside = match (folder_of(folder).canonicalize(), path.canonicalize()) {
+        (Ok(folder), Ok(file)) => file.starts_with(folder),
+        _ => return Err("not found".into()),
+    };
+    if !inside {
+        return Err("it is outside the OBJ file's folder".into());
     }
-    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+    let bytes = crate::input::read(path, 2).map_err(|e| e.to_string())?;
     let text = String::from_utf8_lossy(&bytes).into_owned();
-    // tobj 4 panics on a colour with fewer than three components (`Kd 0.5`).
     for (number, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
-        if matches!(words.next(), Some("Ka" | "Kd" | "Ks" | "Ke")) && words.count() < 3 {
-            return Err(format!("line {}: a colour needs three values", number + 1));
+        if matches!(words.next(), Some("Ka" | "Kd" | "Ks" | "Ke")) {
+            let values: Vec<&str> = words.collect();
+            // tobj 4 panics on a colour with fewer than three components (`Kd 0.5`).
+            if values.len() < 3 {
+                return Err(format!("line {}: a colour needs three values", number + 1));
+            }
+            let colour = |v: &&str| v.parse::<f32>().is_ok_and(|x| (0.0..=1e6).contains(&x));
+            if !values[..3].iter().all(colour) {
+                return Err(format!(
+                    "line {}: a colour's values are numbers from 0 up",
+                    number + 1
+                ));
+            }
         }
     }
     Ok(text)
+}
+
+/// `folder` as a path canonicalize can take (the empty parent of a bare file name is ".").
+fn folder_of(folder: &Path) -> &Path {
+    if folder.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        folder
+    }
 }
 
 /// Number of vertices, texture coordinates and normals defined so far.

@@ -27,10 +27,10 @@ pub struct BenchCommon {
     #[command(flatten)]
     pub view: ViewArgs,
     /// Image width (default: 1024, or 256 for `scaling`).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli::parse_side)]
     pub width: Option<u32>,
     /// Image height (default: 768, or 192 for `scaling`).
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli::parse_side)]
     pub height: Option<u32>,
     /// Worker threads, at most 4 × the cores (default: all cores).
     #[arg(long, value_parser = crate::cli::parse_threads)]
@@ -283,6 +283,24 @@ fn run_settings(args: BenchArgs) -> Result<()> {
     let peers = args.embree || args.embree_robust;
     if peers && !bench::EMBREE_AVAILABLE {
         anyhow::bail!(bench::EMBREE_MISSING);
+    }
+    // A study that sets a parameter itself would ignore the flag.
+    let sets_itself = [
+        (
+            args.builders || args.sah_scatter || args.rotation_sweep,
+            "builder",
+            "the study runs every builder",
+        ),
+        (
+            args.accuracy,
+            "intersector",
+            "the study runs every intersector",
+        ),
+    ];
+    for (study, flag, why) in sets_itself {
+        if study && super::was_given(flag) {
+            anyhow::bail!("--{flag} does nothing here: {why}");
+        }
     }
     if args.scaling {
         return scaling::run_scaling(&args, width, height);

@@ -22,6 +22,9 @@ pub(super) fn run_scaling(args: &BenchArgs, width: u32, height: u32) -> Result<(
         .sizes
         .clone()
         .unwrap_or_else(|| scaling::DEFAULT_SIZES.to_vec());
+    if sizes.len() < 2 {
+        anyhow::bail!("--sizes needs at least two sizes: a slope is drawn through several");
+    }
     let (planned, note) = scaling::plan_sizes(name, &sizes)?;
     let cfg = ScalingConfig {
         scene: name.to_string(),
