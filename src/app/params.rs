@@ -19,8 +19,16 @@ pub fn structure_params(ui: &mut egui::Ui, p: &mut StructureParams) {
     } else {
         p.kind.title().to_string()
     };
+    let width = combo_width(ui, "structure");
+    // A long name ("two-level (TLAS + BLAS)") would push its label into a column of single
+    // letters in a narrow panel: the short one stands in for it.
+    let selected = if text_width(ui, &selected) + 24.0 > width {
+        p.kind.label().to_string()
+    } else {
+        selected
+    };
     egui::ComboBox::from_label("structure")
-        .width(combo_width(ui, "structure"))
+        .width(width)
         .selected_text(selected)
         .show_ui(ui, |ui| {
             for kind in AccelKind::ALL {
@@ -147,15 +155,23 @@ pub fn traversal_order(ui: &mut egui::Ui, order: &mut TraversalOrder) {
 /// A combo box's width that leaves its label room on the same line in a narrow panel
 /// (squeezed, the label would wrap a letter per line).
 fn combo_width(ui: &egui::Ui, label: &str) -> f32 {
-    let text = egui::WidgetText::from(label).into_galley(
-        ui,
-        Some(egui::TextWrapMode::Extend),
-        f32::INFINITY,
-        egui::TextStyle::Button,
-    );
     // The icon, the spacing and the scroll bar's room besides the label.
-    let room = ui.available_width() - text.size().x - 4.0 * ui.spacing().item_spacing.x - 24.0;
+    let room =
+        ui.available_width() - text_width(ui, label) - 4.0 * ui.spacing().item_spacing.x - 24.0;
     room.clamp(60.0, 220.0)
+}
+
+/// The width of `text` on one line, in a button's font.
+fn text_width(ui: &egui::Ui, text: &str) -> f32 {
+    egui::WidgetText::from(text)
+        .into_galley(
+            ui,
+            Some(egui::TextWrapMode::Extend),
+            f32::INFINITY,
+            egui::TextStyle::Button,
+        )
+        .size()
+        .x
 }
 
 /// The wide BVHs' slab kernel, among those this CPU has.
