@@ -127,18 +127,6 @@ impl BvhLabApp {
                     outline,
                 } => {
                     self.last_rebuild = Some((rebuild_time, bvh_refit_time));
-                    // A levels screenshot names a depth the tree must have (below an
-                    // instance's top level, its BLAS's levels follow: not known here).
-                    if let Some(p) = self.screenshot.as_mut()
-                        && let Some(level) = p.level
-                        && p.instance.is_none()
-                        && level > outline.max_depth()
-                    {
-                        p.fail(format!(
-                            "there is no level {level}: the tree's levels are 0 to {}",
-                            outline.max_depth()
-                        ));
-                    }
                     self.settings.level = self.settings.level.min(outline.max_depth());
                     self.walk = self.walk.filter(|&w| (w as usize) < outline.nodes.len());
                     self.outline = outline;
