@@ -86,9 +86,8 @@ pub fn run(
     params_b
         .validate()
         .map_err(|e| anyhow!("bad --compare flags '{flags}': {e}"))?;
-    if params_b == a.structure_params_for(a.accel_to_trace(scene).kind()?)
-        && b.accel_to_trace(scene).kind()? == a.accel_to_trace(scene).kind()?
-    {
+    // The parameters name the structure too (`kind`).
+    if params_b == a.structure_params_for(a.accel_to_trace(scene).kind()?) {
         bail!("--compare '{flags}' changes nothing: B is the same configuration as A");
     }
     for (name, args) in [("A", a), ("B", &b)] {

@@ -139,7 +139,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
         return super::compare::run(&scene, &settings, &args, flags, &out);
     }
     check_counts(args.mode, None, &args.build, &scene)?;
-    if args.mode == ViewMode::Repeated && args.build.structure_params(&scene)?.mailbox {
+    let traced = args.build.accel_to_trace(&scene).kind()?;
+    if args.mode == ViewMode::Repeated && args.build.structure_params_for(traced).mailbox {
         eprintln!(
             "note: with mailboxing on no triangle is tested twice, so the map is all zeros \
              (--mailbox false shows the repeats)"
