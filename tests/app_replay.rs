@@ -4,6 +4,7 @@
 
 use bvhlab_testkit as common;
 
+use bvhlab::accel::replay::Step;
 use bvhlab::app::BvhLabApp;
 use bvhlab::app::export::Export;
 use bvhlab::render::RayKind;
@@ -68,6 +69,26 @@ fn clicking_a_pixel_replays_its_ray_and_the_keys_step_through_it() {
     // The visited box's slab test, from the replay's numbers: a visited box is entered.
     assert!(h.query_by_label("The slab test of this box").is_some());
     assert!(h.query_by_label_contains("enter at max(near)").is_some());
+
+    // A stop whose node tested a child and did not take it shows that child's slab test
+    // too: its intervals do not meet (or meet only beyond the best hit).
+    let missed = (0..replay.stops())
+        .find(|&k| {
+            replay.stop_range(k).any(|i| {
+                matches!(&replay.steps[i], Step::Children { children, .. }
+                    if children.iter().any(|c| c.entry.is_none()))
+            })
+        })
+        .expect("a ray into the Cornell box passes by some box");
+    for _ in 0..missed {
+        h.key_press(Key::ArrowRight);
+    }
+    h.run_steps(2);
+    assert_eq!(stop(&h), missed);
+    assert!(h.query_by_label_contains(", not taken").is_some());
+    assert!(h.query_by_label_contains(": a miss").is_some());
+    h.key_press(Key::Home);
+    h.run_steps(2);
 
     h.key_press(Key::ArrowRight);
     h.run_steps(2);

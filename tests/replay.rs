@@ -5,10 +5,11 @@
 
 use bvhlab_testkit as common;
 
-use bvhlab::accel::replay::Step;
+use bvhlab::accel::replay::{Level, Step, Visited};
 use bvhlab::accel::structure::{self, AccelKind, Structure, StructureParams};
 use bvhlab::accel::{Strategy, TraversalOrder};
 use bvhlab::geometry::Watertight;
+use bvhlab::geometry::slab::Slabs;
 use bvhlab::render::replay::{Replay, ReplayError, replay_pixel};
 use bvhlab::render::{self, RayKind, RenderSettings};
 use bvhlab::scene::island::{self, Detail};
@@ -84,6 +85,7 @@ fn assert_replay_matches_frame(
             visit_json as u32, counted.nodes_visited,
             "{what}: JSON visits"
         );
+        assert_child_boxes_are_the_visited_boxes(replay, &what);
     };
     let primary =
         replay_pixel::<Watertight>(s, scene, settings, (x, y), RayKind::Primary).expect(what);
@@ -123,6 +125,44 @@ fn assert_replay_matches_frame(
         }
         Err(ReplayError::NoShadowRay { .. }) => assert!(!sample.is_hit(), "{what}"),
         Err(e) => panic!("{what}: {e}"),
+    }
+}
+
+/// The box a children step gives each child (drawn by the replay's slab picture of a
+/// missed child) is the box that child's visit shows, bit for bit, and an entered child's
+/// slab test meets. One-level steps only: a BLAS's node numbers repeat across instances;
+/// a wide BVH names a leaf by its first triangle slot, so a leaf and a node may share one.
+fn assert_child_boxes_are_the_visited_boxes(replay: &Replay, what: &str) {
+    let mut tested = std::collections::HashMap::new();
+    for step in &replay.steps {
+        match step {
+            Step::Children { children, .. } | Step::Octants { children } => {
+                for c in children {
+                    tested.insert((c.node, c.leaf), c.bounds);
+                    if c.entry.is_some() {
+                        let s = Slabs::of(&replay.ray, &c.bounds);
+                        let slack = 1e-4 * (s.exit.abs() + 1.0);
+                        assert!(
+                            s.enter <= s.exit + slack,
+                            "{what}: entered child {}",
+                            c.node
+                        );
+                    }
+                }
+            }
+            Step::Visit {
+                node,
+                what: visited,
+                bounds,
+                level: Level::Single,
+                ..
+            } => {
+                if let Some(b) = tested.get(&(*node, *visited == Visited::Leaf)) {
+                    assert_eq!(b, bounds, "{what}: child {node}'s box");
+                }
+            }
+            _ => {}
+        }
     }
 }
 

@@ -61,12 +61,15 @@ impl Order {
 }
 
 /// A child box tested at an interior node: where the ray enters it, or `None` when it
-/// misses it or enters it beyond the best hit so far.
+/// misses it or enters it beyond the best hit so far; and the box itself (in the space of
+/// its level), so a replay can draw the slab test of a missed child too.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Child {
     pub node: u32,
     pub leaf: bool,
     pub entry: Option<f32>,
+    #[serde(serialize_with = "corners")]
+    pub bounds: Aabb,
 }
 
 /// One step of a traversal.

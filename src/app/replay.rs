@@ -5,7 +5,9 @@
 //! tested and which is taken first and why, pushes, pops and skips, triangle tests.
 
 use super::BvhLabApp;
+use super::slab_picture;
 use super::worker::{Command, ReplayRequest};
+use crate::accel::replay::{Level, Step};
 use crate::render::RayKind;
 use crate::render::replay::{Ink, Replay, ReplayHit};
 use eframe::egui::{self, Color32, Stroke};
@@ -186,21 +188,7 @@ pub fn section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             }
         }
     });
-    // The visit's box as the slab test sees it (a BLAS box is in its object space, where
-    // the world ray is not: it is drawn for one-level and top-level boxes).
-    let visited = replay
-        .stop_range(stop)
-        .find_map(|i| match &replay.steps[i] {
-            crate::accel::replay::Step::Visit { bounds, level, .. }
-                if *level != crate::accel::replay::Level::Bottom =>
-            {
-                Some(*bounds)
-            }
-            _ => None,
-        });
-    if let Some(bounds) = visited {
-        crate::app::slab_picture::show(ui, &replay.ray, &bounds);
-    }
+    slab_pictures(ui, &replay, stop, best);
     let c = &replay.counters;
     ui.label(format!(
         "whole ray: {} nodes visited, {} box tests, {} triangle tests",
@@ -212,5 +200,34 @@ pub fn section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     }
     if let Some(g) = go {
         app.replay_go(g);
+    }
+}
+
+/// The visit's box as the slab test sees it, and each child box its node tested and did
+/// not take: the picture of a miss (its intervals do not meet), or of a box that starts
+/// beyond the best hit so far (the ray's interval is clipped there). A BLAS box is in its
+/// object space, where the world ray is not: only one-level and top-level boxes are drawn.
+fn slab_pictures(ui: &mut egui::Ui, replay: &Replay, stop: usize, best: Option<ReplayHit>) {
+    let mut world = true;
+    for i in replay.stop_range(stop) {
+        match &replay.steps[i] {
+            Step::Visit { bounds, level, .. } => {
+                world = *level != Level::Bottom;
+                if world {
+                    slab_picture::show(ui, "The slab test of this box", &replay.ray, bounds);
+                }
+            }
+            Step::Children { children, .. } if world => {
+                let mut clipped = replay.ray;
+                if let Some(h) = best {
+                    clipped.tmax = clipped.tmax.min(h.t);
+                }
+                for c in children.iter().filter(|c| c.entry.is_none()) {
+                    let title = format!("The slab test of child {}, not taken", c.node);
+                    slab_picture::show(ui, &title, &clipped, &c.bounds);
+                }
+            }
+            _ => {}
+        }
     }
 }

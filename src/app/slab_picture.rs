@@ -10,9 +10,9 @@ use crate::geometry::slab::Slabs;
 use crate::geometry::{Aabb, Ray};
 use eframe::egui::{self, Color32, Stroke};
 
-pub fn show(ui: &mut egui::Ui, ray: &Ray, bounds: &Aabb) {
+pub fn show(ui: &mut egui::Ui, title: &str, ray: &Ray, bounds: &Aabb) {
     let s = Slabs::of(ray, bounds);
-    ui.label(egui::RichText::new("The slab test of this box").strong());
+    ui.label(egui::RichText::new(title).strong());
     // The t range shown: around where the intervals meet (or fail to), a few times its
     // width either side, within the finite ends; a bar running past it reaches the edge.
     let ends = s

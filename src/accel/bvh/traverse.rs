@@ -229,6 +229,7 @@ impl Bvh {
                 node: i as u32,
                 leaf: self.nodes[i].is_leaf(),
                 entry: entered(t),
+                bounds: self.nodes[i].bounds(),
             })
             .collect();
         let first = children.iter().find(|c| c.entry.is_some()).map(|c| c.node);

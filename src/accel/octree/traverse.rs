@@ -147,26 +147,23 @@ impl Octree {
                         .iter()
                         .filter_map(|&(oct, a, _)| {
                             let child = node.child(oct)?;
+                            let min = cell.min + octant_corner(oct) * half;
                             Some(Child {
                                 node: child,
                                 leaf: self.nodes[child as usize].is_leaf(),
                                 entry: Some(a as f32),
+                                bounds: Aabb::new(min.as_vec3(), (min + half).as_vec3()),
                             })
                         })
                         .collect(),
                 });
                 for &(oct, a, b) in pieces[..=n].iter().rev() {
                     if let Some(child) = node.child(oct) {
-                        let corner = DVec3::new(
-                            f64::from(oct & 1),
-                            f64::from(oct >> 1 & 1),
-                            f64::from(oct >> 2 & 1),
-                        );
                         stack[sp] = Cell {
                             node: child,
                             t0: a,
                             t1: b,
-                            min: cell.min + corner * half,
+                            min: cell.min + octant_corner(oct) * half,
                             size: half,
                         };
                         sp += 1;
@@ -238,4 +235,13 @@ impl Accel for Octree {
     fn any_hit<I: Intersector, S: Stats>(&self, ray: &Ray, stats: &mut S) -> bool {
         count_locally(stats, |local| self.query::<I, S, AnyHit>(ray, local))
     }
+}
+
+/// The corner of octant `oct` (bit k: the upper half on axis k) in units of half a cell.
+fn octant_corner(oct: u32) -> DVec3 {
+    DVec3::new(
+        f64::from(oct & 1),
+        f64::from(oct >> 1 & 1),
+        f64::from(oct >> 2 & 1),
+    )
 }

@@ -440,6 +440,7 @@ where
                 node: node.child[l].index(),
                 leaf: !node.is_interior(l),
                 entry: (mask >> l & 1 == 1).then_some(entry[l]),
+                bounds: node.child_bounds(l),
             })
             .collect();
         // Front to back the nearest entered child is taken first (of equal ones, the lower
