@@ -344,9 +344,9 @@ fn a_dragged_selection_is_lit_and_tinted_as_the_scene_it_moved() {
         }
     }
     assert!(tinted > 0, "the selection is tinted");
-    // The moves moved the light, and the undo put it back (up to the rounding of the moves).
+    // The moves moved the light, and the undo put it back exactly.
     assert!(lights[1] != lights[0] && lights[2] != lights[1] && lights[3] != lights[2]);
-    assert!(lights[4].distance(lights[0]) < 1e-5, "{lights:?}");
+    assert_eq!(lights[4], lights[0]);
     let _ = std::fs::remove_file(&path);
 }
 

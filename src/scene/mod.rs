@@ -279,6 +279,22 @@ impl Scene {
 
     /// Moves the given triangles by `delta`. Moved triangles no longer follow their
     /// mesh, so an instanced scene becomes a flat one (each object then its own instance).
+    /// Puts triangles `triangles` back at `positions` (one each, in order): undo's way back
+    /// to where a drag started, bit for bit, where moving back by −delta is off by rounding.
+    pub fn restore_triangles(&mut self, triangles: &[u32], positions: &[Triangle]) {
+        let mut changed = false;
+        for (&t, p) in triangles.iter().zip(positions) {
+            if let Some(tri) = self.triangles.get_mut(t as usize) {
+                changed |= tri.v != p.v;
+                tri.v = p.v;
+            }
+        }
+        if changed {
+            self.meshes.clear();
+            self.instances.clear();
+        }
+    }
+
     pub fn move_triangles(&mut self, triangles: &[u32], delta: Vec3) {
         let mut moved = false;
         for &t in triangles {
@@ -307,7 +323,19 @@ impl Scene {
         let Some(old) = self.instances.get(i) else {
             return Err(TransformError::NonFinite);
         };
-        let transform = glam::Affine3A::from_translation(delta) * old.transform;
+        self.transform_instance(i, glam::Affine3A::from_translation(delta) * old.transform)
+    }
+
+    /// Places instance `i` by `transform` (undo's way back to where a drag started, bit
+    /// for bit), as `translate_instance` does.
+    pub fn transform_instance(
+        &mut self,
+        i: usize,
+        transform: glam::Affine3A,
+    ) -> Result<Instance, TransformError> {
+        let Some(old) = self.instances.get(i) else {
+            return Err(TransformError::NonFinite);
+        };
         let moved = Instance::new(old.mesh, transform)?;
         if self.is_flattened() {
             // Instances with triangles are the objects, in order.

@@ -95,16 +95,69 @@ impl DragBounds {
 }
 
 impl State {
-    pub(in crate::app) fn move_triangles(&mut self, triangles: &Arc<Vec<u32>>, delta: Vec3) {
+    /// Where a move of `triangles` starts, kept if it starts a drag (or moves another
+    /// selection than the drag's last move): undo puts them back there exactly.
+    pub(in crate::app) fn origin_of_triangles(
+        &self,
+        triangles: &Arc<Vec<u32>>,
+    ) -> Option<Arc<Origin>> {
+        let continues = matches!(self.gesture.last(),
+            Some(Motion::Triangles(last, ..)) if same_selection(last, triangles));
+        let scene = self.scene.as_ref().filter(|_| !continues)?;
+        let positions = triangles
+            .iter()
+            .filter_map(|&t| scene.triangles.get(t as usize));
+        Some(Arc::new(Origin {
+            triangles: positions.copied().collect(),
+            transform: None,
+        }))
+    }
+
+    /// Where a move of object `object` starts (its triangles, and its instance's transform
+    /// under the two levels), kept if it starts a drag or moves another object.
+    pub(in crate::app) fn origin_of_object(&self, object: usize) -> Option<Arc<Origin>> {
+        let continues = matches!(self.gesture.last(),
+            Some(Motion::Object(last, ..)) if *last == object);
+        let (Some(scene), Some(structure)) = (&self.scene, &self.structure) else {
+            return None;
+        };
+        let range = scene.objects.get(object).filter(|_| !continues)?.range();
+        let transform = if !structure.places_instances() {
+            None
+        } else if scene.instances.is_empty() {
+            structure.instance_transform(object)
+        } else {
+            let i = scene.instance_of_object(object)?;
+            Some(scene.instances.get(i)?.transform)
+        };
+        Some(Arc::new(Origin {
+            triangles: scene.triangles.get(range)?.to_vec(),
+            transform,
+        }))
+    }
+
+    /// Moves `triangles` by `delta`, or (undo's last step back) puts them at `origin`.
+    pub(in crate::app) fn move_triangles(
+        &mut self,
+        triangles: &Arc<Vec<u32>>,
+        delta: Vec3,
+        origin: Option<&Origin>,
+    ) {
         let bounds = self.drag_bounds(triangles);
         let (Some(scene), Some(structure)) = (&mut self.scene, &mut self.structure) else {
             return;
         };
-        scene.move_triangles(triangles, delta);
+        match origin {
+            Some(o) => scene.restore_triangles(triangles, &o.triangles),
+            None => scene.move_triangles(triangles, delta),
+        }
         self.scene_version += 1;
         self.moved.extend(triangles.iter().copied());
-        // The standard light from the scene's box in its two parts, the selection's moved.
-        if let Some(mut b) = bounds {
+        // The standard light from the scene's box in its two parts, the selection's moved;
+        // back at the drag's origin, from the scene again, so it is the light it was.
+        if origin.is_some() {
+            self.light = None;
+        } else if let Some(mut b) = bounds {
             b.selected = Aabb::new(b.selected.min + delta, b.selected.max + delta);
             b.scene_version = self.scene_version;
             let light = Scene::standard_light(&b.rest.union(b.selected));
@@ -197,7 +250,13 @@ impl State {
     /// Moves object `object` by `delta`; true if it moved. Under the two levels: its
     /// instance (the scene's own, or the object itself as an instance of its triangles)
     /// moves, and the top level is refitted.
-    pub(in crate::app) fn move_object(&mut self, object: usize, delta: Vec3) -> bool {
+    /// `origin`: undo's last step back, to the object's place before the drag, exactly.
+    pub(in crate::app) fn move_object(
+        &mut self,
+        object: usize,
+        delta: Vec3,
+        origin: Option<&Origin>,
+    ) -> bool {
         let (Some(scene), Some(structure)) = (&mut self.scene, &mut self.structure) else {
             return false;
         };
@@ -207,7 +266,7 @@ impl State {
         if !structure.places_instances() {
             // Any other structure moves the object's triangles.
             let triangles: Arc<Vec<u32>> = Arc::new(range.map(|t| t as u32).collect());
-            self.move_triangles(&triangles, delta);
+            self.move_triangles(&triangles, delta, origin);
             return true;
         };
         let start = Instant::now();
@@ -223,14 +282,25 @@ impl State {
             let Some(current) = current else {
                 return false;
             };
-            transform = glam::Affine3A::from_translation(delta) * current;
+            transform = match origin.and_then(|o| o.transform) {
+                Some(t) => t,
+                None => glam::Affine3A::from_translation(delta) * current,
+            };
             let ok = structure
                 .move_instance(object, transform)
                 .is_some_and(|r| r.is_ok());
             if ok {
-                for t in &mut scene.triangles[range.clone()] {
-                    for v in &mut t.v {
-                        *v += delta;
+                let triangles = &mut scene.triangles[range.clone()];
+                match origin {
+                    Some(o) if o.triangles.len() == triangles.len() => {
+                        triangles.copy_from_slice(&o.triangles)
+                    }
+                    _ => {
+                        for t in triangles {
+                            for v in &mut t.v {
+                                *v += delta;
+                            }
+                        }
                     }
                 }
             }
@@ -239,7 +309,11 @@ impl State {
             let Some(i) = scene.instance_of_object(object) else {
                 return false;
             };
-            match scene.translate_instance(i, delta) {
+            let placed = match origin.and_then(|o| o.transform) {
+                Some(t) => scene.transform_instance(i, t),
+                None => scene.translate_instance(i, delta),
+            };
+            match placed {
                 Ok(placed) => {
                     transform = placed.transform;
                     let ok =

@@ -12,6 +12,7 @@ use crate::accel::sah_check::SahPrediction;
 use crate::accel::split_costs::SplitCosts;
 use crate::accel::structure::{self, Structure, StructureError, StructureParams};
 use crate::accel::two_level::{InstanceOutline, ReferenceLocator};
+use crate::geometry::Triangle;
 use crate::render::Frame;
 use crate::scene::{Camera, Scene};
 use glam::Vec3;
@@ -124,11 +125,20 @@ pub(in crate::app) struct SplitCostsKey {
     pub(in crate::app) params: StructureParams,
 }
 
-/// One move, as undo replays it backwards.
+/// One move, as undo replays it backwards: by −delta, except the first move of a drag,
+/// which puts back the positions from before it (`Origin`), so undo ends bit for bit where
+/// the drag started and not within rounding of it.
 #[derive(Clone)]
 pub(in crate::app) enum Motion {
-    Triangles(Arc<Vec<u32>>, Vec3),
-    Object(usize, Vec3),
+    Triangles(Arc<Vec<u32>>, Vec3, Option<Arc<Origin>>),
+    Object(usize, Vec3, Option<Arc<Origin>>),
+}
+
+/// Where a drag started: the moved triangles' positions and, for an instance, its
+/// transform.
+pub(in crate::app) struct Origin {
+    pub(in crate::app) triangles: Vec<Triangle>,
+    pub(in crate::app) transform: Option<glam::Affine3A>,
 }
 
 /// Random lines for the SAH's prediction of each build: a mean within about a per cent,
@@ -229,12 +239,15 @@ impl State {
                 }
             }
             Command::Move { triangles, delta } => {
-                self.move_triangles(&triangles, delta);
-                self.gesture.push(Motion::Triangles(triangles, delta));
+                let origin = self.origin_of_triangles(&triangles);
+                self.move_triangles(&triangles, delta, None);
+                self.gesture
+                    .push(Motion::Triangles(triangles, delta, origin));
             }
             Command::MoveObject { object, delta } => {
-                if self.move_object(object, delta) {
-                    self.gesture.push(Motion::Object(object, delta));
+                let origin = self.origin_of_object(object);
+                if self.move_object(object, delta, None) {
+                    self.gesture.push(Motion::Object(object, delta, origin));
                 }
             }
             Command::EndGesture => {
@@ -263,11 +276,11 @@ impl State {
                 self.undoing = true;
                 for motion in step.iter().rev() {
                     match motion {
-                        Motion::Triangles(triangles, delta) => {
-                            self.move_triangles(triangles, -*delta)
+                        Motion::Triangles(triangles, delta, origin) => {
+                            self.move_triangles(triangles, -*delta, origin.as_deref())
                         }
-                        Motion::Object(object, delta) => {
-                            self.move_object(*object, -*delta);
+                        Motion::Object(object, delta, origin) => {
+                            self.move_object(*object, -*delta, origin.as_deref());
                         }
                     }
                 }
