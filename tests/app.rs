@@ -737,7 +737,7 @@ fn the_stats_panel_says_counting_until_the_counted_pass_arrives() {
     use bvhlab::render::trace;
     use std::sync::Arc;
     let mut h = app("cornell");
-    assert!(h.query_by_label("primary mean / max").is_some());
+    assert!(h.query_by_label("per ray: mean / max").is_some());
     assert!(h.query_by_label("counting…").is_none());
     let (shown, scene) = {
         let app = h.state();
@@ -769,7 +769,7 @@ fn the_stats_panel_says_counting_until_the_counted_pass_arrives() {
         .handle_replies(&ctx, vec![Reply::Frame(Arc::new(first))]);
     h.run_steps(2);
     assert!(h.query_by_label("counting…").is_some());
-    assert!(h.query_by_label("primary mean / max").is_none());
+    assert!(h.query_by_label("per ray: mean / max").is_none());
     h.state_mut().handle_replies(
         &ctx,
         vec![Reply::Counted {
@@ -779,7 +779,7 @@ fn the_stats_panel_says_counting_until_the_counted_pass_arrives() {
     );
     h.run_steps(2);
     assert!(h.query_by_label("counting…").is_none());
-    assert!(h.query_by_label("primary mean / max").is_some());
+    assert!(h.query_by_label("per ray: mean / max").is_some());
     let now = h.state().shown.clone().unwrap();
     assert!(
         Arc::ptr_eq(&now.frame, &shown.frame),

@@ -80,7 +80,11 @@ fn digit_keys_open_presets_and_page_keys_step_through_them() {
     settle(&mut h);
     assert_eq!(h.state().lecture.current, Some(4));
     assert_eq!(h.state().panel_focus, None);
-    assert!(h.query_by_label("SAH predicted against measured").is_some());
+    let section = h.get_by_label("SAH predicted against measured").rect();
+    assert!(
+        section.top() >= 0.0 && section.bottom() <= 900.0,
+        "the section is in sight: {section:?}"
+    );
 }
 
 /// The steps meant to be compared with the step before them pin it as A.
@@ -318,4 +322,30 @@ fn a_comparing_preset_opened_at_launch_pins_its_a() {
     let mut h = common::app::open(1280.0, 720.0, launch);
     settle(&mut h);
     assert_eq!(h.state().pinned, expected);
+}
+
+/// A step about a section of the statistics opens with that section in sight, at the
+/// projector's 1280×720, even though the sections above it grow as the build and the
+/// counted frame arrive: step 5's "SAH predicted against measured", step 7's replay.
+#[test]
+fn a_step_opens_with_its_section_in_sight() {
+    let sequence = bvhlab::app::preset::Sequence::lecture();
+    for (index, heading) in [(4, "SAH predicted against measured"), (6, "Ray replay")] {
+        let launch = bvhlab::app::Launch {
+            scene: Some(sequence.presets[index].scene.clone()),
+            preset: Some((sequence.clone(), index)),
+            fresh: true,
+            ..Default::default()
+        };
+        let mut h = common::app::open(1280.0, 720.0, launch);
+        settle(&mut h);
+        h.run_steps(2);
+        assert_eq!(h.state().panel_focus, None, "step {}", index + 1);
+        let section = h.get_by_label(heading).rect();
+        assert!(
+            section.top() >= 0.0 && section.bottom() <= 720.0,
+            "step {}: {heading} in sight: {section:?}",
+            index + 1
+        );
+    }
 }

@@ -80,31 +80,29 @@ pub fn summary(app: &BvhLabApp, ui: &mut egui::Ui) {
     }
     for s in &compared.summaries {
         ui.strong(format!("{} ({})", s.counter.label(), s.rays.label()));
-        egui::Grid::new(("compare", s.counter.label(), s.rays.label()))
-            .num_columns(3)
-            .striped(true)
-            .show(ui, |ui| {
-                ui.label("");
-                ui.strong("total");
-                ui.strong("mean");
-                ui.end_row();
-                ui.label("A");
-                ui.label(s.total_a.to_string());
-                ui.label(format!("{:.2}", s.mean_a()));
-                ui.end_row();
-                ui.label("B");
-                ui.label(s.total_b.to_string());
-                ui.label(format!("{:.2}", s.mean_b()));
-                ui.end_row();
-                ui.label("B − A");
-                let change = s
-                    .percent_change()
-                    .map(|p| format!(" ({p:+.1} %)"))
-                    .unwrap_or_default();
-                ui.label(format!("{:+}{change}", s.total_difference()));
-                ui.label(format!("{:+.2}", s.mean_difference()));
-                ui.end_row();
-            });
+        let change = s
+            .percent_change()
+            .map(|p| format!(" ({p:+.1} %)"))
+            .unwrap_or_default();
+        let rows = vec![
+            (
+                "A".to_string(),
+                vec![s.total_a.to_string(), format!("{:.2}", s.mean_a())],
+            ),
+            (
+                "B".to_string(),
+                vec![s.total_b.to_string(), format!("{:.2}", s.mean_b())],
+            ),
+            (
+                "B − A".to_string(),
+                vec![
+                    format!("{:+}{change}", s.total_difference()),
+                    format!("{:+.2}", s.mean_difference()),
+                ],
+            ),
+        ];
+        let id = ("compare", s.counter.label(), s.rays.label());
+        crate::app::panels::table(ui, id, &["total", "mean"], rows);
         let [cheaper, equal, dearer] = s.shares().map(|x| 100.0 * x);
         ui.label(format!(
             "pixels cheaper under B {cheaper:.1} %, equal {equal:.1} %, dearer {dearer:.1} %"

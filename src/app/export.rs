@@ -79,7 +79,7 @@ fn short(spec: &str) -> String {
 
 /// The export buttons and the outcome of the last export.
 pub fn section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
-    ui.horizontal(|ui| {
+    ui.horizontal_wrapped(|ui| {
         let has_frame = app.shown.is_some();
         if ui
             .add_enabled(has_frame, egui::Button::new("Save view as PNG…"))

@@ -561,7 +561,7 @@ impl eframe::App for BvhLabApp {
         }
         let settled = self.settled();
         let action = match &mut self.screenshot {
-            Some(plan) => plan.step(settled, self.viewport_px, &ctx),
+            Some(plan) => plan.step(settled, self.panel_focus.is_some(), self.viewport_px, &ctx),
             None => screenshot::Action::None,
         };
         match action {

@@ -101,10 +101,20 @@ pub struct ScreenshotPlan {
     pub result: Outcome,
     stage: Stage,
     started: Instant,
+    /// Since when the app has been settled, waiting for a lecture step's section to be
+    /// scrolled into sight.
+    settled_since: Option<Instant>,
+    /// The section was still to be scrolled to at the last step: its scroll shows a frame
+    /// later.
+    focus_was_pending: bool,
 }
 
 /// A run that has not settled by then gives up with an error.
 const TIMEOUT: Duration = Duration::from_secs(180);
+
+/// How long a settled app may wait for the section a lecture step is about to appear
+/// (the SAH check's after the counted pass): a shot shows the panel as the step opens.
+const FOCUS_WAIT: Duration = Duration::from_secs(3);
 
 impl ScreenshotPlan {
     pub fn new(out: PathBuf, shot: Shot, width: u32, height: u32) -> Self {
@@ -124,6 +134,8 @@ impl ScreenshotPlan {
             result: Arc::new(Mutex::new(None)),
             stage: Stage::Settling,
             started: Instant::now(),
+            settled_since: None,
+            focus_was_pending: false,
         }
     }
 
@@ -170,10 +182,22 @@ impl ScreenshotPlan {
     /// Advances the plan; `settled` says the worker is idle and the full frame is shown.
     /// Returns, once, what the app is to do before the shot (the scripted drag of a refit
     /// shot, the replay of a replay shot).
-    pub fn step(&mut self, settled: bool, viewport: [u32; 2], ctx: &egui::Context) -> Action {
+    /// `focus_pending`: a lecture step's section has yet to be scrolled into sight.
+    pub fn step(
+        &mut self,
+        settled: bool,
+        focus_pending: bool,
+        viewport: [u32; 2],
+        ctx: &egui::Context,
+    ) -> Action {
         if self.started.elapsed() > TIMEOUT && self.stage != Stage::Closing {
             self.finish(Err(format!("the frame did not settle within {TIMEOUT:?}")));
         }
+        self.settled_since = settled.then(|| self.settled_since.unwrap_or_else(Instant::now));
+        let scrolled = !focus_pending && !self.focus_was_pending;
+        self.focus_was_pending = focus_pending;
+        let settled =
+            settled && (scrolled || self.settled_since.is_some_and(|t| t.elapsed() > FOCUS_WAIT));
         let mut action = Action::None;
         match self.stage {
             Stage::Settling if settled => {

@@ -78,22 +78,31 @@ fn scrolled(
     contents: fn(&mut BvhLabApp, &mut egui::Ui),
 ) {
     let width = ui.available_width();
-    let mut area = egui::ScrollArea::both().id_salt(salt);
+    // The panel keeps its width: text that wraps would let it shrink to its longest word.
+    let mut area = egui::ScrollArea::both()
+        .id_salt(salt)
+        .auto_shrink([false, false]);
     if app.panels_to_top {
         area = area.vertical_scroll_offset(0.0);
     }
     area.show(ui, |ui| {
         ui.set_max_width(width - SCROLL_BAR);
+        // Headings and labels wrap too: a sideways scroll area would let them run on.
+        ui.style_mut().wrap_mode = Some(egui::TextWrapMode::Wrap);
         contents(app, ui)
     });
 }
 
 /// Where a section of the stats panel starts: scrolled into sight if the lecture step
-/// that just opened is about it.
+/// that just opened is about it. Held there until the step has settled: the sections
+/// above it (the report, the counters) grow as the build and the counted frame arrive.
 pub(super) fn section_starts(app: &mut BvhLabApp, ui: &mut egui::Ui, section: Focus) {
     if app.panel_focus == Some(section) {
-        ui.scroll_to_cursor(Some(egui::Align::TOP));
-        app.panel_focus = None;
+        // At once: a step opens on its point, not on a glide to it.
+        ui.scroll_to_cursor_animation(Some(egui::Align::TOP), egui::style::ScrollAnimation::none());
+        if app.settled() {
+            app.panel_focus = None;
+        }
     }
 }
 

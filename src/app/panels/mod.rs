@@ -15,6 +15,7 @@ pub use help::help_window;
 pub use layout::{presentation_bar, presentation_text, side_panels};
 pub use legend::{legend, scale_bar};
 pub use stats::stats;
+pub(crate) use stats::table;
 pub use walk::Step;
 
 use crate::app::BvhLabApp;

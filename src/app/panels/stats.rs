@@ -56,32 +56,8 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 }
             })
             .collect();
-        // The visible width: inside a sideways scroll area the available one is unbounded.
-        if ui.clip_rect().width() < NARROW {
-            // A narrow panel (the view keeps its share of a small window): each row on
-            // one wrapped line, the name dimmed, rather than a value column squeezed to
-            // a letter.
-            for (k, v) in rows {
-                ui.horizontal_wrapped(|ui| {
-                    ui.label(egui::RichText::new(k).weak());
-                    ui.label(v);
-                });
-            }
-        } else {
-            // Long values (the island's re-braiding budget) wrap within their column
-            // instead of widening the panel and squeezing the view.
-            egui::Grid::new("report")
-                .num_columns(2)
-                .striped(true)
-                .max_col_width(REPORT_VALUE_WIDTH)
-                .show(ui, |ui| {
-                    for (k, v) in rows {
-                        ui.label(k);
-                        ui.add(egui::Label::new(v).wrap());
-                        ui.end_row();
-                    }
-                });
-        }
+        let rows = rows.into_iter().map(|(k, v)| (k, vec![v])).collect();
+        table(ui, "report", &[], rows);
     }
     if let Some(r) = &app.bvh_report {
         ui.label("leaf sizes");
@@ -149,35 +125,29 @@ pub fn stats(app: &mut BvhLabApp, ui: &mut egui::Ui) {
 
 /// The counted frame's mean and maximum of every counter, for both kinds of ray.
 pub(super) fn counter_grid(ui: &mut egui::Ui, s: &crate::render::FrameSummary) {
-    egui::Grid::new("counters")
-        .num_columns(3)
-        .striped(true)
-        .show(ui, |ui| {
-            ui.label("");
-            ui.strong("primary mean / max");
-            ui.strong("shadow mean / max");
-            ui.end_row();
-            let two_level =
-                s.counter(
-                    crate::render::RayKind::Primary,
-                    crate::accel::Counter::TopNodesVisited,
-                )
-                .max > 0;
-            for which in crate::accel::Counter::ALL {
-                if which.is_two_level() && !two_level {
-                    continue;
-                }
-                ui.label(which.label());
-                for rays in [
-                    crate::render::RayKind::Primary,
-                    crate::render::RayKind::Shadow,
-                ] {
-                    let c = s.counter(rays, which);
-                    ui.label(format!("{:.1} / {}", c.mean, c.max));
-                }
-                ui.end_row();
-            }
-        });
+    let two_level =
+        s.counter(
+            crate::render::RayKind::Primary,
+            crate::accel::Counter::TopNodesVisited,
+        )
+        .max > 0;
+    let rows = crate::accel::Counter::ALL
+        .into_iter()
+        .filter(|which| two_level || !which.is_two_level())
+        .map(|which| {
+            let of = |rays| {
+                let c = s.counter(rays, which);
+                format!("{:.1} / {}", c.mean, c.max)
+            };
+            let values = vec![
+                of(crate::render::RayKind::Primary),
+                of(crate::render::RayKind::Shadow),
+            ];
+            (which.label().to_string(), values)
+        })
+        .collect();
+    ui.label(egui::RichText::new("per ray: mean / max").weak());
+    table(ui, "counters", &["primary", "shadow"], rows);
 }
 
 /// The SAH's prediction against the cost per ray measured: on the random lines it assumes,
@@ -200,24 +170,68 @@ pub(super) fn sah_check_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     super::layout::section_starts(app, ui, Focus::SahCheck);
     ui.heading("SAH predicted against measured");
     ui.label("cost per ray: C_trav · nodes visited + C_isect · triangle tests");
-    egui::Grid::new("sah check")
-        .num_columns(3)
-        .striped(true)
-        .show(ui, |ui| {
-            let ratio = |x: f64| format!("{:.0} %", 100.0 * x / p.predicted.max(f64::MIN_POSITIVE));
-            ui.label("SAH cost (predicted)");
-            ui.label(format!("{:.2}", p.predicted));
-            ui.label("");
-            ui.end_row();
-            for (label, cost) in [
-                ("random lines through the box", p.random),
-                ("this frame's primary rays", measured(RayKind::Primary)),
-                ("this frame's shadow rays", measured(RayKind::Shadow)),
-            ] {
-                ui.label(label);
-                ui.label(format!("{cost:.2}"));
-                ui.label(ratio(cost));
-                ui.end_row();
-            }
-        });
+    let ratio = |x: f64| format!("{:.0} %", 100.0 * x / p.predicted.max(f64::MIN_POSITIVE));
+    let mut rows = vec![(
+        "SAH cost (predicted)".to_string(),
+        vec![format!("{:.2}", p.predicted)],
+    )];
+    for (label, cost) in [
+        ("random lines through the box", p.random),
+        ("this frame's primary rays", measured(RayKind::Primary)),
+        ("this frame's shadow rays", measured(RayKind::Shadow)),
+    ] {
+        rows.push((
+            label.into(),
+            vec![format!("{cost:.2} ({} of it)", ratio(cost))],
+        ));
+    }
+    table(ui, "sah check", &[], rows);
+}
+
+/// Rows of a name and its values under `header` (one heading per value column; none for
+/// a two-column table): a table, or in a narrow panel (the view keeps its share of a small
+/// window) each row on one wrapped line, the name dimmed and each value after its
+/// heading, rather than value columns squeezed to a letter or cut off at the panel's edge.
+pub(crate) fn table(
+    ui: &mut egui::Ui,
+    id: impl std::hash::Hash + std::fmt::Debug,
+    header: &[&str],
+    rows: Vec<(String, Vec<String>)>,
+) {
+    // The visible width: inside a sideways scroll area the available one is unbounded.
+    if ui.clip_rect().width() < NARROW {
+        for (k, values) in rows {
+            ui.horizontal_wrapped(|ui| {
+                ui.label(egui::RichText::new(k).weak());
+                let values = values.iter().enumerate().map(|(j, v)| match header.get(j) {
+                    Some(h) if !h.is_empty() => format!("{h} {v}"),
+                    _ => v.clone(),
+                });
+                ui.label(values.collect::<Vec<_>>().join(", "));
+            });
+        }
+    } else {
+        // Long values (the island's re-braiding budget) wrap within their column
+        // instead of widening the panel and squeezing the view.
+        egui::Grid::new(id)
+            .num_columns(1 + header.len().max(1))
+            .striped(true)
+            .max_col_width(REPORT_VALUE_WIDTH)
+            .show(ui, |ui| {
+                if !header.is_empty() {
+                    ui.label("");
+                    for h in header {
+                        ui.strong(*h);
+                    }
+                    ui.end_row();
+                }
+                for (k, values) in rows {
+                    ui.label(k);
+                    for v in values {
+                        ui.add(egui::Label::new(v).wrap());
+                    }
+                    ui.end_row();
+                }
+            });
+    }
 }
