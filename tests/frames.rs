@@ -423,3 +423,63 @@ fn a_newer_structure_abandons_the_build_in_flight() {
     assert_eq!(built, [AccelKind::Bvh.label()]);
     assert!(replies.iter().any(|r| matches!(r, Reply::Frame(_))));
 }
+
+/// A slow frame fills in tile by tile: after its coarse first image come pictures of the
+/// full size, each pixel either the coarse image's (enlarged) or the full frame's own, with
+/// more of the full frame in each; then the full frame itself.
+#[test]
+fn a_slow_frame_fills_in_tile_by_tile_over_its_coarse_image() {
+    let mut worker = Worker::spawn(|| {});
+    // Brute force over a thousand triangles: about a second for 640 × 360.
+    worker.send(Command::Build(StructureParams {
+        kind: AccelKind::BruteForce,
+        ..Default::default()
+    }));
+    let scene = load(&mut worker, "soup:1000");
+    let slow = RenderJob {
+        width: 640,
+        height: 360,
+        ..job(&scene, Mode::Shaded, false)
+    };
+    // The first full frame finds the trace slow; the next view is then streamed.
+    worker.send(Command::Render(slow.clone()));
+    worker.wait_idle(Duration::from_secs(120));
+    let mut moved = slow.clone();
+    moved.camera.eye += glam::Vec3::splat(0.01);
+    worker.send(Command::Render(moved.clone()));
+    let (frames, _) = frames_and_counts(worker.wait_idle(Duration::from_secs(120)));
+    let shown: Vec<_> = frames
+        .into_iter()
+        .filter_map(|r| match r {
+            Reply::Frame(f) => Some(f),
+            _ => None,
+        })
+        .collect();
+    let (coarse, rest) = shown.split_first().expect("frames");
+    assert!(
+        coarse.job.preview && coarse.job.width < moved.width,
+        "a coarse image first"
+    );
+    let (full, partial) = rest.split_last().expect("the full frame");
+    assert_eq!(full.job, moved, "the full frame last");
+    assert!(!partial.is_empty(), "pictures in between");
+    let pixel = |rgba: &[u8], i: usize| -> [u8; 4] { rgba[4 * i..4 * i + 4].try_into().unwrap() };
+    let (w, cw) = (moved.width as usize, coarse.job.width as usize);
+    let mut done = 0;
+    for p in partial {
+        assert!(p.job.preview && p.job.width == moved.width && p.job.height == moved.height);
+        let mut from_full = 0;
+        for i in 0..w * moved.height as usize {
+            let (x, y) = (i % w, i / w);
+            let c = (y * coarse.job.height as usize / moved.height as usize) * cw + x * cw / w;
+            let px = pixel(&p.rgba, i);
+            if px == pixel(&full.rgba, i) {
+                from_full += 1;
+            } else {
+                assert_eq!(px, pixel(&coarse.rgba, c), "pixel {i}: coarse or full");
+            }
+        }
+        assert!(from_full >= done, "the full frame only grows");
+        done = from_full;
+    }
+}

@@ -143,7 +143,40 @@ pub fn trace_unless<A: Accel, I: Intersector>(
     settings: &RenderSettings,
     stop: &(dyn Fn() -> bool + Sync),
 ) -> Option<Frame> {
-    trace_tiles::<A, I>(accel, scene, settings, settings.mode == Mode::Shaded, stop)
+    trace_tiles::<A, I>(
+        accel,
+        scene,
+        settings,
+        settings.mode == Mode::Shaded,
+        stop,
+        &|_| {},
+    )
+}
+
+/// A tile just traced: its first pixel, its samples and (for a shaded frame) its pixels.
+pub struct TileDone<'a> {
+    pub first_pixel: usize,
+    pub samples: &'a [Sample],
+    pub rgba: &'a [u8],
+}
+
+/// `trace_unless`, handing each tile to `done` as soon as it is traced: what the app shows
+/// of a slow frame while the rest is on its way.
+pub fn trace_streaming<A: Accel, I: Intersector>(
+    accel: &A,
+    scene: &Scene,
+    settings: &RenderSettings,
+    stop: &(dyn Fn() -> bool + Sync),
+    done: &(dyn Fn(TileDone) + Sync),
+) -> Option<Frame> {
+    trace_tiles::<A, I>(
+        accel,
+        scene,
+        settings,
+        settings.mode == Mode::Shaded,
+        stop,
+        done,
+    )
 }
 
 /// `trace_unless` without colouring (`rgba` stays empty): for a frame whose image is known
@@ -155,7 +188,7 @@ pub fn trace_uncoloured_unless<A: Accel, I: Intersector>(
     settings: &RenderSettings,
     stop: &(dyn Fn() -> bool + Sync),
 ) -> Option<Frame> {
-    trace_tiles::<A, I>(accel, scene, settings, false, stop)
+    trace_tiles::<A, I>(accel, scene, settings, false, stop, &|_| {})
 }
 
 /// The tiles of `trace_unless`, coloured as they are traced when `shaded`.
@@ -165,6 +198,7 @@ fn trace_tiles<A: Accel, I: Intersector>(
     settings: &RenderSettings,
     shaded: bool,
     stop: &(dyn Fn() -> bool + Sync),
+    done: &(dyn Fn(TileDone) + Sync),
 ) -> Option<Frame> {
     let (w, h) = (settings.width.max(1), settings.height.max(1));
     let rays = settings.camera.rays(w, h);
@@ -193,6 +227,11 @@ fn trace_tiles<A: Accel, I: Intersector>(
         for (px, s) in pixels.chunks_exact_mut(4).zip(out.iter()) {
             px.copy_from_slice(&shaded_color(s, srgb));
         }
+        done(TileDone {
+            first_pixel: tile * tile_pixels,
+            samples: out,
+            rgba: pixels,
+        });
         sums
     });
     let sums = sums.reduce(FrameSummary::default, FrameSummary::merged);
@@ -438,18 +477,9 @@ pub fn colorize_styled(
         })),
         _ => None,
     };
-    let background = to_rgba8(BACKGROUND);
     let srgb = Srgb8::tables();
-    let color = |s: &Sample| match mode {
-        Mode::Heatmap(c, r) => to_rgba8(style.color(s.counters(r).get(c), scale.unwrap_or(1), s)),
-        Mode::Shaded => shaded_color(s, srgb),
-        _ if !s.is_hit() => background,
-        Mode::Normals => to_rgba8(s.normal * 0.5 + 0.5),
-        Mode::Depth => {
-            let range = (t_far - t_near).max(f32::MIN_POSITIVE);
-            to_rgba8(Vec3::splat(1.0 - 0.85 * (s.t - t_near) / range))
-        }
-    };
+    let top = scale.unwrap_or(1);
+    let color = |s: &Sample| sample_color(s, mode, top, style, (t_near, t_far), srgb);
     // Written in place, a chunk of pixels per task (collecting a flat-mapped parallel
     // iterator builds and joins a list of vectors instead).
     const CHUNK: usize = 4096;
@@ -462,4 +492,46 @@ pub fn colorize_styled(
             }
         });
     (rgba, scale)
+}
+
+/// One sample's colour in `mode`: a heatmap's under the scale's top `top`, the depth's
+/// within the frame's range of hit distances `(t_near, t_far)`.
+fn sample_color(
+    s: &Sample,
+    mode: Mode,
+    top: u32,
+    style: &heat::HeatStyle,
+    (t_near, t_far): (f32, f32),
+    srgb: &Srgb8,
+) -> [u8; 4] {
+    match mode {
+        Mode::Heatmap(c, r) => to_rgba8(style.color(s.counters(r).get(c), top, s)),
+        Mode::Shaded => shaded_color(s, srgb),
+        _ if !s.is_hit() => to_rgba8(BACKGROUND),
+        Mode::Normals => to_rgba8(s.normal * 0.5 + 0.5),
+        Mode::Depth => {
+            let range = (t_far - t_near).max(f32::MIN_POSITIVE);
+            to_rgba8(Vec3::splat(1.0 - 0.85 * (s.t - t_near) / range))
+        }
+    }
+}
+
+/// Colours a tile of a frame still being traced into `out`, a heatmap under a scale top
+/// `top` known beforehand (the coarse first image's); false for the depth mode, whose
+/// colours need the whole frame's range.
+pub fn colorize_tile(
+    samples: &[Sample],
+    mode: Mode,
+    top: u32,
+    style: &heat::HeatStyle,
+    out: &mut [u8],
+) -> bool {
+    if mode == Mode::Depth {
+        return false;
+    }
+    let srgb = Srgb8::tables();
+    for (px, s) in out.chunks_exact_mut(4).zip(samples) {
+        px.copy_from_slice(&sample_color(s, mode, top, style, (0.0, 1.0), srgb));
+    }
+    true
 }

@@ -3,13 +3,14 @@
 
 use super::messages::*;
 use super::state::*;
+use super::streaming::Stream;
 use crate::accel::structure::{self, StructureParams};
 use crate::geometry::Watertight;
 use crate::render::compare::{compare_image, compared_counters, summarize};
 use crate::render::replay::{Replay, replay_pixel};
 use crate::render::{
-    Frame, Mode, RenderSettings, colorize_styled, tile_count, trace, trace_uncoloured_unless,
-    trace_unless,
+    Frame, Mode, RenderSettings, colorize_styled, tile_count, trace, trace_streaming,
+    trace_uncoloured_unless, trace_unless,
 };
 use std::time::Duration;
 
@@ -50,6 +51,7 @@ impl State {
         // its coarse stand-in).
         self.last_job = Some(job.clone());
         let large = job.width * job.height >= COARSE_MIN_PIXELS;
+        let mut coarse_shown = None;
         if !job.preview && large && self.slow_trace && self.cached(&job).is_none() {
             let coarse = RenderJob {
                 width: (job.width / COARSE).max(1),
@@ -57,12 +59,15 @@ impl State {
                 preview: true,
                 ..job.clone()
             };
-            if !self.render_now(coarse, seq) {
-                self.pending = Some(job);
-                return;
+            match self.render_now(coarse, seq, None) {
+                Some(shown) => coarse_shown = shown,
+                None => {
+                    self.pending = Some(job);
+                    return;
+                }
             }
         }
-        if !self.render_now(job.clone(), seq) {
+        if self.render_now(job.clone(), seq, coarse_shown).is_none() {
             self.pending = Some(job);
         }
     }
@@ -84,13 +89,20 @@ impl State {
         }
     }
 
-    /// `render`'s one frame; false if a newer command stopped its trace.
-    fn render_now(&mut self, job: RenderJob, seq: u64) -> bool {
+    /// `render`'s one frame: what it showed (if anything), or `None` if a newer command
+    /// stopped its trace. Over a coarse first image (`coarse`) its tiles are shown as they
+    /// are traced.
+    fn render_now(
+        &mut self,
+        job: RenderJob,
+        seq: u64,
+        coarse: Option<Arc<Shown>>,
+    ) -> Option<Option<Arc<Shown>>> {
         let light = self.light();
         let cached = self.cached(&job);
         let key = self.trace_key(&job);
         let (Some(scene), Some(structure)) = (&self.scene, &self.structure) else {
-            return true;
+            return Some(None);
         };
         let settings = Self::trace_settings(light, &job);
         let (frame, traced) = match cached {
@@ -106,10 +118,19 @@ impl State {
                     progress.0.fetch_add(1, Ordering::Relaxed);
                     latest.load(Ordering::Relaxed) > seq
                 };
-                let Some(f) = trace_unless::<_, Watertight>(structure, scene, &settings, &stop)
-                else {
-                    return false;
+                let stream = coarse.and_then(|c| Stream::new(c, &job, &self.replies, &*self.wake));
+                let traced = match &stream {
+                    Some(stream) => trace_streaming::<_, Watertight>(
+                        structure,
+                        scene,
+                        &settings,
+                        &stop,
+                        &|tile| stream.tile(tile),
+                    ),
+                    None => trace_unless::<_, Watertight>(structure, scene, &settings, &stop),
                 };
+                // Stopped for a newer command: nothing shown.
+                let f = traced?;
                 if !job.preview {
                     self.slow_trace = f.summary.trace_time > SLOW_FRAME;
                 }
@@ -142,7 +163,7 @@ impl State {
             self.fresh_outline();
         }
         let walk = self.draw_overlay(&frame, &mut rgba, &job);
-        self.reply(Reply::Frame(Arc::new(Shown {
+        let shown = Arc::new(Shown {
             job,
             rgba,
             heat_max,
@@ -152,8 +173,9 @@ impl State {
             image_time,
             compared,
             pinned_frame,
-        })));
-        true
+        });
+        self.reply(Reply::Frame(shown.clone()));
+        Some(Some(shown))
     }
 
     /// The scene's light, worked out again only when the scene changed (the standard

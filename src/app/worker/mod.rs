@@ -12,6 +12,7 @@ mod frames;
 pub mod messages;
 mod motion;
 pub(in crate::app) mod state;
+mod streaming;
 
 pub use messages::*;
 
@@ -45,7 +46,7 @@ pub struct Worker {
 
 impl Worker {
     /// Starts the thread; `wake` is called after each reply (the UI's repaint request).
-    pub fn spawn(wake: impl Fn() + Send + 'static) -> Self {
+    pub fn spawn(wake: impl Fn() + Send + Sync + 'static) -> Self {
         let (tx, commands) = channel();
         let (replies, rx) = channel();
         let progress = Arc::new((AtomicUsize::new(0), AtomicUsize::new(0)));

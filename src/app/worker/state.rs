@@ -48,7 +48,7 @@ pub(in crate::app) struct State {
     pub(in crate::app) applying: u64,
     /// The light (the scene's, or the standard one from its box) at `scene_version`.
     pub(in crate::app) light: Option<(u64, Vec3)>,
-    pub(in crate::app) wake: Box<dyn Fn() + Send>,
+    pub(in crate::app) wake: Box<dyn Fn() + Send + Sync>,
     pub(in crate::app) progress: Arc<(AtomicUsize, AtomicUsize)>,
     pub(in crate::app) trace_progress: Arc<(AtomicUsize, AtomicUsize)>,
     /// A frame given up for a newer command: traced once the commands are handled, unless
