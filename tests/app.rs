@@ -386,6 +386,26 @@ fn loading_a_bad_obj_shows_the_error_and_keeps_the_scene() {
     std::fs::remove_file(&path).ok();
 }
 
+/// What the loader skipped is said in the window too, not only on the command line, until
+/// dismissed.
+#[test]
+fn an_obj_loaded_with_warnings_says_so_in_the_window() {
+    let mut h = app("cornell");
+    let path = std::env::temp_dir().join(format!("bvhlab-warn-{}.obj", std::process::id()));
+    std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2\n").unwrap();
+    h.state_mut().load(path.display().to_string());
+    settle(&mut h);
+    let scene = h.state().scene.clone().expect("loaded");
+    assert_eq!(scene.triangles.len(), 1);
+    assert_eq!(scene.warnings.len(), 1, "{:?}", scene.warnings);
+    assert!(h.query_by_label("Loaded with warnings:").is_some());
+    assert!(h.query_by_label(&scene.warnings[0]).is_some());
+    h.get_by_label("Dismiss").click();
+    settle(&mut h);
+    assert!(h.query_by_label("Loaded with warnings:").is_none());
+    std::fs::remove_file(&path).ok();
+}
+
 /// A file dropped onto the window, as the windowing layer hands it to egui.
 #[derive(Debug)]
 struct DroppedPath(std::path::PathBuf);

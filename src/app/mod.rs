@@ -89,6 +89,8 @@ pub struct BvhLabApp {
     /// once at load: they count every instance, too much work for every frame.
     pub scene_rows: Vec<(String, String)>,
     pub load_error: Option<String>,
+    /// The scene's load warnings were dismissed (a new scene shows its own).
+    pub warnings_dismissed: bool,
     pub report: Option<StructureReport>,
     /// The BVH's own report (SAH cost, leaf sizes) when the structure is a BVH.
     pub bvh_report: Option<BuildReport>,
@@ -224,6 +226,7 @@ impl BvhLabApp {
             scene: None,
             scene_rows: Vec::new(),
             load_error: None,
+            warnings_dismissed: false,
             report: None,
             bvh_report: None,
             build_error: None,

@@ -31,6 +31,7 @@ impl BvhLabApp {
                         .collect();
                     self.scene = Some(scene);
                     self.load_error = None;
+                    self.warnings_dismissed = false;
                     self.selection = None;
                     self.selected_object = None;
                     self.moved_transforms.clear();

@@ -74,6 +74,10 @@ pub struct Scene {
     pub view: Option<Camera>,
     /// The scene's own point light, if it has one.
     pub light: Option<Vec3>,
+    /// What the loader skipped or could not use (faces of one or two corners, a material
+    /// library outside the file's folder), one line each: printed by the command line,
+    /// shown by the app.
+    pub warnings: Vec<String>,
     /// Which object owns a triangle (`object_of`), made at its first use.
     object_index: OnceLock<ObjectIndex>,
 }
@@ -89,6 +93,7 @@ impl Scene {
             instances: Vec::new(),
             view: None,
             light: None,
+            warnings: Vec::new(),
             object_index: OnceLock::new(),
         }
     }

@@ -88,7 +88,8 @@ pub(crate) fn parse_obj(
             path: path.to_path_buf(),
             reason: e.to_string(),
         })?;
-    for warning in warnings.into_inner() {
+    let warnings = warnings.into_inner();
+    for warning in &warnings {
         eprintln!("warning: {}: {warning}", path.display());
     }
     // Failures were reported above; tobj only repeats the last one here.
@@ -144,6 +145,7 @@ pub(crate) fn parse_obj(
             path: path.to_path_buf(),
         });
     }
+    scene.warnings = warnings;
     Ok(scene)
 }
 

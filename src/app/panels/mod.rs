@@ -45,12 +45,31 @@ pub fn controls(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         }
         ui.separator();
     }
+    load_warnings(app, ui);
     build_section(app, ui);
     view_section(app, ui);
     crate::app::compare::section(app, ui);
     levels::levels_section(app, ui);
     walk::walk_section(app, ui);
     refit::refit_section(app, ui);
+}
+
+/// What the loader of the scene shown skipped or could not use, until dismissed.
+fn load_warnings(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    let Some(scene) = app.scene.as_ref().filter(|s| !s.warnings.is_empty()) else {
+        return;
+    };
+    if app.warnings_dismissed {
+        return;
+    }
+    ui.colored_label(ui.visuals().warn_fg_color, "Loaded with warnings:");
+    for w in &scene.warnings {
+        ui.label(w);
+    }
+    if ui.button("Dismiss").clicked() {
+        app.warnings_dismissed = true;
+    }
+    ui.separator();
 }
 
 fn build_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
