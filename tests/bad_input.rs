@@ -134,7 +134,7 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
                 "-o",
                 "c.png",
             ],
-            "bucket count 1",
+            "--buckets <BUCKETS>': 1 is not in 2..=256",
         ),
         (
             &["screenshot", "--scene", "cornell", "--out", "shot.jpg"],
@@ -417,6 +417,32 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
             "at most 1000 repetitions",
         ),
         (&["render", "--compare", ""], "needs B's build flags"),
+        (
+            &["stress", "--quick", "--seed", "abc"],
+            "'abc' is not a whole number",
+        ),
+        (
+            &["bench", "scaling", "--scene", "soup", "--sizes", "1e3,2e3"],
+            "'1e3' is not a whole number",
+        ),
+        (
+            &["bench", "scaling", "--scene", "sphere", "--sizes", "1,2"],
+            "both make 6 triangles",
+        ),
+        (
+            &["render", "--max-leaf", "0"],
+            "'--max-leaf <MAX_LEAF>': 0 is not in 1..=4096",
+        ),
+        (
+            &["render", "--accel", "kdtree", "--kd-max-depth", "999"],
+            "'--kd-max-depth <KD_MAX_DEPTH>': 999 is not in 0..=64",
+        ),
+        (&["render", "--scene", "walls@30"], "as walls-rotated@30"),
+        (
+            &["stress", "--quick", "--scenes-dir", "/nonexistent"],
+            "has no sponza.obj",
+        ),
+        (&["frames", "--preset", ""], "no preset named"),
         (
             &["render", "--accel", "bvh8", "--compare", "--accel bvh8"],
             "changes nothing",

@@ -241,6 +241,20 @@ pub fn cost_rule(name: &str) -> &'static str {
     }
 }
 
+/// The CLI's parser of a whole-number parameter within `lo..=hi`: it names the flag (clap
+/// adds it) and says plainly what is wrong, where the library's own check (for presets and
+/// the app) names the quantity.
+pub fn whole_in(lo: u32, hi: u32) -> impl Fn(&str) -> Result<u32, String> + Clone + Send + Sync {
+    move |text| match text.parse::<u32>() {
+        Ok(n) if (lo..=hi).contains(&n) => Ok(n),
+        Ok(n) => Err(format!("{n} is not in {lo}..={hi}")),
+        Err(_) if !text.is_empty() && text.bytes().all(|b| b.is_ascii_digit()) => {
+            Err(format!("{text} is not in {lo}..={hi}"))
+        }
+        Err(_) => Err(format!("'{text}' is not a whole number")),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

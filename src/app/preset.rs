@@ -173,6 +173,14 @@ impl Sequence {
     /// `lecture`, `lecture:N`, `FILE` or `FILE:N` (N counted from 1): the sequence and the
     /// index of the preset named.
     pub fn open(spec: &str) -> Result<(Sequence, usize), PresetError> {
+        if spec.trim().is_empty() {
+            return Err(PresetError {
+                origin: "the preset".into(),
+                message: format!(
+                    "no preset named: give `{LECTURE}`, `{LECTURE}:N`, a preset file or FILE:N"
+                ),
+            });
+        }
         let (name, step) = match spec.rsplit_once(':') {
             Some((name, n)) if n.parse::<usize>().is_ok() && !Path::new(spec).exists() => {
                 (name, n.parse::<usize>().ok())

@@ -50,6 +50,14 @@ pub enum ScalingError {
     Empty,
     #[error("size {0} is given twice in --sizes")]
     Duplicate(usize),
+    #[error(
+        "sizes {} and {} of sphere both make {triangles} triangles (it fills its last ring): \
+         give sizes further apart", sizes.0, sizes.1
+    )]
+    SameScene {
+        sizes: (usize, usize),
+        triangles: usize,
+    },
     #[error(transparent)]
     Scene(#[from] SceneError),
     #[error(transparent)]
@@ -179,6 +187,18 @@ pub fn plan_sizes(
     }
     out.sort_unstable();
     out.dedup();
+    // The sphere rounds up to fill its last ring: two sizes may make one scene.
+    if scene == "sphere"
+        && let Some(w) = out.windows(2).find(|w| {
+            crate::scene::builtin::sphere_triangles(w[0])
+                == crate::scene::builtin::sphere_triangles(w[1])
+        })
+    {
+        return Err(ScalingError::SameScene {
+            sizes: (w[0], w[1]),
+            triangles: crate::scene::builtin::sphere_triangles(w[0]),
+        });
+    }
     Ok((out, note))
 }
 
@@ -458,5 +478,20 @@ mod tests {
             plan_sizes("soup", &[800, 200, 800]),
             Err(ScalingError::Duplicate(800))
         ));
+        // Two sizes the sphere rounds to one scene; sizes it tells apart pass.
+        assert!(matches!(
+            plan_sizes("sphere", &[1, 2]),
+            Err(ScalingError::SameScene { triangles: 6, .. })
+        ));
+        assert!(plan_sizes("sphere", &[1000, 2000]).is_ok());
+        for n in [1, 7, 1000, 20_000] {
+            assert_eq!(
+                crate::scene::builtin::sphere_triangles(n),
+                crate::scene::Scene::load(&format!("sphere:{n}"))
+                    .unwrap()
+                    .triangles
+                    .len()
+            );
+        }
     }
 }

@@ -304,8 +304,16 @@ pub fn repeats<T: std::str::FromStr + PartialEq + From<u8> + TryFrom<u32> + Part
 /// A count that must be at least 1 (`--builds`, `--runs`, ray counts): 0 would measure
 /// or test nothing and report it as if it had.
 pub fn at_least_one<T: std::str::FromStr + PartialEq + From<u8>>(text: &str) -> Result<T, String> {
+    match whole_number::<T>(text)? {
+        n if n == T::from(0) => Err("must be at least 1".into()),
+        n => Ok(n),
+    }
+}
+
+/// A whole number (`--seed`, `--sizes`), said plainly when it is not one or is too large,
+/// rather than as the parser's "invalid digit found in string".
+pub fn whole_number<T: std::str::FromStr>(text: &str) -> Result<T, String> {
     match text.parse::<T>() {
-        Ok(n) if n == T::from(0) => Err("must be at least 1".into()),
         Ok(n) => Ok(n),
         // A whole number too large for the count (u64::MAX and beyond).
         Err(_) if !text.is_empty() && text.bytes().all(|b| b.is_ascii_digit()) => {

@@ -50,7 +50,7 @@ pub struct StressArgs {
     /// Rays per scene for each scene part (at least 1).
     #[arg(long, value_parser = crate::cli::at_least_one::<usize>)]
     pub scene_rays: Option<usize>,
-    #[arg(long)]
+    #[arg(long, value_parser = crate::cli::whole_number::<u64>)]
     pub seed: Option<u64>,
     /// Worker threads, at most 4 × the cores (default: all cores).
     #[arg(long, value_parser = crate::cli::parse_threads)]
@@ -105,6 +105,14 @@ pub fn run(args: StressArgs) -> Result<()> {
             .clone()
             .or_else(|| std::env::var_os("BVHLAB_SCENES").map(PathBuf::from));
         if let Some(dir) = dir {
+            // Said before any scene is made: a wrong folder is found at once.
+            if let Some(missing) = SHARED.iter().find(|f| !dir.join(f).is_file()) {
+                anyhow::bail!(
+                    "the scenes folder {} has no {missing} (it should hold {})",
+                    dir.display(),
+                    SHARED.join(", ")
+                );
+            }
             specs.extend(SHARED.iter().map(|f| dir.join(f).display().to_string()));
         }
     }

@@ -500,10 +500,21 @@ fn soup(n: usize) -> Scene {
 /// filled, adding under 2√n). The vertices are computed once and shared, the poles are single
 /// vertices and the seam reuses the first column, so neighbouring triangles meet at
 /// bit-identical corners: no ray can slip between them.
-fn sphere(n: usize) -> Scene {
-    // 2 × slices × (stacks − 1) triangles, with about twice as many slices as stacks.
+/// The sphere's stacks and slices for about `n` triangles: 2 × slices × (stacks − 1), with
+/// about twice as many slices as stacks.
+fn sphere_grid(n: usize) -> (usize, usize) {
     let stacks = ((n as f64 / 4.0).sqrt().ceil() as usize).max(2);
-    let slices = n.div_ceil(2 * (stacks - 1)).max(3);
+    (stacks, n.div_ceil(2 * (stacks - 1)).max(3))
+}
+
+/// How many triangles `sphere:N` has (it fills its last ring), without making it.
+pub fn sphere_triangles(n: usize) -> usize {
+    let (stacks, slices) = sphere_grid(n);
+    2 * slices * (stacks - 1)
+}
+
+fn sphere(n: usize) -> Scene {
+    let (stacks, slices) = sphere_grid(n);
     let mut rings = Vec::with_capacity((stacks - 1) * slices);
     for i in 1..stacks {
         let polar = PI * i as f32 / stacks as f32;

@@ -448,9 +448,17 @@ impl Scene {
         {
             load_obj(path)?
         } else {
+            // `NAME@…` is only the turned walls' angle.
+            let known = match spec.split_once('@') {
+                Some((name, angle)) if name != "walls-rotated" => format!(
+                    "{}; '@' gives an angle only to walls-rotated, as walls-rotated@{angle}",
+                    builtin::NAMES.join(", ")
+                ),
+                _ => builtin::NAMES.join(", "),
+            };
             return Err(SceneError::UnknownScene {
                 name: spec.to_string(),
-                known: builtin::NAMES.join(", "),
+                known,
             });
         };
         scene.check_range(spec)?;

@@ -66,12 +66,12 @@ pub struct KdParams {
     pub empty_bonus: f32,
     /// k-d tree: depth bound (0 = 8 + 1.3·log2 N, as pbrt; at most 64).
     #[serde(rename = "kd_max_depth")]
-    #[arg(id = "kd_max_depth", long = "kd-max-depth", value_name = "KD_MAX_DEPTH", default_value_t = KdParams::default().max_depth)]
+    #[arg(id = "kd_max_depth", long = "kd-max-depth", value_name = "KD_MAX_DEPTH", default_value_t = KdParams::default().max_depth, value_parser = crate::accel::params::whole_in(0, MAX_DEPTH))]
     #[param(label = "depth bound (0: 8 + 1.3 log2 N)", range = 0..=MAX_DEPTH)]
     pub max_depth: u32,
     /// k-d tree: nodes with this many references or fewer become leaves.
     #[serde(rename = "kd_max_leaf_size")]
-    #[arg(id = "kd_max_leaf_size", long = "kd-max-leaf", value_name = "KD_MAX_LEAF", default_value_t = KdParams::default().max_leaf_size)]
+    #[arg(id = "kd_max_leaf_size", long = "kd-max-leaf", value_name = "KD_MAX_LEAF", default_value_t = KdParams::default().max_leaf_size, value_parser = crate::accel::params::whole_in(1, MAX_LEAF_SIZE))]
     #[param(label = "max leaf size", range = 1..=64)]
     pub max_leaf_size: u32,
     /// k-d tree: split candidates from B bins per axis instead of the exact event sweep

@@ -40,12 +40,12 @@ pub const MAX_REFERENCES_PER_TRIANGLE: usize = 16;
 pub struct OctreeParams {
     /// Octree: a cell holding more triangles than this is split (1..=65536).
     #[serde(rename = "octree_max_leaf_size")]
-    #[arg(id = "octree_max_leaf_size", long = "octree-max-leaf", value_name = "OCTREE_MAX_LEAF", default_value_t = OctreeParams::default().max_leaf_size)]
+    #[arg(id = "octree_max_leaf_size", long = "octree-max-leaf", value_name = "OCTREE_MAX_LEAF", default_value_t = OctreeParams::default().max_leaf_size, value_parser = crate::accel::params::whole_in(1, MAX_LEAF_SIZE))]
     #[param(label = "max leaf size", range = 1..=64)]
     pub max_leaf_size: u32,
     /// Octree: cells at this depth are not split (0..=16; the root is depth 0).
     #[serde(rename = "octree_max_depth")]
-    #[arg(id = "octree_max_depth", long = "octree-max-depth", value_name = "OCTREE_MAX_DEPTH", default_value_t = OctreeParams::default().max_depth)]
+    #[arg(id = "octree_max_depth", long = "octree-max-depth", value_name = "OCTREE_MAX_DEPTH", default_value_t = OctreeParams::default().max_depth, value_parser = crate::accel::params::whole_in(0, MAX_DEPTH))]
     #[param(label = "max depth", range = 0..=MAX_DEPTH)]
     pub max_depth: u32,
     /// Skip triangles the ray has tested already (they are listed in every cell they

@@ -111,7 +111,7 @@ pub enum Study {
         files: StudyFiles,
         /// The triangle counts, comma-separated (default:
         /// 1000,3000,10000,30000,100000,300000,1000000).
-        #[arg(long, value_delimiter = ',')]
+        #[arg(long, value_delimiter = ',', value_parser = crate::cli::whole_number::<usize>)]
         sizes: Option<Vec<usize>>,
     },
     /// Every BVH builder (object median, spatial median, full-sweep SAH, binned SAH, LBVH,

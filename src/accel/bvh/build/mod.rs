@@ -127,11 +127,11 @@ pub struct BuildParams {
     #[param(label = "split strategy")]
     pub strategy: Strategy,
     /// Bucket count B for binned SAH and the SBVH (2..=256).
-    #[arg(long, default_value_t = BuildParams::default().buckets)]
+    #[arg(long, default_value_t = BuildParams::default().buckets, value_parser = crate::accel::params::whole_in(MIN_BUCKETS, MAX_BUCKETS))]
     #[param(label = "buckets B", range = MIN_BUCKETS..=MAX_BUCKETS, log, when = Self::uses_buckets)]
     pub buckets: u32,
     /// Maximum number of triangles in a leaf (1..=4096).
-    #[arg(long = "max-leaf", value_name = "MAX_LEAF", default_value_t = BuildParams::default().max_leaf_size)]
+    #[arg(long = "max-leaf", value_name = "MAX_LEAF", default_value_t = BuildParams::default().max_leaf_size, value_parser = crate::accel::params::whole_in(1, MAX_LEAF_SIZE))]
     #[param(label = "max leaf size", range = 1..=64)]
     pub max_leaf_size: u32,
     /// SAH cost of a traversal step (a node visit with its box tests).
