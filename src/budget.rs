@@ -7,6 +7,7 @@
 //! growing until the system kills it.
 
 use std::sync::Mutex;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// Bytes per pixel of a rendered frame: colour (4), the sample behind it (about 48) and
 /// the per-pixel counters, with the renderer's tiles and the PNG's copy. Measured: 112 at
@@ -86,14 +87,45 @@ pub fn limit() -> u64 {
     current().bytes
 }
 
-/// Whether `bytes` for `what` (said as "an image of 16384×16384 pixels") fit the limit.
+/// Bytes held by what is loaded and built so far (`hold`): a later check counts them, so
+/// a scene, its structure and the image traced over them fit the limit together, not
+/// each alone.
+static HELD: AtomicU64 = AtomicU64::new(0);
+
+/// Memory a front end keeps while it works (a loaded scene and its structure), counted
+/// by every check until it is dropped.
+#[must_use = "the bytes are held only while this lives"]
+pub struct Held(u64);
+
+impl Drop for Held {
+    fn drop(&mut self) {
+        HELD.fetch_sub(self.0, Ordering::Relaxed);
+    }
+}
+
+/// Counts `bytes` as held until the answer is dropped.
+pub fn hold(bytes: u64) -> Held {
+    HELD.fetch_add(bytes, Ordering::Relaxed);
+    Held(bytes)
+}
+
+/// Whether `bytes` for `what` (said as "an image of 16384×16384 pixels") fit the limit
+/// beside what is held already.
 pub fn check(what: impl Into<String>, bytes: u64) -> Result<(), BudgetError> {
     let limit = current();
-    if bytes <= limit.bytes {
+    let held = HELD.load(Ordering::Relaxed);
+    if bytes.saturating_add(held) <= limit.bytes {
         return Ok(());
     }
+    // Said when it is what is held that tips it over.
+    let mut what = what.into();
+    let mut bytes = bytes;
+    if bytes <= limit.bytes {
+        what += &format!(" with the scene and its structure ({} of it)", gib(held));
+        bytes += held;
+    }
     Err(BudgetError {
-        what: what.into(),
+        what,
         bytes,
         limit: limit.bytes,
         origin: limit.origin,

@@ -444,6 +444,20 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
         ),
         (&["frames", "--preset", ""], "no preset named"),
         (
+            &[
+                "--memory-limit",
+                "125M",
+                "render",
+                "--scene",
+                "soup:300000",
+                "--width",
+                "1000",
+                "--height",
+                "1000",
+            ],
+            "with the scene and its structure",
+        ),
+        (
             &["render", "--accel", "bvh8", "--compare", "--accel bvh8"],
             "changes nothing",
         ),

@@ -96,6 +96,9 @@ pub fn run(
     let trace = |name: &str, args: &BuildArgs| -> Result<Frame> {
         eprint!("{name}: ");
         let built = args.build_to_trace(scene)?;
+        // Both frames are kept: they must fit beside the scene and this structure.
+        let _held = super::hold_loaded(scene, Some(&built.structure));
+        super::check_size(settings.width, settings.height, 2)?;
         Ok(with_intersector!(intersector, I =>
             bvhlab::render::trace_with::<_, I>(&built.structure, scene, settings)))
     };

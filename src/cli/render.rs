@@ -147,6 +147,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
         );
     }
     let built = args.build.build_to_trace(&scene)?;
+    // The image is traced beside the scene and its structure: all three must fit.
+    let _held = super::hold_loaded(&scene, Some(&built.structure));
+    check_size(args.width, args.height, 1)?;
     let frame = with_intersector!(kind, I => render::render_with::<_, I>(&built.structure, &scene, &settings));
     let out = out_or_default("");
     frame.save_png(&out)?;

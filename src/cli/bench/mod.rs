@@ -272,14 +272,17 @@ fn run_settings(args: BenchArgs) -> Result<()> {
     } else {
         (args.width.unwrap_or(1024), args.height.unwrap_or(768))
     };
+    let ray_sets = || {
+        bvhlab::budget::check(
+            format!("the ray sets of {width}×{height} pixels"),
+            bvhlab::budget::times(
+                width as u64 * height as u64,
+                bvhlab::budget::RAY_SETS_BYTES_PER_PIXEL,
+            ),
+        )
+    };
     check_size(width, height, 1)?;
-    bvhlab::budget::check(
-        format!("the ray sets of {width}×{height} pixels"),
-        bvhlab::budget::times(
-            width as u64 * height as u64,
-            bvhlab::budget::RAY_SETS_BYTES_PER_PIXEL,
-        ),
-    )?;
+    ray_sets()?;
     let peers = args.embree || args.embree_robust;
     if peers && !bench::EMBREE_AVAILABLE {
         anyhow::bail!(bench::EMBREE_MISSING);
@@ -311,6 +314,10 @@ fn run_settings(args: BenchArgs) -> Result<()> {
     let load_start = std::time::Instant::now();
     let scene = load_scene(&args.scene)?;
     let load_time = load_start.elapsed();
+    // The rays are made beside the scene: both must fit (the structure's own estimate is
+    // checked beside them as it is built).
+    let _held = super::hold_loaded(&scene, None);
+    ray_sets()?;
     // The builders and the accuracy study compare BVH2 builds (the builders, or their wide
     // collapses with --accel bvh4 or bvh8); the ray sets are traced with
     // the fastest layout unless --accel names one.
