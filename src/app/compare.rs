@@ -30,7 +30,7 @@ pub fn section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             Some(pinned) => {
                 ui.label(format!("A: {}", pinned.label()));
                 ui.label(format!("B: {}", app.settings.structure.label()));
-                ui.horizontal(|ui| {
+                ui.horizontal_wrapped(|ui| {
                     if ui.button("Pin B as A").clicked() {
                         app.pin();
                     }
@@ -39,7 +39,7 @@ pub fn section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                     }
                 });
                 let heatmap = app.settings.mode.is_heatmap();
-                ui.horizontal(|ui| {
+                ui.horizontal_wrapped(|ui| {
                     for view in CompareView::ALL {
                         let enabled = heatmap || view != CompareView::Difference;
                         ui.add_enabled_ui(enabled, |ui| {

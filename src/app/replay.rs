@@ -155,7 +155,7 @@ pub fn section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     };
     ui.label(format!("pixel ({x}, {y}): {kind}"));
     let mut go = None;
-    ui.horizontal(|ui| {
+    ui.horizontal_wrapped(|ui| {
         for (label, g, hover) in [
             ("first visit", Go::First, "Home"),
             ("previous visit", Go::Previous, "Left arrow"),

@@ -21,7 +21,7 @@ pub(super) fn levels_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             let s = &mut app.settings;
             ui.checkbox(&mut s.show_levels, "show the boxes or cells of one level");
             ui.add_enabled_ui(s.show_levels, |ui| {
-                ui.horizontal(|ui| {
+                ui.horizontal_wrapped(|ui| {
                     if ui.button("< previous").clicked() {
                         s.level = s.level.saturating_sub(1);
                     }
@@ -31,7 +31,7 @@ pub(super) fn levels_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 });
                 ui.add(egui::Slider::new(&mut s.level, 0..=max).text("depth"));
                 ui.checkbox(&mut s.see_through, "see through surfaces");
-                ui.horizontal(|ui| {
+                ui.horizontal_wrapped(|ui| {
                     ui.label("colour by");
                     ui.radio_value(&mut s.color_by_node, false, "depth");
                     ui.radio_value(&mut s.color_by_node, true, "node");
@@ -74,7 +74,7 @@ pub(super) fn selected_instance(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     let current = app.instance_outline.as_ref().map(|i| i.instance);
     let mut chosen = current.unwrap_or(0);
     let mut send = None;
-    ui.horizontal(|ui| {
+    ui.horizontal_wrapped(|ui| {
         let label = ui.label("selected instance").id;
         let max = count.unwrap_or(1).saturating_sub(1);
         if ui

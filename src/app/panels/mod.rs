@@ -110,7 +110,7 @@ fn view_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 ui.checkbox(&mut s.shadow_rays, "count shadow rays (instead of primary)");
                 heat_style(ui, &mut s.heat_style, s.heat_max.is_some());
                 let mut fixed = s.heat_max.is_some();
-                ui.horizontal(|ui| {
+                ui.horizontal_wrapped(|ui| {
                     let label = ui.checkbox(&mut fixed, "fixed scale maximum").id;
                     let shown_max = app.shown.as_ref().and_then(|f| f.heat_max).unwrap_or(100);
                     match (fixed, &mut s.heat_max) {
@@ -133,7 +133,7 @@ fn view_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
 /// the shaded scene under it.
 fn heat_style(ui: &mut egui::Ui, style: &mut crate::render::heat::HeatStyle, fixed: bool) {
     use crate::render::heat::HeatCurve;
-    ui.horizontal(|ui| {
+    ui.horizontal_wrapped(|ui| {
         ui.label("scale");
         for curve in HeatCurve::ALL {
             ui.selectable_value(&mut style.curve, curve, curve.label());

@@ -22,7 +22,7 @@ pub(super) fn refit_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                     .map_or("?".to_string(), |o| scene.objects[o].name.clone());
                 ui.label(format!("selected: triangle {t} of '{object}'"));
             }
-            ui.horizontal(|ui| {
+            ui.horizontal_wrapped(|ui| {
                 if ui.button("Undo move (Ctrl+Z)").clicked() {
                     app.undo();
                 }
@@ -31,7 +31,7 @@ pub(super) fn refit_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 }
             });
             let mut auto = app.settings.auto_rebuild_percent.is_some();
-            ui.horizontal(|ui| {
+            ui.horizontal_wrapped(|ui| {
                 let label = ui.checkbox(&mut auto, "rebuild when SAH cost grows by").id;
                 let mut p = app.settings.auto_rebuild_percent.unwrap_or(25.0);
                 ui.add_enabled(

@@ -14,7 +14,7 @@ pub(super) fn walk_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             if app.walk.is_none() {
                 return;
             }
-            ui.horizontal(|ui| {
+            ui.horizontal_wrapped(|ui| {
                 if ui.button("parent (Up)").clicked() {
                     app.walk_to(Step::Parent);
                 }
@@ -82,7 +82,7 @@ pub(super) fn walk_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                     ui.end_row();
                 });
                 if info.children.len() == 2 {
-                    ui.horizontal(|ui| {
+                    ui.horizontal_wrapped(|ui| {
                         ui.colored_label(egui::Color32::from_rgb(255, 140, 40), "first child");
                         ui.colored_label(egui::Color32::from_rgb(60, 170, 255), "second child");
                     });
