@@ -727,6 +727,12 @@ pub fn run(launch: Launch) -> anyhow::Result<()> {
         .screenshot
         .as_ref()
         .map_or([1400.0, 860.0], |p| [p.width as f32, p.height as f32]);
+    // A screenshot keeps nothing of earlier sessions: eframe restores a saved window's
+    // size even with `persist_window` off, so it gets a storage file of its own, removed after.
+    let shot_storage = launch
+        .screenshot
+        .as_ref()
+        .map(|_| std::env::temp_dir().join(format!("bvhlab-shot-{}.ron", std::process::id())));
     let options = eframe::NativeOptions {
         renderer: eframe::Renderer::Wgpu,
         viewport: egui::ViewportBuilder::default()
@@ -734,6 +740,7 @@ pub fn run(launch: Launch) -> anyhow::Result<()> {
             .with_inner_size(size)
             .with_drag_and_drop(true),
         persist_window: launch.screenshot.is_none(),
+        persistence_path: shot_storage.clone(),
         ..Default::default()
     };
     let result = launch.screenshot.as_ref().map(|p| p.result.clone());
@@ -743,6 +750,9 @@ pub fn run(launch: Launch) -> anyhow::Result<()> {
         Box::new(move |cc| Ok(Box::new(BvhLabApp::new(cc, launch)))),
     );
     let _ = std::fs::remove_dir_all(&runtime_dir);
+    if let Some(file) = &shot_storage {
+        let _ = std::fs::remove_file(file);
+    }
     ran.map_err(|e| anyhow::anyhow!("cannot open the window: {e}"))?;
     if let Some(result) = result {
         let outcome = result.lock().map(|r| r.clone()).unwrap_or(None);

@@ -143,14 +143,7 @@ pub fn trace_unless<A: Accel, I: Intersector>(
     settings: &RenderSettings,
     stop: &(dyn Fn() -> bool + Sync),
 ) -> Option<Frame> {
-    trace_tiles::<A, I>(
-        accel,
-        scene,
-        settings,
-        settings.mode == Mode::Shaded,
-        stop,
-        &|_| {},
-    )
+    trace_streaming::<A, I>(accel, scene, settings, stop, &|_| {})
 }
 
 /// A tile just traced: its first pixel, its samples and (for a shaded frame) its pixels.
