@@ -121,7 +121,7 @@ pub fn check(what: impl Into<String>, bytes: u64) -> Result<(), BudgetError> {
     let mut what = what.into();
     let mut bytes = bytes;
     if bytes <= limit.bytes {
-        what += &format!(" with the scene and its structure ({} of it)", gib(held));
+        what += &format!(" with what is loaded already ({} of it)", gib(held));
         bytes += held;
     }
     Err(BudgetError {

@@ -455,7 +455,7 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
                 "--height",
                 "1000",
             ],
-            "with the scene and its structure",
+            "with what is loaded already",
         ),
         (
             &["render", "--accel", "bvh8", "--compare", "--accel bvh8"],
@@ -535,6 +535,12 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
         err.contains("1 face of fewer than three vertices skipped") && err.contains("line 5"),
         "{err}"
     );
+    // A scene of zero-area triangles loads, and says nothing can hit it.
+    std::fs::write(dir.join("flat.obj"), "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n").unwrap();
+    let out = bvhlab(&dir, &["stats", "--scene", "flat.obj"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("all 1 triangles have zero area"), "{err}");
     std::fs::write(dir.join("good.bin"), rayfile::encode_rays(&rays[..1])).unwrap();
     let out = bvhlab(
         &dir,

@@ -210,6 +210,20 @@ fn bad_files_say_what_is_wrong() {
     assert!(top.contains("mood"), "{top}");
     let range = error_of("title = \"A\"\nscene = \"cornell\"\n[settings]\nbuckets = 1\n");
     assert!(range.contains("bucket count 1"), "{range}");
+    // Where it is written: the line of the setting, in the preset that holds it.
+    assert!(range.contains("line 4: setting 'buckets'"), "{range}");
+    let second_range = error_of(
+        "[[preset]]\ntitle = \"A\"\nscene = \"cornell\"\n[preset.settings]\nbuckets = 8\n\
+         [[preset]]\ntitle = \"B\"\nscene = \"cornell\"\n[preset.settings]\nmode = \"Nodes\"\nbuckets = 1\n",
+    );
+    assert!(
+        second_range.contains("preset 2 ('B'): line 11: setting 'buckets'"),
+        "{second_range}"
+    );
+    // Every error is one line, the parser's own included.
+    for e in [&syntax, &top, &range] {
+        assert!(!e.trim_end().contains('\n'), "one line: {e}");
+    }
     // The build-quality parameters out of range, as TOML can spell them.
     for (setting, reason) in [
         ("treelet_size = 4", "treelet size 4"),

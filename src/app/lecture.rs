@@ -34,6 +34,8 @@ pub struct Lecture {
     pub current: Option<usize>,
     /// Why the last preset file could not be loaded or saved (the state stayed).
     pub error: Option<String>,
+    /// What of the preset shown could not be done (it opened without it).
+    pub notice: Option<String>,
     /// The last file saved.
     pub saved: Option<String>,
     /// The camera and tree-walk node of the preset being opened, set once its scene has
@@ -58,6 +60,7 @@ impl Default for Lecture {
             sequence: Sequence::lecture(),
             current: None,
             error: None,
+            notice: None,
             saved: None,
             pending: None,
             pending_structure: None,
@@ -136,6 +139,7 @@ impl BvhLabApp {
         self.drag = None;
         self.lecture.pending = Some(Pending::of(preset));
         self.lecture.error = None;
+        self.lecture.notice = None;
         // The scene loads straight into the preset's structure: one build.
         let params = self.settings.structure;
         self.sent_build = Some(params);
@@ -156,7 +160,16 @@ impl BvhLabApp {
     /// Once the preset's structure is built: its tree-walk node and level.
     pub(super) fn apply_pending_structure(&mut self) {
         if let Some((walk, level)) = self.lecture.pending_structure.take() {
-            self.walk = walk.filter(|&w| (w as usize) < self.outline.nodes.len());
+            let nodes = self.outline.nodes.len();
+            self.walk = walk.filter(|&w| (w as usize) < nodes);
+            if let Some(w) = walk.filter(|&w| (w as usize) >= nodes) {
+                // Said, not skipped: the preset names a node this tree does not have.
+                self.lecture.notice = Some(format!(
+                    "this preset's tree walk starts at node {w}, but the tree has {nodes} \
+                     nodes (0 to {}): the walk stays closed",
+                    nodes.saturating_sub(1)
+                ));
+            }
             self.settings.level = level.min(self.outline.max_depth());
         }
     }
@@ -486,6 +499,13 @@ fn bookmarks(app: &mut BvhLabApp, ui: &mut egui::Ui) {
 
 /// Why the last preset file failed, at the top of the controls (like a scene that failed).
 pub fn error(app: &mut BvhLabApp, ui: &mut egui::Ui) {
+    if let Some(n) = &app.lecture.notice {
+        ui.colored_label(ui.visuals().warn_fg_color, n);
+        if ui.button("Dismiss").clicked() {
+            app.lecture.notice = None;
+        }
+        ui.separator();
+    }
     if let Some(e) = &app.lecture.error {
         ui.colored_label(ui.visuals().error_fg_color, e);
         ui.label(RichText::new("Nothing was changed.").weak());

@@ -93,10 +93,16 @@ impl Editor<'_> {
         range: std::ops::RangeInclusive<N>,
     ) {
         if self.shown(c) {
-            let slider = egui::Slider::new(value, range)
-                .logarithmic(c.log)
-                .text(c.label);
-            Self::hover(self.ui.add_enabled(c.enabled, slider), c);
+            // The name beside the slider ends in "…" at the panel's edge, whole on hover (a
+            // slider's own text would run past the edge and widen the panel's rows below).
+            self.ui.horizontal(|ui| {
+                let slider = egui::Slider::new(value, range).logarithmic(c.log);
+                let slider = ui.add_enabled(c.enabled, slider);
+                let name = ui.add_enabled(c.enabled, egui::Label::new(c.label).truncate());
+                // The slider is still named by its label (screen readers, UI tests).
+                Self::hover(slider.labelled_by(name.id), c);
+                Self::hover(name, c);
+            });
         }
     }
 }

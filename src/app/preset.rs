@@ -224,7 +224,7 @@ pub fn parse(text: &str, origin: &str, dir: Option<&Path>) -> Result<Sequence, P
         message,
     };
     // First the syntax and the keys, then the values (serde's errors carry the line).
-    let table: toml::Table = toml::from_str(text).map_err(|e| fail(e.to_string()))?;
+    let table: toml::Table = toml::from_str(text).map_err(|e| fail(one_line(text, &e)))?;
     let (tables, mut presets) = match table.get("preset") {
         Some(list) => {
             #[derive(Deserialize)]
@@ -287,7 +287,10 @@ pub fn parse(text: &str, origin: &str, dir: Option<&Path>) -> Result<Sequence, P
         preset.scene =
             resolve_scene(&preset.scene, dir).map_err(|e| fail(format!("{name}: {e}")))?;
         preset.settings.scene = preset.scene.clone();
-        preset.check().map_err(|e| fail(format!("{name}: {e}")))?;
+        if let Err(e) = preset.check() {
+            let at = culprit(text, i, table, preset).unwrap_or_default();
+            return Err(fail(format!("{name}: {at}{e}")));
+        }
     }
     Ok(Sequence {
         source: origin.to_string(),
@@ -295,12 +298,56 @@ pub fn parse(text: &str, origin: &str, dir: Option<&Path>) -> Result<Sequence, P
     })
 }
 
+/// A TOML error on one line, with its line and column, as every other error is said
+/// (the parser's own text draws the line over several).
+fn one_line(text: &str, error: &toml::de::Error) -> String {
+    let message = error.message().trim();
+    let Some(span) = error.span() else {
+        return message.to_string();
+    };
+    let before = &text[..span.start.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    format!("line {line}, column {column}: {message}")
+}
+
+/// Where in preset `index`'s `[settings]` a value the checks refuse is written ("line 5:
+/// setting 'buckets': "): each setting is checked alone, over the defaults, and the first
+/// refused one is found in the file.
+fn culprit(text: &str, index: usize, table: &toml::Table, preset: &Preset) -> Option<String> {
+    let settings = table.get("settings")?.as_table()?;
+    let key = settings.iter().find_map(|(key, value)| {
+        let one = toml::Table::from_iter([(key.clone(), value.clone())]);
+        let alone: Settings = toml::Value::Table(one).try_into().ok()?;
+        let p = Preset {
+            settings: alone,
+            camera: None,
+            ..preset.clone()
+        };
+        p.check().is_err().then_some(key)
+    })?;
+    // The line of `key =` within the preset's own tables.
+    let starts = |l: &str| l.trim_start().starts_with("[[preset]]");
+    let mut seen = 0;
+    for (n, line) in text.lines().enumerate() {
+        if starts(line) {
+            seen += 1;
+        }
+        let written = line.trim_start().strip_prefix(key.as_str());
+        let is_key = written.is_some_and(|r| r.trim_start().starts_with('='));
+        if is_key && (seen == index + 1 || (seen == 0 && index == 0)) {
+            return Some(format!("line {}: setting '{key}': ", n + 1));
+        }
+    }
+    Some(format!("setting '{key}': "))
+}
+
 /// A value serde rejects, said with its line. The settings' keys are read as one flattened
 /// table, so serde's error points at the table's header: here the table's lines are read
 /// one by one to find the setting whose value is wrong.
 fn locate(text: &str, error: toml::de::Error) -> String {
     let Some(span) = error.span() else {
-        return error.to_string();
+        return one_line(text, &error);
     };
     // The table starts on the line of the span: its header, then its keys.
     let first = text[..span.start.min(text.len())].lines().count();
@@ -315,7 +362,7 @@ fn locate(text: &str, error: toml::de::Error) -> String {
             return format!("line {}: setting '{}': {}", i + 1, key.trim(), e.message());
         }
     }
-    error.to_string()
+    one_line(text, &error)
 }
 
 /// The keys of `value`'s fields, as a preset file spells them.

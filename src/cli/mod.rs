@@ -260,7 +260,11 @@ pub fn parse_vec3(s: &str) -> Result<Vec3, String> {
 }
 
 pub fn load_scene(spec: &str) -> Result<Scene> {
-    Scene::load(spec).with_context(|| format!("cannot load scene '{spec}'"))
+    let scene = Scene::load(spec).with_context(|| format!("cannot load scene '{spec}'"))?;
+    for warning in &scene.warnings {
+        eprintln!("warning: {warning}");
+    }
+    Ok(scene)
 }
 
 /// How many threads `--threads` may ask for, per core: more only adds switching.

@@ -101,6 +101,9 @@ pub fn run(args: TraceArgs) -> Result<()> {
         .with_context(|| format!("cannot read {}", args.rays.display()))?;
     let rays = rayfile::decode_rays(&bytes)
         .with_context(|| format!("bad ray file {}", args.rays.display()))?;
+    // The rays and their hits stay while the scene loads and its structure is built: the
+    // estimates of both count them.
+    let _rays_held = bvhlab::budget::hold(bvhlab::budget::times(bytes.len() as u64, 3));
     let scene = load_scene(&args.scene)?;
     let format = hit_format(args.hit_bits, scene.placed_triangles() as u64)?;
     let pool = thread_pool(args.threads)?;

@@ -462,6 +462,14 @@ impl Scene {
             });
         };
         scene.check_range(spec)?;
+        let mut scene = scene;
+        // A file of only zero-area triangles loads, but no ray can hit it: said.
+        if scene.triangles.iter().all(|t| t.area() == 0.0) && !scene.triangles.is_empty() {
+            scene.warnings.push(format!(
+                "all {} triangles have zero area: no ray can hit this scene",
+                scene.triangles.len()
+            ));
+        }
         Ok(scene)
     }
 

@@ -88,10 +88,10 @@ pub(crate) fn parse_obj(
             path: path.to_path_buf(),
             reason: e.to_string(),
         })?;
-    let warnings = warnings.into_inner();
-    for warning in &warnings {
-        eprintln!("warning: {}: {warning}", path.display());
-    }
+    // Kept with the scene: the command line prints them, the app shows them.
+    let warnings: Vec<String> = (warnings.into_inner().into_iter())
+        .map(|w| format!("{}: {w}", path.display()))
+        .collect();
     // Failures were reported above; tobj only repeats the last one here.
     let materials = materials.unwrap_or_default();
 
