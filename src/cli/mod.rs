@@ -377,8 +377,9 @@ pub fn hold_loaded(
     scene: &bvhlab::scene::Scene,
     structure: Option<&bvhlab::accel::structure::Structure>,
 ) -> bvhlab::budget::Held {
-    let triangle = std::mem::size_of::<bvhlab::geometry::Triangle>() as u64;
-    let scene_bytes = bvhlab::budget::times(scene.triangles.len() as u64, triangle);
+    // The stored triangles, at the bytes per triangle the scene's own estimates use.
+    let each = bvhlab::scene::FLAT_BYTES_PER_TRIANGLE;
+    let scene_bytes = bvhlab::budget::times(scene.triangles.len() as u64, each);
     let structure_bytes = structure.map_or(0, |s| s.bytes() as u64);
     bvhlab::budget::hold(scene_bytes.saturating_add(structure_bytes))
 }
