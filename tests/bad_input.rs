@@ -223,6 +223,20 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
             ],
             "placed triangles would need about",
         ),
+        // The structure must fit beside the scene, not alone (74 MiB of BVH2 and 12 MiB of
+        // triangles against 80 MiB).
+        (
+            &[
+                "stats",
+                "--scene",
+                "soup:300000",
+                "--accel",
+                "bvh",
+                "--memory-limit",
+                "80M",
+            ],
+            "with what is loaded already",
+        ),
         (
             &["stats", "--scene", "soup:1000000", "--memory-limit", "16M"],
             "soup:1000000 (1000000 triangles) would need",

@@ -96,6 +96,7 @@ pub fn run(
             let _ = write!(spec, ":{n}");
         }
         let scene = Scene::load(&spec)?;
+        let _held = scene.hold_budget();
         let cfg = BenchConfig {
             camera: scene.camera(),
             light: scene.light(),

@@ -214,6 +214,8 @@ pub fn run(
     let mut rows = Vec::new();
     for size in sizes {
         let scene = Scene::load(&sized_spec(&cfg.scene, size)?)?;
+        // Each size's structures must fit beside it (the one before is dropped by now).
+        let _held = scene.hold_budget();
         let camera = scene.camera();
         let cam = camera.rays(cfg.width, cfg.height);
         let primary: Vec<Ray> = (0..cfg.height)

@@ -97,7 +97,7 @@ pub fn run(
         eprint!("{name}: ");
         let built = args.build_to_trace(scene)?;
         // Both frames are kept: they must fit beside the scene and this structure.
-        let _held = super::hold_loaded(scene, Some(&built.structure));
+        let _held = bvhlab::budget::hold(built.structure.bytes() as u64);
         super::check_size(settings.width, settings.height, 2)?;
         Ok(with_intersector!(intersector, I =>
             bvhlab::render::trace_with::<_, I>(&built.structure, scene, settings)))

@@ -51,6 +51,7 @@ pub fn run(args: FramesArgs) -> Result<()> {
         anyhow::bail!("--width and --height are for --preset: --scene times 640×360 and 1280×720");
     }
     let scene = load_scene(spec)?;
+    let _scene_held = scene.hold_budget();
     let camera = (args.view.eye.is_some() || args.view.look.is_some())
         .then(|| args.view.camera(&scene))
         .transpose()?;

@@ -371,19 +371,6 @@ pub fn parse_side(text: &str) -> Result<u32, String> {
 /// The largest image side.
 pub const MAX_SIDE: u32 = 16384;
 
-/// Counts a loaded scene and the structure over it as held memory (`budget::hold`) while
-/// the answer lives, so the image or rays that follow must fit beside them.
-pub fn hold_loaded(
-    scene: &bvhlab::scene::Scene,
-    structure: Option<&bvhlab::accel::structure::Structure>,
-) -> bvhlab::budget::Held {
-    // The stored triangles, at the bytes per triangle the scene's own estimates use.
-    let each = bvhlab::scene::FLAT_BYTES_PER_TRIANGLE;
-    let scene_bytes = bvhlab::budget::times(scene.triangles.len() as u64, each);
-    let structure_bytes = structure.map_or(0, |s| s.bytes() as u64);
-    bvhlab::budget::hold(scene_bytes.saturating_add(structure_bytes))
-}
-
 /// An image size within 1..=16384 on each side, whose `frames` frames (two for an A | B
 /// comparison) fit the memory budget.
 pub fn check_size(width: u32, height: u32, frames: u64) -> Result<()> {

@@ -100,6 +100,8 @@ pub fn run(args: RenderArgs) -> Result<()> {
         bvhlab::output::check(out, &["png"])?;
     }
     let scene = load_scene(&args.scene)?;
+    // The structure and the image must fit beside the scene.
+    let _scene_held = scene.hold_budget();
     let mut camera = args.view.camera(&scene)?;
     if let Some(fov) = args.fov {
         camera.fov_y_deg = fov;
@@ -148,7 +150,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
     }
     let built = args.build.build_to_trace(&scene)?;
     // The image is traced beside the scene and its structure: all three must fit.
-    let _held = super::hold_loaded(&scene, Some(&built.structure));
+    let _held = bvhlab::budget::hold(built.structure.bytes() as u64);
     check_size(args.width, args.height, 1)?;
     let frame = with_intersector!(kind, I => render::render_with::<_, I>(&built.structure, &scene, &settings));
     let out = out_or_default("");

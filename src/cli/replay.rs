@@ -71,6 +71,7 @@ pub fn run(args: ReplayArgs) -> Result<()> {
         );
     }
     let scene = load_scene(&args.scene)?;
+    let _scene_held = scene.hold_budget();
     let mut camera = args.view.camera(&scene)?;
     if let Some(fov) = args.fov {
         camera.fov_y_deg = fov;

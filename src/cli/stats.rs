@@ -15,6 +15,8 @@ pub struct StatsArgs {
 
 pub fn run(args: StatsArgs) -> Result<()> {
     let scene = load_scene(&args.scene)?;
+    // The structure must fit beside the scene it is built over.
+    let _held = scene.hold_budget();
     let report = args.build.build(&scene)?.report;
     out!("scene: {} ({} objects)", scene.name, scene.objects.len());
     let rows: Vec<_> = scene

@@ -120,6 +120,7 @@ pub fn run(args: StressArgs) -> Result<()> {
         .iter()
         .map(|s| {
             let scene = load_scene(s)?;
+            let _scene_held = scene.hold_budget();
             if !scene.is_flattened() {
                 anyhow::bail!(
                     "the stress suite works on a scene's stored triangles: {s} places its \

@@ -105,6 +105,7 @@ pub fn run(args: TraceArgs) -> Result<()> {
     // estimates of both count them.
     let _rays_held = bvhlab::budget::hold(bvhlab::budget::times(bytes.len() as u64, 3));
     let scene = load_scene(&args.scene)?;
+    let _scene_held = scene.hold_budget();
     let format = hit_format(args.hit_bits, scene.placed_triangles() as u64)?;
     let pool = thread_pool(args.threads)?;
     let start = Instant::now();

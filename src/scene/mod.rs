@@ -164,6 +164,15 @@ impl Scene {
         self.placed_triangles() as u64 * FLAT_BYTES_PER_TRIANGLE
     }
 
+    /// Counts the stored triangles as held memory (`budget::hold`) while the answer lives, so
+    /// the structure, image or rays made over this scene must fit the limit beside it.
+    pub fn hold_budget(&self) -> crate::budget::Held {
+        crate::budget::hold(crate::budget::times(
+            self.triangles.len() as u64,
+            FLAT_BYTES_PER_TRIANGLE,
+        ))
+    }
+
     /// An instanced scene's counts as table rows: instances, unique and instanced triangles,
     /// and the memory a flattened copy would take (none for a scene without instances).
     /// `bvhlab stats`, `bvhlab bench` and the app's build panel show the same rows.

@@ -316,7 +316,7 @@ fn run_settings(args: BenchArgs) -> Result<()> {
     let load_time = load_start.elapsed();
     // The rays are made beside the scene: both must fit (the structure's own estimate is
     // checked beside them as it is built).
-    let _held = super::hold_loaded(&scene, None);
+    let _held = scene.hold_budget();
     ray_sets()?;
     // The builders and the accuracy study compare BVH2 builds (the builders, or their wide
     // collapses with --accel bvh4 or bvh8); the ray sets are traced with
