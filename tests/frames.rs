@@ -483,3 +483,68 @@ fn a_slow_frame_fills_in_tile_by_tile_over_its_coarse_image() {
         done = from_full;
     }
 }
+
+/// Waits for the prefetch asked for to be ready; the replies on the way.
+fn until_prefetched(worker: &mut Worker) -> Vec<Reply> {
+    let mut seen = Vec::new();
+    while let Some(r) = worker.next_reply(Duration::from_secs(120)) {
+        if matches!(r, Reply::Prefetched(_)) {
+            return seen;
+        }
+        seen.push(r);
+    }
+    panic!("the prefetch never came");
+}
+
+/// The lecture's next step, prefetched while the current one is shown, opens without a
+/// build of its own (the build's progress counters are never touched); a prefetch made
+/// with other parameters than the step opens with gives its scene only, and the step
+/// builds. A command that arrives while the prefetch builds is answered first, and the
+/// prefetch is finished after it.
+#[test]
+fn a_prefetched_step_opens_without_building_and_gives_way_to_commands() {
+    let mut worker = Worker::spawn(|| {});
+    let scene = load(&mut worker, "cornell");
+    let bvh8 = StructureParams {
+        kind: AccelKind::Bvh8,
+        ..Default::default()
+    };
+    let untouched = usize::MAX;
+    for (prefetched_with, opens_built) in [(bvh8, true), (StructureParams::default(), false)] {
+        worker.send(Command::Prefetch {
+            spec: "soup:20000".into(),
+            params: prefetched_with,
+        });
+        until_prefetched(&mut worker);
+        worker
+            .progress
+            .1
+            .store(untouched, std::sync::atomic::Ordering::Relaxed);
+        worker.send(Command::SetParams(bvh8));
+        worker.send(Command::Load("soup:20000".into()));
+        let replies = worker.wait_idle(Duration::from_secs(120));
+        let built: Vec<&str> = replies
+            .iter()
+            .filter_map(|r| match r {
+                Reply::Built { report, .. } => Some(report.structure),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(built, [AccelKind::Bvh8.label()]);
+        let counted = worker.progress.1.load(std::sync::atomic::Ordering::Relaxed);
+        assert_eq!(counted == untouched, opens_built, "counted {counted}");
+        load(&mut worker, "cornell");
+    }
+    // A frame asked for while a slow prefetch builds comes before the prefetch is ready.
+    worker.send(Command::Prefetch {
+        spec: "soup:300000".into(),
+        params: StructureParams {
+            kind: AccelKind::KdTree,
+            ..Default::default()
+        },
+    });
+    std::thread::sleep(Duration::from_millis(600));
+    worker.send(Command::Render(job(&scene, Mode::Shaded, false)));
+    let before = until_prefetched(&mut worker);
+    assert!(before.iter().any(|r| matches!(r, Reply::Frame(_))));
+}

@@ -145,6 +145,14 @@ impl BvhLabApp {
         self.sent_build = Some(params);
         self.worker.send(super::worker::Command::SetParams(params));
         self.load(preset.scene.clone());
+        // The next step is made ready while this one is shown (`worker::prefetch`).
+        let next = self.lecture.current.map(|i| i + 1);
+        if let Some(next) = next.and_then(|i| self.lecture.sequence.presets.get(i)) {
+            self.worker.send(super::worker::Command::Prefetch {
+                spec: next.scene.clone(),
+                params: next.settings_over(&self.settings).structure,
+            });
+        }
     }
 
     /// Once the preset's scene has loaded: its camera and tree-walk node.

@@ -188,7 +188,7 @@ impl BvhLabApp {
                     self.replay_error = None;
                 }
                 Reply::Replayed(Err(e)) => self.replay_error = Some(e),
-                Reply::Idle(_) => {}
+                Reply::Idle(_) | Reply::Prefetched(_) => {}
             }
         }
     }

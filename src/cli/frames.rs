@@ -13,7 +13,8 @@ pub struct FramesArgs {
     pub scene: Option<String>,
     /// Instead of one scene: step through a preset sequence (`lecture`, `lecture:N`, a
     /// preset file, `FILE:N`) as the app shows it, timing each step's first image and full
-    /// frame from the step opening.
+    /// frame from the step opening. As in the app, each step prefetches the next while it
+    /// is shown; a step given alone (`lecture:N`) opens cold.
     #[arg(long, value_name = "lecture[:N]|FILE[:N]")]
     pub preset: Option<String>,
     /// With --preset: the view's size in pixels, 1280 × 720 unless given (--scene times
@@ -23,7 +24,7 @@ pub struct FramesArgs {
     #[arg(long, value_parser = crate::cli::parse_side)]
     pub height: Option<u32>,
     /// With --preset: one JSON object, its `steps` array holding each step's
-    /// `first_image_ms` and `full_frame_ms`.
+    /// `first_image_ms`, `full_frame_ms` and `prefetched`.
     #[arg(long)]
     pub json: bool,
     #[command(flatten)]
@@ -176,11 +177,12 @@ fn lecture(args: &FramesArgs) -> Result<()> {
     );
     for s in &steps {
         out!(
-            "  {:>2} {:<34} first image {:>8.1}  full frame {:>8.1}",
+            "  {:>2} {:<34} first image {:>8.1}  full frame {:>8.1}{}",
             s.step,
             s.title,
             s.first_image_ms,
-            s.full_frame_ms
+            s.full_frame_ms,
+            if s.prefetched { "  (prefetched)" } else { "" }
         );
     }
     Ok(())

@@ -1,7 +1,9 @@
 //! The built-in lecture (or any preset file) stepped through as the app shows it, timed:
-//! for each step, from opening it (its scene loaded afresh, its structure built) to the
-//! first image on screen (a coarse one comes first when the frame is slow), and to its
-//! full frame. Through the app's own worker, without a window.
+//! for each step, from opening it to the first image on screen (a coarse one comes first
+//! when the frame is slow), and to its full frame. Through the app's own worker, without a
+//! window. As in the app, each step prefetches the next while it is shown, and the next
+//! step opens once that is done (a lecturer talks over each step for longer); the first
+//! step, and a step timed alone, load and build afresh.
 
 use crate::app::preset::Sequence;
 use crate::app::settings::Settings;
@@ -16,6 +18,9 @@ pub struct StepTime {
     pub scene: String,
     pub first_image_ms: f64,
     pub full_frame_ms: f64,
+    /// Whether the step opened from the scene and structure the step before it prefetched
+    /// (as when a lecturer steps forward); false for the first step and a step timed alone.
+    pub prefetched: bool,
 }
 
 /// A step that shows nothing within this is reported as an error.
@@ -25,12 +30,22 @@ const TIMEOUT: Duration = Duration::from_secs(600);
 pub fn run(sequence: &Sequence, width: u32, height: u32) -> Result<Vec<StepTime>, String> {
     let mut worker = Worker::spawn(|| {});
     let mut steps = Vec::new();
+    // Whether the step about to open was prefetched by the one before.
+    let mut opened_prefetched = false;
     for (i, preset) in sequence.presets.iter().enumerate() {
         let settings = preset.settings_over(&Settings::default());
         let start = Instant::now();
-        // As the app opens a step: the structure's parameters, then the scene afresh.
-        worker.send(Command::Build(settings.structure));
+        // As the app opens a step: the structure's parameters, then the scene (afresh, or
+        // as the previous step prefetched it), then the next step to prefetch.
+        worker.send(Command::SetParams(settings.structure));
         worker.send(Command::Load(preset.scene.clone()));
+        let next = sequence.presets.get(i + 1);
+        if let Some(next) = next {
+            worker.send(Command::Prefetch {
+                spec: next.scene.clone(),
+                params: next.settings_over(&settings).structure,
+            });
+        }
         let scene = loop {
             match worker.next_reply(TIMEOUT) {
                 Some(Reply::Loaded { scene, .. }) => break scene,
@@ -83,8 +98,20 @@ pub fn run(sequence: &Sequence, width: u32, height: u32) -> Result<Vec<StepTime>
             }
         }
         // The counted pass after a shaded frame is not waited for by a viewer; let it
-        // finish before the next step so it does not slow that one's load.
+        // finish before the next step so it does not slow that one's load. Then, as a
+        // lecturer talks over each step, the next step is prefetched before it opens.
         worker.wait_idle(TIMEOUT);
+        let prefetched = next.is_some_and(|_| {
+            let deadline = Instant::now() + TIMEOUT;
+            loop {
+                let left = deadline.saturating_duration_since(Instant::now());
+                match worker.next_reply(left) {
+                    Some(Reply::Prefetched(_)) => break true,
+                    Some(_) => {}
+                    None => break false,
+                }
+            }
+        });
         let ms = |d: Option<Duration>| d.unwrap_or_default().as_secs_f64() * 1e3;
         steps.push(StepTime {
             step: i + 1,
@@ -92,7 +119,9 @@ pub fn run(sequence: &Sequence, width: u32, height: u32) -> Result<Vec<StepTime>
             scene: preset.scene.clone(),
             first_image_ms: ms(first),
             full_frame_ms: ms(full),
+            prefetched: opened_prefetched,
         });
+        opened_prefetched = prefetched;
     }
     Ok(steps)
 }

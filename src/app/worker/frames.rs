@@ -14,8 +14,10 @@ use crate::render::{
 };
 use std::time::Duration;
 
-/// A coarse first image is this many times smaller each way (1/16 of the rays).
-const COARSE: u32 = 4;
+/// A coarse first image is this many times smaller each way (1/36 of the rays): the first
+/// image of a slow structure comes within the 250 ms a step may take, and the tiles that
+/// stream over it sharpen it within a frame or two.
+const COARSE: u32 = 6;
 /// Smaller frames come at once, without a coarse one first.
 const COARSE_MIN_PIXELS: u32 = 320 * 240;
 /// A full frame slower than this is preceded by a coarse one next time.

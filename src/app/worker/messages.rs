@@ -120,6 +120,12 @@ pub enum Command {
     SelectInstance(Option<usize>),
     /// Under the two levels: select the instance that places scene object `object`.
     SelectObject(usize),
+    /// Load this scene and build this structure at the next quiet moment, for a `Load`
+    /// of it to come (the lecture's next step).
+    Prefetch {
+        spec: String,
+        params: StructureParams,
+    },
 }
 
 /// A pixel of a frame whose ray to replay: its primary ray, or its shadow ray.
@@ -233,6 +239,8 @@ pub enum Reply {
     Snapshot(Arc<Scene>),
     /// The recorded traversal of a pixel's ray, or why there is none.
     Replayed(Result<Arc<Replay>, String>),
+    /// The scene and structure asked for by `Command::Prefetch` are ready.
+    Prefetched(String),
     /// Every command up to this sequence number has been handled.
     Idle(u64),
 }

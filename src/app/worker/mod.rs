@@ -11,6 +11,7 @@
 mod frames;
 pub mod messages;
 mod motion;
+mod prefetch;
 pub(in crate::app) mod state;
 mod streaming;
 
@@ -90,6 +91,7 @@ impl Worker {
             split_costs: RefCell::default(),
             selection: RefCell::default(),
             drag_bounds: None,
+            prefetch: None,
         };
         let thread = std::thread::Builder::new()
             .name("bvhlab-worker".into())

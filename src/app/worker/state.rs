@@ -10,7 +10,7 @@ use crate::accel::bvh::refit::RefitIndex;
 use crate::accel::progress::BuildProgress;
 use crate::accel::sah_check::SahPrediction;
 use crate::accel::split_costs::SplitCosts;
-use crate::accel::structure::{self, Structure, StructureError, StructureParams};
+use crate::accel::structure::{self, Built, Structure, StructureError, StructureParams};
 use crate::accel::two_level::{InstanceOutline, ReferenceLocator};
 use crate::geometry::Triangle;
 use crate::render::Frame;
@@ -19,7 +19,7 @@ use glam::Vec3;
 use std::cell::RefCell;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
-use std::sync::mpsc::{Receiver, Sender};
+use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender};
 
 /// The key under which a traced frame stays valid.
 #[derive(Clone, PartialEq)]
@@ -103,6 +103,8 @@ pub(in crate::app) struct State {
     pub(in crate::app) selection: RefCell<Option<Arc<SelectionTable>>>,
     /// While a selection is dragged: the boxes the standard light is placed from.
     pub(in crate::app) drag_bounds: Option<DragBounds>,
+    /// The next lecture step's scene and structure, made at quiet moments.
+    pub(in crate::app) prefetch: Option<super::prefetch::Prefetch>,
 }
 
 /// An image's pixels and its heatmap scale, as `colorize` gives them.
@@ -155,7 +157,23 @@ impl State {
     }
 
     pub(in crate::app) fn run(mut self, commands: Receiver<(u64, Command)>) {
-        while let Ok(first) = commands.recv() {
+        loop {
+            // With prefetch work left, a quiet moment is used for it.
+            let first = if self.prefetch_waiting() {
+                match commands.recv_timeout(super::prefetch::IDLE_BEFORE) {
+                    Ok(c) => c,
+                    Err(RecvTimeoutError::Timeout) => {
+                        self.prefetch_now();
+                        continue;
+                    }
+                    Err(RecvTimeoutError::Disconnected) => break,
+                }
+            } else {
+                match commands.recv() {
+                    Ok(c) => c,
+                    Err(_) => break,
+                }
+            };
             let mut batch = vec![first];
             batch.extend(commands.try_iter());
             let last_seq = batch.last().map_or(0, |(s, _)| *s);
@@ -201,13 +219,17 @@ impl State {
 
     pub(in crate::app) fn apply(&mut self, command: Command) {
         match command {
-            Command::Load(spec) => match Scene::load(&spec) {
-                Ok(scene) => self.adopt(spec, scene),
-                Err(e) => self.reply(Reply::LoadFailed {
-                    spec,
-                    error: e.to_string(),
-                }),
+            Command::Load(spec) => match self.take_prefetched(&spec) {
+                Some((scene, built)) => self.adopt_built(spec, scene, built),
+                None => match Scene::load(&spec) {
+                    Ok(scene) => self.adopt(spec, scene),
+                    Err(e) => self.reply(Reply::LoadFailed {
+                        spec,
+                        error: e.to_string(),
+                    }),
+                },
             },
+            Command::Prefetch { spec, params } => self.want_prefetch(spec, params),
             Command::Adopt(spec, scene) => self.adopt(spec, *scene),
             Command::Build(params) => {
                 let old = self.params;
@@ -296,7 +318,17 @@ impl State {
     /// Builds the structure for the current scene and parameters; false (and the old one
     /// kept) if the parameters are rejected.
     /// Makes `scene`, loaded from `spec`, the one the worker builds over and traces.
-    fn adopt(&mut self, spec: String, mut scene: Scene) {
+    fn adopt(&mut self, spec: String, scene: Scene) {
+        self.adopt_built(spec, scene, None);
+    }
+
+    /// `adopt`, with the structure over `scene` built already (prefetched), if given.
+    fn adopt_built(
+        &mut self,
+        spec: String,
+        mut scene: Scene,
+        built: Option<(Built, Option<SahPrediction>)>,
+    ) {
         // An interior from a file starts from inside it (see `start_view`).
         if crate::app::scene::is_file_spec(&spec) {
             scene.view = scene
@@ -317,7 +349,12 @@ impl State {
         self.scene_version += 1;
         // So is a new scene's.
         self.slow_trace = true;
-        self.rebuild();
+        match built {
+            Some((built, sah)) => self.install(built, sah),
+            None => {
+                self.rebuild();
+            }
+        }
     }
 
     pub(in crate::app) fn rebuild(&mut self) -> bool {
@@ -336,35 +373,8 @@ impl State {
             .abandoned_after(&self.newest_build, self.applying);
         match structure::build_scene(scene, &self.params, &progress) {
             Ok(built) => {
-                self.refit_index = None;
-                self.outline = Arc::new(built.structure.outline());
-                self.outline_stale = false;
-                self.built_outline = self.outline.clone();
-                self.moved.clear();
-                let sah = SahPrediction::of(
-                    &built.structure,
-                    &self.params,
-                    &scene.bounds(),
-                    SAH_RANDOM_LINES,
-                );
-                let (leaf_instances, leaf_references) =
-                    built.structure.leaf_instances_and_references();
-                self.leaf_references = leaf_references;
-                self.reference_locator = Default::default();
-                self.structure = Some(built.structure);
-                self.leaf_instances = Arc::new(leaf_instances);
-                self.version += 1;
-                self.reply(Reply::Built {
-                    report: Box::new(built.report),
-                    bvh_report: built.bvh_report.map(Box::new),
-                    outline: self.outline.clone(),
-                    leaf_instances: self.leaf_instances.clone(),
-                    sah,
-                });
-                // The selected instance hangs below another leaf of the new top level (or
-                // the structure has no instances any more).
-                let selected = self.instance.as_ref().map(|i| i.instance);
-                self.select_instance(selected);
+                let sah = predict_sah(&built, &self.params, scene);
+                self.install(built, sah);
                 true
             }
             // A newer scene or structure is waiting and builds next: the old tree no
@@ -379,4 +389,43 @@ impl State {
             }
         }
     }
+
+    /// Makes `built` (over the current scene) the structure the worker traces, and says so
+    /// with its SAH prediction (`predict_sah`).
+    fn install(&mut self, built: Built, sah: Option<SahPrediction>) {
+        self.refit_index = None;
+        self.outline = Arc::new(built.structure.outline());
+        self.outline_stale = false;
+        self.built_outline = self.outline.clone();
+        self.moved.clear();
+        let (leaf_instances, leaf_references) = built.structure.leaf_instances_and_references();
+        self.leaf_references = leaf_references;
+        self.reference_locator = Default::default();
+        self.structure = Some(built.structure);
+        self.leaf_instances = Arc::new(leaf_instances);
+        self.version += 1;
+        self.reply(Reply::Built {
+            report: Box::new(built.report),
+            bvh_report: built.bvh_report.map(Box::new),
+            outline: self.outline.clone(),
+            leaf_instances: self.leaf_instances.clone(),
+            sah,
+        });
+        // The selected instance hangs below another leaf of the new top level (or
+        // the structure has no instances any more).
+        let selected = self.instance.as_ref().map(|i| i.instance);
+        self.select_instance(selected);
+    }
+}
+
+/// The SAH's prediction of `built` against random lines through `scene` (`None` for a
+/// structure the SAH does not describe). Part of installing a build; a prefetch makes it
+/// ahead too, since on a scene whose lines each test hundreds of triangles it takes as
+/// long as the first frame.
+pub(in crate::app) fn predict_sah(
+    built: &Built,
+    params: &StructureParams,
+    scene: &Scene,
+) -> Option<SahPrediction> {
+    SahPrediction::of(&built.structure, params, &scene.bounds(), SAH_RANDOM_LINES)
 }
