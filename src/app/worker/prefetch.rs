@@ -20,14 +20,16 @@ use std::time::Duration;
 /// prefetch, and short beside the time a lecturer spends on a step.
 pub(in crate::app) const IDLE_BEFORE: Duration = Duration::from_millis(400);
 
+/// A structure built ahead, with its SAH prediction (`predict_sah`).
+pub(in crate::app) type Prebuilt = (Built, Option<SahPrediction>);
+
 /// The scene and structure being made ready, under the spec and parameters that will ask
 /// for them.
 pub(in crate::app) struct Prefetch {
     spec: String,
     params: StructureParams,
     scene: Option<Scene>,
-    /// The structure and its SAH prediction.
-    built: Option<(Built, Option<SahPrediction>)>,
+    built: Option<Prebuilt>,
 }
 
 impl Prefetch {
@@ -100,7 +102,7 @@ impl State {
     pub(in crate::app) fn take_prefetched(
         &mut self,
         spec: &str,
-    ) -> Option<(Scene, Option<(Built, Option<SahPrediction>)>)> {
+    ) -> Option<(Scene, Option<Prebuilt>)> {
         let p = self
             .prefetch
             .take_if(|p| p.spec == spec && p.scene.is_some())?;

@@ -327,7 +327,7 @@ impl State {
         &mut self,
         spec: String,
         mut scene: Scene,
-        built: Option<(Built, Option<SahPrediction>)>,
+        built: Option<super::prefetch::Prebuilt>,
     ) {
         // An interior from a file starts from inside it (see `start_view`).
         if crate::app::scene::is_file_spec(&spec) {
