@@ -145,13 +145,13 @@ impl BvhLabApp {
         self.sent_build = Some(params);
         self.worker.send(super::worker::Command::SetParams(params));
         self.load(preset.scene.clone());
-        // The next step is made ready while this one is shown (`worker::prefetch`).
-        let next = self.lecture.current.map(|i| i + 1);
-        if let Some(next) = next.and_then(|i| self.lecture.sequence.presets.get(i)) {
-            self.worker.send(super::worker::Command::Prefetch {
-                spec: next.scene.clone(),
-                params: next.settings_over(&self.settings).structure,
-            });
+        if let Some(index) = self.lecture.current {
+            prefetch_next(
+                &mut self.worker,
+                &self.lecture.sequence,
+                index,
+                &self.settings,
+            );
         }
     }
 
@@ -521,5 +521,21 @@ pub fn error(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             app.lecture.error = None;
         }
         ui.separator();
+    }
+}
+
+/// Asks the worker to make step `index` + 1 of `sequence` ready while step `index` is shown
+/// with `settings` (`worker::prefetch`): stepping forward then opens it at once.
+pub(super) fn prefetch_next(
+    worker: &mut super::worker::Worker,
+    sequence: &Sequence,
+    index: usize,
+    settings: &Settings,
+) {
+    if let Some(next) = sequence.presets.get(index + 1) {
+        worker.send(super::worker::Command::Prefetch {
+            spec: next.scene.clone(),
+            params: next.settings_over(settings).structure,
+        });
     }
 }

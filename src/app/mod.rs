@@ -216,6 +216,9 @@ impl BvhLabApp {
             }
             _ => worker.send(Command::Load(settings.scene.clone())),
         }
+        if let Some(index) = lecture.current {
+            lecture::prefetch_next(&mut worker, &lecture.sequence, index, &settings);
+        }
         cc.egui_ctx.set_zoom_factor(settings.ui_scale);
         add_fallback_fonts(&cc.egui_ctx);
         BvhLabApp {

@@ -175,6 +175,9 @@ impl Worker {
 
 impl Drop for Worker {
     fn drop(&mut self) {
+        // Work in flight (a build, a trace, a prefetch) is abandoned, not finished.
+        self.latest.store(u64::MAX, Ordering::Relaxed);
+        self.newest_build.store(u64::MAX, Ordering::Relaxed);
         self.tx = None;
         if let Some(t) = self.thread.take() {
             let _ = t.join();
