@@ -221,13 +221,18 @@ impl State {
         match command {
             Command::Load(spec) => match self.take_prefetched(&spec) {
                 Some((scene, built)) => self.adopt_built(spec, scene, built),
-                None => match Scene::load(&spec) {
-                    Ok(scene) => self.adopt(spec, scene),
-                    Err(e) => self.reply(Reply::LoadFailed {
-                        spec,
-                        error: e.to_string(),
-                    }),
-                },
+                None => {
+                    // A prefetch of another scene is of no more use: the lecture is left,
+                    // or a step opened out of order (the step sends its own next one after).
+                    self.prefetch = None;
+                    match Scene::load(&spec) {
+                        Ok(scene) => self.adopt(spec, scene),
+                        Err(e) => self.reply(Reply::LoadFailed {
+                            spec,
+                            error: e.to_string(),
+                        }),
+                    }
+                }
             },
             Command::Prefetch { spec, params } => self.want_prefetch(spec, params),
             Command::Adopt(spec, scene) => self.adopt(spec, *scene),
