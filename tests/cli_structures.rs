@@ -863,3 +863,57 @@ fn frames_times_a_lecture_step_as_the_app_shows_it() {
     let json_alone = bvhlab(&["frames", "--scene", "cornell", "--json"]);
     assert!(!json_alone.status.success(), "--json is for --preset");
 }
+
+#[test]
+fn stats_json_gives_the_sah_cost_and_epo_of_trees_and_null_for_the_others() {
+    for kind in AccelKind::ALL {
+        let out = bvhlab(&[
+            "stats",
+            "--scene",
+            "soup:300",
+            "--accel",
+            kind.label(),
+            "--json",
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(json["accel"], kind.label());
+        assert_eq!(json["triangles"], 300);
+        let tree = matches!(
+            kind,
+            AccelKind::Bvh | AccelKind::Bvh4 | AccelKind::Bvh8 | AccelKind::KdTree
+        );
+        for key in ["sah_cost", "epo", "c_trav", "c_isect", "epo_ms"] {
+            assert_eq!(
+                json[key].is_number(),
+                tree,
+                "{} {key}: {json}",
+                kind.label()
+            );
+        }
+        // A BVH over a soup overlaps itself; the k-d tree's cells do not.
+        if tree {
+            let epo = json["epo"].as_f64().unwrap();
+            assert_eq!(
+                epo > 1e-6,
+                kind != AccelKind::KdTree,
+                "{}: {epo}",
+                kind.label()
+            );
+        }
+    }
+    let out = bvhlab(&["stats", "--scene", "soup:300"]);
+    let text = String::from_utf8(out.stdout).unwrap();
+    let sah = text.lines().position(|l| l.contains("SAH cost")).unwrap();
+    assert!(
+        text.lines()
+            .nth(sah + 1)
+            .unwrap()
+            .contains("EPO (end-point overlap)"),
+        "{text}"
+    );
+}

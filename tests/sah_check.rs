@@ -100,3 +100,124 @@ fn bench_reports_the_sah_check_for_trees_only() {
         );
     }
 }
+
+// EPO, the end-point overlap (Aila, Karras & Laine 2013): the second predictor.
+
+use bvhlab::accel::epo::{area, clipped_area, epo};
+use bvhlab::accel::structure::{self as structures, AccelKind, StructureParams};
+use bvhlab::accel::{Outline, OutlineNode, Strategy};
+use bvhlab::geometry::Triangle;
+
+fn node(bounds: Aabb, parent: u32, children: (u32, u32), refs: (u32, u32)) -> OutlineNode {
+    OutlineNode {
+        bounds,
+        depth: u32::from(parent != u32::MAX),
+        parent,
+        first_child: children.0,
+        child_count: children.1,
+        refs,
+        plane: None,
+    }
+}
+
+#[test]
+fn epo_charges_a_leaf_for_the_area_of_other_triangles_in_its_box() {
+    // Two right triangles of area 2 in z = 0: A at the origin, B shifted by 1 along x.
+    // Leaf 1 holds A and has A's box [0,2]²; leaf 2 holds B. Half of B's area... precisely
+    // B ∩ [0,2]² is B minus its part beyond x = 2 (a right triangle of area 0.5): 1.5.
+    let a = Triangle::new(
+        Vec3::ZERO,
+        Vec3::new(2.0, 0.0, 0.0),
+        Vec3::new(0.0, 2.0, 0.0),
+    );
+    let b = Triangle::new(
+        Vec3::new(1.0, 0.0, 0.0),
+        Vec3::new(3.0, 0.0, 0.0),
+        Vec3::new(1.0, 2.0, 0.0),
+    );
+    let outline = Outline {
+        nodes: vec![
+            node(a.bounds().union(b.bounds()), u32::MAX, (1, 2), (0, 0)),
+            node(a.bounds(), 0, (0, 0), (0, 1)),
+            node(b.bounds(), 0, (0, 0), (1, 1)),
+        ],
+        refs: vec![0, 1],
+    };
+    // Leaf 2 ([1,3]×[0,2]) holds A's part beyond x = 1: a triangle of area 0.5.
+    let (c_trav, c_isect) = (1.0, 3.0);
+    let expected = c_isect as f64 * (1.5 + 0.5) / 4.0;
+    let got = epo(&outline, &[a, b], c_trav, c_isect);
+    assert!((got - expected).abs() < 1e-9, "{got} against {expected}");
+    assert!((clipped_area(&b, &a.bounds()) - 1.5).abs() < 1e-12);
+    // Moved apart, the boxes hold nothing of each other: no overlap, no EPO.
+    let far = Triangle::new(
+        b.v[0] + 5.0 * Vec3::X,
+        b.v[1] + 5.0 * Vec3::X,
+        b.v[2] + 5.0 * Vec3::X,
+    );
+    let mut apart = outline.clone();
+    apart.nodes[2].bounds = far.bounds();
+    apart.nodes[0].bounds = a.bounds().union(far.bounds());
+    assert_eq!(epo(&apart, &[a, far], c_trav, c_isect), 0.0);
+}
+
+/// EPO by its definition: every node against every triangle not under it.
+fn epo_by_definition(outline: &Outline, scene: &[Triangle], c_trav: f32, c_isect: f32) -> f64 {
+    let total: f64 = scene.iter().map(area).sum();
+    let mut sum = 0.0;
+    for (n, node) in outline.nodes.iter().enumerate() {
+        let under = outline.triangles_under(n);
+        let cost = if node.is_leaf() {
+            f64::from(c_isect) * f64::from(node.refs.1)
+        } else {
+            f64::from(c_trav)
+        };
+        for (t, tri) in scene.iter().enumerate() {
+            if under.binary_search(&(t as u32)).is_err() {
+                sum += cost * clipped_area(tri, &node.bounds);
+            }
+        }
+    }
+    sum / total
+}
+
+#[test]
+fn epo_of_every_tree_equals_its_definition_node_by_node() {
+    let scene = bvhlab_testkit::soup(300, 11);
+    let mut params = StructureParams::of_kind(AccelKind::Bvh);
+    let progress = Default::default();
+    for strategy in Strategy::ALL {
+        params.bvh.strategy = strategy;
+        for kind in [
+            AccelKind::Bvh,
+            AccelKind::Bvh4,
+            AccelKind::Bvh8,
+            AccelKind::KdTree,
+        ] {
+            if kind == AccelKind::KdTree && strategy != Strategy::ALL[0] {
+                continue;
+            }
+            params.kind = kind;
+            let built = structures::build(&scene, &params, &progress).unwrap();
+            let got = built.structure.epo(&params, &scene).unwrap();
+            let (c_trav, c_isect) = if kind == AccelKind::KdTree {
+                (params.kdtree.c_trav, params.kdtree.c_isect)
+            } else {
+                (params.bvh.c_trav, params.bvh.c_isect)
+            };
+            let expected = epo_by_definition(&built.structure.outline(), &scene, c_trav, c_isect);
+            let what = format!("{} {}", kind.label(), strategy.label());
+            assert!(
+                (got - expected).abs() <= 1e-9 * expected.max(1.0),
+                "{what}: {got} against {expected}"
+            );
+            // A BVH over a soup overlaps; a k-d tree's cells do not, so only a triangle
+            // in a split plane could count.
+            if kind == AccelKind::KdTree {
+                assert!(got < 1e-6, "{what}: {got}");
+            } else {
+                assert!(got > 0.0, "{what}");
+            }
+        }
+    }
+}

@@ -7,6 +7,7 @@ pub mod bvh;
 pub mod controls;
 #[cfg(feature = "embree")]
 pub mod embree;
+pub mod epo;
 pub mod grid;
 pub mod hit;
 pub mod instances;

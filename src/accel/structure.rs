@@ -373,6 +373,20 @@ impl Structure {
         })
     }
 
+    /// The tree's EPO (`accel::epo`) over `scene`, the triangles it was built over, in the
+    /// units of its SAH cost; `None` where `sah_cost` is.
+    pub fn epo(&self, params: &StructureParams, scene: &[Triangle]) -> Option<f64> {
+        let (b, k) = (&params.bvh, &params.kdtree);
+        let (outline, c_trav, c_isect) = match self {
+            Structure::Bvh(t) => (t.outline(), b.c_trav, b.c_isect),
+            Structure::Bvh4(t) => (t.outline(), b.c_trav, b.c_isect),
+            Structure::Bvh8(t) => (t.outline(), b.c_trav, b.c_isect),
+            Structure::KdTree(t) => (t.outline(), k.c_trav, k.c_isect),
+            _ => return None,
+        };
+        Some(super::epo::epo(&outline, scene, c_trav, c_isect))
+    }
+
     /// The nodes or cells the explorer draws.
     pub fn outline(&self) -> Outline {
         with_structure!(self, a => a.outline())

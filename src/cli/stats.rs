@@ -1,8 +1,15 @@
-//! `bvhlab stats`: the build report of a structure as a table.
+//! `bvhlab stats`: the build report of a structure as a table, or as JSON (`--json`), with
+//! the tree's two predictors of trace cost, its SAH cost and its EPO.
 
 use super::{BuildArgs, load_scene};
 use anyhow::Result;
+use bvhlab::accel::report::Detail;
+use bvhlab::accel::{Built, StructureParams};
+use bvhlab::scene::Scene;
 use clap::Args;
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::time::Instant;
 
 #[derive(Args)]
 pub struct StatsArgs {
@@ -11,20 +18,126 @@ pub struct StatsArgs {
     pub scene: String,
     #[command(flatten)]
     pub build: BuildArgs,
+    /// The report as one JSON object (keys below) instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// The report's JSON: the measures every structure has, the tree's predictors (null for a
+/// structure that is not a tree the SAH describes), and every row of the table by its name.
+#[derive(Serialize)]
+struct StatsJson {
+    scene: String,
+    accel: &'static str,
+    triangles: usize,
+    build_ms: f64,
+    bytes: usize,
+    nodes: usize,
+    leaves: usize,
+    empty_leaves: usize,
+    max_depth: u32,
+    references_per_triangle: f64,
+    largest_leaf: usize,
+    c_trav: Option<f32>,
+    c_isect: Option<f32>,
+    sah_cost: Option<f64>,
+    epo: Option<f64>,
+    epo_ms: Option<f64>,
+    details: BTreeMap<String, serde_json::Value>,
+}
+
+/// The tree's SAH cost and EPO with the costs they weigh with, and the EPO's time.
+struct Predictors {
+    c_trav: f32,
+    c_isect: f32,
+    sah_cost: f64,
+    epo: f64,
+    epo_ms: f64,
+}
+
+fn predictors(
+    built: &Built,
+    params: &StructureParams,
+    scene: &Scene,
+) -> Result<Option<Predictors>> {
+    let Some((sah_cost, c_trav, c_isect)) = built.structure.sah_cost(params) else {
+        return Ok(None);
+    };
+    let start = Instant::now();
+    let Some(epo) = built.structure.epo(params, &scene.flattened()?) else {
+        return Ok(None);
+    };
+    Ok(Some(Predictors {
+        c_trav,
+        c_isect,
+        sah_cost,
+        epo,
+        epo_ms: start.elapsed().as_secs_f64() * 1e3,
+    }))
 }
 
 pub fn run(args: StatsArgs) -> Result<()> {
     let scene = load_scene(&args.scene)?;
     // The structure must fit beside the scene it is built over.
     let _held = scene.hold_budget();
-    let report = args.build.build(&scene)?.report;
+    let built = args.build.build(&scene)?;
+    let params = args.build.structure_params(&scene)?;
+    let predicted = predictors(&built, &params, &scene)?;
+    let report = &built.report;
+    if args.json {
+        let p = predicted.as_ref();
+        let json = StatsJson {
+            scene: scene.name.clone(),
+            accel: report.structure,
+            triangles: report.triangles,
+            build_ms: report.build_ms(),
+            bytes: report.bytes,
+            nodes: report.nodes,
+            leaves: report.leaves,
+            empty_leaves: report.empty_leaves,
+            max_depth: report.max_depth,
+            references_per_triangle: report.references_per_triangle(),
+            largest_leaf: report.largest_leaf,
+            c_trav: p.map(|p| p.c_trav),
+            c_isect: p.map(|p| p.c_isect),
+            sah_cost: p.map(|p| p.sah_cost),
+            epo: p.map(|p| p.epo),
+            epo_ms: p.map(|p| p.epo_ms),
+            details: report
+                .details
+                .iter()
+                .map(|(k, v)| (k.clone(), detail_json(v)))
+                .collect(),
+        };
+        out!("{}", serde_json::to_string_pretty(&json)?);
+        return Ok(());
+    }
     out!("scene: {} ({} objects)", scene.name, scene.objects.len());
-    let rows: Vec<_> = scene
+    let mut rows: Vec<_> = scene
         .instancing_rows()
         .into_iter()
         .map(|(k, v)| (format!("scene {k}"), v))
         .chain(report.rows())
         .collect();
+    if let Some(p) = &predicted {
+        // Beside the SAH cost, the other predictor.
+        let at = rows
+            .iter()
+            .position(|(k, _)| k == "SAH cost")
+            .map_or(rows.len(), |i| i + 1);
+        let epo = format!(
+            "{:.3} ({:.0} % of the SAH cost)",
+            p.epo,
+            100.0 * p.epo / p.sah_cost
+        );
+        rows.splice(
+            at..at,
+            [
+                ("EPO (end-point overlap)".to_string(), epo),
+                ("EPO computed in".to_string(), format!("{:.2} ms", p.epo_ms)),
+            ],
+        );
+    }
     let width = rows
         .iter()
         .map(|(k, _)| k.chars().count())
@@ -34,4 +147,14 @@ pub fn run(args: StatsArgs) -> Result<()> {
         out!("  {k:<width$}  {v}");
     }
     Ok(())
+}
+
+/// A row's value as what it is: a count or a number as a number, a time in milliseconds.
+fn detail_json(d: &Detail) -> serde_json::Value {
+    match d {
+        Detail::Text(t) => t.clone().into(),
+        Detail::Count(n) => (*n).into(),
+        Detail::Time(t) => (t.as_secs_f64() * 1e3).into(),
+        Detail::Number(x, _) => (*x).into(),
+    }
 }
