@@ -7,6 +7,7 @@ pub mod compare;
 pub mod cpu_time;
 pub mod json;
 pub mod plot;
+pub mod rank_correlation;
 pub mod rays;
 pub mod rotation;
 pub mod sah_check;
@@ -339,7 +340,7 @@ fn measure(
         time_packets::<_, I>(accel, &sets.primary_tiles, cfg.runs)
     });
     let [p, d, s] = mean_work(accel, sets);
-    let sah_check = SahCheck::measure(accel, params, &scene.bounds(), [p, d, s]);
+    let sah_check = SahCheck::measure(accel, params, scene, [p, d, s]);
     primary.mean = Some(p);
     diffuse.mean = Some(d);
     shadow.mean = Some(s);

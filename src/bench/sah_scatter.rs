@@ -1,12 +1,15 @@
 //! The SAH's prediction against the measured cost per ray, as a scatter plot over builders
 //! and scenes (`bvhlab bench sah-scatter`). Each point is one tree on one
 //! scene: across, the SAH cost it predicts; up, the cost per ray measured. On the line
-//! y = x the prediction is exact; below it the rays cost less than the SAH assumes.
+//! y = x the prediction is exact; below it the rays cost less than the SAH assumes. A third
+//! chart puts the tree's EPO across instead, and each scene's notes say how well each
+//! predictor orders its trees by measured cost (Spearman's ρ, `rank_correlation`).
 //!
 //! A run covers one scene; its rows go into a CSV that keeps the other scenes' rows, so the
 //! plot gathers every scene measured so far (running a scene again replaces its rows).
 
 use super::plot::{Axis, Chart, Color, Figure, Mark, Scale, Series};
+use super::rank_correlation::spearman;
 use super::sah_check::SahCheck;
 use std::fmt::Write as _;
 
@@ -18,7 +21,10 @@ pub struct Row {
     pub check: SahCheck,
 }
 
-const HEADER: &str = "scene,builder,c_trav,c_isect,predicted,random,primary,diffuse,shadow";
+const HEADER: &str = "scene,builder,c_trav,c_isect,predicted,random,primary,diffuse,shadow,epo";
+/// The header before EPO was measured: its rows are read without one.
+const HEADER_WITHOUT_EPO: &str =
+    "scene,builder,c_trav,c_isect,predicted,random,primary,diffuse,shadow";
 
 /// The rows as CSV (names quoted, since a builder's label may hold commas).
 pub fn csv(rows: &[Row]) -> String {
@@ -27,7 +33,7 @@ pub fn csv(rows: &[Row]) -> String {
         let c = &r.check;
         let _ = writeln!(
             out,
-            "{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{}",
             quote(&r.scene),
             quote(&r.builder),
             c.c_trav,
@@ -36,7 +42,8 @@ pub fn csv(rows: &[Row]) -> String {
             c.random,
             c.primary,
             c.diffuse,
-            c.shadow
+            c.shadow,
+            c.epo.map(|e| e.to_string()).unwrap_or_default()
         );
     }
     out
@@ -68,10 +75,11 @@ fn fields(line: &str) -> Vec<String> {
 /// Reads rows written by `csv`; an error names the line that is wrong.
 pub fn parse_csv(text: &str) -> Result<Vec<Row>, String> {
     let mut lines = text.lines().enumerate();
-    match lines.next() {
-        Some((_, h)) if h.trim() == HEADER => {}
+    let width = match lines.next() {
+        Some((_, h)) if h.trim() == HEADER => 10,
+        Some((_, h)) if h.trim() == HEADER_WITHOUT_EPO => 9,
         _ => return Err(format!("the first line is not the header \"{HEADER}\"")),
-    }
+    };
     let mut rows = Vec::new();
     for (k, line) in lines {
         if line.trim().is_empty() {
@@ -90,8 +98,8 @@ pub fn parse_csv(text: &str) -> Result<Vec<Row>, String> {
                 Err(_) => Err(format!("line {}: \"{}\" is not a number", k + 1, f[i])),
             }
         };
-        if f.len() != 9 {
-            return Err(format!("line {}: {} fields, not 9", k + 1, f.len()));
+        if f.len() != width {
+            return Err(format!("line {}: {} fields, not {width}", k + 1, f.len()));
         }
         rows.push(Row {
             scene: f[0].clone(),
@@ -100,6 +108,10 @@ pub fn parse_csv(text: &str) -> Result<Vec<Row>, String> {
                 c_trav: number(2)? as f32,
                 c_isect: number(3)? as f32,
                 predicted: number(4)?,
+                epo: match f.get(9) {
+                    Some(e) if !e.trim().is_empty() => Some(number(9)?),
+                    _ => None,
+                },
                 random: number(5)?,
                 primary: number(6)?,
                 diffuse: number(7)?,
@@ -119,6 +131,67 @@ pub fn merge(earlier: Vec<Row>, new: Vec<Row>) -> Vec<Row> {
         .collect();
     rows.extend(new);
     rows
+}
+
+/// How well each predictor orders one scene's trees by the measured cost of each ray set:
+/// Spearman's ρ over the trees (`None` with fewer than three, or all tied).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Correlations {
+    /// Random lines, primary, diffuse and shadow rays.
+    pub sah: [Option<f64>; 4],
+    pub epo: [Option<f64>; 4],
+}
+
+impl Correlations {
+    pub const RAY_SETS: [&str; 4] = ["random lines", "primary", "diffuse", "shadow"];
+
+    pub fn of(checks: &[SahCheck]) -> Correlations {
+        let measured = |c: &SahCheck| [c.random, c.primary, c.diffuse, c.shadow];
+        let rho = |predictor: &dyn Fn(&SahCheck) -> Option<f64>| {
+            std::array::from_fn(|k| {
+                let pairs: Option<Vec<(f64, f64)>> = checks
+                    .iter()
+                    .map(|c| Some((predictor(c)?, measured(c)[k])))
+                    .collect();
+                let (x, y): (Vec<f64>, Vec<f64>) = pairs?.into_iter().unzip();
+                spearman(&x, &y)
+            })
+        };
+        Correlations {
+            sah: rho(&|c| Some(c.predicted)),
+            epo: rho(&|c| c.epo),
+        }
+    }
+}
+
+impl Correlations {
+    /// "SAH 0.99 0.95 0.99 0.92 · EPO 0.93 …", the ray sets in the order of `RAY_SETS`.
+    pub fn compact(&self) -> String {
+        let list = |rho: &[Option<f64>; 4]| {
+            rho.iter()
+                .map(|r| r.map_or("–".to_string(), |r| format!("{r:.2}")))
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
+        format!("SAH {} · EPO {}", list(&self.sah), list(&self.epo))
+    }
+}
+
+impl std::fmt::Display for Correlations {
+    /// "SAH 0.93 0.86 0.89 0.71 · EPO …" in the order of `RAY_SETS`, "–" where unknown.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let list = |rho: &[Option<f64>; 4]| {
+            rho.iter()
+                .zip(Self::RAY_SETS)
+                .map(|(r, set)| match r {
+                    Some(r) => format!("{set} {r:.2}"),
+                    None => format!("{set} –"),
+                })
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        write!(f, "SAH: {}; EPO: {}", list(&self.sah), list(&self.epo))
+    }
 }
 
 /// Colour-blind-safe colours, one per scene.
@@ -155,7 +228,10 @@ pub fn figure(rows: &[Row]) -> Figure {
         mark: Mark::Line,
         labels: Vec::new(),
     };
-    let chart = |title: &str, measured: &dyn Fn(&SahCheck) -> Vec<f64>| {
+    // Across: a predictor of the check (None where it was not measured).
+    let chart = |title: &str,
+                 across: (&str, &dyn Fn(&SahCheck) -> Option<f64>),
+                 measured: &dyn Fn(&SahCheck) -> Vec<f64>| {
         let mut series: Vec<Series> = scenes
             .iter()
             .enumerate()
@@ -165,21 +241,21 @@ pub fn figure(rows: &[Row]) -> Figure {
                 points: rows
                     .iter()
                     .filter(|r| r.scene == scene)
-                    .flat_map(|r| {
-                        measured(&r.check)
-                            .into_iter()
-                            .map(move |m| (r.check.predicted, m))
-                    })
+                    .filter_map(|r| Some((across.1(&r.check).filter(|&x| x > 0.0)?, r)))
+                    .flat_map(|(x, r)| measured(&r.check).into_iter().map(move |m| (x, m)))
                     .collect(),
                 mark: Mark::Points,
                 labels: Vec::new(),
             })
             .collect();
-        series.push(identity.clone());
+        // The SAH predicts the cost itself; EPO only its overlap share, so no line.
+        if across.0.starts_with("SAH") {
+            series.push(identity.clone());
+        }
         Chart {
             title: title.into(),
             x: Axis {
-                label: "SAH cost (predicted cost per ray)".into(),
+                label: across.0.into(),
                 scale: Scale::Log,
             },
             y: Axis {
@@ -189,6 +265,9 @@ pub fn figure(rows: &[Row]) -> Figure {
             series,
         }
     };
+    type Predictor<'a> = (&'a str, &'a dyn Fn(&SahCheck) -> Option<f64>);
+    let sah: Predictor = ("SAH cost (predicted cost per ray)", &|c| Some(c.predicted));
+    let epo: Predictor = ("EPO (end-point overlap)", &|c| c.epo);
     let mut notes = vec!["measured / predicted:".to_string()];
     let percent_range = |ratios: Vec<f64>| {
         let lo = ratios.iter().copied().fold(f64::INFINITY, f64::min);
@@ -211,6 +290,16 @@ pub fn figure(rows: &[Row]) -> Figure {
             percent_range(view)
         ));
     }
+    notes.push("how each predictor orders the trees by measured cost".into());
+    notes.push("(Spearman's ρ on random lines, primary, diffuse, shadow rays):".into());
+    for &scene in &scenes {
+        let checks: Vec<SahCheck> = rows
+            .iter()
+            .filter(|r| r.scene == scene)
+            .map(|r| r.check)
+            .collect();
+        notes.push(format!("{scene}: {}", Correlations::of(&checks).compact()));
+    }
     Figure {
         title: format!(
             "SAH predicted against measured: {} trees on {} scene{}",
@@ -221,14 +310,18 @@ pub fn figure(rows: &[Row]) -> Figure {
         charts: vec![
             chart(
                 "random lines through the scene box (the SAH's assumption)",
+                sah,
                 &|c| vec![c.random],
             ),
-            chart("the view's primary, diffuse and shadow rays", &|c| {
+            chart("the view's primary, diffuse and shadow rays", sah, &|c| {
+                vec![c.primary, c.diffuse, c.shadow]
+            }),
+            chart("the view's rays against the tree's EPO", epo, &|c| {
                 vec![c.primary, c.diffuse, c.shadow]
             }),
         ],
         notes,
-        size: (1500, 700),
+        size: (2100, 760),
     }
 }
 
@@ -244,6 +337,7 @@ mod tests {
                 c_trav: 1.0,
                 c_isect: 2.0,
                 predicted,
+                epo: Some(predicted * 0.1),
                 random: predicted * 0.3,
                 primary: predicted * 0.7,
                 diffuse: predicted * 0.8,
@@ -264,17 +358,55 @@ mod tests {
     #[test]
     fn bad_csv_names_the_line() {
         assert!(parse_csv("nonsense\n").unwrap_err().contains("header"));
-        let text = format!("{HEADER}\n\"s\",\"b\",1,1,x,1,1,1,1\n");
+        let text = format!("{HEADER}\n\"s\",\"b\",1,1,x,1,1,1,1,1\n");
         assert!(parse_csv(&text).unwrap_err().contains("line 2"));
         let text = format!("{HEADER}\n\"s\",\"b\",1\n");
         assert!(parse_csv(&text).unwrap_err().contains("fields"));
         for bad in ["nan", "-inf", "-5", "1e300"] {
-            let text = format!("{HEADER}\n\"s\",\"b\",1,1,{bad},1,1,1,1\n");
+            let text = format!("{HEADER}\n\"s\",\"b\",1,1,{bad},1,1,1,1,1\n");
             assert!(
                 parse_csv(&text).unwrap_err().contains("not a cost"),
                 "{bad}"
             );
         }
+    }
+
+    #[test]
+    fn a_csv_from_before_epo_reads_without_it_and_the_epo_chart_skips_its_rows() {
+        let old = format!("{HEADER_WITHOUT_EPO}\n\"s\",\"b\",1,2,10,3,7,8,5\n");
+        let rows = parse_csv(&old).unwrap();
+        assert_eq!(rows[0].check.epo, None);
+        assert_eq!(rows[0].check.predicted, 10.0);
+        let mut mixed = rows.clone();
+        mixed.push(row("s", "c", 20.0));
+        let f = figure(&mixed);
+        assert_eq!(f.charts[2].series[0].points.len(), 3);
+        // Written again, the row keeps its empty EPO.
+        assert_eq!(parse_csv(&csv(&mixed)).unwrap(), mixed);
+        // An old header with ten fields is still wrong.
+        let text = format!("{HEADER_WITHOUT_EPO}\n\"s\",\"b\",1,2,10,3,7,8,5,1\n");
+        assert!(parse_csv(&text).unwrap_err().contains("not 9"));
+    }
+
+    #[test]
+    fn correlations_say_how_each_predictor_orders_the_trees() {
+        // The SAH orders these trees as the rays do; EPO in reverse.
+        let mut checks: Vec<SahCheck> = [10.0, 20.0, 30.0]
+            .iter()
+            .map(|&p| row("a", "x", p).check)
+            .collect();
+        for (c, e) in checks.iter_mut().zip([3.0, 2.0, 1.0]) {
+            c.epo = Some(e);
+        }
+        let r = Correlations::of(&checks);
+        assert_eq!(r.sah, [Some(1.0); 4]);
+        assert_eq!(r.epo, [Some(-1.0); 4]);
+        checks[1].epo = None;
+        assert_eq!(Correlations::of(&checks).epo, [None; 4]);
+        assert!(
+            r.to_string()
+                .starts_with("SAH: random lines 1.00, primary 1.00")
+        );
     }
 
     #[test]
@@ -292,11 +424,15 @@ mod tests {
             row("b", "x", 30.0),
         ];
         let f = figure(&rows);
-        assert_eq!(f.charts.len(), 2);
-        for chart in &f.charts {
+        assert_eq!(f.charts.len(), 3);
+        for chart in &f.charts[..2] {
             let names: Vec<&str> = chart.series.iter().map(|s| s.name.as_str()).collect();
             assert_eq!(names, ["a", "b", "measured = predicted"]);
         }
+        // EPO across: no identity line, the same points moved to x = EPO.
+        let names: Vec<&str> = f.charts[2].series.iter().map(|s| s.name.as_str()).collect();
+        assert_eq!(names, ["a", "b"]);
+        assert_eq!(f.charts[2].series[0].points[0], (1.0, 7.0));
         // Random lines: one point per tree; the view's rays: three.
         assert_eq!(f.charts[0].series[0].points, [(10.0, 3.0), (20.0, 6.0)]);
         assert_eq!(f.charts[1].series[1].points.len(), 3);

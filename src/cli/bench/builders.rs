@@ -190,30 +190,42 @@ pub(super) fn run_builders(
 
 /// The CSV and plot paths of a study: `--csv` and `--plot`, or `<study>-<scene>.csv|png`.
 /// The SAH check of every builder: its prediction, and each ray set's measured cost per
-/// ray with its share of the prediction.
+/// ray with its share of the prediction; then the tree's EPO, and how well each predictor
+/// orders the builders by measured cost.
 pub(super) fn sah_check_table(results: &[bench::BenchResult]) -> Result<()> {
     out!("  SAH predicted against measured (cost per ray, and % of the SAH cost):");
     out!(
-        "  {:<28} {:>9} {:>15} {:>15} {:>15} {:>15}",
+        "  {:<28} {:>9} {:>15} {:>15} {:>15} {:>15} {:>8}",
         "builder",
         "SAH cost",
         "random lines",
         "primary",
         "diffuse",
-        "shadow"
+        "shadow",
+        "EPO"
     );
+    let mut checks = Vec::new();
     for r in results {
         let Some(c) = &r.sah_check else { continue };
+        checks.push(*c);
         let cell = |m: f64| format!("{m:>7.1} ({:>3.0} %)", 100.0 * m / c.predicted);
         out!(
-            "  {:<28} {:>9.2} {:>15} {:>15} {:>15} {:>15}",
+            "  {:<28} {:>9.2} {:>15} {:>15} {:>15} {:>15} {:>8}",
             bench::builder_label(&r.params.bvh),
             c.predicted,
             cell(c.random),
             cell(c.primary),
             cell(c.diffuse),
-            cell(c.shadow)
+            cell(c.shadow),
+            c.epo.map_or("–".into(), |e| format!("{e:.2}"))
         );
+    }
+    if checks.len() >= 3 {
+        let rho = sah_scatter::Correlations::of(&checks);
+        out!(
+            "  how each predictor orders these builders by measured cost (Spearman's ρ, 1 = the same order):"
+        );
+        out!("    {rho}");
     }
     Ok(())
 }
