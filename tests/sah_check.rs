@@ -80,6 +80,9 @@ fn bench_reports_the_sah_check_for_trees_only() {
             let measured = c[key].as_f64().expect(key);
             assert!(measured > 0.0, "{accel} {key}");
         }
+        // EPO beside it: the BVHs' boxes overlap the stadium's walls, the k-d cells do not.
+        let epo = c["epo"].as_f64().expect("epo");
+        assert_eq!(epo > 1e-6, accel != "kdtree", "{accel}: EPO {epo}");
         // On the teapot in a stadium few lines stop early: random lines come close.
         let random = c["random"].as_f64().unwrap();
         assert!(

@@ -35,11 +35,11 @@ pub fn epo(outline: &Outline, scene: &[Triangle], c_trav: f32, c_isect: f32) -> 
     // (in scene order each walk would miss the cache); triangles no leaf references last.
     let mut seen = vec![false; scene.len()];
     let mut order: Vec<u32> = Vec::with_capacity(scene.len());
-    for &t in outline
-        .refs
-        .iter()
-        .chain(&(0..scene.len() as u32).collect::<Vec<_>>())
-    {
+    // (A wide BVH pads its references between leaves: only the leaves' count.)
+    let in_leaves = (0..outline.nodes.len())
+        .filter(|&n| outline.nodes[n].is_leaf())
+        .flat_map(|n| outline.leaf_refs(n).iter().copied());
+    for t in in_leaves.chain(0..scene.len() as u32) {
         if !std::mem::replace(&mut seen[t as usize], true) {
             order.push(t);
         }

@@ -194,6 +194,9 @@ impl std::fmt::Display for Correlations {
     }
 }
 
+/// A predictor's name and its value for a check (`None` where it was not measured).
+type Predictor<'a> = (&'a str, &'a dyn Fn(&SahCheck) -> Option<f64>);
+
 /// Colour-blind-safe colours, one per scene.
 const PALETTE: [Color; 6] = [
     [0, 114, 178],
@@ -228,10 +231,8 @@ pub fn figure(rows: &[Row]) -> Figure {
         mark: Mark::Line,
         labels: Vec::new(),
     };
-    // Across: a predictor of the check (None where it was not measured).
-    let chart = |title: &str,
-                 across: (&str, &dyn Fn(&SahCheck) -> Option<f64>),
-                 measured: &dyn Fn(&SahCheck) -> Vec<f64>| {
+    // Across: a predictor.
+    let chart = |title: &str, across: Predictor, measured: &dyn Fn(&SahCheck) -> Vec<f64>| {
         let mut series: Vec<Series> = scenes
             .iter()
             .enumerate()
@@ -265,7 +266,6 @@ pub fn figure(rows: &[Row]) -> Figure {
             series,
         }
     };
-    type Predictor<'a> = (&'a str, &'a dyn Fn(&SahCheck) -> Option<f64>);
     let sah: Predictor = ("SAH cost (predicted cost per ray)", &|c| Some(c.predicted));
     let epo: Predictor = ("EPO (end-point overlap)", &|c| c.epo);
     let mut notes = vec!["measured / predicted:".to_string()];
