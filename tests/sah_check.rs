@@ -80,9 +80,10 @@ fn bench_reports_the_sah_check_for_trees_only() {
             let measured = c[key].as_f64().expect(key);
             assert!(measured > 0.0, "{accel} {key}");
         }
-        // EPO beside it: the BVHs' boxes overlap the stadium's walls, the k-d cells do not.
+        // EPO beside it. (The k-d cells do not overlap, but the stadium's walls lie in
+        // split planes, held by the closed cells on both sides: their EPO is not 0.)
         let epo = c["epo"].as_f64().expect("epo");
-        assert_eq!(epo > 1e-6, accel != "kdtree", "{accel}: EPO {epo}");
+        assert!(epo > 0.0, "{accel}: EPO {epo}");
         // On the teapot in a stadium few lines stop early: random lines come close.
         let random = c["random"].as_f64().unwrap();
         assert!(
