@@ -548,3 +548,49 @@ fn a_prefetched_step_opens_without_building_and_gives_way_to_commands() {
     let before = until_prefetched(&mut worker);
     assert!(before.iter().any(|r| matches!(r, Reply::Frame(_))));
 }
+
+/// Waits for the worker's next EPO; the replies on the way.
+fn until_epo(worker: &mut Worker) -> (f64, Vec<Reply>) {
+    let mut seen = Vec::new();
+    while let Some(r) = worker.next_reply(Duration::from_secs(120)) {
+        if let Reply::Epo(epo) = r {
+            return (epo, seen);
+        }
+        seen.push(r);
+    }
+    panic!("no EPO came");
+}
+
+/// The shown tree's EPO comes after its build, at a quiet moment: the tree's own EPO, and
+/// after a move the refitted tree's. A structure without an SAH cost gets none.
+#[test]
+fn the_worker_sends_the_epo_of_the_tree_built_and_of_the_tree_refitted() {
+    let mut worker = Worker::spawn(|| {});
+    let params = StructureParams {
+        kind: AccelKind::Bvh,
+        ..Default::default()
+    };
+    worker.send(Command::SetParams(params));
+    let scene = load(&mut worker, "soup:3000");
+    let (epo, _) = until_epo(&mut worker);
+    let expected = built(&scene, AccelKind::Bvh)
+        .epo(&params, &scene.triangles)
+        .unwrap();
+    assert_eq!(epo, expected);
+    worker.send(Command::Move {
+        triangles: std::sync::Arc::new((0..300).collect()),
+        delta: glam::Vec3::new(0.3, 0.0, 0.0),
+    });
+    let (after, replies) = until_epo(&mut worker);
+    assert!(replies.iter().any(|r| matches!(r, Reply::Refitted { .. })));
+    assert_ne!(after, epo);
+    // The grid has no SAH cost: no EPO follows its build.
+    worker.send(Command::Build(StructureParams {
+        kind: AccelKind::Grid,
+        ..Default::default()
+    }));
+    let replies = worker.wait_idle(Duration::from_secs(120));
+    assert!(replies.iter().any(|r| matches!(r, Reply::Built { .. })));
+    std::thread::sleep(Duration::from_millis(500));
+    assert!(worker.next_reply(Duration::from_millis(300)).is_none());
+}

@@ -22,14 +22,26 @@ use rayon::prelude::*;
 /// The EPO of a tree given as its `outline` (BVH2, BVH4/8, k-d tree, octree), whose leaves
 /// reference `scene`'s triangles. 0 for a scene without area.
 pub fn epo(outline: &Outline, scene: &[Triangle], c_trav: f32, c_isect: f32) -> f64 {
+    epo_unless(outline, scene, c_trav, c_isect, &|| false).unwrap_or_default()
+}
+
+/// `epo`, given up (`None`) as soon as `abandon` says so: the app computes it at quiet
+/// moments and any command comes first.
+pub fn epo_unless(
+    outline: &Outline,
+    scene: &[Triangle],
+    c_trav: f32,
+    c_isect: f32,
+    abandon: &(dyn Fn() -> bool + Sync),
+) -> Option<f64> {
     if outline.nodes.is_empty() {
-        return 0.0;
+        return Some(0.0);
     }
     let tree = Tree::of(outline, c_trav, c_isect);
     let refs = References::of(outline, scene.len());
     let total_area: f64 = scene.iter().map(area).sum();
     if total_area <= 0.0 {
-        return 0.0;
+        return Some(0.0);
     }
     // Triangles in leaf order, so that one after another walk the same part of the tree
     // (in scene order each walk would miss the cache); triangles no leaf references last.
@@ -50,6 +62,9 @@ pub fn epo(outline: &Outline, scene: &[Triangle], c_trav: f32, c_isect: f32) -> 
         .map_init(
             || (vec![false; tree.nodes.len()], Scratch::default()),
             |(above, scratch), chunk| {
+                if abandon() {
+                    return 0.0;
+                }
                 chunk
                     .iter()
                     .map(|&t| {
@@ -60,7 +75,7 @@ pub fn epo(outline: &Outline, scene: &[Triangle], c_trav: f32, c_isect: f32) -> 
             },
         )
         .collect();
-    parts.iter().sum::<f64>() / total_area
+    (!abandon()).then(|| parts.iter().sum::<f64>() / total_area)
 }
 
 /// The outline as the walks read it: 32 bytes a node, and each node's cost.

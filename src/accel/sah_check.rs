@@ -25,6 +25,8 @@ pub struct SahPrediction {
     pub predicted: f64,
     /// C_trav · nodes visited + C_isect · triangle tests per random line, closest hit.
     pub random: f64,
+    /// The tree's EPO (`accel::epo`), once computed (the app computes it after the frame).
+    pub epo: Option<f64>,
 }
 
 impl SahPrediction {
@@ -43,6 +45,7 @@ impl SahPrediction {
             c_isect,
             predicted,
             random: m.cost(c_trav, c_isect),
+            epo: None,
         })
     }
 }

@@ -133,6 +133,14 @@ impl AccelKind {
     }
 
     /// A wide BVH: the BVH2 collapsed, traced with SIMD slab tests.
+    /// The trees with an SAH cost (and an EPO): the BVHs and the k-d tree.
+    pub fn has_sah_cost(self) -> bool {
+        matches!(
+            self,
+            AccelKind::Bvh | AccelKind::Bvh4 | AccelKind::Bvh8 | AccelKind::KdTree
+        )
+    }
+
     pub fn is_wide(self) -> bool {
         matches!(self, AccelKind::Bvh4 | AccelKind::Bvh8)
     }
@@ -376,6 +384,16 @@ impl Structure {
     /// The tree's EPO (`accel::epo`) over `scene`, the triangles it was built over, in the
     /// units of its SAH cost; `None` where `sah_cost` is.
     pub fn epo(&self, params: &StructureParams, scene: &[Triangle]) -> Option<f64> {
+        self.epo_unless(params, scene, &|| false)
+    }
+
+    /// `epo`, given up (`None`) as soon as `abandon` says so.
+    pub fn epo_unless(
+        &self,
+        params: &StructureParams,
+        scene: &[Triangle],
+        abandon: &(dyn Fn() -> bool + Sync),
+    ) -> Option<f64> {
         let (b, k) = (&params.bvh, &params.kdtree);
         let (outline, c_trav, c_isect) = match self {
             Structure::Bvh(t) => (t.outline(), b.c_trav, b.c_isect),
@@ -384,7 +402,7 @@ impl Structure {
             Structure::KdTree(t) => (t.outline(), k.c_trav, k.c_isect),
             _ => return None,
         };
-        Some(super::epo::epo(&outline, scene, c_trav, c_isect))
+        super::epo::epo_unless(&outline, scene, c_trav, c_isect, abandon)
     }
 
     /// The nodes or cells the explorer draws.

@@ -119,6 +119,10 @@ impl BvhLabApp {
                         self.sah_history.pop();
                     }
                     self.last_refit = Some(refit_time);
+                    // The refitted tree's EPO follows.
+                    if let Some(p) = &mut self.sah_prediction {
+                        p.epo = None;
+                    }
                     self.maybe_auto_rebuild();
                 }
                 Reply::Outline(outline) => self.outline = outline,
@@ -188,6 +192,11 @@ impl BvhLabApp {
                     self.replay_error = None;
                 }
                 Reply::Replayed(Err(e)) => self.replay_error = Some(e),
+                Reply::Epo(epo) => {
+                    if let Some(p) = &mut self.sah_prediction {
+                        p.epo = Some(epo);
+                    }
+                }
                 Reply::Idle(_) | Reply::Prefetched(_) => {}
             }
         }

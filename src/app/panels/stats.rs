@@ -185,6 +185,14 @@ pub(super) fn sah_check_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             vec![format!("{cost:.2} ({} of it)", ratio(cost))],
         ));
     }
+    // The second predictor: what the SAH does not see, the other geometry inside each box.
+    rows.push((
+        "EPO (end-point overlap)".into(),
+        vec![match p.epo {
+            Some(epo) => format!("{epo:.2} ({} of the SAH cost)", ratio(epo)),
+            None => "computing…".into(),
+        }],
+    ));
     table(ui, "sah check", &[], rows);
 }
 

@@ -241,6 +241,8 @@ pub enum Reply {
     Replayed(Result<Arc<Replay>, String>),
     /// The scene and structure asked for by `Command::Prefetch` are ready.
     Prefetched(String),
+    /// The EPO of the tree built or refitted last.
+    Epo(f64),
     /// Every command up to this sequence number has been handled.
     Idle(u64),
 }

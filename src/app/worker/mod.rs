@@ -8,6 +8,7 @@
 //! the size, the scene or the tree changed; a new colour mode or overlay recolours the
 //! traced frame.
 
+mod epo;
 mod frames;
 pub mod messages;
 mod motion;
@@ -92,6 +93,7 @@ impl Worker {
             selection: RefCell::default(),
             drag_bounds: None,
             prefetch: None,
+            epo_version: None,
         };
         let thread = std::thread::Builder::new()
             .name("bvhlab-worker".into())

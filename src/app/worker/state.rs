@@ -105,6 +105,8 @@ pub(in crate::app) struct State {
     pub(in crate::app) drag_bounds: Option<DragBounds>,
     /// The next lecture step's scene and structure, made at quiet moments.
     pub(in crate::app) prefetch: Option<super::prefetch::Prefetch>,
+    /// The `version` whose tree's EPO was sent last.
+    pub(in crate::app) epo_version: Option<u64>,
 }
 
 /// An image's pixels and its heatmap scale, as `colorize` gives them.
@@ -158,12 +160,23 @@ impl State {
 
     pub(in crate::app) fn run(mut self, commands: Receiver<(u64, Command)>) {
         loop {
-            // With prefetch work left, a quiet moment is used for it.
-            let first = if self.prefetch_waiting() {
-                match commands.recv_timeout(super::prefetch::IDLE_BEFORE) {
+            // With work left for a quiet moment (the shown tree's EPO first, then the
+            // next lecture step), the moment is used for it.
+            let idle_work = if self.epo_waiting() {
+                Some(super::epo::IDLE_BEFORE)
+            } else {
+                self.prefetch_waiting()
+                    .then_some(super::prefetch::IDLE_BEFORE)
+            };
+            let first = if let Some(idle) = idle_work {
+                match commands.recv_timeout(idle) {
                     Ok(c) => c,
                     Err(RecvTimeoutError::Timeout) => {
-                        self.prefetch_now();
+                        if self.epo_waiting() {
+                            self.epo_now();
+                        } else {
+                            self.prefetch_now();
+                        }
                         continue;
                     }
                     Err(RecvTimeoutError::Disconnected) => break,
