@@ -917,3 +917,63 @@ fn stats_json_gives_the_sah_cost_and_epo_of_trees_and_null_for_the_others() {
         "{text}"
     );
 }
+
+#[test]
+fn render_tree_draws_the_hierarchy_of_every_tree_and_refuses_the_rest() {
+    let dir = std::env::temp_dir().join(format!("bvhlab-tree-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for accel in ["bvh", "bvh8", "kdtree", "octree", "two-level"] {
+        let png = dir.join(format!("{accel}.png"));
+        let out = bvhlab(&[
+            "render",
+            "--scene",
+            "soup:500",
+            "--accel",
+            accel,
+            "--tree",
+            "--tree-width",
+            "sah",
+            "--tree-color",
+            "area",
+            "--width",
+            "400",
+            "--height",
+            "300",
+            "--out",
+            png.to_str().unwrap(),
+        ]);
+        assert!(
+            out.status.success(),
+            "{accel}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let text = String::from_utf8(out.stdout).unwrap();
+        assert!(text.contains("nodes drawn"), "{text}");
+        let image = image::open(&png).unwrap();
+        assert_eq!((image.width(), image.height()), (400, 300));
+        assert!(png.with_extension("svg").exists());
+    }
+    for (args, says) in [
+        (&["--accel", "grid", "--tree"][..], "has no hierarchy"),
+        (&["--tree-width", "sah"][..], "--tree"),
+        (&["--tree", "--mode", "nodes"][..], "cannot be used with"),
+    ] {
+        let png = dir.join("refused.png");
+        let mut all = vec![
+            "render",
+            "--scene",
+            "cornell",
+            "--out",
+            png.to_str().unwrap(),
+        ];
+        all.extend_from_slice(args);
+        let out = bvhlab(&all);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && err.contains(says),
+            "{args:?}: {err}"
+        );
+        assert!(!png.exists(), "{args:?} left a file");
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

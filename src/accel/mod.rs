@@ -9,6 +9,7 @@ pub mod controls;
 pub mod embree;
 pub mod epo;
 pub mod grid;
+pub mod hierarchy;
 pub mod hit;
 pub mod instances;
 pub mod kdtree;

@@ -9,6 +9,7 @@ pub mod replay;
 pub mod stats;
 pub mod stress;
 pub mod trace;
+pub mod tree;
 
 use anyhow::{Context, Result, bail};
 use bvhlab::accel::structure::{self, AccelKind, Built, StructureParams};

@@ -3,6 +3,7 @@
 use super::{BuildArgs, ViewArgs, check_size, load_scene};
 use anyhow::{Result, bail};
 use bvhlab::accel::Counter;
+use bvhlab::accel::hierarchy::{Shade, Width};
 use bvhlab::geometry::IntersectorKind;
 use bvhlab::render::compare::CompareView;
 use bvhlab::render::{self, RayKind, RenderSettings, ViewMode};
@@ -50,6 +51,16 @@ pub struct RenderArgs {
     /// With --compare: A | B side by side, or the difference B − A of the heatmap's counter.
     #[arg(long, value_enum, requires = "compare", default_value_t = CompareView::Split)]
     pub compare_view: CompareView,
+    /// Draw the structure's tree (BVH2 unless --accel names another) as a hierarchy
+    /// diagram instead of the scene: one row per depth, each node within its parent.
+    #[arg(long, conflicts_with_all = ["compare", "mode", "shadow", "heat_max"])]
+    pub tree: bool,
+    /// With --tree: what a node's width is proportional to among its siblings.
+    #[arg(long, value_enum, requires = "tree", default_value_t = Width::Triangles)]
+    pub tree_width: Width,
+    /// With --tree: what a node's colour shows.
+    #[arg(long, value_enum, requires = "tree", default_value_t = Shade::Depth)]
+    pub tree_color: Shade,
 }
 
 /// `mode` as `--mode` spells it.
@@ -136,6 +147,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
             PathBuf::from(format!("bvhlab-{}{suffix}.png", sanitize(&scene.name)))
         })
     };
+    if args.tree {
+        return super::tree::run(&scene, &args, &out_or_default("-tree"));
+    }
     if let Some(flags) = &args.compare {
         let out = out_or_default("-compare");
         return super::compare::run(&scene, &settings, &args, flags, &out);

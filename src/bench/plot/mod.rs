@@ -148,9 +148,26 @@ pub fn pareto_front(points: &[(f64, f64)]) -> Vec<usize> {
     front
 }
 
+/// A picture this module can save: a figure of charts, or the hierarchy diagram (`icicle`).
+pub trait Drawing {
+    /// The whole picture, in pixels.
+    fn size(&self) -> (u32, u32);
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), PlotError>;
+}
+
+impl Drawing for Figure {
+    fn size(&self) -> (u32, u32) {
+        self.size
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), PlotError> {
+        draw(self, root)
+    }
+}
+
 /// Draws `figure` into a PNG at `png` and an SVG beside it (same stem, `.svg`); returns the
 /// SVG's path.
-pub fn save(figure: &Figure, png: &Path) -> Result<PathBuf, PlotError> {
+pub fn save(figure: &impl Drawing, png: &Path) -> Result<PathBuf, PlotError> {
     check(png)?;
     let image = render_png(figure)?;
     let rgba = image::DynamicImage::ImageRgb8(image).into_rgba8();
@@ -172,13 +189,13 @@ pub fn check(png: &Path) -> Result<(), OutputError> {
 }
 
 /// The figure as an RGB image.
-pub fn render_png(figure: &Figure) -> Result<image::RgbImage, PlotError> {
-    let (w, h) = figure.size;
+pub fn render_png(figure: &impl Drawing) -> Result<image::RgbImage, PlotError> {
+    let (w, h) = figure.size();
     let mut buf = vec![0u8; w as usize * h as usize * 3];
     {
         let root = bitmap_text::GlyphText(BitMapBackend::with_buffer(&mut buf, (w, h)))
             .into_drawing_area();
-        draw(figure, &root)?;
+        figure.draw(&root)?;
         root.present().map_err(draw_err)?;
     }
     image::RgbImage::from_raw(w, h, buf)
@@ -186,11 +203,11 @@ pub fn render_png(figure: &Figure) -> Result<image::RgbImage, PlotError> {
 }
 
 /// The figure as an SVG document (text as `<text>` elements).
-pub fn render_svg(figure: &Figure) -> Result<String, PlotError> {
+pub fn render_svg(figure: &impl Drawing) -> Result<String, PlotError> {
     let mut out = String::new();
     {
-        let root = SVGBackend::with_string(&mut out, figure.size).into_drawing_area();
-        draw(figure, &root)?;
+        let root = SVGBackend::with_string(&mut out, figure.size()).into_drawing_area();
+        figure.draw(&root)?;
         root.present().map_err(draw_err)?;
     }
     Ok(out)
@@ -617,6 +634,7 @@ fn draw_chart<DB: DrawingBackend>(
 }
 
 mod bitmap_text;
+pub mod icicle;
 
 #[cfg(test)]
 mod tests {

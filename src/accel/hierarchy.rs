@@ -1,0 +1,348 @@
+//! The tree as a picture: an icicle diagram of a structure's outline. The root is the top
+//! row, spanning the whole width; each row below holds the children of the row above, side
+//! by side within their parent's span, each as wide as its share of a chosen quantity
+//! (triangles under it, its subtree's share of the SAH cost, or an equal share). A node too
+//! narrow to see is drawn folded, its subtree left out, so even a tree of a million nodes
+//! is a few thousand cells. Each cell also carries the quantity its colour shows.
+
+use super::{Outline, OutlineNode};
+
+/// What a node's width is proportional to, among its siblings.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Width {
+    /// The triangle references under it.
+    #[default]
+    Triangles,
+    /// Its subtree's share of the tree's SAH cost: where the cost lives.
+    Sah,
+    /// An equal share: the tree's shape alone.
+    Uniform,
+}
+
+/// What a cell's colour shows.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum Shade {
+    /// Its depth.
+    #[default]
+    Depth,
+    /// Its surface-area probability SA(n)/SA(root): the chance a random line through the
+    /// root's box passes through it (log scale).
+    Area,
+    /// Its subtree's share of the tree's SAH cost (log scale).
+    Sah,
+    /// The triangle references under it (log scale).
+    Triangles,
+}
+
+impl Shade {
+    /// The colour bar's name for the quantity.
+    pub fn label(self) -> &'static str {
+        match self {
+            Shade::Depth => "depth",
+            Shade::Area => "surface-area probability SA(n)/SA(root)",
+            Shade::Sah => "subtree's share of the SAH cost",
+            Shade::Triangles => "triangle references under the node",
+        }
+    }
+
+    /// Whether the colour scale is logarithmic.
+    pub fn is_log(self) -> bool {
+        self != Shade::Depth
+    }
+}
+
+impl Width {
+    pub fn label(self) -> &'static str {
+        match self {
+            Width::Triangles => "triangles under it",
+            Width::Sah => "its subtree's share of the SAH cost",
+            Width::Uniform => "an equal share",
+        }
+    }
+}
+
+/// One node's cell: its row (depth) and its span [x0, x1) of the unit width.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cell {
+    pub node: u32,
+    pub depth: u32,
+    pub x0: f64,
+    pub x1: f64,
+    /// Its subtree is left out: narrower than the fold width, or deeper than the rows.
+    pub folded: bool,
+    /// The quantity the colour shows (`Shade`).
+    pub value: f64,
+}
+
+/// The diagram's cells, parents before children, and the range of the shaded quantity.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Diagram {
+    pub cells: Vec<Cell>,
+    /// The deepest row drawn.
+    pub rows: u32,
+    /// The smallest and largest value among the cells (positive values only for a log
+    /// scale).
+    pub range: (f64, f64),
+    /// Nodes of the tree not drawn (under folded cells).
+    pub hidden: usize,
+}
+
+/// Per node: triangle references under it, and its subtree's SAH terms
+/// Σ SA(m)/SA(root) · C(m) over m in the subtree (C_trav interior, C_isect·N leaf).
+struct Subtrees {
+    references: Vec<f64>,
+    sah: Vec<f64>,
+    nodes: Vec<usize>,
+}
+
+impl Subtrees {
+    fn of(outline: &Outline, c_trav: f32, c_isect: f32) -> Subtrees {
+        let n = outline.nodes.len();
+        let root_area = outline
+            .nodes
+            .first()
+            .map_or(0.0, |r| f64::from(r.bounds.surface_area()));
+        let mut s = Subtrees {
+            references: vec![0.0; n],
+            sah: vec![0.0; n],
+            nodes: vec![1; n],
+        };
+        // Children come after their parent: one backward pass sums every subtree.
+        for i in (0..n).rev() {
+            let node = &outline.nodes[i];
+            let area = if root_area > 0.0 {
+                f64::from(node.bounds.surface_area()) / root_area
+            } else {
+                1.0
+            };
+            if node.is_leaf() {
+                s.references[i] = f64::from(node.refs.1);
+                s.sah[i] = area * f64::from(c_isect) * f64::from(node.refs.1);
+            } else {
+                s.sah[i] = area * f64::from(c_trav);
+                for c in node.children() {
+                    s.references[i] += s.references[c];
+                    s.sah[i] += s.sah[c];
+                    s.nodes[i] += s.nodes[c];
+                }
+            }
+        }
+        s
+    }
+}
+
+/// Lays out `outline` as an icicle: widths by `width`, colours by `shade`, subtrees
+/// narrower than `fold` (a fraction of the whole width) or below row `max_rows` folded.
+/// C_trav and C_isect weigh the SAH shares.
+pub fn layout(
+    outline: &Outline,
+    width: Width,
+    shade: Shade,
+    fold: f64,
+    max_rows: u32,
+    (c_trav, c_isect): (f32, f32),
+) -> Diagram {
+    let mut diagram = Diagram {
+        cells: Vec::new(),
+        rows: 0,
+        range: (f64::INFINITY, 0.0),
+        hidden: 0,
+    };
+    let Some(root) = outline.nodes.first() else {
+        return diagram;
+    };
+    let sub = Subtrees::of(outline, c_trav, c_isect);
+    let total_sah = sub.sah[0];
+    let root_area = f64::from(root.bounds.surface_area());
+    let value = |i: usize, node: &OutlineNode| match shade {
+        Shade::Depth => f64::from(node.depth),
+        Shade::Area if root_area > 0.0 => f64::from(node.bounds.surface_area()) / root_area,
+        Shade::Area => 1.0,
+        Shade::Sah if total_sah > 0.0 => sub.sah[i] / total_sah,
+        Shade::Sah => 0.0,
+        Shade::Triangles => sub.references[i],
+    };
+    let weight = |i: usize| match width {
+        Width::Triangles => sub.references[i],
+        Width::Sah => sub.sah[i],
+        Width::Uniform => 1.0,
+    };
+    let mut stack = vec![(0usize, 0.0f64, 1.0f64)];
+    while let Some((i, x0, x1)) = stack.pop() {
+        let node = &outline.nodes[i];
+        let depth = node.depth - root.depth;
+        let folded = !node.is_leaf() && (x1 - x0 < fold || depth >= max_rows);
+        let v = value(i, node);
+        diagram.cells.push(Cell {
+            node: i as u32,
+            depth,
+            x0,
+            x1,
+            folded,
+            value: v,
+        });
+        diagram.rows = diagram.rows.max(depth);
+        if !shade.is_log() || v > 0.0 {
+            diagram.range = (diagram.range.0.min(v), diagram.range.1.max(v));
+        }
+        if folded {
+            diagram.hidden += sub.nodes[i] - 1;
+            continue;
+        }
+        let children = node.children();
+        let total: f64 = children.clone().map(weight).sum();
+        let count = children.len() as f64;
+        let mut at = x0;
+        // Pushed last to first, so the first child is drawn first.
+        let spans: Vec<(usize, f64, f64)> = children
+            .map(|c| {
+                let share = if total > 0.0 {
+                    weight(c) / total
+                } else {
+                    1.0 / count
+                };
+                let end = at + (x1 - x0) * share;
+                let span = (c, at, end);
+                at = end;
+                span
+            })
+            .collect();
+        stack.extend(spans.into_iter().rev());
+    }
+    if diagram.range.0 > diagram.range.1 {
+        diagram.range = (0.0, 0.0);
+    }
+    // Parents before children, row by row: the order a picture is drawn in.
+    diagram.cells.sort_by_key(|c| c.depth);
+    diagram
+}
+
+impl Diagram {
+    /// Where `value` falls on the colour scale, 0 to 1 (logarithmic for a log shade).
+    pub fn scale(&self, shade: Shade, value: f64) -> f64 {
+        let (lo, hi) = self.range;
+        let t = if shade.is_log() {
+            if value <= 0.0 || lo <= 0.0 || hi <= lo {
+                return 0.0;
+            }
+            (value.ln() - lo.ln()) / (hi.ln() - lo.ln())
+        } else if hi > lo {
+            (value - lo) / (hi - lo)
+        } else {
+            0.0
+        };
+        t.clamp(0.0, 1.0)
+    }
+
+    /// The cell drawn for `node`, if it is drawn (not under a folded cell).
+    pub fn cell_of(&self, node: u32) -> Option<&Cell> {
+        self.cells.iter().find(|c| c.node == node)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::bvh::{BuildParams, build};
+    use crate::geometry::Triangle;
+    use glam::Vec3;
+
+    fn tree(n: usize) -> Outline {
+        // A row of small triangles, a few of them large: an uneven tree.
+        let tris: Vec<Triangle> = (0..n)
+            .map(|i| {
+                let x = i as f32;
+                let s = if i % 7 == 0 { 3.0 } else { 0.3 };
+                Triangle::new(
+                    Vec3::new(x, 0.0, 0.0),
+                    Vec3::new(x + s, 0.0, 0.0),
+                    Vec3::new(x, s, (i % 5) as f32),
+                )
+            })
+            .collect();
+        let params = BuildParams {
+            max_leaf_size: 2,
+            ..Default::default()
+        };
+        build(&tris, &params).unwrap().0.outline()
+    }
+
+    #[test]
+    fn children_split_their_parents_span_by_their_weights() {
+        let outline = tree(200);
+        for width in [Width::Triangles, Width::Sah, Width::Uniform] {
+            let d = layout(&outline, width, Shade::Depth, 0.0, u32::MAX, (1.0, 1.0));
+            // Nothing folded: every node drawn once, parents before children.
+            assert_eq!(d.cells.len(), outline.nodes.len(), "{width:?}");
+            assert_eq!(d.hidden, 0);
+            assert_eq!(d.rows, outline.max_depth());
+            assert!(d.cells.windows(2).all(|w| w[0].depth <= w[1].depth));
+            for (i, node) in outline.nodes.iter().enumerate() {
+                let parent = d.cell_of(i as u32).unwrap();
+                let kids: Vec<&Cell> = node
+                    .children()
+                    .map(|c| d.cell_of(c as u32).unwrap())
+                    .collect();
+                if kids.is_empty() {
+                    continue;
+                }
+                assert!((kids[0].x0 - parent.x0).abs() < 1e-12);
+                assert!((kids.last().unwrap().x1 - parent.x1).abs() < 1e-12);
+                for pair in kids.windows(2) {
+                    assert_eq!(pair[0].x1, pair[1].x0);
+                }
+                if width == Width::Triangles {
+                    // Two children: widths in the ratio of their triangles.
+                    let count = |c: usize| outline.triangles_under(c).len() as f64;
+                    let (a, b) = (node.first_child as usize, node.first_child as usize + 1);
+                    let ratio = (kids[0].x1 - kids[0].x0) / (kids[1].x1 - kids[1].x0);
+                    if outline.nodes[a].is_leaf() && outline.nodes[b].is_leaf() {
+                        let expected =
+                            f64::from(outline.nodes[a].refs.1) / f64::from(outline.nodes[b].refs.1);
+                        assert!((ratio - expected).abs() < 1e-9);
+                    } else {
+                        assert!((ratio - count(a) / count(b)).abs() < 1e-9);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn narrow_or_deep_subtrees_fold_and_hide_exactly_their_nodes() {
+        let outline = tree(500);
+        let d = layout(&outline, Width::Triangles, Shade::Sah, 0.01, 4, (1.0, 1.0));
+        assert!(d.rows <= 4);
+        let subtree = |i: usize| {
+            let mut n = 0;
+            let mut stack = vec![i];
+            while let Some(j) = stack.pop() {
+                n += 1;
+                stack.extend(outline.nodes[j].children());
+            }
+            n
+        };
+        let hidden: usize = d
+            .cells
+            .iter()
+            .filter(|c| c.folded)
+            .map(|c| subtree(c.node as usize) - 1)
+            .sum();
+        assert_eq!(d.hidden, hidden);
+        assert_eq!(d.cells.len() + d.hidden, outline.nodes.len());
+        for c in &d.cells {
+            // A drawn interior node is wide enough and above the last row, or folded.
+            let interior = !outline.nodes[c.node as usize].is_leaf();
+            let small = c.x1 - c.x0 < 0.01 || c.depth >= 4;
+            assert_eq!(c.folded, interior && small, "{c:?}");
+        }
+        // The root's SAH share is all of it; every share lies in (0, 1].
+        assert!((d.cell_of(0).unwrap().value - 1.0).abs() < 1e-12);
+        assert!(
+            d.cells
+                .iter()
+                .all(|c| c.value > 0.0 && c.value <= 1.0 + 1e-12)
+        );
+        assert_eq!(d.scale(Shade::Sah, 1.0), 1.0);
+    }
+}
