@@ -210,3 +210,28 @@ fn export_writes_the_view_as_png_and_the_counters_as_csv() {
     assert!(h.state().shown.is_some());
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The hierarchy diagram under the view: shown by its toggle, and a click on a cell walks
+/// the tree to that cell's node (the root's row, then the first child's at the left edge).
+#[test]
+fn clicking_a_cell_of_the_hierarchy_diagram_walks_the_tree_to_its_node() {
+    let mut h = app("cornell");
+    h.get_by_label("tree").click();
+    settle(&mut h);
+    let area = h.get_by_label("hierarchy diagram").rect();
+    let outline = h.state().outline.clone();
+    assert!(outline.nodes.len() > 1);
+    let row = area.height() / (outline.max_depth() + 1) as f32;
+    click_at(&mut h, egui::pos2(area.center().x, area.top() + row * 0.5));
+    assert_eq!(h.state().walk, Some(0));
+    click_at(
+        &mut h,
+        egui::pos2(area.left() + 1.0, area.top() + row * 1.5),
+    );
+    assert_eq!(h.state().walk, Some(outline.nodes[0].first_child));
+    // Hidden again, the diagram is gone and the walk stays.
+    h.get_by_label("tree").click();
+    settle(&mut h);
+    assert!(h.query_by_label("hierarchy diagram").is_none());
+    assert_eq!(h.state().walk, Some(outline.nodes[0].first_child));
+}

@@ -8,7 +8,7 @@
 use super::{Outline, OutlineNode};
 
 /// What a node's width is proportional to, among its siblings.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, clap::ValueEnum)]
 pub enum Width {
     /// The triangle references under it.
     #[default]
@@ -20,7 +20,7 @@ pub enum Width {
 }
 
 /// What a cell's colour shows.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, clap::ValueEnum)]
 pub enum Shade {
     /// Its depth.
     #[default]
@@ -35,6 +35,18 @@ pub enum Shade {
 }
 
 impl Shade {
+    pub const ALL: [Shade; 4] = [Shade::Depth, Shade::Area, Shade::Sah, Shade::Triangles];
+
+    /// The name on a button.
+    pub fn short(self) -> &'static str {
+        match self {
+            Shade::Depth => "depth",
+            Shade::Area => "area",
+            Shade::Sah => "SAH share",
+            Shade::Triangles => "triangles",
+        }
+    }
+
     /// The colour bar's name for the quantity.
     pub fn label(self) -> &'static str {
         match self {
@@ -52,6 +64,17 @@ impl Shade {
 }
 
 impl Width {
+    pub const ALL: [Width; 3] = [Width::Triangles, Width::Sah, Width::Uniform];
+
+    /// The name on a button.
+    pub fn short(self) -> &'static str {
+        match self {
+            Width::Triangles => "triangles",
+            Width::Sah => "SAH share",
+            Width::Uniform => "equal",
+        }
+    }
+
     pub fn label(self) -> &'static str {
         match self {
             Width::Triangles => "triangles under it",

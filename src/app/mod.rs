@@ -137,6 +137,8 @@ pub struct BvhLabApp {
     move_sent: Option<Instant>,
     pub drag_latency: Option<Duration>,
     pub walk: Option<u32>,
+    /// The hierarchy diagram as last laid out, and what it was laid out for.
+    tree_diagram: Option<(panels::TreeKey, Arc<crate::accel::hierarchy::Diagram>)>,
     /// The pointer over the view (0..1 across and down), when it is there.
     pub probe: Option<[f32; 2]>,
     /// The view's size in physical pixels, as last laid out.
@@ -260,6 +262,7 @@ impl BvhLabApp {
             moved_transforms: Default::default(),
             move_sent: None,
             drag_latency: None,
+            tree_diagram: None,
             walk: None,
             probe: None,
             panels_to_top: false,
@@ -549,6 +552,7 @@ impl eframe::App for BvhLabApp {
             lecture::caption_bar(self, ui);
             panels::status_bar(self, ui);
             panels::side_panels(self, ui);
+            panels::tree_panel(self, ui);
         }
         egui::CentralPanel::no_frame().show(ui, |ui| viewport::show(self, ui));
         panels::help_window(self, &ctx);

@@ -128,12 +128,13 @@ pub struct Preset {
 /// Settings that belong to the person at the computer, not to a view of the lecture: a
 /// preset neither saves nor sets them.
 /// The layout is among them: a lecture step does not open or close the panels.
-const PERSONAL: [&str; 7] = [
+const PERSONAL: [&str; 8] = [
     "scene",
     "ui_scale",
     "presentation",
     "show_controls",
     "show_stats",
+    "show_tree",
     "recent",
     "bookmarks",
 ];

@@ -44,6 +44,8 @@ pub struct Settings {
     /// The side panels of the normal layout, each collapsed or not.
     pub show_controls: bool,
     pub show_stats: bool,
+    /// The hierarchy diagram under the view.
+    pub show_tree: bool,
     pub recent: Vec<String>,
     /// Camera bookmarks per scene (keyed by its spec), kept between runs.
     pub bookmarks: BTreeMap<String, Vec<Bookmark>>,
@@ -65,6 +67,7 @@ impl Settings {
             presentation: current.presentation,
             show_controls: current.show_controls,
             show_stats: current.show_stats,
+            show_tree: current.show_tree,
             recent: current.recent.clone(),
             bookmarks: current.bookmarks.clone(),
             ..self.clone()
@@ -93,6 +96,7 @@ impl Default for Settings {
             presentation: false,
             show_controls: true,
             show_stats: true,
+            show_tree: false,
             recent: Vec::new(),
             bookmarks: BTreeMap::new(),
         }

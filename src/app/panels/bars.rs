@@ -56,6 +56,8 @@ pub fn top_bar(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 .on_hover_text("show or hide the controls panel");
             ui.toggle_value(&mut app.settings.show_stats, "stats")
                 .on_hover_text("show or hide the statistics panel");
+            ui.toggle_value(&mut app.settings.show_tree, "tree")
+                .on_hover_text("show or hide the hierarchy diagram under the view");
             if ui
                 .button("Present (Tab)")
                 .on_hover_text("the view fills the window under the caption (Tab or F11)")

@@ -8,6 +8,7 @@ mod legend;
 mod levels;
 mod refit;
 mod stats;
+mod tree;
 mod walk;
 
 pub use bars::{status_bar, top_bar};
@@ -16,6 +17,7 @@ pub use layout::{presentation_bar, presentation_text, side_panels};
 pub use legend::{legend, scale_bar};
 pub use stats::stats;
 pub(crate) use stats::table;
+pub use tree::{TreeKey, tree_panel};
 pub use walk::Step;
 
 use crate::app::BvhLabApp;
