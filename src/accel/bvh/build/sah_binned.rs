@@ -161,6 +161,18 @@ thread_local! {
     static SCRATCH: RefCell<Scratch> = RefCell::default();
 }
 
+/// Runs `f` with this thread's scratch, taken out of its slot for the call and put back
+/// after: `f` bins in parallel, and a thread waiting inside that loop may be handed
+/// another node's search (work stealing), which then finds the slot empty and starts a
+/// scratch of its own. (Borrowed across the loop, the slot made that second search panic
+/// with "already borrowed".)
+fn with_scratch<R>(f: impl FnOnce(&mut Scratch) -> R) -> R {
+    let mut scratch = SCRATCH.take();
+    let result = f(&mut scratch);
+    SCRATCH.set(scratch);
+    result
+}
+
 /// The best binned object split of a node: its SAH cost (unnormalised, see
 /// `sah_split_cost`), where it cuts, and both children's boxes.
 #[derive(Clone, Copy)]
@@ -225,7 +237,7 @@ fn candidates(
     mut visit: impl FnMut(Candidate),
 ) {
     let b = binning.buckets;
-    SCRATCH.with_borrow_mut(|s| {
+    with_scratch(|s| {
         s.bins.clear();
         s.bins.resize(3 * b, EMPTY_BIN);
         s.sweep.right_area.resize(3 * b, 0.0);
@@ -298,7 +310,7 @@ pub fn best(
     let b = p.buckets as usize;
     let binning = Binning::new(&info.centroids, b);
     let parent_area = info.bounds.surface_area();
-    SCRATCH.with_borrow_mut(|s| {
+    with_scratch(|s| {
         // Every bin is empty between calls (only the filled ones are emptied after use, a
         // few of the 3B near the leaves): only new ones need setting.
         if s.bins.len() < 3 * b {
