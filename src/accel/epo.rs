@@ -43,21 +43,9 @@ pub fn epo_unless(
     if total_area <= 0.0 {
         return Some(0.0);
     }
-    // Triangles in leaf order, so that one after another walk the same part of the tree
-    // (in scene order each walk would miss the cache); triangles no leaf references last.
-    let mut seen = vec![false; scene.len()];
-    let mut order: Vec<u32> = Vec::with_capacity(scene.len());
-    // (A wide BVH pads its references between leaves: only the leaves' count.)
-    let in_leaves = (0..outline.nodes.len())
-        .filter(|&n| outline.nodes[n].is_leaf())
-        .flat_map(|n| outline.leaf_refs(n).iter().copied());
-    for t in in_leaves.chain(0..scene.len() as u32) {
-        if !std::mem::replace(&mut seen[t as usize], true) {
-            order.push(t);
-        }
-    }
     // Chunks summed in a fixed order: the same tree always gives the same EPO.
-    let parts: Vec<f64> = order
+    let parts: Vec<f64> = refs
+        .order
         .par_chunks(256)
         .map_init(
             || (vec![false; tree.nodes.len()], Scratch::default()),
@@ -127,11 +115,16 @@ struct References {
     /// `leaves[start[t]..start[t + 1]]` are the leaves referencing triangle t.
     start: Vec<u32>,
     leaves: Vec<u32>,
+    /// Every triangle once, in leaf order (the walks of one triangle after another then
+    /// share the part of the tree they read; in scene order each would miss the cache),
+    /// triangles no leaf references last.
+    order: Vec<u32>,
 }
 
 impl References {
     fn of(outline: &Outline, triangles: usize) -> Self {
         let mut start = vec![0u32; triangles + 1];
+        // (A wide BVH pads its references between leaves: only the leaves' count.)
         let leaf_refs = || {
             (0..outline.nodes.len())
                 .filter(|&n| outline.nodes[n].is_leaf())
@@ -145,11 +138,21 @@ impl References {
         }
         let mut next = start.clone();
         let mut leaves = vec![0u32; start[triangles] as usize];
+        let mut order = Vec::with_capacity(triangles);
         for (leaf, t) in leaf_refs() {
-            leaves[next[t as usize] as usize] = leaf;
-            next[t as usize] += 1;
+            let t = t as usize;
+            if next[t] == start[t] {
+                order.push(t as u32);
+            }
+            leaves[next[t] as usize] = leaf;
+            next[t] += 1;
         }
-        References { start, leaves }
+        order.extend((0..triangles as u32).filter(|&t| start[t as usize] == start[t as usize + 1]));
+        References {
+            start,
+            leaves,
+            order,
+        }
     }
 
     fn leaves_of(&self, t: usize) -> &[u32] {

@@ -6,7 +6,7 @@
 
 use crate::accel::hierarchy::{self, Shade, Width};
 use crate::app::BvhLabApp;
-use crate::render::colormap::viridis;
+use crate::render::colormap::{to_rgba8, viridis};
 use eframe::egui::{self, Color32, Rect, Sense, Stroke, StrokeKind, pos2};
 use std::sync::Arc;
 
@@ -104,12 +104,8 @@ fn diagram(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     };
     for c in &d.cells {
         let r = cell_rect(c);
-        let v = viridis(d.scale(shade, c.value) as f32);
-        let color = Color32::from_rgb(
-            (v.x * 255.0) as u8,
-            (v.y * 255.0) as u8,
-            (v.z * 255.0) as u8,
-        );
+        let [red, green, blue, _] = to_rgba8(viridis(d.scale(shade, c.value) as f32));
+        let color = Color32::from_rgb(red, green, blue);
         painter.rect_filled(r, 0.0, color);
         if r.width() >= 4.0 && r.height() >= 4.0 {
             painter.rect_stroke(r, 0.0, Stroke::new(1.0, Color32::WHITE), StrokeKind::Inside);

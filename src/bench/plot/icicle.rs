@@ -5,7 +5,7 @@
 
 use super::{Drawing, PlotError, draw_err, font, register_fonts};
 use crate::accel::hierarchy::{Diagram, Shade};
-use crate::render::colormap::viridis;
+use crate::render::colormap::{to_rgba8, viridis};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
@@ -28,12 +28,8 @@ const TOP: i32 = 76;
 const BOTTOM: i32 = 70;
 
 fn shade_color(t: f64) -> RGBColor {
-    let c = viridis(t as f32);
-    RGBColor(
-        (c.x * 255.0).round() as u8,
-        (c.y * 255.0).round() as u8,
-        (c.z * 255.0).round() as u8,
-    )
+    let [r, g, b, _] = to_rgba8(viridis(t as f32));
+    RGBColor(r, g, b)
 }
 
 impl Drawing for Icicle<'_> {
