@@ -5,11 +5,13 @@
 
 use bvhlab_testkit as common;
 
+use bvhlab::accel::Outline;
 use bvhlab::accel::replay::{Level, Step, Visited};
 use bvhlab::accel::structure::{self, AccelKind, Structure, StructureParams};
 use bvhlab::accel::{Strategy, TraversalOrder};
 use bvhlab::geometry::Watertight;
 use bvhlab::geometry::slab::Slabs;
+use bvhlab::render::node_visits::node_visits;
 use bvhlab::render::replay::{Replay, ReplayError, replay_pixel};
 use bvhlab::render::{self, RayKind, RenderSettings};
 use bvhlab::scene::island::{self, Detail};
@@ -48,6 +50,7 @@ fn configurations() -> Vec<(String, StructureParams)> {
 /// The pixel's replay against what the frame counted and found for it.
 fn assert_replay_matches_frame(
     s: &Structure,
+    outline: &Outline,
     scene: &Scene,
     settings: &RenderSettings,
     frame: &render::Frame,
@@ -86,6 +89,7 @@ fn assert_replay_matches_frame(
             "{what}: JSON visits"
         );
         assert_child_boxes_are_the_visited_boxes(replay, &what);
+        assert_the_path_is_the_visits_in_the_outline(s, outline, replay, &what);
     };
     let primary =
         replay_pixel::<Watertight>(s, scene, settings, (x, y), RayKind::Primary).expect(what);
@@ -166,6 +170,49 @@ fn assert_child_boxes_are_the_visited_boxes(replay: &Replay, what: &str) {
     }
 }
 
+/// The hierarchy diagram's path of a replay: each visit of the outline's level is the
+/// outline node with the visit's box, bit for bit, entered below a node visited before it
+/// (the root first); other visits (a BLAS's) and structures without a hierarchy have none.
+fn assert_the_path_is_the_visits_in_the_outline(
+    s: &Structure,
+    outline: &Outline,
+    replay: &Replay,
+    what: &str,
+) {
+    assert_eq!(replay.outline_nodes.len(), replay.visits.len(), "{what}");
+    let hierarchy = !matches!(s, Structure::Grid(_) | Structure::BruteForce(_));
+    let shown = if matches!(s, Structure::TwoLevel(_)) {
+        Level::Top
+    } else {
+        Level::Single
+    };
+    let mut seen = std::collections::HashSet::new();
+    for (&i, &node) in replay.visits.iter().zip(&replay.outline_nodes) {
+        let Step::Visit { bounds, level, .. } = replay.steps[i] else {
+            panic!("{what}: visit {i} is not a visit step");
+        };
+        if !hierarchy || level != shown {
+            assert_eq!(node, None, "{what}: visit {i} is not in the outline");
+            continue;
+        }
+        let node = node.unwrap_or_else(|| panic!("{what}: visit {i} has no outline node"));
+        let n = &outline.nodes[node as usize];
+        assert_eq!(
+            n.bounds, bounds,
+            "{what}: visit {i}, outline node {node}'s box"
+        );
+        assert!(
+            node == 0 && seen.is_empty() || seen.contains(&n.parent),
+            "{what}: outline node {node} visited before its parent {}",
+            n.parent
+        );
+        seen.insert(node);
+    }
+    if hierarchy && replay.visit_count() > 0 {
+        assert!(!seen.is_empty(), "{what}: a path with no node");
+    }
+}
+
 /// Random pixels (and the centre, which hits on every built-in view) of a small frame.
 fn check_scene(scene: &Scene, configs: &[(String, StructureParams)], seed: u64) {
     check_view(
@@ -190,9 +237,11 @@ fn check_view(
         let built = structure::build_scene(scene, params, &Default::default())
             .unwrap_or_else(|e| panic!("{}: {name}: {e}", scene.name));
         let frame = render::trace(&built.structure, scene, &settings);
+        let outline = built.structure.outline();
         for &pixel in &pixels {
             let what = format!("{} {name}", scene.name);
-            assert_replay_matches_frame(&built.structure, scene, &settings, &frame, pixel, &what);
+            let s = &built.structure;
+            assert_replay_matches_frame(s, &outline, scene, &settings, &frame, pixel, &what);
         }
     }
 }
@@ -203,6 +252,60 @@ fn replays_recreate_the_counters_and_hits_of_every_structure_on_every_builtin_sc
     for (k, spec) in SMALL_BUILTINS.iter().enumerate() {
         let scene = builtin::by_name(spec).unwrap().unwrap();
         check_scene(&scene, &configs, 100 + k as u64);
+    }
+}
+
+/// The diagram's measured visits: per outline node, over every pixel's primary or shadow
+/// ray, summing to the frame's counted node visits (the top level's, for two levels).
+#[test]
+fn node_visits_of_a_frame_sum_to_the_frames_counted_visits() {
+    let scene = builtin::by_name("teapot-in-stadium").unwrap().unwrap();
+    let settings = RenderSettings::for_scene(&scene, W, H);
+    for kind in AccelKind::ALL {
+        let params = StructureParams::of_kind(kind);
+        let built = structure::build_scene(&scene, &params, &Default::default()).unwrap();
+        let s = &built.structure;
+        let frame = render::trace(s, &scene, &settings);
+        let nodes = s.outline().nodes.len();
+        for rays in [RayKind::Primary, RayKind::Shadow] {
+            let v =
+                node_visits::<Watertight>(s, &scene, &settings, rays, 1, nodes, &|| false).unwrap();
+            let mut counted = 0u64;
+            let mut traced = 0u64;
+            for y in 0..H {
+                for x in 0..W {
+                    let sample = frame.sample(x, y).unwrap();
+                    let c = match rays {
+                        RayKind::Primary => sample.primary,
+                        RayKind::Shadow if sample.is_hit() => sample.shadow,
+                        RayKind::Shadow => continue,
+                    };
+                    traced += 1;
+                    counted += u64::from(match s {
+                        Structure::TwoLevel(_) => c.top_nodes_visited,
+                        Structure::Grid(_) | Structure::BruteForce(_) => 0,
+                        _ => c.nodes_visited,
+                    });
+                }
+            }
+            let what = format!("{} {rays:?}", kind.label());
+            assert_eq!(v.per_node.len(), nodes, "{what}");
+            assert_eq!(v.rays, traced, "{what}: rays");
+            assert_eq!(v.total(), counted, "{what}: visits");
+            if !matches!(s, Structure::Grid(_) | Structure::BruteForce(_)) {
+                assert!(v.per_node[0] > 0, "{what}: the root is visited");
+            }
+        }
+        // Every other pixel each way: a quarter of the rays; and given up when asked.
+        let quarter =
+            node_visits::<Watertight>(s, &scene, &settings, RayKind::Primary, 2, nodes, &|| false);
+        assert_eq!(
+            quarter.unwrap().rays,
+            u64::from(W.div_ceil(2) * H.div_ceil(2))
+        );
+        let given_up =
+            node_visits::<Watertight>(s, &scene, &settings, RayKind::Primary, 1, nodes, &|| true);
+        assert!(given_up.is_none(), "{}", kind.label());
     }
 }
 

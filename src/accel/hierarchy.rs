@@ -17,6 +17,8 @@ pub enum Width {
     Sah,
     /// An equal share: the tree's shape alone.
     Uniform,
+    /// Its subtree's share of the nodes the frame's rays visited (measured).
+    Visits,
 }
 
 /// What a cell's colour shows.
@@ -32,10 +34,19 @@ pub enum Shade {
     Sah,
     /// The triangle references under it (log scale).
     Triangles,
+    /// The share of the frame's rays that visited it (measured; log scale): what the
+    /// surface-area probability predicts.
+    Visits,
 }
 
 impl Shade {
-    pub const ALL: [Shade; 4] = [Shade::Depth, Shade::Area, Shade::Sah, Shade::Triangles];
+    pub const ALL: [Shade; 5] = [
+        Shade::Depth,
+        Shade::Area,
+        Shade::Sah,
+        Shade::Triangles,
+        Shade::Visits,
+    ];
 
     /// The name on a button.
     pub fn short(self) -> &'static str {
@@ -44,6 +55,7 @@ impl Shade {
             Shade::Area => "area",
             Shade::Sah => "SAH share",
             Shade::Triangles => "triangles",
+            Shade::Visits => "rays visiting",
         }
     }
 
@@ -54,6 +66,9 @@ impl Shade {
             Shade::Area => "surface-area probability SA(n)/SA(root)",
             Shade::Sah => "subtree's share of the SAH cost",
             Shade::Triangles => "triangle references under the node",
+            Shade::Visits => {
+                "share of the frame's rays that visited the node (measured; grey: none did)"
+            }
         }
     }
 
@@ -61,10 +76,15 @@ impl Shade {
     pub fn is_log(self) -> bool {
         self != Shade::Depth
     }
+
+    /// Whether it is measured from the frame's rays (and needs their visits).
+    pub fn is_measured(self) -> bool {
+        self == Shade::Visits
+    }
 }
 
 impl Width {
-    pub const ALL: [Width; 3] = [Width::Triangles, Width::Sah, Width::Uniform];
+    pub const ALL: [Width; 4] = [Width::Triangles, Width::Sah, Width::Uniform, Width::Visits];
 
     /// The name on a button.
     pub fn short(self) -> &'static str {
@@ -72,6 +92,7 @@ impl Width {
             Width::Triangles => "triangles",
             Width::Sah => "SAH share",
             Width::Uniform => "equal",
+            Width::Visits => "visits",
         }
     }
 
@@ -80,6 +101,7 @@ impl Width {
             Width::Triangles => "triangles under it",
             Width::Sah => "its subtree's share of the SAH cost",
             Width::Uniform => "an equal share",
+            Width::Visits => "its subtree's share of the nodes the frame's rays visited",
         }
     }
 }
@@ -116,10 +138,19 @@ struct Subtrees {
     references: Vec<f64>,
     sah: Vec<f64>,
     nodes: Vec<usize>,
+    /// Visits of the subtree's nodes by the frame's rays (zero when none were counted).
+    visits: Vec<f64>,
+}
+
+/// Visits per outline node by a frame's rays, and how many rays there were.
+#[derive(Clone, Copy, Debug)]
+pub struct Visits<'a> {
+    pub per_node: &'a [u64],
+    pub rays: u64,
 }
 
 impl Subtrees {
-    fn of(outline: &Outline, c_trav: f32, c_isect: f32) -> Subtrees {
+    fn of(outline: &Outline, c_trav: f32, c_isect: f32, visits: Option<Visits>) -> Subtrees {
         let n = outline.nodes.len();
         let root_area = outline
             .nodes
@@ -129,6 +160,12 @@ impl Subtrees {
             references: vec![0.0; n],
             sah: vec![0.0; n],
             nodes: vec![1; n],
+            visits: vec![0.0; n],
+        };
+        let own_visits = |i: usize| {
+            visits
+                .and_then(|v| v.per_node.get(i))
+                .map_or(0.0, |&v| v as f64)
         };
         // Children come after their parent: one backward pass sums every subtree.
         for i in (0..n).rev() {
@@ -138,6 +175,7 @@ impl Subtrees {
             } else {
                 1.0
             };
+            s.visits[i] = own_visits(i);
             if node.is_leaf() {
                 s.references[i] = f64::from(node.refs.1);
                 s.sah[i] = area * f64::from(c_isect) * f64::from(node.refs.1);
@@ -147,6 +185,7 @@ impl Subtrees {
                     s.references[i] += s.references[c];
                     s.sah[i] += s.sah[c];
                     s.nodes[i] += s.nodes[c];
+                    s.visits[i] += s.visits[c];
                 }
             }
         }
@@ -156,7 +195,8 @@ impl Subtrees {
 
 /// Lays out `outline` as an icicle: widths by `width`, colours by `shade`, subtrees
 /// narrower than `fold` (a fraction of the whole width) or below row `max_rows` folded.
-/// C_trav and C_isect weigh the SAH shares.
+/// C_trav and C_isect weigh the SAH shares; `visits` are the frame's rays' visits per node,
+/// for the measured width and shade (without them those read zero).
 pub fn layout(
     outline: &Outline,
     width: Width,
@@ -164,6 +204,7 @@ pub fn layout(
     fold: f64,
     max_rows: u32,
     (c_trav, c_isect): (f32, f32),
+    visits: Option<Visits>,
 ) -> Diagram {
     let mut diagram = Diagram {
         cells: Vec::new(),
@@ -174,7 +215,8 @@ pub fn layout(
     let Some(root) = outline.nodes.first() else {
         return diagram;
     };
-    let sub = Subtrees::of(outline, c_trav, c_isect);
+    let sub = Subtrees::of(outline, c_trav, c_isect, visits);
+    let rays = visits.map_or(0, |v| v.rays);
     let total_sah = sub.sah[0];
     let root_area = f64::from(root.bounds.surface_area());
     let value = |i: usize, node: &OutlineNode| match shade {
@@ -184,11 +226,20 @@ pub fn layout(
         Shade::Sah if total_sah > 0.0 => sub.sah[i] / total_sah,
         Shade::Sah => 0.0,
         Shade::Triangles => sub.references[i],
+        // The node's own visits: the measured chance a ray enters it.
+        Shade::Visits if rays > 0 => {
+            visits
+                .and_then(|v| v.per_node.get(i))
+                .map_or(0.0, |&n| n as f64)
+                / rays as f64
+        }
+        Shade::Visits => 0.0,
     };
     let weight = |i: usize| match width {
         Width::Triangles => sub.references[i],
         Width::Sah => sub.sah[i],
         Width::Uniform => 1.0,
+        Width::Visits => sub.visits[i],
     };
     let mut stack = vec![(0usize, 0.0f64, 1.0f64)];
     while let Some((i, x0, x1)) = stack.pop() {
@@ -240,7 +291,21 @@ pub fn layout(
     diagram
 }
 
+/// A measured cell no ray visited: grey, off the colour scale.
+pub const UNVISITED: [u8; 4] = [150, 150, 150, 255];
+
 impl Diagram {
+    /// A cell's colour: where its value falls on the viridis scale, or grey for a node the
+    /// frame's rays never visited.
+    pub fn color(&self, shade: Shade, value: f64) -> [u8; 4] {
+        if shade.is_measured() && value <= 0.0 {
+            return UNVISITED;
+        }
+        crate::render::colormap::to_rgba8(crate::render::colormap::viridis(
+            self.scale(shade, value) as f32,
+        ))
+    }
+
     /// Where `value` falls on the colour scale, 0 to 1 (logarithmic for a log shade).
     pub fn scale(&self, shade: Shade, value: f64) -> f64 {
         let (lo, hi) = self.range;
@@ -294,7 +359,15 @@ mod tests {
     fn children_split_their_parents_span_by_their_weights() {
         let outline = tree(200);
         for width in [Width::Triangles, Width::Sah, Width::Uniform] {
-            let d = layout(&outline, width, Shade::Depth, 0.0, u32::MAX, (1.0, 1.0));
+            let d = layout(
+                &outline,
+                width,
+                Shade::Depth,
+                0.0,
+                u32::MAX,
+                (1.0, 1.0),
+                None,
+            );
             // Nothing folded: every node drawn once, parents before children.
             assert_eq!(d.cells.len(), outline.nodes.len(), "{width:?}");
             assert_eq!(d.hidden, 0);
@@ -334,7 +407,15 @@ mod tests {
     #[test]
     fn narrow_or_deep_subtrees_fold_and_hide_exactly_their_nodes() {
         let outline = tree(500);
-        let d = layout(&outline, Width::Triangles, Shade::Sah, 0.01, 4, (1.0, 1.0));
+        let d = layout(
+            &outline,
+            Width::Triangles,
+            Shade::Sah,
+            0.01,
+            4,
+            (1.0, 1.0),
+            None,
+        );
         assert!(d.rows <= 4);
         let subtree = |i: usize| {
             let mut n = 0;

@@ -28,6 +28,7 @@ pub mod split_costs;
 pub mod stats;
 pub mod structure;
 pub mod two_level;
+pub mod visit_index;
 
 pub use brute_force::BruteForce;
 pub use bvh::{BuildParams, Bvh, Strategy, TraversalOrder};

@@ -139,6 +139,17 @@ pub struct BvhLabApp {
     pub walk: Option<u32>,
     /// The hierarchy diagram as last laid out, and what it was laid out for.
     tree_diagram: Option<(panels::TreeKey, Arc<crate::accel::hierarchy::Diagram>)>,
+    /// The outline node under the pointer in the hierarchy diagram, outlined in the view.
+    tree_hover: Option<u32>,
+    /// The frame's rays' visits per outline node (the diagram's measured choices), with
+    /// the outline (its address) and the request they were counted for.
+    node_visits: Option<(
+        usize,
+        worker::VisitsRequest,
+        Arc<crate::render::node_visits::NodeVisits>,
+    )>,
+    /// The visits asked of the worker and not yet answered.
+    visits_asked: Option<worker::VisitsRequest>,
     /// The pointer over the view (0..1 across and down), when it is there.
     pub probe: Option<[f32; 2]>,
     /// The view's size in physical pixels, as last laid out.
@@ -263,6 +274,9 @@ impl BvhLabApp {
             move_sent: None,
             drag_latency: None,
             tree_diagram: None,
+            tree_hover: None,
+            node_visits: None,
+            visits_asked: None,
             walk: None,
             probe: None,
             panels_to_top: false,
@@ -545,6 +559,8 @@ impl eframe::App for BvhLabApp {
         self.take_dropped_files(&ctx);
         self.shortcuts(&ctx);
 
+        // Set again by the hierarchy diagram while the pointer is over one of its cells.
+        self.tree_hover = None;
         if self.settings.presentation {
             panels::presentation_bar(self, ui);
         } else {

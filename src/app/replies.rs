@@ -197,6 +197,18 @@ impl BvhLabApp {
                         p.epo = Some(epo);
                     }
                 }
+                Reply::NodeVisits(request, visits) => {
+                    if self.visits_asked.as_ref() == Some(&request) {
+                        self.visits_asked = None;
+                    }
+                    // Counted over the outline the worker had; kept for the outline shown
+                    // now, which the worker's replies keep in step with it.
+                    if let Some(v) = visits.filter(|v| v.per_node.len() == self.outline.nodes.len())
+                    {
+                        let outline = Arc::as_ptr(&self.outline) as usize;
+                        self.node_visits = Some((outline, request, v));
+                    }
+                }
                 Reply::Idle(_) | Reply::Prefetched(_) => {}
             }
         }

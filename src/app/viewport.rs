@@ -30,6 +30,7 @@ pub fn show(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     busy_overlay(app, ui, &painter, rect);
     handle_input(app, ui, &response, rect);
     super::replay::draw(app, &painter, rect);
+    super::panels::draw_hovered_box(app, &painter, rect);
     app.probe = response.hover_pos().map(|p| {
         [
             (p.x - rect.min.x) / rect.width(),

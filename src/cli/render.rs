@@ -148,7 +148,7 @@ pub fn run(args: RenderArgs) -> Result<()> {
         })
     };
     if args.tree {
-        return super::tree::run(&scene, &args, &out_or_default("-tree"));
+        return super::tree::run(&scene, &args, &settings, &out_or_default("-tree"));
     }
     if let Some(flags) = &args.compare {
         let out = out_or_default("-compare");

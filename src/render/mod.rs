@@ -7,6 +7,7 @@ pub mod compare;
 pub mod export;
 pub mod frame;
 pub mod heat;
+pub mod node_visits;
 pub mod overlay;
 pub mod replay;
 mod sample_pool;

@@ -6,6 +6,7 @@
 use super::overlay::{BOX_EDGES, box_corners};
 use super::{RayKind, RenderSettings, shadow_ray};
 use crate::accel::replay::{Level, Step, Visited, counters_of};
+use crate::accel::visit_index::VisitIndex;
 use crate::accel::{Accel, Counters, NoStats, Recorder, Structure};
 use crate::geometry::{Aabb, Intersector, Ray};
 use crate::scene::Scene;
@@ -34,6 +35,9 @@ pub struct Replay {
     pub corners: Vec<Option<[Vec3; 8]>>,
     /// The index of each visit step in `steps`.
     pub visits: Vec<usize>,
+    /// For each visit step, the node of the structure's outline it is (what the hierarchy
+    /// diagram draws), or `None` when the outline does not hold it (a BLAS's node).
+    pub outline_nodes: Vec<Option<u32>>,
 }
 
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -107,11 +111,14 @@ pub fn replay_ray<I: Intersector>(
         mut steps,
     } = recorder;
     let corners = place_visits(structure, ray, &mut steps);
+    let visits: Vec<usize> = (0..steps.len()).filter(|&i| steps[i].is_visit()).collect();
+    let index = VisitIndex::of(structure);
     let mut replay = Replay {
         pixel,
         rays,
         ray: *ray,
-        visits: (0..steps.len()).filter(|&i| steps[i].is_visit()).collect(),
+        outline_nodes: visits.iter().map(|&i| index.node(&steps[i])).collect(),
+        visits,
         steps,
         counters,
         hit: None,

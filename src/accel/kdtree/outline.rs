@@ -47,9 +47,25 @@ impl KdTree {
     /// Every node as the explorer draws it: its cell, and for interior nodes the split
     /// plane as a flat box spanning the cell. Children are numbered contiguously.
     pub fn outline(&self) -> Outline {
+        self.numbered_outline().0
+    }
+
+    /// For each of the tree's nodes, its number in `outline()` (the replay names nodes by
+    /// the tree's own numbers, the diagram by the outline's).
+    pub fn outline_index(&self) -> Vec<u32> {
+        let kd_index = self.numbered_outline().1;
+        let mut index = vec![u32::MAX; self.nodes.len()];
+        for (at, &kd) in kd_index.iter().enumerate() {
+            index[kd] = at as u32;
+        }
+        index
+    }
+
+    /// The outline and, for each of its nodes, the tree's node it is.
+    fn numbered_outline(&self) -> (Outline, Vec<usize>) {
         let mut out = Outline::default();
         if self.nodes.is_empty() {
-            return out;
+            return (out, Vec::new());
         }
         // Breadth first, so that each pair of children gets consecutive numbers.
         let mut kd_index = vec![0usize];
@@ -93,7 +109,7 @@ impl KdTree {
             }
             i += 1;
         }
-        out
+        (out, kd_index)
     }
 
     pub(super) fn report(

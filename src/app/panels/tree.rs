@@ -1,13 +1,20 @@
 //! The hierarchy diagram under the view (`accel::hierarchy`): the structure's tree as an
-//! icicle, the root on top, each node a cell within its parent's span. Hovering a cell names
-//! its node; clicking one walks the tree to it, so its box is outlined in the view, and the
-//! walk's node is outlined here. Subtrees too narrow to see are folded into one cell with a
-//! dark foot; the layout is made again only when the tree, the choice or the size changes.
+//! icicle, the root on top, each node a cell within its parent's span. Linked both ways with
+//! the view: hovering a cell names its node and outlines its box in the view; clicking one
+//! walks the tree to it (and, during a replay, steps to its visit); the walk's node is
+//! outlined here, and a replayed ray's path is drawn through the cells it visited, in order.
+//! Subtrees too narrow to see are folded into one cell with a dark foot; the layout is made
+//! again only when the tree, the choice or the size changes.
 
-use crate::accel::hierarchy::{self, Shade, Width};
+use crate::accel::Outline;
+use crate::accel::hierarchy::{self, Cell, Diagram, Shade, Width};
 use crate::app::BvhLabApp;
-use crate::render::colormap::{to_rgba8, viridis};
-use eframe::egui::{self, Color32, Rect, Sense, Stroke, StrokeKind, pos2};
+use crate::app::worker::{Command, VisitsRequest};
+use crate::render::RayKind;
+use crate::render::node_visits::NodeVisits;
+use crate::render::overlay::{BOX_EDGES, box_corners};
+use crate::render::replay::Ink;
+use eframe::egui::{self, Color32, Rect, Sense, Shape, Stroke, StrokeKind, pos2};
 use std::sync::Arc;
 
 /// What a diagram was laid out for.
@@ -20,6 +27,8 @@ pub struct TreeKey {
     /// The drawing's width and its rows, in points.
     size: [u32; 2],
     costs: [u32; 2],
+    /// The measured visits it was laid out with (their address), if any.
+    visits: usize,
 }
 
 /// Cells narrower than this many points are folded.
@@ -40,6 +49,23 @@ pub fn tree_panel(app: &mut BvhLabApp, ui: &mut egui::Ui) {
 fn chosen<T: Copy + Send + Sync + 'static>(ui: &egui::Ui, salt: &str, default: T) -> (egui::Id, T) {
     let id = ui.scope_id().with(("tree diagram", salt));
     (id, ui.data(|d| d.get_temp(id)).unwrap_or(default))
+}
+
+/// The cell that shows `node`: its own, or its nearest drawn ancestor's when it is folded.
+fn drawn_cell<'d>(d: &'d Diagram, outline: &Outline, node: u32) -> Option<&'d Cell> {
+    let mut at = Some(node as usize).filter(|&n| n < outline.nodes.len());
+    while let Some(n) = at {
+        if let Some(c) = d.cell_of(n as u32) {
+            return Some(c);
+        }
+        at = Some(outline.nodes[n].parent as usize).filter(|&p| p < outline.nodes.len());
+    }
+    None
+}
+
+fn ink(i: Ink) -> Color32 {
+    let [r, g, b, _] = i.color();
+    Color32::from_rgb(r, g, b)
 }
 
 fn diagram(app: &mut BvhLabApp, ui: &mut egui::Ui) {
@@ -68,6 +94,24 @@ fn diagram(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         ui.label("No tree yet.");
         return;
     }
+    let visits = if shade.is_measured() || width == Width::Visits {
+        let v = measured_visits(app);
+        ui.label(match &v {
+            Some(v) => format!(
+                "measured: the visits of {} {} rays of the frame in view",
+                v.rays,
+                if app.settings.shadow_rays {
+                    "shadow"
+                } else {
+                    "primary"
+                }
+            ),
+            None => "counting the visits of the frame's rays…".to_string(),
+        });
+        v
+    } else {
+        None
+    };
     let (response, painter) = ui.allocate_painter(ui.available_size(), Sense::click());
     response
         .widget_info(|| egui::WidgetInfo::labeled(egui::Role::Canvas, true, "hierarchy diagram"));
@@ -80,6 +124,7 @@ fn diagram(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         shade,
         size: [area.width() as u32, max_rows],
         costs: [b.c_trav.to_bits(), b.c_isect.to_bits()],
+        visits: visits.as_ref().map_or(0, |v| Arc::as_ptr(v) as usize),
     };
     let d = match &app.tree_diagram {
         Some((k, d)) if *k == key => d.clone(),
@@ -91,6 +136,10 @@ fn diagram(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 f64::from(FOLD / area.width().max(1.0)),
                 max_rows - 1,
                 (b.c_trav, b.c_isect),
+                visits.as_ref().map(|v| hierarchy::Visits {
+                    per_node: &v.per_node,
+                    rays: v.rays,
+                }),
             ));
             app.tree_diagram = Some((key, d.clone()));
             d
@@ -104,7 +153,7 @@ fn diagram(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     };
     for c in &d.cells {
         let r = cell_rect(c);
-        let [red, green, blue, _] = to_rgba8(viridis(d.scale(shade, c.value) as f32));
+        let [red, green, blue, _] = d.color(shade, c.value);
         let color = Color32::from_rgb(red, green, blue);
         painter.rect_filled(r, 0.0, color);
         if r.width() >= 4.0 && r.height() >= 4.0 {
@@ -118,22 +167,38 @@ fn diagram(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             painter.rect_filled(foot, 0.0, Color32::from_gray(40));
         }
     }
-    // The walk's node, or its nearest drawn ancestor when it is folded away.
-    let mut walked = app
-        .walk
-        .map(|w| w as usize)
-        .filter(|&w| w < outline.nodes.len());
-    while let Some(w) = walked {
-        if let Some(c) = d.cell_of(w as u32) {
-            painter.rect_stroke(
-                cell_rect(c),
-                0.0,
-                Stroke::new(2.5, Color32::from_rgb(255, 80, 80)),
-                StrokeKind::Outside,
-            );
-            break;
+    // The replayed ray's path: the cells it visited up to the shown stop, joined in order,
+    // the stop's own cell brightest; the visits still to come faintly.
+    let mut replay_visit = None;
+    if let Some(view) = &app.replay {
+        let path = &view.replay.outline_nodes;
+        let mut centres = Vec::new();
+        for (k, node) in path.iter().enumerate() {
+            let Some(c) = node.and_then(|n| drawn_cell(&d, &outline, n)) else {
+                continue;
+            };
+            let r = cell_rect(c);
+            let (width, color) = match k.cmp(&view.stop) {
+                std::cmp::Ordering::Less => (2.0, ink(Ink::Visited)),
+                std::cmp::Ordering::Equal => (3.0, ink(Ink::Current)),
+                std::cmp::Ordering::Greater => (1.0, Color32::from_white_alpha(90)),
+            };
+            painter.rect_stroke(r, 0.0, Stroke::new(width, color), StrokeKind::Inside);
+            if k <= view.stop {
+                centres.push(r.center());
+            }
         }
-        walked = Some(outline.nodes[w].parent as usize).filter(|&p| p < outline.nodes.len());
+        painter.add(Shape::line(centres, Stroke::new(1.5, ink(Ink::Current))));
+        replay_visit = Some(path.clone());
+    }
+    // The walk's node, or its nearest drawn ancestor when it is folded away.
+    if let Some(c) = app.walk.and_then(|w| drawn_cell(&d, &outline, w)) {
+        painter.rect_stroke(
+            cell_rect(c),
+            0.0,
+            Stroke::new(2.5, Color32::from_rgb(255, 80, 80)),
+            StrokeKind::Outside,
+        );
     }
     let Some(pointer) = response.hover_pos() else {
         return;
@@ -166,11 +231,77 @@ fn diagram(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     } else {
         format!(", {} {:.3e}", shade.short(), cell.value)
     };
+    // During a replay, the ray's first visit of the node (or of a node folded into it).
+    let visit = replay_visit.and_then(|path| {
+        path.iter().position(|p| {
+            p.and_then(|p| drawn_cell(&d, &outline, p))
+                .is_some_and(|c| c.node == cell.node)
+        })
+    });
+    let also = match visit {
+        Some(k) => format!(" (the replayed ray's visit {})", k + 1),
+        None => String::new(),
+    };
+    app.tree_hover = Some(cell.node);
     let response = response.on_hover_text(format!(
-        "node {} at depth {}: {what}{value}; click to walk the tree to it",
+        "node {} at depth {}: {what}{value}; click to walk the tree to it{also}",
         cell.node, n.depth
     ));
     if response.clicked() {
         app.walk = Some(cell.node);
+        if let (Some(k), Some(view)) = (visit, &mut app.replay) {
+            view.stop = k;
+        }
+    }
+}
+
+/// The visits of the shown frame's rays to the outline's nodes, if counted for this outline,
+/// view and kind of ray; otherwise asks the worker to count them (once) and gives `None`.
+fn measured_visits(app: &mut BvhLabApp) -> Option<Arc<NodeVisits>> {
+    let shown = app.shown.as_ref()?;
+    let request = VisitsRequest {
+        camera: shown.job.camera,
+        width: shown.job.width,
+        height: shown.job.height,
+        rays: if app.settings.shadow_rays {
+            RayKind::Shadow
+        } else {
+            RayKind::Primary
+        },
+    };
+    let outline = Arc::as_ptr(&app.outline) as usize;
+    match &app.node_visits {
+        Some((o, r, v)) if *o == outline && *r == request => return Some(v.clone()),
+        _ => {}
+    }
+    if app.visits_asked.as_ref() != Some(&request) {
+        app.visits_asked = Some(request.clone());
+        app.worker.send(Command::NodeVisits(request));
+    }
+    None
+}
+
+/// The hovered cell's node outlined in the view, seen through the shown frame's camera.
+pub fn draw_hovered_box(app: &BvhLabApp, painter: &egui::Painter, rect: Rect) {
+    let (Some(node), Some(shown)) = (app.tree_hover, &app.shown) else {
+        return;
+    };
+    let Some(n) = app.outline.nodes.get(node as usize) else {
+        return;
+    };
+    let job = &shown.job;
+    let corners = box_corners(&n.bounds).map(|p| {
+        let (x, y, _) = job.camera.project(p, job.width, job.height)?;
+        Some(pos2(
+            rect.min.x + x / job.width as f32 * rect.width(),
+            rect.min.y + y / job.height as f32 * rect.height(),
+        ))
+    });
+    for (a, b) in BOX_EDGES {
+        if let (Some(a), Some(b)) = (corners[a], corners[b]) {
+            // Dark under light, so the box reads on any colour.
+            painter.line_segment([a, b], Stroke::new(4.0, Color32::from_black_alpha(160)));
+            painter.line_segment([a, b], Stroke::new(2.0, Color32::WHITE));
+        }
     }
 }

@@ -7,6 +7,7 @@ use super::streaming::Stream;
 use crate::accel::structure::{self, StructureParams};
 use crate::geometry::Watertight;
 use crate::render::compare::{compare_image, compared_counters, summarize};
+use crate::render::node_visits::{NodeVisits, node_visits};
 use crate::render::replay::{Replay, replay_pixel};
 use crate::render::{
     Frame, Mode, RenderSettings, colorize_styled, tile_count, trace, trace_streaming,
@@ -18,6 +19,8 @@ use std::time::Duration;
 /// image of a slow structure comes within the 250 ms a step may take, and the tiles that
 /// stream over it sharpen it within a frame or two.
 const COARSE: u32 = 6;
+/// About how many rays the hierarchy diagram's measured visits trace.
+const VISITS_RAYS: f64 = 120_000.0;
 /// Smaller frames come at once, without a coarse one first.
 const COARSE_MIN_PIXELS: u32 = 320 * 240;
 /// A full frame slower than this is preceded by a coarse one next time.
@@ -42,6 +45,32 @@ impl State {
         replay_pixel::<crate::geometry::Watertight>(structure, scene, &settings, r.pixel, r.rays)
             .map(Arc::new)
             .map_err(|e| e.to_string())
+    }
+
+    /// Counts the visits per outline node of the request's rays, from one pixel in
+    /// `stride`² so a large view takes a fraction of a second; `None` when a newer command
+    /// arrives first.
+    pub(in crate::app) fn node_visits(&self, r: &VisitsRequest) -> Option<Arc<NodeVisits>> {
+        let (Some(scene), Some(structure)) = (&self.scene, &self.structure) else {
+            return None;
+        };
+        let settings = RenderSettings {
+            width: r.width,
+            height: r.height,
+            camera: r.camera,
+            light: scene.light(),
+            ..RenderSettings::for_scene(scene, r.width, r.height)
+        };
+        let pixels = f64::from(r.width) * f64::from(r.height);
+        let stride = (pixels / VISITS_RAYS).sqrt().ceil().max(1.0) as u32;
+        let asked = self.latest.load(Ordering::Relaxed);
+        let latest = &self.latest;
+        let abandon = || latest.load(Ordering::Relaxed) != asked;
+        let nodes = self.outline.nodes.len();
+        node_visits::<crate::geometry::Watertight>(
+            structure, scene, &settings, r.rays, stride, nodes, &abandon,
+        )
+        .map(Arc::new)
     }
 
     /// Traces (or recolours) the job's frame and sends it. A full frame that may be slow

@@ -9,6 +9,7 @@ use crate::accel::two_level::InstanceOutline;
 use crate::accel::{Outline, StructureReport};
 use crate::render::compare::{CompareSummary, CompareView};
 use crate::render::heat::HeatStyle;
+use crate::render::node_visits::NodeVisits;
 use crate::render::replay::Replay;
 use crate::render::{Frame, Mode, RayKind};
 use crate::scene::{Camera, Scene};
@@ -115,6 +116,9 @@ pub enum Command {
     Undo,
     /// Trace one pixel's ray again, recording its traversal (the ray replay).
     Replay(ReplayRequest),
+    /// Count the nodes the rays of a frame visit, per node of the outline (the hierarchy
+    /// diagram's measured width and colour); given up when a newer command arrives.
+    NodeVisits(VisitsRequest),
     /// Under the two levels: outline this instance's BLAS below the top level (`None`:
     /// no instance).
     SelectInstance(Option<usize>),
@@ -135,6 +139,15 @@ pub struct ReplayRequest {
     pub width: u32,
     pub height: u32,
     pub pixel: (u32, u32),
+    pub rays: RayKind,
+}
+
+/// A frame whose rays' visits to count: its camera and size, and which rays.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VisitsRequest {
+    pub camera: Camera,
+    pub width: u32,
+    pub height: u32,
     pub rays: RayKind,
 }
 
@@ -243,6 +256,8 @@ pub enum Reply {
     Prefetched(String),
     /// The EPO of the tree built or refitted last.
     Epo(f64),
+    /// The visits counted for a request, or `None` when a newer command cut it short.
+    NodeVisits(VisitsRequest, Option<Arc<NodeVisits>>),
     /// Every command up to this sequence number has been handled.
     Idle(u64),
 }

@@ -302,6 +302,10 @@ impl State {
                 let replayed = self.replay(&request);
                 self.reply(Reply::Replayed(replayed));
             }
+            Command::NodeVisits(request) => {
+                let visits = self.node_visits(&request);
+                self.reply(Reply::NodeVisits(request, visits));
+            }
             Command::SelectInstance(i) => self.select_instance(i),
             Command::SelectObject(object) => {
                 let i = self.instance_of_object(object);

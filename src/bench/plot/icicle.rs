@@ -66,7 +66,8 @@ impl Drawing for Icicle<'_> {
             let x1 = (LEFT + (c.x1 * x_span as f64).round() as i32).max(x0 + 1);
             let y0 = TOP + (f64::from(c.depth) * row).round() as i32;
             let y1 = (TOP + (f64::from(c.depth + 1) * row).round() as i32).max(y0 + 1);
-            let color = shade_color(d.scale(self.shade, c.value));
+            let [r, g, b, _] = d.color(self.shade, c.value);
+            let color = RGBColor(r, g, b);
             root.draw(&Rectangle::new([(x0, y0), (x1, y1)], color.filled()))
                 .map_err(draw_err)?;
             // A hairline between cells wide and tall enough to keep one.
