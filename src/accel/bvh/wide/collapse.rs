@@ -168,6 +168,7 @@ where
             order: bvh.order,
             simd: SimdLevel::detect(),
             depth: tree.depth,
+            lanes: Default::default(),
         };
         let layout = start.elapsed();
         Ok((out, CollapsePhases { table, layout }))

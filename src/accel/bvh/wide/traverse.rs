@@ -416,11 +416,18 @@ where
         let bounds = if child == Subtree::ROOT {
             self.nodes[0].bounds()
         } else {
-            self.nodes
-                .iter()
-                .flat_map(|n| (0..n.child_count()).map(move |l| (n, l)))
-                .find(|&(n, l)| n.child[l] == child)
-                .map_or(crate::geometry::Aabb::EMPTY, |(n, l)| n.child_bounds(l))
+            let lanes = self.lanes.get_or_init(|| {
+                let mut lanes = std::collections::HashMap::new();
+                for (i, n) in self.nodes.iter().enumerate() {
+                    for l in 0..n.child_count() {
+                        lanes.entry(n.child[l]).or_insert((i as u32, l as u8));
+                    }
+                }
+                lanes
+            });
+            lanes.get(&child).map_or(crate::geometry::Aabb::EMPTY, |&(n, l)| {
+                self.nodes[n as usize].child_bounds(l as usize)
+            })
         };
         let what = if leaf { Visited::Leaf } else { Visited::Node };
         Step::visit(child.index() as usize, what, level, bounds)
