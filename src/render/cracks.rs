@@ -31,8 +31,8 @@ pub enum CrackError {
     #[error("the offset {0} is not a finite number")]
     NotFinite(f64),
     #[error(
-        "at offset {offset:e} f32 coordinates step by {step:e}, too coarse for a scene \
-         {extent:.3e} across (a step may be at most 1/{MIN_STEPS_ACROSS} of it); offsets up to \
+        "at offset {offset:e} f32 coordinates step by {step:.3e}, too coarse for a scene \
+         {extent:.4} across (a step may be at most 1/{MIN_STEPS_ACROSS} of it); offsets up to \
          about ±{farthest:.1e} resolve it"
     )]
     Unresolved {
@@ -389,7 +389,8 @@ pub fn picture(frame: &Frame, markers: &[Marker], style: PictureStyle) -> Vec<u8
         .rgba
         .chunks_exact(4)
         .flat_map(|p| {
-            let lum = 0.2126 * f32::from(p[0]) + 0.7152 * f32::from(p[1]) + 0.0722 * f32::from(p[2]);
+            let lum =
+                0.2126 * f32::from(p[0]) + 0.7152 * f32::from(p[1]) + 0.0722 * f32::from(p[2]);
             let g = (24.0 + 0.5 * lum) as u8;
             [g, g, g, 255]
         })
