@@ -595,17 +595,14 @@ fn crack_views_leak_nothing_through_the_watertight_tests_at_any_offset() {
     ] {
         let scene = Scene::load(spec).unwrap();
         for offset in [0.0, 1e5] {
-            let view = cracks::CrackView::new(
-                &scene,
-                &scene.camera(),
-                scene.light(),
-                320,
-                240,
+            let setup = cracks::CrackSetup {
+                camera: scene.camera(),
+                light: scene.light(),
+                width: 320,
+                height: 240,
                 offset,
-                &params,
-                cracks::SEED,
-            )
-            .unwrap();
+            };
+            let view = cracks::CrackView::new(&scene, &setup, &params, cracks::SEED).unwrap();
             let n = view.crossings.len();
             assert!(n >= at_least, "{spec} at {offset}: {n} crossings");
             let eye = view.camera.eye.as_dvec3();
@@ -663,13 +660,16 @@ fn the_crack_view_of_sponza_far_away_shows_the_fast_tests_holes() {
         ..scene.camera()
     };
     let (w, h) = (640, 360);
+    let setup = cracks::CrackSetup {
+        camera,
+        light: Vec3::new(0.0, 14.0, 0.0),
+        width: w,
+        height: h,
+        offset: 1e5,
+    };
     let study = cracks::study(
         &scene,
-        &camera,
-        Vec3::new(0.0, 14.0, 0.0),
-        w,
-        h,
-        1e5,
+        &setup,
         &bvhlab::accel::StructureParams::default(),
         IntersectorKind::MollerTrumbore,
     )

@@ -5,7 +5,7 @@ use super::render::RenderArgs;
 use anyhow::{Context, Result};
 use bvhlab::geometry::IntersectorKind;
 use bvhlab::render::RenderSettings;
-use bvhlab::render::cracks::{self, CrackView, Cracks, PictureStyle};
+use bvhlab::render::cracks::{self, CrackSetup, CrackView, Cracks, PictureStyle};
 use bvhlab::scene::Scene;
 use std::path::Path;
 use std::time::Instant;
@@ -19,17 +19,9 @@ pub fn run(scene: &Scene, args: &RenderArgs, settings: &RenderSettings, out: &Pa
         .structure_params_for(args.build.accel_to_trace(scene).kind()?);
     super::check_given_apply(&params)?;
     let start = Instant::now();
-    let view = CrackView::new(
-        scene,
-        &settings.camera,
-        settings.light,
-        settings.width,
-        settings.height,
-        args.offset,
-        &params,
-        cracks::SEED,
-    )
-    .context("cannot make the crack study")?;
+    let setup = CrackSetup::new(settings, args.offset);
+    let view = CrackView::new(scene, &setup, &params, cracks::SEED)
+        .context("cannot make the crack study")?;
     let made = start.elapsed();
     let start = Instant::now();
     let all = IntersectorKind::ALL.map(|kind| view.classify(kind));

@@ -146,21 +146,47 @@ pub struct CrackView {
     pub closed_fans: usize,
 }
 
+/// What a crack study looks at: the view, its size in pixels and how far the scene (with
+/// its camera and light) is moved from where it stands.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CrackSetup {
+    pub camera: Camera,
+    pub light: Vec3,
+    pub width: u32,
+    pub height: u32,
+    /// The scene moves by (offset, offset, offset).
+    pub offset: f64,
+}
+
+impl CrackSetup {
+    /// The view of a frame's settings, moved by `offset`.
+    pub fn new(settings: &RenderSettings, offset: f64) -> Self {
+        CrackSetup {
+            camera: settings.camera,
+            light: settings.light,
+            width: settings.width,
+            height: settings.height,
+            offset,
+        }
+    }
+}
+
 impl CrackView {
-    /// Moves `scene`, `camera` and `light` by (offset, offset, offset), builds the structure
-    /// `params` names over the moved triangles and makes the crossings in a `width` ×
-    /// `height` view.
-    #[allow(clippy::too_many_arguments)]
+    /// Moves `scene`, its camera and light by `setup.offset` on every axis, builds the
+    /// structure `params` names over the moved triangles and makes the crossings in view.
     pub fn new(
         scene: &Scene,
-        camera: &Camera,
-        light: Vec3,
-        width: u32,
-        height: u32,
-        offset: f64,
+        setup: &CrackSetup,
         params: &StructureParams,
         seed: u64,
     ) -> Result<Self, CrackError> {
+        let CrackSetup {
+            camera,
+            light,
+            width,
+            height,
+            offset,
+        } = *setup;
         check_offset(&scene.bounds(), offset)?;
         let triangles: Vec<Triangle> = scene
             .flattened()?
@@ -172,7 +198,7 @@ impl CrackView {
         let camera = Camera {
             eye: moved(camera.eye, offset),
             look_at: moved(camera.look_at, offset),
-            ..*camera
+            ..camera
         };
         if camera.eye == camera.look_at {
             return Err(CrackError::Camera(offset));
@@ -269,18 +295,13 @@ pub struct CrackStudy {
 }
 
 /// `CrackView::new` then `classify(kind)` and its markers: the one call a worker makes.
-#[allow(clippy::too_many_arguments)]
 pub fn study(
     scene: &Scene,
-    camera: &Camera,
-    light: Vec3,
-    width: u32,
-    height: u32,
-    offset: f64,
+    setup: &CrackSetup,
     params: &StructureParams,
     kind: IntersectorKind,
 ) -> Result<CrackStudy, CrackError> {
-    let view = CrackView::new(scene, camera, light, width, height, offset, params, SEED)?;
+    let view = CrackView::new(scene, setup, params, SEED)?;
     let cracks = view.classify(kind);
     let markers = view.markers(&cracks);
     Ok(CrackStudy {
