@@ -15,8 +15,12 @@ use bvhlab::bench::stress::meshes::{ClosedMesh, PlacedMesh};
 use bvhlab::bench::stress::shadow;
 use bvhlab::bench::stress::slab::{self, SlabReport};
 use bvhlab::bench::stress::{degenerate, grazing};
-use bvhlab::geometry::{Aabb, MollerTrumbore, Ray, ReferenceF64, Triangle, Watertight};
+use bvhlab::geometry::{
+    Aabb, IntersectorKind, MollerTrumbore, Ray, ReferenceF64, Triangle, Watertight,
+};
+use bvhlab::render::cracks;
 use bvhlab::scene::Scene;
+use bvhlab::with_intersector;
 use glam::{DVec3, Vec3};
 
 const RAYS: usize = 100_000;
@@ -573,5 +577,123 @@ fn closed_meshes_placed_as_rotated_scaled_mirrored_instances_never_leak() {
         r.agreement[0].mismatches + r.agreement[2].mismatches,
         0,
         "{r:?}"
+    );
+}
+
+/// The crack study of a view (`bvhlab render --cracks`): every shared edge and closed fan in
+/// view crossed by an exact ray from the camera's side, at the origin and moved to 10^5.
+/// The watertight and f64 tests hold every one, and the per-crossing verdicts sum to the
+/// stress suite's counts on the same rays.
+#[test]
+fn crack_views_leak_nothing_through_the_watertight_tests_at_any_offset() {
+    let params = bvhlab::accel::StructureParams::default();
+    let mut mt_leaks = 0;
+    for (spec, at_least) in [
+        ("cornell", 30),
+        ("sphere", 5_000),
+        ("teapot-in-stadium", 5_000),
+    ] {
+        let scene = Scene::load(spec).unwrap();
+        for offset in [0.0, 1e5] {
+            let setup = cracks::CrackSetup {
+                camera: scene.camera(),
+                light: scene.light(),
+                width: 320,
+                height: 240,
+                offset,
+            };
+            let view = cracks::CrackView::new(&scene, &setup, &params, cracks::SEED).unwrap();
+            let n = view.crossings.len();
+            assert!(n >= at_least, "{spec} at {offset}: {n} crossings");
+            let eye = view.camera.eye.as_dvec3();
+            for c in &view.crossings {
+                // The ray reaches its point at t_cross, coming from the eye's side, and the
+                // point lands where the marker is drawn.
+                let r = c.crossing.ray;
+                let p = r.origin.as_dvec3() + r.direction.as_dvec3() * c.crossing.t_cross;
+                assert!(r.direction.as_dvec3().dot(p - eye) > 0.0, "{spec}: {c:?}");
+                let (x, y, _) = view.camera.project(p.as_vec3(), 320, 240).unwrap();
+                assert!(
+                    (x - c.x).abs() < 0.01 && (y - c.y).abs() < 0.01,
+                    "{spec}: {c:?}"
+                );
+                assert!((0.0..320.0).contains(&c.x) && (0.0..240.0).contains(&c.y));
+            }
+            let rays = view.rays();
+            for kind in IntersectorKind::ALL {
+                let cracks = view.classify(kind);
+                let counted = with_intersector!(kind, I => crossing::count::<_, I>(
+                    &view.structure,
+                    &view.scene.triangles,
+                    &rays
+                ));
+                assert_eq!(cracks.report, counted, "{spec} at {offset}, {kind:?}");
+                let leaked = view.markers(&cracks).iter().filter(|m| m.leaked).count();
+                let outcomes = cracks.outcomes.iter().filter(|o| o.leaked()).count();
+                assert_eq!(leaked, outcomes);
+                eprintln!("{spec} at {offset}: {} {:?}", kind.label(), cracks.report);
+                if kind == IntersectorKind::MollerTrumbore {
+                    mt_leaks += cracks.report.leaks();
+                } else {
+                    assert_eq!(cracks.report.leaks(), 0, "{spec} at {offset}, {kind:?}");
+                }
+            }
+        }
+    }
+    // The study sees what it is for: the fast test's holes (over 1,000 on the sphere and
+    // the teapot at the origin).
+    assert!(mt_leaks > 1_000, "{mt_leaks}");
+}
+
+/// On sponza's standard view moved to 10^5, Möller–Trumbore lets rays through where the
+/// watertight and f64 tests hold; the picture marks exactly the leaked crossings in red.
+#[test]
+fn the_crack_view_of_sponza_far_away_shows_the_fast_tests_holes() {
+    let Some(dir) = common::shared_scenes() else {
+        eprintln!("BVHLAB_SCENES not set: skipping the shared scenes");
+        return;
+    };
+    let scene = Scene::load(dir.join("sponza.obj").to_str().unwrap()).unwrap();
+    let camera = bvhlab::scene::Camera {
+        eye: Vec3::new(-14.0, 3.0, 0.0),
+        look_at: Vec3::new(10.0, 5.0, 0.0),
+        ..scene.camera()
+    };
+    let (w, h) = (640, 360);
+    let setup = cracks::CrackSetup {
+        camera,
+        light: Vec3::new(0.0, 14.0, 0.0),
+        width: w,
+        height: h,
+        offset: 1e5,
+    };
+    let study = cracks::study(
+        &scene,
+        &setup,
+        &bvhlab::accel::StructureParams::default(),
+        IntersectorKind::MollerTrumbore,
+    )
+    .unwrap();
+    let view = &study.view;
+    eprintln!(
+        "sponza at 1e5: {} crossings, MT {:?}",
+        view.crossings.len(),
+        study.cracks.report
+    );
+    assert!(view.crossings.len() > 10_000);
+    assert!(study.cracks.report.missed + study.cracks.report.passed_through > 0);
+    for kind in [IntersectorKind::Watertight, IntersectorKind::F64] {
+        assert_eq!(view.classify(kind).report.leaks(), 0, "{kind:?}");
+    }
+    let frame = view.render(IntersectorKind::MollerTrumbore);
+    let rgba = cracks::picture(&frame, &study.markers, cracks::PictureStyle::default());
+    let red = |i: usize| rgba[4 * i..4 * i + 3] == [255, 0, 0];
+    for m in study.markers.iter().filter(|m| m.leaked) {
+        assert!(red(m.y as usize * w as usize + m.x as usize), "{m:?}");
+    }
+    // Nothing else is saturated red: the rest of the frame is grey.
+    assert!(
+        rgba.chunks_exact(4)
+            .all(|p| p[0] == p[1] && p[1] == p[2] || p[..3] == [255, 0, 0])
     );
 }

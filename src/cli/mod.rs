@@ -3,6 +3,7 @@
 pub mod app;
 pub mod bench;
 pub mod compare;
+pub mod cracks;
 pub mod frames;
 pub mod render;
 pub mod replay;

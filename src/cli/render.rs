@@ -61,6 +61,29 @@ pub struct RenderArgs {
     /// With --tree: what a node's colour shows.
     #[arg(long, value_enum, requires = "tree", default_value_t = Shade::Depth)]
     pub tree_color: Shade,
+    /// A crack study instead of the scene: an exact ray through every shared edge (5
+    /// points each) and closed vertex fan in view, as `bvhlab stress` aims them; those the
+    /// --intersector lets slip through are red dots on the greyed picture. Prints the counts
+    /// of all three intersectors on the same rays.
+    #[arg(long, conflicts_with_all = ["compare", "mode", "shadow", "heat_max", "tree"])]
+    pub cracks: bool,
+    /// With --cracks: move the scene, camera and light by (D, D, D) first (in f64, then
+    /// rounded to f32), e.g. 1e5: far from the origin the coordinates are coarse.
+    #[arg(long, value_name = "D", requires = "cracks", default_value_t = 0.0,
+          value_parser = parse_offset, allow_hyphen_values = true)]
+    pub offset: f64,
+    /// With --cracks: draw the crossings that held too, as faint blue dots.
+    #[arg(long, requires = "cracks")]
+    pub held: bool,
+}
+
+/// `--offset D`: a finite number (whether f32 resolves the scene there is checked once it
+/// is loaded).
+fn parse_offset(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(d) if d.is_finite() => Ok(d),
+        _ => Err(format!("'{text}' is not a finite number")),
+    }
 }
 
 /// `mode` as `--mode` spells it.
@@ -149,6 +172,9 @@ pub fn run(args: RenderArgs) -> Result<()> {
     };
     if args.tree {
         return super::tree::run(&scene, &args, &settings, &out_or_default("-tree"));
+    }
+    if args.cracks {
+        return super::cracks::run(&scene, &args, &settings, &out_or_default("-cracks"));
     }
     if let Some(flags) = &args.compare {
         let out = out_or_default("-compare");

@@ -4,6 +4,7 @@
 
 pub mod colormap;
 pub mod compare;
+pub mod cracks;
 pub mod export;
 pub mod frame;
 pub mod heat;

@@ -106,42 +106,33 @@ impl Topology {
             let (a, b, pair) = self
                 .edges
                 .get(rng.below(self.edges.len() as u64) as usize)?;
-            let (wa, wb) =
-                [(1.0, 1.0), (1.0, 2.0), (2.0, 1.0), (1.0, 3.0), (3.0, 1.0)][rng.below(5) as usize];
+            let w = EDGE_WEIGHTS[rng.below(EDGE_WEIGHTS.len() as u64) as usize];
             let (a, b) = (a.as_dvec3(), b.as_dvec3());
-            let p = (a * wa + b * wb) / (wa + wb);
+            let p = edge_point(a, b, w);
             let normals = pair.map(|t| unit_normal(&triangles[t as usize]));
             let along = (normals[0] + normals[1]).normalize_or_zero();
             let dist = (b - a).length() * (0.5 + 4.0 * rng.unit());
             let offset = (along + rng.in_ball() * 0.7) * (dist * side);
-            let grain = grain(&[a, b], dist);
-            let o = snap(p + offset, grain)?;
-            let d = (a - o) * wa + (b - o) * wb;
-            let ray = exact_ray(o, d)?;
-            transversal(&normals, ray.direction.as_dvec3()).then_some(Crossing {
-                ray,
-                t_cross: 1.0 / (wa + wb),
-            })
+            edge_crossing(a, b, w, p + offset, dist, &normals)
         } else {
             let (v, fan) = &self.fans[rng.below(self.fans.len() as u64) as usize];
-            let normals: Vec<DVec3> = fan
-                .iter()
-                .map(|&t| unit_normal(&triangles[t as usize]))
-                .collect();
+            let normals = fan_normals(triangles, fan);
             let along = normals.iter().sum::<DVec3>().normalize_or_zero();
             let v = v.as_dvec3();
-            let size = fan
-                .iter()
-                .flat_map(|&t| triangles[t as usize].v)
-                .map(|p| (p.as_dvec3() - v).length())
-                .fold(0.0, f64::max);
-            let dist = size * (0.5 + 4.0 * rng.unit());
+            let dist = fan_size(triangles, v, fan) * (0.5 + 4.0 * rng.unit());
             let offset = (along + rng.in_ball() * 0.7) * (dist * side);
-            let o = snap(v + offset, grain(&[v], dist))?;
-            let ray = exact_ray(o, v - o)?;
-            transversal(&normals, ray.direction.as_dvec3())
-                .then_some(Crossing { ray, t_cross: 1.0 })
+            vertex_crossing(v, v + offset, dist, &normals)
         }
+    }
+
+    /// The shared edges: (corner a, corner b, the two triangles).
+    pub(crate) fn shared_edges(&self) -> &[(Vec3, Vec3, [u32; 2])] {
+        &self.edges
+    }
+
+    /// The closed fans: (vertex, its triangles).
+    pub(crate) fn closed_fans(&self) -> &[(Vec3, Vec<u32>)] {
+        &self.fans
     }
 
     /// `n` crossings (failed attempts are skipped; there are at most 32n attempts, done in
@@ -169,7 +160,62 @@ impl Topology {
     }
 }
 
-fn unit_normal(t: &Triangle) -> DVec3 {
+/// The edge points crossings aim at, (wa·a + wb·b)/(wa + wb) for these weights (wa, wb).
+pub(crate) const EDGE_WEIGHTS: [(f64, f64); 5] =
+    [(1.0, 1.0), (1.0, 2.0), (2.0, 1.0), (1.0, 3.0), (3.0, 1.0)];
+
+pub(crate) fn edge_point(a: DVec3, b: DVec3, (wa, wb): (f64, f64)) -> DVec3 {
+    (a * wa + b * wb) / (wa + wb)
+}
+
+/// The exact ray from the grid point nearest `near` (`dist` from the edge) through the
+/// edge point of weights (wa, wb), if it crosses the two faces of `normals` transversally.
+pub(crate) fn edge_crossing(
+    a: DVec3,
+    b: DVec3,
+    (wa, wb): (f64, f64),
+    near: DVec3,
+    dist: f64,
+    normals: &[DVec3],
+) -> Option<Crossing> {
+    let o = snap(near, grain(&[a, b], dist))?;
+    // o + d / (wa + wb) is the edge point, exactly: d's terms are exact differences.
+    let d = (a - o) * wa + (b - o) * wb;
+    let ray = exact_ray(o, d)?;
+    transversal(normals, ray.direction.as_dvec3()).then_some(Crossing {
+        ray,
+        t_cross: 1.0 / (wa + wb),
+    })
+}
+
+/// The exact ray from the grid point nearest `near` through vertex `v` (at t = 1), if it
+/// crosses every face of its fan (`normals`) transversally.
+pub(crate) fn vertex_crossing(
+    v: DVec3,
+    near: DVec3,
+    dist: f64,
+    normals: &[DVec3],
+) -> Option<Crossing> {
+    let o = snap(near, grain(&[v], dist))?;
+    let ray = exact_ray(o, v - o)?;
+    transversal(normals, ray.direction.as_dvec3()).then_some(Crossing { ray, t_cross: 1.0 })
+}
+
+pub(crate) fn fan_normals(triangles: &[Triangle], fan: &[u32]) -> Vec<DVec3> {
+    fan.iter()
+        .map(|&t| unit_normal(&triangles[t as usize]))
+        .collect()
+}
+
+/// The farthest corner of the fan from its vertex `v`.
+pub(crate) fn fan_size(triangles: &[Triangle], v: DVec3, fan: &[u32]) -> f64 {
+    fan.iter()
+        .flat_map(|&t| triangles[t as usize].v)
+        .map(|p| (p.as_dvec3() - v).length())
+        .fold(0.0, f64::max)
+}
+
+pub(crate) fn unit_normal(t: &Triangle) -> DVec3 {
     let [a, b, c] = t.v.map(|p| p.as_dvec3());
     (b - a).cross(c - a).normalize_or_zero()
 }
@@ -245,9 +291,61 @@ impl CrossingReport {
     }
 }
 
-/// Counts the crossings `I` lost through `accel`. Whether a hit lies beyond the crossing is
-/// decided by the f64 distance to the hit triangle; one within the f32 test's t error of the
-/// crossing is a tie in f32 (a neighbour at the same depth), not a leak.
+/// What one crossing's rays found; all false when the surface held.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Outcome {
+    /// No closest hit at all.
+    pub missed: bool,
+    /// The closest hit lies beyond the crossing point.
+    pub passed_through: bool,
+    /// The any-hit query found nothing.
+    pub any_missed: bool,
+}
+
+impl Outcome {
+    /// The closest hit missed or lay beyond the surface: the ray slipped through.
+    pub fn slipped_through(&self) -> bool {
+        self.missed || self.passed_through
+    }
+
+    /// Any of the three: what `CrossingReport::leaks` counts.
+    pub fn leaked(&self) -> bool {
+        self.slipped_through() || self.any_missed
+    }
+}
+
+impl CrossingReport {
+    /// Adds one crossing's outcome.
+    pub fn record(&mut self, o: Outcome) {
+        self.rays += 1;
+        self.missed += u64::from(o.missed);
+        self.passed_through += u64::from(o.passed_through);
+        self.any_missed += u64::from(o.any_missed);
+    }
+}
+
+/// Traces crossing `c` through `accel` with `I`, closest and any hit. Whether a hit lies
+/// beyond the crossing is decided by the f64 distance to the hit triangle; one within the
+/// f32 test's t error of the crossing is a tie in f32 (a neighbour at the same depth), not
+/// a leak.
+pub fn classify<A: Accel, I: Intersector>(
+    accel: &A,
+    triangles: &[Triangle],
+    c: &Crossing,
+) -> Outcome {
+    let mut o = Outcome::default();
+    match accel.closest_hit::<I, _>(&c.ray, &mut NoStats) {
+        None => o.missed = true,
+        Some(h) => {
+            let ev = evaluate(&Shear64::new(&c.ray), &triangles[h.triangle as usize]);
+            o.passed_through = ev.t > c.t_cross * (1.0 + 1e-9) + ev.f32_t_error + ev.t_error;
+        }
+    }
+    o.any_missed = !accel.any_hit::<I, _>(&c.ray, &mut NoStats);
+    o
+}
+
+/// Counts the crossings `I` lost through `accel` (`classify`, summed).
 pub fn count<A: Accel, I: Intersector>(
     accel: &A,
     triangles: &[Triangle],
@@ -257,19 +355,7 @@ pub fn count<A: Accel, I: Intersector>(
         .par_iter()
         .with_min_len(256)
         .fold(CrossingReport::default, |mut r, c| {
-            r.rays += 1;
-            match accel.closest_hit::<I, _>(&c.ray, &mut NoStats) {
-                None => r.missed += 1,
-                Some(h) => {
-                    let ev = evaluate(&Shear64::new(&c.ray), &triangles[h.triangle as usize]);
-                    if ev.t > c.t_cross * (1.0 + 1e-9) + ev.f32_t_error + ev.t_error {
-                        r.passed_through += 1;
-                    }
-                }
-            }
-            if !accel.any_hit::<I, _>(&c.ray, &mut NoStats) {
-                r.any_missed += 1;
-            }
+            r.record(classify::<A, I>(accel, triangles, c));
             r
         })
         .reduce(CrossingReport::default, |mut a, b| {
