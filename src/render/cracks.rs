@@ -1,8 +1,9 @@
 //! The cracks, shown: an exact ray through every shared edge and closed vertex fan of the
 //! scene in view, traced with one ray–triangle test, and those that slip through marked on
-//! the picture. Moved far from the origin, where f32 coordinates are coarse, a test that is
-//! not watertight opens holes; the watertight test keeps none. Rays and verdicts are the
-//! stress suite's (`bench::stress::crossing`).
+//! the picture: Möller–Trumbore's holes, and none for the watertight test. `offset` moves the
+//! scene and its camera far from the origin, where f32 coordinates are coarse; measured, the
+//! fast test's holes get fewer there, not more (docs/accuracy.md says why). Rays and
+//! verdicts are the stress suite's (`bench::stress::crossing`).
 
 use super::{Frame, Mode, RenderSettings};
 use crate::accel::structure::{self, Structure, StructureError, StructureParams};
