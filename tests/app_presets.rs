@@ -173,6 +173,53 @@ fn every_step_of_the_lecture_shows_its_view() {
     }
 }
 
+/// The cracks step: the worker's crack view of the shown frame, Möller–Trumbore's leaks
+/// marked, and none when the watertight test is chosen (the same rays for both).
+#[test]
+fn the_cracks_step_marks_the_fast_tests_leaks_and_none_of_the_watertight_tests() {
+    use bvhlab::geometry::IntersectorKind;
+    let mut h = app("cornell");
+    let steps = h.state().lecture.sequence.presets.clone();
+    let step = steps
+        .iter()
+        .position(|p| p.settings.show_cracks)
+        .expect("a step shows the cracks");
+    assert!(h.state_mut().go_to_preset(step));
+    settle(&mut h);
+    let made = |h: &mut Harness<'static, BvhLabApp>, kind: IntersectorKind| {
+        for _ in 0..40 {
+            h.run_steps(1);
+            let ctx = h.ctx.clone();
+            h.state_mut().wait_for_worker(&ctx);
+            if let Some((request, shown)) = &h.state().cracks
+                && request.intersector == kind
+            {
+                return shown.clone().expect("a crack view");
+            }
+        }
+        panic!("no crack view for {kind:?}");
+    };
+    let fast = made(&mut h, IntersectorKind::MollerTrumbore);
+    let leaks = |kind| {
+        fast.reports
+            .iter()
+            .find(|(k, _)| *k == kind)
+            .map(|(_, r)| r.leaks())
+            .unwrap()
+    };
+    assert!(fast.rays > 1000, "{} rays", fast.rays);
+    assert!(leaks(IntersectorKind::MollerTrumbore) > 0);
+    let marked = fast.markers.iter().filter(|m| m.leaked).count() as u64;
+    assert_eq!(marked, leaks(IntersectorKind::MollerTrumbore));
+    assert_eq!(leaks(IntersectorKind::Watertight), 0);
+    assert_eq!(leaks(IntersectorKind::F64), 0);
+    h.get_by_label("cracks: rays at every shared edge and vertex");
+    h.state_mut().settings.crack_intersector = IntersectorKind::Watertight;
+    let tight = made(&mut h, IntersectorKind::Watertight);
+    assert_eq!(tight.rays, fast.rays, "the same rays");
+    assert!(tight.markers.iter().all(|m| !m.leaked));
+}
+
 #[test]
 fn a_saved_preset_loads_back_to_the_same_state() {
     let mut h = app("cornell");

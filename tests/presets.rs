@@ -40,6 +40,7 @@ fn the_lecture_follows_the_slides_in_order() {
         "wide bvh",
         "two levels",
         "rotated walls",
+        "watertight",
     ];
     let mut from = 0;
     for topic in topics {

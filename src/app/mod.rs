@@ -4,6 +4,7 @@
 
 mod bucket_plot;
 mod compare;
+mod cracks;
 pub mod export;
 pub mod file_browser;
 mod lecture;
@@ -150,6 +151,12 @@ pub struct BvhLabApp {
     )>,
     /// The visits asked of the worker and not yet answered.
     visits_asked: Option<worker::VisitsRequest>,
+    /// The crack view made last, for its request, and the one asked for and not answered.
+    pub cracks: Option<(
+        worker::CracksRequest,
+        Result<Arc<worker::CracksShown>, String>,
+    )>,
+    cracks_asked: Option<worker::CracksRequest>,
     /// The pointer over the view (0..1 across and down), when it is there.
     pub probe: Option<[f32; 2]>,
     /// The view's size in physical pixels, as last laid out.
@@ -277,6 +284,8 @@ impl BvhLabApp {
             tree_hover: None,
             node_visits: None,
             visits_asked: None,
+            cracks: None,
+            cracks_asked: None,
             walk: None,
             probe: None,
             panels_to_top: false,

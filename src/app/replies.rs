@@ -209,6 +209,12 @@ impl BvhLabApp {
                         self.node_visits = Some((outline, request, v));
                     }
                 }
+                Reply::Cracks(request, shown) => {
+                    if self.cracks_asked.as_ref() == Some(&request) {
+                        self.cracks_asked = None;
+                    }
+                    self.cracks = Some((request, shown));
+                }
                 Reply::Idle(_) | Reply::Prefetched(_) => {}
             }
         }

@@ -4,6 +4,7 @@
 
 use super::preset::View;
 use crate::accel::{AccelKind, StructureParams};
+use crate::geometry::IntersectorKind;
 use crate::render::ViewMode;
 use crate::render::compare::CompareView;
 use crate::render::heat::HeatStyle;
@@ -46,6 +47,12 @@ pub struct Settings {
     pub show_stats: bool,
     /// The hierarchy diagram under the view.
     pub show_tree: bool,
+    /// The cracks: exact rays at every shared edge and vertex in view, those that slip
+    /// through `crack_intersector` marked in red, with the scene (and camera) moved by
+    /// `crack_offset` on every axis.
+    pub show_cracks: bool,
+    pub crack_intersector: IntersectorKind,
+    pub crack_offset: f64,
     pub recent: Vec<String>,
     /// Camera bookmarks per scene (keyed by its spec), kept between runs.
     pub bookmarks: BTreeMap<String, Vec<Bookmark>>,
@@ -97,6 +104,9 @@ impl Default for Settings {
             show_controls: true,
             show_stats: true,
             show_tree: false,
+            show_cracks: false,
+            crack_intersector: IntersectorKind::MollerTrumbore,
+            crack_offset: 0.0,
             recent: Vec::new(),
             bookmarks: BTreeMap::new(),
         }

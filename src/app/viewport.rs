@@ -27,6 +27,8 @@ pub fn show(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         let uv = egui::Rect::from_min_max(egui::pos2(0.0, 0.0), egui::pos2(1.0, 1.0));
         painter.image(tex.id(), rect, uv, egui::Color32::WHITE);
     }
+    app.ask_for_cracks();
+    super::cracks::draw(app, &painter, rect);
     busy_overlay(app, ui, &painter, rect);
     handle_input(app, ui, &response, rect);
     super::replay::draw(app, &painter, rect);

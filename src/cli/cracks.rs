@@ -5,7 +5,7 @@ use super::render::RenderArgs;
 use anyhow::{Context, Result};
 use bvhlab::geometry::IntersectorKind;
 use bvhlab::render::RenderSettings;
-use bvhlab::render::cracks::{self, CrackSetup, CrackView, Cracks, PictureStyle};
+use bvhlab::render::cracks::{self, CrackSetup, CrackView, Cracks, PictureStyle, group};
 use bvhlab::scene::Scene;
 use std::path::Path;
 use std::time::Instant;
@@ -90,17 +90,4 @@ fn offset_label(d: f64) -> String {
     } else {
         plain
     }
-}
-
-/// 1234567 as `1,234,567`.
-fn group(n: u64) -> String {
-    let digits = n.to_string();
-    let mut out = String::new();
-    for (i, c) in digits.chars().enumerate() {
-        if i > 0 && (digits.len() - i).is_multiple_of(3) {
-            out.push(',');
-        }
-        out.push(c);
-    }
-    out
 }

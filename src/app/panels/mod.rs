@@ -125,6 +125,7 @@ fn view_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                     }
                 });
             }
+            crate::app::cracks::controls(app, ui);
             if ui.button("Frame all (F)").clicked() {
                 app.frame_all();
             }

@@ -7,7 +7,10 @@ use crate::accel::split_costs::SplitCosts;
 use crate::accel::structure::StructureParams;
 use crate::accel::two_level::InstanceOutline;
 use crate::accel::{Outline, StructureReport};
+use crate::bench::stress::crossing::CrossingReport;
+use crate::geometry::IntersectorKind;
 use crate::render::compare::{CompareSummary, CompareView};
+use crate::render::cracks::Marker;
 use crate::render::heat::HeatStyle;
 use crate::render::node_visits::NodeVisits;
 use crate::render::replay::Replay;
@@ -119,6 +122,8 @@ pub enum Command {
     /// Count the nodes the rays of a frame visit, per node of the outline (the hierarchy
     /// diagram's measured width and colour); given up when a newer command arrives.
     NodeVisits(VisitsRequest),
+    /// The crack view of a frame: which exact edge and vertex rays slip through.
+    Cracks(CracksRequest),
     /// Under the two levels: outline this instance's BLAS below the top level (`None`:
     /// no instance).
     SelectInstance(Option<usize>),
@@ -149,6 +154,26 @@ pub struct VisitsRequest {
     pub width: u32,
     pub height: u32,
     pub rays: RayKind,
+}
+
+/// A frame whose cracks to show: its camera and size, the test judged and how far the
+/// scene is moved from where it stands.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CracksRequest {
+    pub camera: Camera,
+    pub width: u32,
+    pub height: u32,
+    pub intersector: IntersectorKind,
+    pub offset: f64,
+}
+
+/// The crack view's answer: where the chosen test's rays slipped through (in the frame's
+/// pixels), and every test's counts on the same rays.
+#[derive(Clone, Debug)]
+pub struct CracksShown {
+    pub markers: Vec<Marker>,
+    pub reports: [(IntersectorKind, CrossingReport); 3],
+    pub rays: usize,
 }
 
 /// What the walk's current node is, in the lecture's terms.
@@ -258,6 +283,8 @@ pub enum Reply {
     Epo(f64),
     /// The visits counted for a request, or `None` when a newer command cut it short.
     NodeVisits(VisitsRequest, Option<Arc<NodeVisits>>),
+    /// The crack view of a request, or why there is none (an offset too far, say).
+    Cracks(CracksRequest, Result<Arc<CracksShown>, String>),
     /// Every command up to this sequence number has been handled.
     Idle(u64),
 }

@@ -8,6 +8,7 @@
 //! the size, the scene or the tree changed; a new colour mode or overlay recolours the
 //! traced frame.
 
+mod cracks;
 mod epo;
 mod frames;
 pub mod messages;
@@ -94,6 +95,7 @@ impl Worker {
             drag_bounds: None,
             prefetch: None,
             epo_version: None,
+            crack_view: None,
         };
         let thread = std::thread::Builder::new()
             .name("bvhlab-worker".into())

@@ -107,6 +107,11 @@ pub(in crate::app) struct State {
     pub(in crate::app) prefetch: Option<super::prefetch::Prefetch>,
     /// The `version` whose tree's EPO was sent last.
     pub(in crate::app) epo_version: Option<u64>,
+    /// The crack view made last, kept while the view, offset, scene and tree stay.
+    pub(in crate::app) crack_view: Option<(
+        super::cracks::CrackKey,
+        Arc<crate::render::cracks::CrackView>,
+    )>,
 }
 
 /// An image's pixels and its heatmap scale, as `colorize` gives them.
@@ -302,6 +307,7 @@ impl State {
                 let replayed = self.replay(&request);
                 self.reply(Reply::Replayed(replayed));
             }
+            Command::Cracks(request) => self.cracks(request),
             Command::NodeVisits(request) => {
                 let visits = self.node_visits(&request);
                 self.reply(Reply::NodeVisits(request, visits));

@@ -68,7 +68,18 @@ pub trait Intersector: Copy + Default + Send + Sync + 'static {
 /// The intersector as a run-time choice (CLI flag, app setting). Code generic over
 /// `Intersector` is instantiated for each kind through `with_intersector!`, so the choice
 /// costs one branch per batch of rays, not one per triangle test.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, clap::ValueEnum)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    Hash,
+    clap::ValueEnum,
+    serde::Serialize,
+    serde::Deserialize,
+)]
 pub enum IntersectorKind {
     /// Woop, Benthin and Wald (2013) in f32: no ray slips between two triangles.
     #[default]
