@@ -44,6 +44,12 @@ impl BvhLabApp {
         })
     }
 
+    /// Whether the crack view asked of the shown frame, if any, has come (or failed).
+    pub(super) fn cracks_shown(&self) -> bool {
+        self.cracks_request()
+            .is_none_or(|r| self.cracks.as_ref().is_some_and(|(made, _)| *made == r))
+    }
+
     /// Asks the worker for the crack view of the shown frame once it is a full frame (not
     /// while the camera moves), unless it has been asked for or made already.
     pub(super) fn ask_for_cracks(&mut self) {

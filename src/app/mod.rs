@@ -432,6 +432,7 @@ impl BvhLabApp {
                 .shown
                 .as_ref()
                 .is_some_and(|s| Some(&s.job) == self.last_job.as_ref() && !s.job.preview)
+            && self.cracks_shown()
     }
 
     /// Moves `triangles` by `delta` in the world and refits (as a drag does).

@@ -93,6 +93,8 @@ pub struct ScreenshotPlan {
     pub compare: Option<CompareShot>,
     /// The presentation layout (no side panels, one slim caption bar).
     pub presentation: bool,
+    /// The hierarchy diagram open under the view.
+    pub tree: bool,
     /// The UI scale (egui's zoom factor), 1 by default.
     pub ui_scale: f32,
     /// The size was asked for: a window that comes out another size is an error (the
@@ -129,6 +131,7 @@ impl ScreenshotPlan {
             replay: None,
             compare: None,
             presentation: false,
+            tree: false,
             ui_scale: 1.0,
             exact_size: true,
             result: Arc::new(Mutex::new(None)),
@@ -145,6 +148,7 @@ impl ScreenshotPlan {
         s.ui_scale = self.ui_scale;
         s.show_controls = true;
         s.show_stats = true;
+        s.show_tree = self.tree;
         s.mode = match self.shot {
             Shot::Nodes => ViewMode::Nodes,
             Shot::Boxes => ViewMode::Boxes,

@@ -118,6 +118,10 @@ pub struct ScreenshotArgs {
     /// The UI scale, as the app's slider sets it (0.75..=2.5).
     #[arg(long, default_value_t = 1.0, value_parser = parse_ui_scale)]
     pub ui_scale: f32,
+    /// Open the hierarchy diagram under the view (with --replay, the ray's path is drawn
+    /// through its cells; with --walk, the walk's node is outlined).
+    #[arg(long, conflicts_with = "presentation")]
+    pub tree: bool,
 }
 
 fn parse_ui_scale(s: &str) -> Result<f32, String> {
@@ -170,6 +174,7 @@ pub fn screenshot(args: ScreenshotArgs) -> Result<()> {
     plan.exact_size = exact;
     plan.level = args.level;
     plan.presentation = args.presentation;
+    plan.tree = args.tree;
     plan.ui_scale = args.ui_scale;
     plan.walk = args.walk;
     plan.instance = args.instance;
