@@ -92,6 +92,8 @@ fn diagram(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     let outline = app.outline.clone();
     if outline.nodes.is_empty() {
         ui.label("No tree yet.");
+        // Filled all the same: a panel keeps the height its contents take at first.
+        ui.allocate_space(ui.available_size());
         return;
     }
     let visits = if shade.is_measured() || width == Width::Visits {
