@@ -140,6 +140,8 @@ pub struct BvhLabApp {
     pub walk: Option<u32>,
     /// The hierarchy diagram as last laid out, and what it was laid out for.
     tree_diagram: Option<(panels::TreeKey, Arc<crate::accel::hierarchy::Diagram>)>,
+    /// The same for the pinned configuration A's tree.
+    tree_diagram_a: Option<(panels::TreeKey, Arc<crate::accel::hierarchy::Diagram>)>,
     /// The outline node under the pointer in the hierarchy diagram, outlined in the view.
     tree_hover: Option<u32>,
     /// The frame's rays' visits per outline node (the diagram's measured choices), with
@@ -281,6 +283,7 @@ impl BvhLabApp {
             move_sent: None,
             drag_latency: None,
             tree_diagram: None,
+            tree_diagram_a: None,
             tree_hover: None,
             node_visits: None,
             visits_asked: None,

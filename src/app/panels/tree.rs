@@ -51,6 +51,99 @@ fn chosen<T: Copy + Send + Sync + 'static>(ui: &egui::Ui, salt: &str, default: T
     (id, ui.data(|d| d.get_temp(id)).unwrap_or(default))
 }
 
+/// Height of the caption above each diagram of an A | B pair.
+const LABEL: f32 = 16.0;
+
+/// The cached layout of `outline` for `area`, made again when the tree, the choice, the size,
+/// the costs or the visits change.
+fn laid_out(
+    cache: &mut Option<(TreeKey, Arc<Diagram>)>,
+    outline: &Arc<Outline>,
+    width: Width,
+    shade: Shade,
+    area: Rect,
+    (c_trav, c_isect): (f32, f32),
+    visits: Option<hierarchy::Visits>,
+) -> Arc<Diagram> {
+    let max_rows = ((area.height() / MIN_ROW) as u32).max(1);
+    let key = TreeKey {
+        outline: Arc::as_ptr(outline) as usize,
+        width,
+        shade,
+        size: [area.width() as u32, max_rows],
+        costs: [c_trav.to_bits(), c_isect.to_bits()],
+        visits: visits.map_or(0, |v| v.per_node.as_ptr() as usize),
+    };
+    match cache {
+        Some((k, d)) if *k == key => d.clone(),
+        _ => {
+            let d = Arc::new(hierarchy::layout(
+                outline,
+                width,
+                shade,
+                f64::from(FOLD / area.width().max(1.0)),
+                max_rows - 1,
+                (c_trav, c_isect),
+                visits,
+            ));
+            *cache = Some((key, d.clone()));
+            d
+        }
+    }
+}
+
+/// Where cell `c` is drawn in `area`, rows `row` points tall.
+fn placed(area: Rect, row: f32, c: &Cell) -> Rect {
+    let x = |t: f64| area.left() + t as f32 * area.width();
+    let y = area.top() + c.depth as f32 * row;
+    Rect::from_min_max(pos2(x(c.x0), y), pos2(x(c.x1).max(x(c.x0) + 1.0), y + row))
+}
+
+/// Paints the cells of `d` over `area`: colour by `shade`, hairlines where there is room,
+/// a dark foot under a folded subtree.
+fn paint_cells(painter: &egui::Painter, area: Rect, d: &Diagram, shade: Shade) {
+    let row = area.height() / (d.rows + 1) as f32;
+    for c in &d.cells {
+        let r = placed(area, row, c);
+        let [red, green, blue, _] = d.color(shade, c.value);
+        painter.rect_filled(r, 0.0, Color32::from_rgb(red, green, blue));
+        if r.width() >= 4.0 && r.height() >= 4.0 {
+            painter.rect_stroke(r, 0.0, Stroke::new(1.0, Color32::WHITE), StrokeKind::Inside);
+        }
+        if c.folded {
+            let foot = Rect::from_min_max(
+                pos2(r.left(), r.bottom() - (r.height() / 4.0).max(1.0)),
+                r.max,
+            );
+            painter.rect_filled(foot, 0.0, Color32::from_gray(40));
+        }
+    }
+}
+
+/// "A: bvh (binned SAH): SAH cost 32.5; measured 41.2 per ray (30.1 nodes, 11.1 tests)".
+fn tree_caption(
+    name: &str,
+    label: &str,
+    sah: Option<(f64, f32, f32)>,
+    frame: Option<&crate::render::Frame>,
+    (c_trav, c_isect): (f32, f32),
+) -> String {
+    use crate::accel::Counter;
+    let mut text = format!("{name}: {label}");
+    if let Some((cost, _, _)) = sah {
+        text += &format!(": SAH cost {cost:.2}");
+    }
+    if let Some(f) = frame.filter(|f| f.summary.counted()) {
+        let mean = |c| f.summary.counter(RayKind::Primary, c).mean;
+        let (nodes, tests) = (mean(Counter::NodesVisited), mean(Counter::TriangleTests));
+        let per_ray = f64::from(c_trav) * nodes + f64::from(c_isect) * tests;
+        text += &format!(
+            "; measured {per_ray:.1} per primary ray ({nodes:.1} nodes, {tests:.1} tests)"
+        );
+    }
+    text
+}
+
 /// The cell that shows `node`: its own, or its nearest drawn ancestor's when it is folded.
 fn drawn_cell<'d>(d: &'d Diagram, outline: &Outline, node: u32) -> Option<&'d Cell> {
     let mut at = Some(node as usize).filter(|&n| n < outline.nodes.len());
@@ -117,58 +210,83 @@ fn diagram(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     let (response, painter) = ui.allocate_painter(ui.available_size(), Sense::click());
     response
         .widget_info(|| egui::WidgetInfo::labeled(egui::Role::Canvas, true, "hierarchy diagram"));
-    let area = response.rect;
-    let max_rows = ((area.height() / MIN_ROW) as u32).max(1);
-    let b = &app.settings.structure.bvh;
-    let key = TreeKey {
-        outline: Arc::as_ptr(&outline) as usize,
+    // With a pinned A: A's tree above B's, on one colour scale, each with its costs.
+    let pinned = app.shown.as_ref().and_then(|s| s.pinned_tree.clone());
+    let mut area = response.rect;
+    let b = app.settings.structure.bvh;
+    let costs = (b.c_trav, b.c_isect);
+    let a_diagram = pinned.as_ref().map(|a| {
+        let half = area.height() / 2.0;
+        let a_area = Rect::from_min_max(area.min, pos2(area.right(), area.top() + half - 2.0))
+            .with_min_y(area.top() + LABEL);
+        area = area.with_min_y(area.top() + half + LABEL);
+        let a_costs = a.sah_cost.map_or(costs, |(_, t, i)| (t, i));
+        let d = laid_out(
+            &mut app.tree_diagram_a,
+            &a.outline,
+            width,
+            shade,
+            a_area,
+            a_costs,
+            None,
+        );
+        (a, a_area, d)
+    });
+    let visits = visits.as_ref().map(|v| hierarchy::Visits {
+        per_node: &v.per_node,
+        rays: v.rays,
+    });
+    let mut d = laid_out(
+        &mut app.tree_diagram,
+        &outline,
         width,
         shade,
-        size: [area.width() as u32, max_rows],
-        costs: [b.c_trav.to_bits(), b.c_isect.to_bits()],
-        visits: visits.as_ref().map_or(0, |v| Arc::as_ptr(v) as usize),
-    };
-    let d = match &app.tree_diagram {
-        Some((k, d)) if *k == key => d.clone(),
-        _ => {
-            let d = Arc::new(hierarchy::layout(
-                &outline,
-                width,
-                shade,
-                f64::from(FOLD / area.width().max(1.0)),
-                max_rows - 1,
-                (b.c_trav, b.c_isect),
-                visits.as_ref().map(|v| hierarchy::Visits {
-                    per_node: &v.per_node,
-                    rays: v.rays,
-                }),
-            ));
-            app.tree_diagram = Some((key, d.clone()));
-            d
-        }
-    };
-    let row = area.height() / (d.rows + 1) as f32;
-    let cell_rect = |c: &hierarchy::Cell| {
-        let x = |t: f64| area.left() + t as f32 * area.width();
-        let y = area.top() + c.depth as f32 * row;
-        Rect::from_min_max(pos2(x(c.x0), y), pos2(x(c.x1).max(x(c.x0) + 1.0), y + row))
-    };
-    for c in &d.cells {
-        let r = cell_rect(c);
-        let [red, green, blue, _] = d.color(shade, c.value);
-        let color = Color32::from_rgb(red, green, blue);
-        painter.rect_filled(r, 0.0, color);
-        if r.width() >= 4.0 && r.height() >= 4.0 {
-            painter.rect_stroke(r, 0.0, Stroke::new(1.0, Color32::WHITE), StrokeKind::Inside);
-        }
-        if c.folded {
-            let foot = Rect::from_min_max(
-                pos2(r.left(), r.bottom() - (r.height() / 4.0).max(1.0)),
-                r.max,
+        area,
+        costs,
+        visits,
+    );
+    if let Some((a, a_area, a_d)) = &a_diagram {
+        // One colour scale for both: the union of their ranges.
+        let range = (a_d.range.0.min(d.range.0), a_d.range.1.max(d.range.1));
+        let mut a_d = (**a_d).clone();
+        a_d.range = range;
+        Arc::make_mut(&mut d).range = range;
+        paint_cells(&painter, *a_area, &a_d, shade);
+        let a_frame = app.shown.as_ref().and_then(|s| s.pinned_frame.clone());
+        let label = |y: f32, what: String| {
+            painter.text(
+                pos2(area.left() + 4.0, y),
+                egui::Align2::LEFT_BOTTOM,
+                what,
+                egui::FontId::proportional(13.0),
+                ui.visuals().strong_text_color(),
             );
-            painter.rect_filled(foot, 0.0, Color32::from_gray(40));
-        }
+        };
+        let a_costs = a.sah_cost.map_or(costs, |(_, t, i)| (t, i));
+        label(
+            a_area.top() - 1.0,
+            tree_caption("A", &a.label, a.sah_cost, a_frame.as_deref(), a_costs),
+        );
+        let b_frame = app.shown.as_ref().map(|s| s.frame.clone());
+        let b_sah = app
+            .sah_prediction
+            .as_ref()
+            .map(|p| (p.predicted, p.c_trav, p.c_isect));
+        label(
+            area.top() - 1.0,
+            tree_caption(
+                "B",
+                &app.settings.structure.label(),
+                b_sah,
+                b_frame.as_deref(),
+                costs,
+            ),
+        );
     }
+    let d = d;
+    let row = area.height() / (d.rows + 1) as f32;
+    let cell_rect = |c: &hierarchy::Cell| placed(area, row, c);
+    paint_cells(&painter, area, &d, shade);
     // The replayed ray's path: the cells it visited up to the shown stop, joined in order,
     // the stop's own cell brightest; the visits still to come faintly.
     let mut replay_visit = None;

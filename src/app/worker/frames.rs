@@ -190,6 +190,7 @@ impl State {
                 None,
             ),
         };
+        let pinned_tree = job.compare.and_then(|_| self.pinned_tree());
         if job.overlay.level.is_some() || job.overlay.walk.is_some() {
             self.fresh_outline();
         }
@@ -204,6 +205,7 @@ impl State {
             image_time,
             compared,
             pinned_frame,
+            pinned_tree,
         });
         self.reply(Reply::Frame(shown.clone()));
         Some(Some(shown))
@@ -336,6 +338,25 @@ impl State {
         }
     }
 
+    /// A's tree, made once per build of A; `None` when A could not be built.
+    fn pinned_tree(&mut self) -> Option<Arc<PinnedTree>> {
+        let pinned = self.pinned.as_mut()?;
+        let structure = pinned.structure.as_ref().ok()?;
+        let params = pinned.params;
+        Some(
+            pinned
+                .tree
+                .get_or_insert_with(|| {
+                    Arc::new(PinnedTree {
+                        outline: Arc::new(structure.outline()),
+                        label: params.label(),
+                        sah_cost: structure.sah_cost(&params),
+                    })
+                })
+                .clone(),
+        )
+    }
+
     /// A's frame of the job's view: A is built (again) when it is new, its build
     /// parameters changed or the scene's triangles moved since, and traced again only when
     /// the view or A changed.
@@ -359,6 +380,7 @@ impl State {
                     let _ = s.set_simd(params.simd);
                 }
                 p.params = *params;
+                p.tree = None;
                 self.pinned_builds += 1;
                 p.version = self.pinned_builds;
             }
@@ -373,6 +395,7 @@ impl State {
                     scene_version: self.scene_version,
                     structure,
                     version: self.pinned_builds,
+                    tree: None,
                 });
             }
         }

@@ -215,6 +215,18 @@ pub struct Shown {
     /// With a pinned A: the comparison, and A's frame of the same view.
     pub compared: Option<Compared>,
     pub pinned_frame: Option<Arc<Frame>>,
+    /// With a pinned A: its tree, for the hierarchy diagram of A above B's.
+    pub pinned_tree: Option<Arc<PinnedTree>>,
+}
+
+/// The pinned configuration A's tree: its outline, what it is and its SAH cost.
+#[derive(Clone, Debug)]
+pub struct PinnedTree {
+    pub outline: Arc<Outline>,
+    pub label: String,
+    /// With the C_trav and C_isect it was weighed with; `None` for a structure that is not
+    /// an SAH tree.
+    pub sah_cost: Option<(f64, f32, f32)>,
 }
 
 pub enum Reply {

@@ -125,6 +125,8 @@ pub(in crate::app) struct PinnedStructure {
     pub(in crate::app) structure: Result<Structure, String>,
     /// `pinned_builds` when it was built (or its traversal settings last changed).
     pub(in crate::app) version: u64,
+    /// Its tree for the hierarchy diagram, made when a frame first shows A.
+    pub(in crate::app) tree: Option<Arc<PinnedTree>>,
 }
 
 #[derive(Clone, Copy, PartialEq)]

@@ -87,6 +87,7 @@ impl<'a> Stream<'a> {
             image_time: c.image_time,
             compared: None,
             pinned_frame: None,
+            pinned_tree: None,
         })));
         (self.wake)();
     }
