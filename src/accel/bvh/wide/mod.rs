@@ -49,7 +49,8 @@ where
     pub depth: u32,
     /// Where each child sits (its node and lane), made at the first recorded visit: a
     /// replay's visit names a child, and its box is in the parent's lane. Moves keep it.
-    pub(crate) lanes: std::sync::OnceLock<std::collections::HashMap<Subtree, (u32, u8)>>,
+    pub(crate) lanes:
+        std::sync::OnceLock<std::sync::Arc<std::collections::HashMap<Subtree, (u32, u8)>>>,
 }
 
 /// The sums over a wide tree's lanes the SAH cost is made of, apart from the costs: the

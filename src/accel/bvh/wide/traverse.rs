@@ -423,7 +423,7 @@ where
                         lanes.entry(n.child[l]).or_insert((i as u32, l as u8));
                     }
                 }
-                lanes
+                std::sync::Arc::new(lanes)
             });
             lanes
                 .get(&child)
