@@ -425,9 +425,11 @@ where
                 }
                 lanes
             });
-            lanes.get(&child).map_or(crate::geometry::Aabb::EMPTY, |&(n, l)| {
-                self.nodes[n as usize].child_bounds(l as usize)
-            })
+            lanes
+                .get(&child)
+                .map_or(crate::geometry::Aabb::EMPTY, |&(n, l)| {
+                    self.nodes[n as usize].child_bounds(l as usize)
+                })
         };
         let what = if leaf { Visited::Leaf } else { Visited::Node };
         Step::visit(child.index() as usize, what, level, bounds)
