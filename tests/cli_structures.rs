@@ -1085,7 +1085,10 @@ fn render_colours_triangles_by_their_cost_and_their_tests() {
         assert_eq!(rays, 64.0 * 48.0, "{text}");
         // The frame's mean triangle tests of a primary ray, printed to one decimal: the tests
         // summed over the triangles are the frame's triangle tests.
-        let primary = text.lines().find(|l| l.contains("primary rays")).unwrap();
+        let primary = text
+            .lines()
+            .find(|l| l.trim_start().starts_with("primary rays"))
+            .unwrap();
         let frame_mean = number(primary, "box tests, ", " (");
         assert!(
             (tests / rays - frame_mean).abs() <= 0.051,

@@ -493,8 +493,13 @@ pub fn colorize_styled(
     let srgb = Srgb8::tables();
     let top = scale.unwrap_or(1);
     let color = |s: &Sample| sample_color(s, mode, top, style, (t_near, t_far), srgb);
-    // Written in place, a chunk of pixels per task (collecting a flat-mapped parallel
-    // iterator builds and joins a list of vectors instead).
+    (paint(samples, color), scale)
+}
+
+/// Each sample's pixel by `color`, in parallel: written in place, a chunk of pixels per
+/// task (collecting a flat-mapped parallel iterator builds and joins a list of vectors
+/// instead).
+fn paint(samples: &[Sample], color: impl Fn(&Sample) -> [u8; 4] + Sync) -> Vec<u8> {
     const CHUNK: usize = 4096;
     let mut rgba = vec![0u8; samples.len() * 4];
     rgba.par_chunks_mut(4 * CHUNK)
@@ -504,7 +509,7 @@ pub fn colorize_styled(
                 px.copy_from_slice(&color(s));
             }
         });
-    (rgba, scale)
+    rgba
 }
 
 /// One sample's colour in `mode`: a heatmap's under the scale's top `top`, the depth's

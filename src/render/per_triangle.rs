@@ -184,15 +184,7 @@ pub(super) fn colorize(
         };
         super::colormap::to_rgba8(c)
     };
-    let mut rgba = vec![0u8; frame.samples.len() * 4];
-    rgba.par_chunks_mut(4 * 4096)
-        .zip(frame.samples.par_chunks(4096))
-        .for_each(|(out, samples)| {
-            for (px, s) in out.chunks_exact_mut(4).zip(samples) {
-                px.copy_from_slice(&color(s));
-            }
-        });
-    Some((rgba, top))
+    Some((super::paint(&frame.samples, color), top))
 }
 
 /// Where `value` sits between `lo` and `hi` on a log scale (0..=1; 0 for nothing).
