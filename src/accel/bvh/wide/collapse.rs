@@ -527,6 +527,7 @@ mod tests {
                     order: b2.order,
                     simd: SimdLevel::detect(),
                     depth: part.depth,
+                    lanes: Default::default(),
                 };
                 tree.validate()
                     .unwrap_or_else(|e| panic!("{spec}, cut {cut:?}: {e}"));
