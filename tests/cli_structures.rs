@@ -1038,6 +1038,90 @@ fn render_cracks_marks_the_leaks_and_refuses_bad_offsets_and_other_views() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// The views that colour each triangle: the SAH cost per triangle on every tree (summing
+/// to the tree's cost, as `stats` prints it) and the tests per triangle on every structure
+/// (summing to the frame's triangle tests); the cost refused where there is no SAH cost.
+#[test]
+fn render_colours_triangles_by_their_cost_and_their_tests() {
+    let dir = std::env::temp_dir().join(format!("bvhlab-tricost-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let render = |accel: &str, mode: &str, extra: &[&str]| {
+        let png = dir.join(format!("{accel}-{mode}.png"));
+        let mut args = vec![
+            "render", "--scene", "soup:500", "--accel", accel, "--mode", mode, "--width", "64",
+            "--height", "48", "--out",
+        ];
+        args.push(png.to_str().unwrap());
+        args.extend_from_slice(extra);
+        let out = bvhlab(&args);
+        let text = String::from_utf8_lossy(&out.stdout).to_string();
+        let err = String::from_utf8_lossy(&out.stderr).to_string();
+        assert!(out.status.success(), "{accel} {mode}: {err}");
+        let image = image::open(&png).unwrap();
+        assert_eq!((image.width(), image.height()), (64, 48));
+        text
+    };
+    // The number after `before` in `text`, up to `after`.
+    let number = |text: &str, before: &str, after: &str| -> f64 {
+        let rest = &text[text.find(before).unwrap_or_else(|| panic!("{text}")) + before.len()..];
+        rest[..rest.find(after).unwrap()].trim().parse().unwrap()
+    };
+    for accel in ["bvh", "bvh4", "kdtree"] {
+        let text = render(accel, "triangle-cost", &[]);
+        let cost = number(&text, "SAH cost per triangle: the tree's ", " over");
+        let stats = bvhlab(&["stats", "--scene", "soup:500", "--accel", accel, "--json"]);
+        let stats: serde_json::Value = serde_json::from_slice(&stats.stdout).unwrap();
+        let expected = stats["sah_cost"].as_f64().unwrap();
+        assert!(
+            (cost - expected).abs() <= 1e-3 * expected,
+            "{accel}: {text}"
+        );
+        assert!(text.contains("colour scale (log)"), "{text}");
+    }
+    for accel in ["bvh8", "grid", "brute-force"] {
+        let text = render(accel, "tests-received", &[]);
+        let tests = number(&text, "tests per triangle: ", " tests by");
+        let rays = number(&text, " tests by ", " rays");
+        assert_eq!(rays, 64.0 * 48.0, "{text}");
+        // The frame's mean triangle tests of a primary ray, printed to one decimal: the tests
+        // summed over the triangles are the frame's triangle tests.
+        let primary = text
+            .lines()
+            .find(|l| l.trim_start().starts_with("primary rays"))
+            .unwrap();
+        let frame_mean = number(primary, "box tests, ", " (");
+        assert!(
+            (tests / rays - frame_mean).abs() <= 0.051,
+            "{accel}: {tests} tests: {text}"
+        );
+        assert!(text.contains("colour scale: 0 (dark purple) to"), "{text}");
+    }
+    render("bvh", "tests-received", &["--shadow", "--heat-max", "5"]);
+    assert_refused(
+        &dir,
+        &[
+            (
+                &["--mode", "triangle-cost", "--accel", "grid"][..],
+                "use --accel bvh, bvh4, bvh8 or kdtree",
+            ),
+            (
+                &["--mode", "triangle-cost", "--accel", "two-level"][..],
+                "only the BVHs and the k-d tree have an SAH cost",
+            ),
+            (
+                &["--mode", "triangle-cost", "--heat-max", "4"][..],
+                "is for heatmaps",
+            ),
+            (
+                &["--mode", "tests-received", "--compare", "--builder sbvh"][..],
+                "--compare does not compare --mode tests-received",
+            ),
+            (&["--mode", "triangle-costs"][..], "invalid value"),
+        ],
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// Each of `cases` (flags added to `render --scene cornell --out …`) fails with a message
 /// containing its text, without a panic and without leaving the PNG behind.
 fn assert_refused(dir: &std::path::Path, cases: &[(&[&str], &str)]) {

@@ -11,7 +11,7 @@ use bvhlab::accel::structure::{self, AccelKind, Structure, StructureParams};
 use bvhlab::accel::{Strategy, TraversalOrder};
 use bvhlab::geometry::Watertight;
 use bvhlab::geometry::slab::Slabs;
-use bvhlab::render::node_visits::node_visits;
+use bvhlab::render::node_visits::{TallySize, node_visits, tally};
 use bvhlab::render::replay::{Replay, ReplayError, replay_pixel};
 use bvhlab::render::{self, RayKind, RenderSettings};
 use bvhlab::scene::island::{self, Detail};
@@ -306,6 +306,41 @@ fn node_visits_of_a_frame_sum_to_the_frames_counted_visits() {
         let given_up =
             node_visits::<Watertight>(s, &scene, &settings, RayKind::Primary, 1, nodes, &|| true);
         assert!(given_up.is_none(), "{}", kind.label());
+    }
+}
+
+/// The tests per triangle (the "tests per triangle" view) counted in the same pass as the
+/// visits: summed over the triangles, the frame's counted triangle tests, on every
+/// structure, for both kinds of ray; the visits as `node_visits` counts them.
+#[test]
+fn tests_per_triangle_of_a_frame_sum_to_the_frames_counted_triangle_tests() {
+    let scene = builtin::by_name("teapot-in-stadium").unwrap().unwrap();
+    let settings = RenderSettings::for_scene(&scene, W, H);
+    let triangles = scene.placed_triangles();
+    for kind in AccelKind::ALL {
+        let mut params = StructureParams::of_kind(kind);
+        // Repeated tests are tests too: without the mailbox a spatial structure makes them.
+        params.mailbox = kind != AccelKind::Grid;
+        let built = structure::build_scene(&scene, &params, &Default::default()).unwrap();
+        let s = &built.structure;
+        let frame = render::trace(s, &scene, &settings);
+        let nodes = s.outline().nodes.len();
+        for rays in [RayKind::Primary, RayKind::Shadow] {
+            let size = TallySize { nodes, triangles };
+            let t = tally::<Watertight>(s, &scene, &settings, rays, 1, size, &|| false).unwrap();
+            let counted: u64 = frame
+                .samples
+                .iter()
+                .filter(|x| rays == RayKind::Primary || x.is_hit())
+                .map(|x| u64::from(x.counters(rays).triangle_tests))
+                .sum();
+            let what = format!("{} {rays:?}", kind.label());
+            assert_eq!(t.per_triangle.len(), triangles, "{what}");
+            assert_eq!(t.per_triangle.iter().sum::<u64>(), counted, "{what}: tests");
+            assert!(counted > 0, "{what}");
+            let v = node_visits::<Watertight>(s, &scene, &settings, rays, 1, nodes, &|| false);
+            assert_eq!(Some(t.per_node), v.map(|v| v.per_node), "{what}: visits");
+        }
     }
 }
 

@@ -134,9 +134,12 @@ pub struct Diagram {
 
 /// Per node: triangle references under it, and its subtree's SAH terms
 /// Σ SA(m)/SA(root) · C(m) over m in the subtree (C_trav interior, C_isect·N leaf).
-struct Subtrees {
-    references: Vec<f64>,
-    sah: Vec<f64>,
+/// `accel::triangle_cost` hands the same terms down to the triangles.
+pub(crate) struct Subtrees {
+    pub(crate) references: Vec<f64>,
+    pub(crate) sah: Vec<f64>,
+    /// The node's own surface-area probability SA(n)/SA(root) (1 for a flat root).
+    pub(crate) area: Vec<f64>,
     nodes: Vec<usize>,
     /// Visits of the subtree's nodes by the frame's rays (zero when none were counted).
     visits: Vec<f64>,
@@ -150,7 +153,12 @@ pub struct Visits<'a> {
 }
 
 impl Subtrees {
-    fn of(outline: &Outline, c_trav: f32, c_isect: f32, visits: Option<Visits>) -> Subtrees {
+    pub(crate) fn of(
+        outline: &Outline,
+        c_trav: f32,
+        c_isect: f32,
+        visits: Option<Visits>,
+    ) -> Subtrees {
         let n = outline.nodes.len();
         let root_area = outline
             .nodes
@@ -159,6 +167,7 @@ impl Subtrees {
         let mut s = Subtrees {
             references: vec![0.0; n],
             sah: vec![0.0; n],
+            area: vec![1.0; n],
             nodes: vec![1; n],
             visits: vec![0.0; n],
         };
@@ -175,6 +184,7 @@ impl Subtrees {
             } else {
                 1.0
             };
+            s.area[i] = area;
             s.visits[i] = own_visits(i);
             if node.is_leaf() {
                 s.references[i] = f64::from(node.refs.1);

@@ -27,6 +27,7 @@ pub mod sah_check;
 pub mod split_costs;
 pub mod stats;
 pub mod structure;
+pub mod triangle_cost;
 pub mod two_level;
 pub mod visit_index;
 

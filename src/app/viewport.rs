@@ -5,6 +5,7 @@
 use super::panels::{Step, legend};
 use super::replay::Go;
 use super::{BvhLabApp, Drag, Tool};
+use crate::render::Mode;
 use crate::render::compare::CompareView;
 use crate::scene::Camera;
 use eframe::egui::{self, Key, PointerButton, Sense};
@@ -39,6 +40,17 @@ pub fn show(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             (p.y - rect.min.y) / rect.height(),
         ]
     });
+    if let Some(shown) = &app.shown
+        && let Some(values) = shown.frame.triangle_values(Mode::TriangleCost)
+        && shown.job.mode == Mode::TriangleCost
+    {
+        let scale = if app.settings.presentation {
+            super::panels::presentation_text(ui.ctx()) / 12.0
+        } else {
+            1.0
+        };
+        super::panels::cost_legend(ui, rect, values, scale);
+    }
     if let Some(shown) = &app.shown
         && let Some(max) = shown.heat_max
     {
@@ -172,6 +184,23 @@ fn pixel_report(app: &BvhLabApp, rect: egui::Rect, pos: egui::Pos2) -> Option<St
         );
     } else {
         text += "\nno hit";
+    }
+    // In a view that colours triangles: the hit triangle's value.
+    let mode = app.shown.as_ref()?.job.mode;
+    if let Some(v) = app.shown.as_ref()?.frame.triangle_values(mode)
+        && let Some(value) = v.of(s)
+    {
+        text += &match mode {
+            Mode::TriangleCost => format!(
+                "\nSAH cost of the triangle: {value:.3e} ({:.2e} of the tree's {:.3})",
+                value / v.total.max(f64::MIN_POSITIVE),
+                v.total
+            ),
+            _ => format!(
+                "\ntests the triangle received: {value} (rays of 1 pixel in {}²)",
+                v.stride
+            ),
+        };
     }
     // With a pinned A: the same pixel's work under A.
     if let Some(a) = app.shown.as_ref()?.pinned_frame.as_ref()

@@ -113,6 +113,8 @@ pub fn check_counts(
             } else {
                 "compare two-level structures"
             }
+        } else if mode == ViewMode::TriangleCost {
+            "use --accel bvh, bvh4, bvh8 or kdtree"
         } else {
             "use --accel kdtree, grid or octree with --mailbox false"
         };
@@ -177,6 +179,12 @@ pub fn run(args: RenderArgs) -> Result<()> {
         return super::cracks::run(&scene, &args, &settings, &out_or_default("-cracks"));
     }
     if let Some(flags) = &args.compare {
+        if args.mode.colours_triangles() {
+            bail!(
+                "--compare does not compare --mode {}: render each configuration on its own",
+                mode_flag(args.mode)
+            );
+        }
         let out = out_or_default("-compare");
         return super::compare::run(&scene, &settings, &args, flags, &out);
     }
@@ -192,7 +200,12 @@ pub fn run(args: RenderArgs) -> Result<()> {
     // The image is traced beside the scene and its structure: all three must fit.
     let _held = bvhlab::budget::hold(built.structure.bytes() as u64);
     check_size(args.width, args.height, 1)?;
-    let frame = with_intersector!(kind, I => render::render_with::<_, I>(&built.structure, &scene, &settings));
+    let frame = if args.mode.colours_triangles() {
+        let params = args.build.structure_params_for(traced);
+        triangle_frame(&built.structure, &params, &scene, &settings, kind)?
+    } else {
+        with_intersector!(kind, I => render::render_with::<_, I>(&built.structure, &scene, &settings))
+    };
     let out = out_or_default("");
     frame.save_png(&out)?;
     let s = &frame.summary;
@@ -233,8 +246,74 @@ pub fn run(args: RenderArgs) -> Result<()> {
             );
         }
     }
-    if let Some(max) = frame.heat_max {
+    if let Some(values) = frame.triangle_values(mode) {
+        print_triangle_values(mode, values, frame.heat_max)?;
+    } else if let Some(max) = frame.heat_max {
         out!("heatmap scale: 0 (dark purple) to {max} (yellow)");
+    }
+    Ok(())
+}
+
+/// A frame coloured by its triangles' values (`render::per_triangle`): traced, the values
+/// worked out from every pixel's rays, then coloured.
+fn triangle_frame(
+    structure: &bvhlab::accel::Structure,
+    params: &bvhlab::accel::StructureParams,
+    scene: &Scene,
+    settings: &RenderSettings,
+    kind: IntersectorKind,
+) -> Result<render::Frame> {
+    let mut frame =
+        with_intersector!(kind, I => render::trace_with::<_, I>(structure, scene, settings));
+    let start = std::time::Instant::now();
+    let values = with_intersector!(kind, I => frame.triangle_values_for::<I>(
+        settings.mode, structure, params, scene, settings, 1, &|| false,
+    ));
+    if let Err(reason) = values {
+        bail!("--mode shows nothing here: {reason}");
+    }
+    out!(
+        "per-triangle values worked out in {:.1} ms",
+        start.elapsed().as_secs_f64() * 1e3
+    );
+    frame.recolor(settings.mode, settings.heat_max);
+    Ok(frame)
+}
+
+/// The legend of a frame coloured by its triangles' values.
+fn print_triangle_values(
+    mode: render::Mode,
+    v: &render::per_triangle::TriangleValues,
+    top: Option<u32>,
+) -> Result<()> {
+    let triangles = v.values.len().max(1) as f64;
+    let (lo, hi) = v.shown;
+    match mode {
+        render::Mode::TriangleCost => {
+            out!(
+                "SAH cost per triangle: the tree's {:.4} over {} triangles (mean {:.3e}); the \
+                 triangles shown cost {lo:.3e} to {hi:.3e}",
+                v.total,
+                v.values.len(),
+                v.total / triangles
+            );
+            let mid = render::per_triangle::log_value_at(0.5, v.shown);
+            out!("colour scale (log): {lo:.3e} (dark purple), {mid:.3e} (teal), {hi:.3e} (yellow)");
+        }
+        _ => {
+            let untested = v.values.iter().filter(|&&n| n == 0.0).count();
+            out!(
+                "tests per triangle: {} tests by {} rays on {} triangles ({} never tested); the \
+                 most on a triangle shown: {hi}",
+                v.total,
+                v.rays,
+                v.values.len(),
+                untested
+            );
+            if let Some(max) = top {
+                out!("colour scale: 0 (dark purple) to {max} (yellow)");
+            }
+        }
     }
     Ok(())
 }

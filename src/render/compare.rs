@@ -396,6 +396,7 @@ mod tests {
             samples,
             rgba: Vec::new(),
             heat_max: None,
+            per_triangle: Default::default(),
         }
     }
 

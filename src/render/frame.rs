@@ -184,6 +184,9 @@ pub struct Frame {
     pub summary: FrameSummary,
     /// The count that maps to the top of the heatmap colour scale in `rgba`, if it is one.
     pub heat_max: Option<u32>,
+    /// Per-triangle values the frame is coloured by in the modes that colour triangles,
+    /// worked out once (`Frame::triangle_values_for`).
+    pub per_triangle: super::per_triangle::Slots,
 }
 
 /// A frame's samples go back to the pool for the next frame.

@@ -87,7 +87,12 @@ impl HeatStyle {
 
     /// The colour of `count` on a scale topped at `max`, over sample `s`.
     pub fn color(&self, count: u32, max: u32, s: &Sample) -> Vec3 {
-        let c = viridis(self.curve.position(count as f32, max as f32));
+        self.color_at(self.curve.position(count as f32, max as f32), s)
+    }
+
+    /// The colour at position `x` (0..=1) of the scale, over sample `s`.
+    pub fn color_at(&self, x: f32, s: &Sample) -> Vec3 {
+        let c = viridis(x);
         if !self.underlay {
             return c;
         }

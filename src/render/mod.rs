@@ -10,6 +10,7 @@ pub mod frame;
 pub mod heat;
 pub mod node_visits;
 pub mod overlay;
+pub mod per_triangle;
 pub mod replay;
 mod sample_pool;
 pub mod view_mode;
@@ -37,6 +38,12 @@ pub enum Mode {
     Depth,
     /// One counter of one kind of ray, through the colour map.
     Heatmap(Counter, RayKind),
+    /// Each pixel coloured by its triangle's share of the tree's SAH cost (log scale):
+    /// `per_triangle`.
+    TriangleCost,
+    /// Each pixel coloured by the ray–triangle tests its triangle received from the
+    /// frame's rays of one kind: `per_triangle`.
+    TestsReceived(RayKind),
 }
 
 impl Mode {
@@ -45,12 +52,19 @@ impl Mode {
         matches!(self, Mode::Heatmap(_, RayKind::Shadow))
     }
 
+    /// Whether this mode colours each triangle by a value of its own (`per_triangle`).
+    pub fn colours_triangles(self) -> bool {
+        matches!(self, Mode::TriangleCost | Mode::TestsReceived(_))
+    }
+
     pub fn label(self) -> String {
         match self {
             Mode::Shaded => "shaded".into(),
             Mode::Normals => "normals".into(),
             Mode::Depth => "depth".into(),
             Mode::Heatmap(c, r) => format!("{} ({})", c.label(), r.label()),
+            Mode::TriangleCost => "SAH cost per triangle".into(),
+            Mode::TestsReceived(r) => format!("tests per triangle ({})", r.label()),
         }
     }
 }
@@ -238,6 +252,7 @@ fn trace_tiles<A: Accel, I: Intersector>(
         summary: sums.with_means(trace_time),
         samples,
         heat_max: None,
+        per_triangle: Default::default(),
     };
     // A stopped frame's samples go back to the pool as it drops.
     (!stopped.into_inner()).then_some(frame)
@@ -454,6 +469,9 @@ pub fn colorize_styled(
     heat_max: Option<u32>,
     style: &heat::HeatStyle,
 ) -> (Vec<u8>, Option<u32>) {
+    if let Some(image) = per_triangle::colorize(frame, mode, heat_max, style) {
+        return image;
+    }
     let samples = &frame.samples;
     // Only the depth mode needs the range of distances.
     let (t_near, t_far) = if mode == Mode::Depth {
@@ -475,8 +493,13 @@ pub fn colorize_styled(
     let srgb = Srgb8::tables();
     let top = scale.unwrap_or(1);
     let color = |s: &Sample| sample_color(s, mode, top, style, (t_near, t_far), srgb);
-    // Written in place, a chunk of pixels per task (collecting a flat-mapped parallel
-    // iterator builds and joins a list of vectors instead).
+    (paint(samples, color), scale)
+}
+
+/// Each sample's pixel by `color`, in parallel: written in place, a chunk of pixels per
+/// task (collecting a flat-mapped parallel iterator builds and joins a list of vectors
+/// instead).
+fn paint(samples: &[Sample], color: impl Fn(&Sample) -> [u8; 4] + Sync) -> Vec<u8> {
     const CHUNK: usize = 4096;
     let mut rgba = vec![0u8; samples.len() * 4];
     rgba.par_chunks_mut(4 * CHUNK)
@@ -486,7 +509,7 @@ pub fn colorize_styled(
                 px.copy_from_slice(&color(s));
             }
         });
-    (rgba, scale)
+    rgba
 }
 
 /// One sample's colour in `mode`: a heatmap's under the scale's top `top`, the depth's
@@ -503,6 +526,8 @@ fn sample_color(
         Mode::Heatmap(c, r) => to_rgba8(style.color(s.counters(r).get(c), top, s)),
         Mode::Shaded => shaded_color(s, srgb),
         _ if !s.is_hit() => to_rgba8(BACKGROUND),
+        // Coloured by `per_triangle`, which needs the whole frame: grey until then.
+        Mode::TriangleCost | Mode::TestsReceived(_) => to_rgba8(Vec3::splat(0.5)),
         Mode::Normals => to_rgba8(s.normal * 0.5 + 0.5),
         Mode::Depth => {
             let range = (t_far - t_near).max(f32::MIN_POSITIVE);
@@ -521,7 +546,10 @@ pub fn colorize_tile(
     style: &heat::HeatStyle,
     out: &mut [u8],
 ) -> bool {
-    if mode == Mode::Depth {
+    if matches!(
+        mode,
+        Mode::Depth | Mode::TriangleCost | Mode::TestsReceived(_)
+    ) {
         return false;
     }
     let srgb = Srgb8::tables();

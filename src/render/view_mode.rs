@@ -32,10 +32,17 @@ pub enum ViewMode {
     BottomNodes,
     /// Two-level structure: heatmap of instances entered.
     Instances,
+    /// Each triangle coloured by its share of the tree's SAH cost: the surface-area
+    /// probabilities of the leaves holding it times C_isect, plus C_trav of every node
+    /// above shared among that node's references (log scale; BVHs and the k-d tree).
+    TriangleCost,
+    /// Each triangle coloured by the ray–triangle tests the frame's rays did on it
+    /// (measured).
+    TestsReceived,
 }
 
 impl ViewMode {
-    pub const ALL: [ViewMode; 10] = [
+    pub const ALL: [ViewMode; 12] = [
         ViewMode::Shaded,
         ViewMode::Normals,
         ViewMode::Depth,
@@ -46,6 +53,8 @@ impl ViewMode {
         ViewMode::TopNodes,
         ViewMode::BottomNodes,
         ViewMode::Instances,
+        ViewMode::TriangleCost,
+        ViewMode::TestsReceived,
     ];
 
     pub fn label(self) -> &'static str {
@@ -60,6 +69,8 @@ impl ViewMode {
             ViewMode::TopNodes => "top-level nodes",
             ViewMode::BottomNodes => "bottom-level nodes",
             ViewMode::Instances => "instances entered",
+            ViewMode::TriangleCost => "SAH cost per triangle",
+            ViewMode::TestsReceived => "tests per triangle",
         }
     }
 
@@ -73,7 +84,14 @@ impl ViewMode {
                 | ViewMode::TopNodes
                 | ViewMode::BottomNodes
                 | ViewMode::Instances
+                | ViewMode::TestsReceived
         )
+    }
+
+    /// Whether the mode colours each triangle by a value of its own (`render::per_triangle`)
+    /// rather than each pixel by its rays' counts.
+    pub fn colours_triangles(self) -> bool {
+        matches!(self, ViewMode::TriangleCost | ViewMode::TestsReceived)
     }
 
     /// Whether the mode shows a count only a two-level structure makes.
@@ -99,6 +117,9 @@ impl ViewMode {
                  tree, grid or octree records",
             );
         }
+        if self == ViewMode::TriangleCost && !kind.has_sah_cost() {
+            return Some(super::per_triangle::NO_SAH_COST);
+        }
         None
     }
 
@@ -119,6 +140,8 @@ impl ViewMode {
             ViewMode::TopNodes => Mode::Heatmap(Counter::TopNodesVisited, rays),
             ViewMode::BottomNodes => Mode::Heatmap(Counter::BottomNodesVisited, rays),
             ViewMode::Instances => Mode::Heatmap(Counter::InstancesEntered, rays),
+            ViewMode::TriangleCost => Mode::TriangleCost,
+            ViewMode::TestsReceived => Mode::TestsReceived(rays),
         }
     }
 }

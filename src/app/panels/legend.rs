@@ -11,8 +11,10 @@ use glam::Vec3;
 /// The heatmap's scale: 0 to `max` of the counter shown, on the job's curve; a top set
 /// by a percentile reads "max+" (the brightest pixels count more).
 pub fn legend(ui: &mut egui::Ui, rect: egui::Rect, job: &RenderJob, max: u32, scale: f32) {
-    let Mode::Heatmap(counter, rays) = job.mode else {
-        return;
+    let title = match job.mode {
+        Mode::Heatmap(counter, rays) => format!("{} ({})", counter.label(), rays.label()),
+        Mode::TestsReceived(_) => job.mode.label(),
+        _ => return,
     };
     let style = &job.heat_style;
     let clipped = job.heat_max.is_none() && style.clip_percentile.is_some();
@@ -24,7 +26,7 @@ pub fn legend(ui: &mut egui::Ui, rect: egui::Rect, job: &RenderJob, max: u32, sc
         ui,
         rect,
         scale,
-        &format!("{} ({}){curve}", counter.label(), rays.label()),
+        &format!("{title}{curve}"),
         crate::render::colormap::viridis,
         [
             "0".to_string(),
@@ -35,6 +37,29 @@ pub fn legend(ui: &mut egui::Ui, rect: egui::Rect, job: &RenderJob, max: u32, sc
                 format!("{max}")
             },
         ],
+    );
+}
+
+/// The SAH cost per triangle's scale: from the cheapest to the dearest triangle shown, on
+/// a log scale, with the tree's whole cost in the title.
+pub fn cost_legend(
+    ui: &mut egui::Ui,
+    rect: egui::Rect,
+    values: &crate::render::per_triangle::TriangleValues,
+    scale: f32,
+) {
+    use crate::render::per_triangle::log_value_at;
+    let at = |x| format!("{:.2e}", log_value_at(x, values.shown));
+    scale_bar(
+        ui,
+        rect,
+        scale,
+        &format!(
+            "SAH cost per triangle, log scale (tree: {:.2})",
+            values.total
+        ),
+        crate::render::colormap::viridis,
+        [at(0.0), at(0.5), at(1.0)],
     );
 }
 

@@ -14,7 +14,7 @@ mod walk;
 pub use bars::{status_bar, top_bar};
 pub use help::help_window;
 pub use layout::{presentation_bar, presentation_text, side_panels};
-pub use legend::{legend, scale_bar};
+pub use legend::{cost_legend, legend, scale_bar};
 pub use stats::stats;
 pub(crate) use stats::table;
 pub use tree::{TreeKey, draw_hovered_box, tree_panel};
@@ -104,10 +104,20 @@ fn view_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                     if m.is_two_level() && !s.structure.kind.places_instances() {
                         continue;
                     }
-                    ui.selectable_value(&mut s.mode, m, m.label())
-                        .on_hover_text(format!("Shift+{}", (k + 1) % 10));
+                    let button = ui.selectable_value(&mut s.mode, m, m.label());
+                    if k < 10 {
+                        button.on_hover_text(format!("Shift+{}", (k + 1) % 10));
+                    }
                 }
             });
+            if s.mode.colours_triangles()
+                && let Some(reason) = s.mode.missing_counts(&s.structure)
+            {
+                ui.colored_label(
+                    ui.visuals().warn_fg_color,
+                    format!("Nothing to show: {reason}."),
+                );
+            }
             if s.mode.is_heatmap() {
                 ui.checkbox(&mut s.shadow_rays, "count shadow rays (instead of primary)");
                 heat_style(ui, &mut s.heat_style, s.heat_max.is_some());

@@ -21,6 +21,8 @@ use std::time::Duration;
 const COARSE: u32 = 6;
 /// About how many rays the hierarchy diagram's measured visits trace.
 const VISITS_RAYS: f64 = 120_000.0;
+/// About how many rays the tests-per-triangle view's tally traces.
+const TESTS_RAYS: f64 = 250_000.0;
 /// Smaller frames come at once, without a coarse one first.
 const COARSE_MIN_PIXELS: u32 = 320 * 240;
 /// A full frame slower than this is preceded by a coarse one next time.
@@ -175,6 +177,27 @@ impl State {
             }
         };
         let image_time = frame.summary.trace_time;
+        if job.mode.colours_triangles() {
+            // The triangles' values, worked out once for the frame (its measured tests from
+            // about TESTS_RAYS of its rays); a newer command stops the tally.
+            let pixels = f64::from(job.width) * f64::from(job.height);
+            let stride = (pixels / TESTS_RAYS).sqrt().ceil().max(1.0) as u32;
+            let latest = &self.latest;
+            let newer = || latest.load(Ordering::Relaxed) > seq;
+            // Without an SAH cost (the view panel says why) the hits stay grey.
+            let _ = frame.triangle_values_for::<Watertight>(
+                job.mode,
+                structure,
+                &self.params,
+                scene,
+                &settings,
+                stride,
+                &newer,
+            );
+            if newer() {
+                return None;
+            }
+        }
         let ((mut rgba, heat_max), compared, pinned_frame) = match job.compare {
             Some(c) => {
                 let (image, compared, a) = self.compare(&frame, &c, &job);
@@ -261,6 +284,7 @@ impl State {
             return;
         };
         counted.rgba = traced.frame.rgba.clone();
+        counted.per_triangle = traced.frame.per_triangle.clone();
         let frame = Arc::new(counted);
         self.traced = Some(Traced {
             key,
