@@ -5,7 +5,6 @@
 use super::messages::{CracksRequest, CracksShown, Reply};
 use super::state::State;
 use crate::geometry::IntersectorKind;
-use crate::render::RenderSettings;
 use crate::render::cracks::{CrackSetup, CrackView, SEED};
 use std::sync::Arc;
 
@@ -37,11 +36,12 @@ impl State {
         let view = match &self.crack_view {
             Some((k, v)) if *k == key => v.clone(),
             _ => {
-                let settings = RenderSettings {
-                    camera: request.camera,
-                    light: scene.light(),
-                    ..RenderSettings::for_scene(scene, request.width, request.height)
-                };
+                let settings = super::frames::view_settings(
+                    scene,
+                    request.camera,
+                    request.width,
+                    request.height,
+                );
                 let setup = CrackSetup::new(&settings, request.offset);
                 let view =
                     CrackView::new(scene, &setup, &self.params, SEED).map_err(|e| e.to_string())?;

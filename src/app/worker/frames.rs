@@ -31,19 +31,28 @@ use glam::Vec3;
 use std::sync::Arc;
 use std::sync::atomic::Ordering;
 
+/// A frame's settings for a view of `scene` from `camera`, `width` × `height` pixels, lit
+/// by the scene's light: what the replay, the counted visits and the crack view trace.
+pub(in crate::app) fn view_settings(
+    scene: &crate::scene::Scene,
+    camera: crate::scene::Camera,
+    width: u32,
+    height: u32,
+) -> RenderSettings {
+    RenderSettings {
+        camera,
+        light: scene.light(),
+        ..RenderSettings::for_scene(scene, width, height)
+    }
+}
+
 impl State {
     /// Replays a pixel through the structure as it is now, in the scene as it is now.
     pub(in crate::app) fn replay(&self, r: &ReplayRequest) -> Result<Arc<Replay>, String> {
         let (Some(scene), Some(structure)) = (&self.scene, &self.structure) else {
             return Err("there is no structure to replay yet".into());
         };
-        let settings = RenderSettings {
-            width: r.width,
-            height: r.height,
-            camera: r.camera,
-            light: scene.light(),
-            ..RenderSettings::for_scene(scene, r.width, r.height)
-        };
+        let settings = view_settings(scene, r.camera, r.width, r.height);
         replay_pixel::<crate::geometry::Watertight>(structure, scene, &settings, r.pixel, r.rays)
             .map(Arc::new)
             .map_err(|e| e.to_string())
@@ -56,13 +65,7 @@ impl State {
         let (Some(scene), Some(structure)) = (&self.scene, &self.structure) else {
             return None;
         };
-        let settings = RenderSettings {
-            width: r.width,
-            height: r.height,
-            camera: r.camera,
-            light: scene.light(),
-            ..RenderSettings::for_scene(scene, r.width, r.height)
-        };
+        let settings = view_settings(scene, r.camera, r.width, r.height);
         let pixels = f64::from(r.width) * f64::from(r.height);
         let stride = (pixels / VISITS_RAYS).sqrt().ceil().max(1.0) as u32;
         let asked = self.latest.load(Ordering::Relaxed);
