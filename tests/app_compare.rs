@@ -14,8 +14,10 @@ use egui_kittest::kittest::Queryable;
 use std::sync::Arc;
 
 fn app(scene: &str) -> Harness<'static, BvhLabApp> {
+    // Tall enough that the Compare section sits in sight below View (a click does not
+    // scroll the controls to it).
     launch(
-        Harness::builder().with_size(egui::vec2(1400.0, 900.0)),
+        Harness::builder().with_size(egui::vec2(1400.0, 1100.0)),
         scene,
         |_| {},
     )
