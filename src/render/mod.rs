@@ -19,7 +19,7 @@ pub use frame::{CounterSummary, Frame, FrameSummary, RayKind, Sample};
 pub use view_mode::ViewMode;
 
 use crate::accel::bvh::packet::PACKET_SIZE;
-use crate::accel::{Accel, Counter, Counters, Hit, NoStats, Stats};
+use crate::accel::{Accel, Counter, Counters, Hit, NoStats, Stats, Structure};
 use crate::geometry::spawn::SurfacePoint;
 use crate::geometry::{Intersector, Ray, Triangle, Watertight};
 use crate::scene::{Camera, Scene};
@@ -430,6 +430,31 @@ impl<'a> Albedos<'a> {
 /// on the side of `normal`, the triangle's normal facing the ray that hit it.
 pub fn shadow_ray(tri: &crate::geometry::Triangle, normal: Vec3, hit: &Hit, light: Vec3) -> Ray {
     SurfacePoint::on_triangle(tri, hit.u, hit.v).ray_towards(normal, light)
+}
+
+/// The ray of kind `rays` that a pixel's `primary` ray stands for: the primary ray itself,
+/// or the shadow ray from its closest hit towards `light` (`None`: the primary ray hits
+/// nothing, so there is no shadow ray). The frame's own shadow rays are made the same way.
+pub fn ray_of_kind<I: Intersector>(
+    structure: &Structure,
+    scene: &Scene,
+    primary: &Ray,
+    rays: RayKind,
+    light: Vec3,
+) -> Option<Ray> {
+    match rays {
+        RayKind::Primary => Some(*primary),
+        RayKind::Shadow => {
+            let hit = structure.closest_hit::<I, _>(primary, &mut NoStats)?;
+            let tri = scene.triangle(hit.triangle)?;
+            Some(shadow_ray(
+                &tri,
+                tri.facing_normal(primary.direction),
+                &hit,
+                light,
+            ))
+        }
+    }
 }
 
 const BACKGROUND: Vec3 = Vec3::new(0.06, 0.07, 0.09);

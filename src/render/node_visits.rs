@@ -7,9 +7,9 @@
 //! frame's and the replay's, and its visits are mapped to the outline as the replay maps
 //! them.
 
-use super::{RayKind, RenderSettings, shadow_ray};
+use super::{RayKind, RenderSettings, ray_of_kind};
 use crate::accel::visit_index::VisitIndex;
-use crate::accel::{Accel, NoStats, Recorder, Step, Structure};
+use crate::accel::{Accel, Recorder, Step, Structure};
 use crate::geometry::Intersector;
 use crate::scene::Scene;
 use rayon::prelude::*;
@@ -119,17 +119,9 @@ pub fn tally<I: Intersector>(
         let mut recorder = Recorder::default();
         for x in (0..width).step_by(stride as usize) {
             let primary = camera.pixel_center(x, y);
-            let ray = match rays {
-                RayKind::Primary => primary,
-                RayKind::Shadow => {
-                    let hit = structure.closest_hit::<I, _>(&primary, &mut NoStats);
-                    let Some((hit, tri)) = hit.and_then(|h| Some((h, scene.triangle(h.triangle)?)))
-                    else {
-                        continue;
-                    };
-                    let normal = tri.facing_normal(primary.direction);
-                    shadow_ray(&tri, normal, &hit, settings.light)
-                }
+            let Some(ray) = ray_of_kind::<I>(structure, scene, &primary, rays, settings.light)
+            else {
+                continue;
             };
             // One recorder per row, emptied for each ray: its steps' room is kept.
             recorder.steps.clear();

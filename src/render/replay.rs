@@ -4,10 +4,10 @@
 //! frame's pixel.
 
 use super::overlay::{BOX_EDGES, box_corners};
-use super::{RayKind, RenderSettings, shadow_ray};
+use super::{RayKind, RenderSettings, ray_of_kind};
 use crate::accel::replay::{Level, Step, Visited, counters_of};
 use crate::accel::visit_index::VisitIndex;
-use crate::accel::{Accel, Counters, NoStats, Recorder, Structure};
+use crate::accel::{Accel, Counters, Recorder, Structure};
 use crate::geometry::{Aabb, Intersector, Ray};
 use crate::scene::Scene;
 use glam::{Affine3A, Vec3};
@@ -72,22 +72,8 @@ pub fn replay_pixel<I: Intersector>(
         });
     }
     let primary = settings.camera.rays(width, height).pixel_center(x, y);
-    let ray = match rays {
-        RayKind::Primary => primary,
-        RayKind::Shadow => {
-            let hit = structure.closest_hit::<I, _>(&primary, &mut NoStats);
-            let tri = hit.and_then(|h| Some((h, scene.triangle(h.triangle)?)));
-            let Some((hit, tri)) = tri else {
-                return Err(ReplayError::NoShadowRay { x, y });
-            };
-            shadow_ray(
-                &tri,
-                tri.facing_normal(primary.direction),
-                &hit,
-                settings.light,
-            )
-        }
-    };
+    let ray = ray_of_kind::<I>(structure, scene, &primary, rays, settings.light)
+        .ok_or(ReplayError::NoShadowRay { x, y })?;
     Ok(replay_ray::<I>(structure, &ray, rays, (x, y)))
 }
 
