@@ -299,7 +299,8 @@ impl Part {
                 if (above && self.lo[axis] >= c) || (!above && self.hi[axis] <= c) {
                     continue;
                 }
-                let inside = |p: &DVec3| if above { p[axis] >= c } else { p[axis] <= c };
+                // Signed distance into the kept side: ≥ 0 is inside.
+                let into = |p: &DVec3| if above { p[axis] - c } else { c - p[axis] };
                 let [a_buf, b_buf] = &mut buffers;
                 let (src, dst) = if from == 0 {
                     (a_buf, b_buf)
@@ -307,18 +308,20 @@ impl Part {
                     (b_buf, a_buf)
                 };
                 let mut m = 0;
-                for i in 0..n {
-                    let (a, b) = (src[i], src[(i + 1) % n]);
-                    if inside(&a) {
-                        dst[m] = a;
-                        m += 1;
-                    }
-                    if inside(&a) != inside(&b) && m < MAX_VERTS {
+                let (mut a, mut a_in) = (src[n - 1], into(&src[n - 1]) >= 0.0);
+                for &b in &src[..n] {
+                    let b_in = into(&b) >= 0.0;
+                    if a_in != b_in && m < MAX_VERTS {
                         let s = (c - a[axis]) / (b[axis] - a[axis]);
                         dst[m] = a + (b - a) * s;
                         dst[m][axis] = c;
                         m += 1;
                     }
+                    if b_in && m < MAX_VERTS {
+                        dst[m] = b;
+                        m += 1;
+                    }
+                    (a, a_in) = (b, b_in);
                 }
                 from = 1 - from;
                 n = m;
