@@ -235,3 +235,60 @@ fn clicking_a_cell_of_the_hierarchy_diagram_walks_the_tree_to_its_node() {
     assert!(h.query_by_label("hierarchy diagram").is_none());
     assert_eq!(h.state().walk, Some(outline.nodes[0].first_child));
 }
+
+/// A big tree's diagram folds its deep subtrees; scrolling (here a pinch, the same zoom)
+/// over it zooms in around the pointer and draws nodes that were folded, dragging pans, and
+/// "whole tree" (or a double click) shows the whole tree again.
+#[test]
+fn zooming_the_hierarchy_diagram_unfolds_the_subtrees_under_the_pointer() {
+    let mut h = launch(
+        Harness::builder().with_size(egui::vec2(1400.0, 900.0)),
+        "sphere:40000",
+        |app| app.settings.show_tree = true,
+    );
+    let area = h.get_by_label("hierarchy diagram").rect();
+    let whole = h.state().tree_diagram().drawn().expect("laid out").clone();
+    assert_eq!(h.state().tree_diagram().window(), (0.0, 1.0));
+    assert!(whole.hidden > 0, "a tree this big folds at full width");
+    let at = egui::pos2(area.left() + area.width() * 0.25, area.center().y);
+    h.hover_at(at);
+    h.run_steps(1);
+    for _ in 0..5 {
+        h.event(egui::Event::Zoom(4.0));
+        h.run_steps(1);
+    }
+    settle(&mut h);
+    let (w0, w1) = h.state().tree_diagram().window();
+    assert!(
+        (w1 - w0 - 1.0 / 1024.0).abs() < 1e-9,
+        "zoomed ×1024: {w0} {w1}"
+    );
+    // The point under the pointer stayed there.
+    assert!((w0 + 0.25 * (w1 - w0) - 0.25).abs() < 1e-3, "{w0} {w1}");
+    let zoomed = h.state().tree_diagram().drawn().expect("laid out").clone();
+    assert!(zoomed.cells.iter().all(|c| c.x1 > w0 && c.x0 < w1));
+    let before: std::collections::HashSet<u32> = whole.cells.iter().map(|c| c.node).collect();
+    assert!(
+        zoomed.cells.iter().any(|c| !before.contains(&c.node)),
+        "zoomed in, nodes folded before are drawn"
+    );
+    // Dragged 100 points to the left, the window moves right by 100 points' worth.
+    let from = egui::pos2(area.center().x, area.center().y);
+    h.drag_at(from);
+    h.run_steps(1);
+    for k in 1..=10 {
+        h.hover_at(from - egui::vec2(10.0 * k as f32, 0.0));
+        h.run_steps(1);
+    }
+    h.drop_at(from - egui::vec2(100.0, 0.0));
+    settle(&mut h);
+    let (p0, _) = h.state().tree_diagram().window();
+    let moved = (p0 - w0) / (w1 - w0) * f64::from(area.width());
+    assert!(moved > 50.0 && moved < 110.0, "panned by {moved} points");
+    assert_eq!(h.state().walk, None, "a drag is not a click");
+    // "whole tree" shows it all again.
+    h.get_by_label("whole tree").click();
+    settle(&mut h);
+    assert_eq!(h.state().tree_diagram().window(), (0.0, 1.0));
+    assert_eq!(h.state().tree_diagram().drawn(), Some(&whole));
+}

@@ -128,7 +128,7 @@ pub struct Diagram {
     /// The smallest and largest value among the cells (positive values only for a log
     /// scale).
     pub range: (f64, f64),
-    /// Nodes of the tree not drawn (under folded cells).
+    /// Nodes of the tree not drawn (under folded cells, or outside a zoomed window).
     pub hidden: usize,
 }
 
@@ -203,102 +203,156 @@ impl Subtrees {
     }
 }
 
-/// Lays out `outline` as an icicle: widths by `width`, colours by `shade`, subtrees
-/// narrower than `fold` (a fraction of the whole width) or below row `max_rows` folded.
-/// C_trav and C_isect weigh the SAH shares; `visits` are the frame's rays' visits per node,
-/// for the measured width and shade (without them those read zero).
+/// How a layout fits its drawing: subtrees narrower than `fold` (a fraction of the window's
+/// width) or below row `max_rows` fold, and only the cells within `window`, a span of the
+/// unit width the whole tree takes, are laid out (a zoomed diagram).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fit {
+    pub fold: f64,
+    pub max_rows: u32,
+    pub window: (f64, f64),
+}
+
+impl Fit {
+    /// The whole tree, folding as `fold` and `max_rows` say.
+    pub fn whole(fold: f64, max_rows: u32) -> Fit {
+        Fit {
+            fold,
+            max_rows,
+            window: (0.0, 1.0),
+        }
+    }
+}
+
+/// What every layout of one tree reads, made once per tree, costs and visits: its subtrees'
+/// sums and its nodes' own measured visits.
+pub struct Sizes {
+    sub: Subtrees,
+    own_visits: Vec<f64>,
+    rays: u64,
+}
+
+impl Sizes {
+    /// C_trav and C_isect weigh the SAH shares; `visits` are the frame's rays' visits per
+    /// node, for the measured width and shade (without them those read zero).
+    pub fn of(outline: &Outline, (c_trav, c_isect): (f32, f32), visits: Option<Visits>) -> Sizes {
+        Sizes {
+            sub: Subtrees::of(outline, c_trav, c_isect, visits),
+            own_visits: (0..outline.nodes.len())
+                .map(|i| {
+                    visits
+                        .and_then(|v| v.per_node.get(i))
+                        .map_or(0.0, |&n| n as f64)
+                })
+                .collect(),
+            rays: visits.map_or(0, |v| v.rays),
+        }
+    }
+
+    /// Lays out `outline` (the tree these sizes are of) as an icicle within `fit`: widths
+    /// by `width`, colours by `shade`.
+    pub fn layout(&self, outline: &Outline, width: Width, shade: Shade, fit: Fit) -> Diagram {
+        let mut diagram = Diagram {
+            cells: Vec::new(),
+            rows: 0,
+            range: (f64::INFINITY, 0.0),
+            hidden: 0,
+        };
+        let Some(root) = outline.nodes.first() else {
+            return diagram;
+        };
+        let sub = &self.sub;
+        let total_sah = sub.sah[0];
+        let root_area = f64::from(root.bounds.surface_area());
+        let value = |i: usize, node: &OutlineNode| match shade {
+            Shade::Depth => f64::from(node.depth),
+            Shade::Area if root_area > 0.0 => f64::from(node.bounds.surface_area()) / root_area,
+            Shade::Area => 1.0,
+            Shade::Sah if total_sah > 0.0 => sub.sah[i] / total_sah,
+            Shade::Sah => 0.0,
+            Shade::Triangles => sub.references[i],
+            // The node's own visits: the measured chance a ray enters it.
+            Shade::Visits if self.rays > 0 => self.own_visits[i] / self.rays as f64,
+            Shade::Visits => 0.0,
+        };
+        let weight = |i: usize| match width {
+            Width::Triangles => sub.references[i],
+            Width::Sah => sub.sah[i],
+            Width::Uniform => 1.0,
+            Width::Visits => sub.visits[i],
+        };
+        let (w0, w1) = fit.window;
+        let fold = fit.fold * (w1 - w0);
+        let mut stack = vec![(0usize, 0.0f64, 1.0f64)];
+        while let Some((i, x0, x1)) = stack.pop() {
+            let node = &outline.nodes[i];
+            if x1 <= w0 || x0 >= w1 {
+                // Outside the window: neither it nor its subtree is drawn.
+                diagram.hidden += sub.nodes[i];
+                continue;
+            }
+            let depth = node.depth - root.depth;
+            let folded = !node.is_leaf() && (x1 - x0 < fold || depth >= fit.max_rows);
+            let v = value(i, node);
+            diagram.cells.push(Cell {
+                node: i as u32,
+                depth,
+                x0,
+                x1,
+                folded,
+                value: v,
+            });
+            diagram.rows = diagram.rows.max(depth);
+            if !shade.is_log() || v > 0.0 {
+                diagram.range = (diagram.range.0.min(v), diagram.range.1.max(v));
+            }
+            if folded {
+                diagram.hidden += sub.nodes[i] - 1;
+                continue;
+            }
+            let children = node.children();
+            let total: f64 = children.clone().map(weight).sum();
+            let count = children.len() as f64;
+            let mut at = x0;
+            // Pushed last to first, so the first child is drawn first.
+            let spans: Vec<(usize, f64, f64)> = children
+                .map(|c| {
+                    let share = if total > 0.0 {
+                        weight(c) / total
+                    } else {
+                        1.0 / count
+                    };
+                    let end = at + (x1 - x0) * share;
+                    let span = (c, at, end);
+                    at = end;
+                    span
+                })
+                .collect();
+            stack.extend(spans.into_iter().rev());
+        }
+        if diagram.range.0 > diagram.range.1 {
+            diagram.range = (0.0, 0.0);
+        }
+        // Parents before children, row by row: the order a picture is drawn in.
+        diagram.cells.sort_by_key(|c| c.depth);
+        diagram
+    }
+}
+
+/// Lays out the whole of `outline` as an icicle: widths by `width`, colours by `shade`,
+/// subtrees narrower than `fold` (a fraction of the whole width) or below row `max_rows`
+/// folded. C_trav and C_isect weigh the SAH shares; `visits` are the frame's rays' visits
+/// per node, for the measured width and shade (without them those read zero).
 pub fn layout(
     outline: &Outline,
     width: Width,
     shade: Shade,
     fold: f64,
     max_rows: u32,
-    (c_trav, c_isect): (f32, f32),
+    costs: (f32, f32),
     visits: Option<Visits>,
 ) -> Diagram {
-    let mut diagram = Diagram {
-        cells: Vec::new(),
-        rows: 0,
-        range: (f64::INFINITY, 0.0),
-        hidden: 0,
-    };
-    let Some(root) = outline.nodes.first() else {
-        return diagram;
-    };
-    let sub = Subtrees::of(outline, c_trav, c_isect, visits);
-    let rays = visits.map_or(0, |v| v.rays);
-    let total_sah = sub.sah[0];
-    let root_area = f64::from(root.bounds.surface_area());
-    let value = |i: usize, node: &OutlineNode| match shade {
-        Shade::Depth => f64::from(node.depth),
-        Shade::Area if root_area > 0.0 => f64::from(node.bounds.surface_area()) / root_area,
-        Shade::Area => 1.0,
-        Shade::Sah if total_sah > 0.0 => sub.sah[i] / total_sah,
-        Shade::Sah => 0.0,
-        Shade::Triangles => sub.references[i],
-        // The node's own visits: the measured chance a ray enters it.
-        Shade::Visits if rays > 0 => {
-            visits
-                .and_then(|v| v.per_node.get(i))
-                .map_or(0.0, |&n| n as f64)
-                / rays as f64
-        }
-        Shade::Visits => 0.0,
-    };
-    let weight = |i: usize| match width {
-        Width::Triangles => sub.references[i],
-        Width::Sah => sub.sah[i],
-        Width::Uniform => 1.0,
-        Width::Visits => sub.visits[i],
-    };
-    let mut stack = vec![(0usize, 0.0f64, 1.0f64)];
-    while let Some((i, x0, x1)) = stack.pop() {
-        let node = &outline.nodes[i];
-        let depth = node.depth - root.depth;
-        let folded = !node.is_leaf() && (x1 - x0 < fold || depth >= max_rows);
-        let v = value(i, node);
-        diagram.cells.push(Cell {
-            node: i as u32,
-            depth,
-            x0,
-            x1,
-            folded,
-            value: v,
-        });
-        diagram.rows = diagram.rows.max(depth);
-        if !shade.is_log() || v > 0.0 {
-            diagram.range = (diagram.range.0.min(v), diagram.range.1.max(v));
-        }
-        if folded {
-            diagram.hidden += sub.nodes[i] - 1;
-            continue;
-        }
-        let children = node.children();
-        let total: f64 = children.clone().map(weight).sum();
-        let count = children.len() as f64;
-        let mut at = x0;
-        // Pushed last to first, so the first child is drawn first.
-        let spans: Vec<(usize, f64, f64)> = children
-            .map(|c| {
-                let share = if total > 0.0 {
-                    weight(c) / total
-                } else {
-                    1.0 / count
-                };
-                let end = at + (x1 - x0) * share;
-                let span = (c, at, end);
-                at = end;
-                span
-            })
-            .collect();
-        stack.extend(spans.into_iter().rev());
-    }
-    if diagram.range.0 > diagram.range.1 {
-        diagram.range = (0.0, 0.0);
-    }
-    // Parents before children, row by row: the order a picture is drawn in.
-    diagram.cells.sort_by_key(|c| c.depth);
-    diagram
+    Sizes::of(outline, costs, visits).layout(outline, width, shade, Fit::whole(fold, max_rows))
 }
 
 /// A measured cell no ray visited: grey, off the colour scale.
@@ -458,5 +512,43 @@ mod tests {
                 .all(|c| c.value > 0.0 && c.value <= 1.0 + 1e-12)
         );
         assert_eq!(d.scale(Shade::Sah, 1.0), 1.0);
+    }
+
+    #[test]
+    fn a_window_lays_out_the_cells_it_spans_where_the_whole_tree_puts_them() {
+        let outline = tree(400);
+        let sizes = Sizes::of(&outline, (1.0, 1.0), None);
+        let all = sizes.layout(
+            &outline,
+            Width::Triangles,
+            Shade::Depth,
+            Fit::whole(0.0, u32::MAX),
+        );
+        let window = (0.3, 0.35);
+        let fit = Fit {
+            fold: 0.0,
+            max_rows: u32::MAX,
+            window,
+        };
+        let part = sizes.layout(&outline, Width::Triangles, Shade::Depth, fit);
+        let spanning: Vec<&Cell> = all
+            .cells
+            .iter()
+            .filter(|c| c.x1 > window.0 && c.x0 < window.1)
+            .collect();
+        assert_eq!(part.cells.len(), spanning.len());
+        assert!(part.cells.len() < all.cells.len());
+        for c in &part.cells {
+            assert_eq!(Some(c), all.cell_of(c.node));
+        }
+        assert_eq!(part.hidden, outline.nodes.len() - part.cells.len());
+        // Folding is relative to the window: a fold of a tenth of it keeps cells a
+        // hundredth of the tree wide that the whole tree's tenth would fold.
+        let folded = |fit: Fit| sizes.layout(&outline, Width::Triangles, Shade::Depth, fit);
+        let coarse = folded(Fit::whole(0.1, u32::MAX));
+        let zoomed = folded(Fit { fold: 0.1, ..fit });
+        let narrow = |d: &Diagram| d.cells.iter().filter(|c| c.x1 - c.x0 < 0.01).count();
+        assert_eq!(narrow(&coarse), 0);
+        assert!(narrow(&zoomed) > 0);
     }
 }

@@ -138,10 +138,10 @@ pub struct BvhLabApp {
     move_sent: Option<Instant>,
     pub drag_latency: Option<Duration>,
     pub walk: Option<u32>,
-    /// The hierarchy diagram as last laid out, and what it was laid out for.
-    tree_diagram: Option<(panels::TreeKey, Arc<crate::accel::hierarchy::Diagram>)>,
+    /// The hierarchy diagram: its zoom, and its sizes and layout as last made.
+    tree_diagram: panels::TreeView,
     /// The same for the pinned configuration A's tree.
-    tree_diagram_a: Option<(panels::TreeKey, Arc<crate::accel::hierarchy::Diagram>)>,
+    tree_diagram_a: panels::TreeView,
     /// The outline node under the pointer in the hierarchy diagram, outlined in the view.
     tree_hover: Option<u32>,
     /// The frame's rays' visits per outline node (the diagram's measured choices), with
@@ -190,6 +190,11 @@ pub struct BvhLabApp {
 }
 
 impl BvhLabApp {
+    /// The hierarchy diagram of the shown tree: its zoom and its layout.
+    pub fn tree_diagram(&self) -> &panels::TreeView {
+        &self.tree_diagram
+    }
+
     pub fn new(cc: &eframe::CreationContext<'_>, launch: Launch) -> Self {
         let mut settings: Settings = match cc.storage {
             Some(storage) if !launch.fresh => (storage.get_string(settings::STORAGE_KEY))
@@ -282,8 +287,8 @@ impl BvhLabApp {
             moved_transforms: Default::default(),
             move_sent: None,
             drag_latency: None,
-            tree_diagram: None,
-            tree_diagram_a: None,
+            tree_diagram: Default::default(),
+            tree_diagram_a: Default::default(),
             tree_hover: None,
             node_visits: None,
             visits_asked: None,

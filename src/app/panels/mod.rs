@@ -17,7 +17,7 @@ pub use layout::{presentation_bar, presentation_text, side_panels};
 pub use legend::{cost_legend, legend, scale_bar};
 pub use stats::stats;
 pub(crate) use stats::table;
-pub use tree::{TreeKey, draw_hovered_box, tree_panel};
+pub use tree::{TreeView, draw_hovered_box, tree_panel};
 pub use walk::Step;
 
 use crate::app::BvhLabApp;

@@ -7,7 +7,7 @@
 //! again only when the tree, the choice or the size changes.
 
 use crate::accel::Outline;
-use crate::accel::hierarchy::{self, Cell, Diagram, Shade, Width};
+use crate::accel::hierarchy::{self, Cell, Diagram, Fit, Shade, Sizes, Width};
 use crate::app::BvhLabApp;
 use crate::app::worker::{Command, VisitsRequest};
 use crate::render::RayKind;
@@ -17,22 +17,114 @@ use crate::render::replay::Ink;
 use eframe::egui::{self, Color32, Rect, Sense, Shape, Stroke, StrokeKind, pos2};
 use std::sync::Arc;
 
+/// What a diagram's sizes were made for: the outline (its address: a new build is a new
+/// outline), the costs, and the measured visits (their address), if any.
+#[derive(Clone, Copy, PartialEq)]
+struct SizesKey {
+    outline: usize,
+    costs: [u32; 2],
+    visits: usize,
+}
+
 /// What a diagram was laid out for.
 #[derive(Clone, Copy, PartialEq)]
-pub struct TreeKey {
-    /// The outline it shows (its address: a new build is a new outline).
-    outline: usize,
+struct TreeKey {
+    sizes: SizesKey,
     width: Width,
     shade: Shade,
     /// The drawing's width and its rows, in points.
     size: [u32; 2],
-    costs: [u32; 2],
-    /// The measured visits it was laid out with (their address), if any.
-    visits: usize,
+    /// The zoom window's ends, as bits.
+    window: [u64; 2],
+}
+
+/// One diagram: its zoom, and its sizes and layout as last made (each made again only when
+/// what it was made for changes).
+pub struct TreeView {
+    /// The span of the unit width shown: the whole tree is [0, 1).
+    window: (f64, f64),
+    /// The outline the window was zoomed on (a new tree opens whole).
+    zoomed_on: usize,
+    sizes: Option<(SizesKey, Arc<Sizes>)>,
+    layout: Option<(TreeKey, Arc<Diagram>)>,
+}
+
+impl Default for TreeView {
+    fn default() -> Self {
+        TreeView {
+            window: WHOLE,
+            zoomed_on: 0,
+            sizes: None,
+            layout: None,
+        }
+    }
+}
+
+const WHOLE: (f64, f64) = (0.0, 1.0);
+/// The narrowest window: a millionth of the tree (a leaf's cell is far wider on any scene
+/// that loads).
+const MIN_SPAN: f64 = 1e-6;
+
+impl TreeView {
+    /// Zooms by `factor` (above 1 in) keeping the point at `at` (0 to 1 across the drawing)
+    /// where it is.
+    fn zoom(&mut self, factor: f64, at: f64) {
+        let (w0, w1) = self.window;
+        let pivot = w0 + at * (w1 - w0);
+        let span = ((w1 - w0) / factor).clamp(MIN_SPAN, 1.0);
+        self.place(pivot - at * span, span);
+    }
+
+    /// Moves the window by `by` of its own width.
+    fn pan(&mut self, by: f64) {
+        let (w0, w1) = self.window;
+        self.place(w0 + by * (w1 - w0), w1 - w0);
+    }
+
+    /// The window of width `span` from `start`, kept within the tree.
+    fn place(&mut self, start: f64, span: f64) {
+        let start = start.clamp(0.0, 1.0 - span);
+        self.window = (start, start + span);
+    }
+
+    /// The span of the tree's unit width shown: (0, 1) for the whole tree.
+    pub fn window(&self) -> (f64, f64) {
+        self.window
+    }
+
+    /// The diagram as last laid out, if it has been.
+    pub fn drawn(&self) -> Option<&Diagram> {
+        self.layout.as_ref().map(|(_, d)| &**d)
+    }
+
+    /// The share of the tree's width shown.
+    fn span(&self) -> f64 {
+        self.window.1 - self.window.0
+    }
+
+    /// Where cell `c` is drawn in `area`, rows `row` points tall (a cell reaching past the
+    /// window stops just past the drawing's edge).
+    fn placed(&self, area: Rect, row: f32, c: &Cell) -> Rect {
+        let (w0, w1) = self.window;
+        let x = |t: f64| {
+            let x = area.left() + ((t - w0) / (w1 - w0)) as f32 * area.width();
+            x.clamp(area.left() - 2.0, area.right() + 2.0)
+        };
+        let y = area.top() + c.depth as f32 * row;
+        Rect::from_min_max(pos2(x(c.x0), y), pos2(x(c.x1).max(x(c.x0) + 1.0), y + row))
+    }
+
+    /// The position across the tree's unit width under `x` in `area`.
+    fn at(&self, area: Rect, x: f32) -> f64 {
+        let (w0, w1) = self.window;
+        w0 + f64::from((x - area.left()) / area.width()) * (w1 - w0)
+    }
 }
 
 /// Cells narrower than this many points are folded.
 const FOLD: f32 = 1.5;
+/// How much one point of scrolling zooms: e^(0.004) per point, about ×1.5 a wheel notch.
+const ZOOM_PER_POINT: f32 = 0.004;
 /// Rows are at least this tall.
 const MIN_ROW: f32 = 4.0;
 
@@ -54,57 +146,64 @@ fn chosen<T: Copy + Send + Sync + 'static>(ui: &egui::Ui, salt: &str, default: T
 /// Height of the caption above each diagram of an A | B pair.
 const LABEL: f32 = 16.0;
 
-/// The cached layout of `outline` for `area`, made again when the tree, the choice, the size,
-/// the costs or the visits change.
+/// The layout of `outline` for `area` within the view's window, from the cache unless the
+/// tree, the choice, the size, the costs, the visits or the window changed.
 fn laid_out(
-    cache: &mut Option<(TreeKey, Arc<Diagram>)>,
+    view: &mut TreeView,
     outline: &Arc<Outline>,
     width: Width,
     shade: Shade,
     area: Rect,
-    (c_trav, c_isect): (f32, f32),
+    costs: (f32, f32),
     visits: Option<hierarchy::Visits>,
 ) -> Arc<Diagram> {
+    let address = Arc::as_ptr(outline) as usize;
+    if view.zoomed_on != address {
+        (view.window, view.zoomed_on) = (WHOLE, address);
+    }
+    let sizes_key = SizesKey {
+        outline: address,
+        costs: [costs.0.to_bits(), costs.1.to_bits()],
+        visits: visits.map_or(0, |v| v.per_node.as_ptr() as usize),
+    };
+    let sizes = match &view.sizes {
+        Some((k, s)) if *k == sizes_key => s.clone(),
+        _ => {
+            let s = Arc::new(Sizes::of(outline, costs, visits));
+            view.sizes = Some((sizes_key, s.clone()));
+            s
+        }
+    };
     let max_rows = ((area.height() / MIN_ROW) as u32).max(1);
     let key = TreeKey {
-        outline: Arc::as_ptr(outline) as usize,
+        sizes: sizes_key,
         width,
         shade,
         size: [area.width() as u32, max_rows],
-        costs: [c_trav.to_bits(), c_isect.to_bits()],
-        visits: visits.map_or(0, |v| v.per_node.as_ptr() as usize),
+        window: [view.window.0.to_bits(), view.window.1.to_bits()],
     };
-    match cache {
+    match &view.layout {
         Some((k, d)) if *k == key => d.clone(),
         _ => {
-            let d = Arc::new(hierarchy::layout(
-                outline,
-                width,
-                shade,
-                f64::from(FOLD / area.width().max(1.0)),
-                max_rows - 1,
-                (c_trav, c_isect),
-                visits,
-            ));
-            *cache = Some((key, d.clone()));
+            let fit = Fit {
+                fold: f64::from(FOLD / area.width().max(1.0)),
+                max_rows: max_rows - 1,
+                window: view.window,
+            };
+            let d = Arc::new(sizes.layout(outline, width, shade, fit));
+            view.layout = Some((key, d.clone()));
             d
         }
     }
 }
 
-/// Where cell `c` is drawn in `area`, rows `row` points tall.
-fn placed(area: Rect, row: f32, c: &Cell) -> Rect {
-    let x = |t: f64| area.left() + t as f32 * area.width();
-    let y = area.top() + c.depth as f32 * row;
-    Rect::from_min_max(pos2(x(c.x0), y), pos2(x(c.x1).max(x(c.x0) + 1.0), y + row))
-}
-
 /// Paints the cells of `d` over `area`: colour by `shade`, hairlines where there is room,
 /// a dark foot under a folded subtree.
-fn paint_cells(painter: &egui::Painter, area: Rect, d: &Diagram, shade: Shade) {
+fn paint_cells(painter: &egui::Painter, view: &TreeView, area: Rect, d: &Diagram, shade: Shade) {
     let row = area.height() / (d.rows + 1) as f32;
+    let painter = painter.with_clip_rect(area);
     for c in &d.cells {
-        let r = placed(area, row, c);
+        let r = view.placed(area, row, c);
         let [red, green, blue, _] = d.color(shade, c.value);
         painter.rect_filled(r, 0.0, Color32::from_rgb(red, green, blue));
         if r.width() >= 4.0 && r.height() >= 4.0 {
@@ -177,6 +276,21 @@ fn diagram(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             ui.selectable_value(&mut shade, s, s.short())
                 .on_hover_text(s.label());
         }
+        ui.separator();
+        let views = [&mut app.tree_diagram, &mut app.tree_diagram_a];
+        let span = views.iter().map(|v| v.span()).fold(1.0, f64::min);
+        if span < 1.0 {
+            ui.label(format!("zoomed ×{:.0}", 1.0 / span));
+            if ui
+                .button("whole tree")
+                .on_hover_text("Show the whole tree again (or double-click the diagram)")
+                .clicked()
+            {
+                views.into_iter().for_each(|v| v.window = WHOLE);
+            }
+        } else {
+            ui.weak("scroll to zoom, drag to pan");
+        }
     });
     ui.data_mut(|d| {
         d.insert_temp(width_id, width);
@@ -207,7 +321,7 @@ fn diagram(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     } else {
         None
     };
-    let (response, painter) = ui.allocate_painter(ui.available_size(), Sense::click());
+    let (response, painter) = ui.allocate_painter(ui.available_size(), Sense::click_and_drag());
     response
         .widget_info(|| egui::WidgetInfo::labeled(egui::Role::Canvas, true, "hierarchy diagram"));
     // With a pinned A: A's tree above B's, on one colour scale, each with its costs.
@@ -215,11 +329,36 @@ fn diagram(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     let mut area = response.rect;
     let b = app.settings.structure.bvh;
     let costs = (b.c_trav, b.c_isect);
-    let a_diagram = pinned.as_ref().map(|a| {
+    let a_area = pinned.as_ref().map(|_| {
         let half = area.height() / 2.0;
         let a_area = Rect::from_min_max(area.min, pos2(area.right(), area.top() + half - 2.0))
             .with_min_y(area.top() + LABEL);
         area = area.with_min_y(area.top() + half + LABEL);
+        a_area
+    });
+    // Scrolling (or pinching) zooms the diagram under the pointer, dragging pans it, and a
+    // double click shows the whole tree again.
+    if let Some(pointer) = response.hover_pos() {
+        let (view, under) = match a_area {
+            Some(a) if pointer.y < a.bottom() + LABEL / 2.0 => (&mut app.tree_diagram_a, a),
+            _ => (&mut app.tree_diagram, area),
+        };
+        let (scroll, pinch) = ui.input(|i| (i.smooth_scroll_delta.y, i.zoom_delta()));
+        let factor = f64::from(pinch) * f64::from(scroll * ZOOM_PER_POINT).exp();
+        if factor != 1.0 {
+            view.zoom(
+                factor,
+                f64::from((pointer.x - under.left()) / under.width()),
+            );
+        }
+        if response.dragged() {
+            view.pan(f64::from(-response.drag_delta().x / under.width()));
+        }
+        if response.double_clicked() {
+            view.window = WHOLE;
+        }
+    }
+    let a_diagram = pinned.as_ref().zip(a_area).map(|(a, a_area)| {
         let a_costs = a.sah_cost.map_or(costs, |(_, t, i)| (t, i));
         let d = laid_out(
             &mut app.tree_diagram_a,
@@ -251,7 +390,7 @@ fn diagram(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         let mut a_d = (**a_d).clone();
         a_d.range = range;
         Arc::make_mut(&mut d).range = range;
-        paint_cells(&painter, *a_area, &a_d, shade);
+        paint_cells(&painter, &app.tree_diagram_a, *a_area, &a_d, shade);
         let a_frame = app.shown.as_ref().and_then(|s| s.pinned_frame.clone());
         let label = |y: f32, what: String| {
             painter.text(
@@ -285,8 +424,9 @@ fn diagram(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     }
     let d = d;
     let row = area.height() / (d.rows + 1) as f32;
-    let cell_rect = |c: &hierarchy::Cell| placed(area, row, c);
-    paint_cells(&painter, area, &d, shade);
+    let view = &app.tree_diagram;
+    let cell_rect = |c: &hierarchy::Cell| view.placed(area, row, c);
+    paint_cells(&painter, view, area, &d, shade);
     // The replayed ray's path: the cells it visited up to the shown stop, joined in order,
     // the stop's own cell brightest; the visits still to come faintly.
     let mut replay_visit = None;
@@ -324,7 +464,7 @@ fn diagram(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         return;
     };
     let depth = ((pointer.y - area.top()) / row) as u32;
-    let at = f64::from((pointer.x - area.left()) / area.width());
+    let at = app.tree_diagram.at(area, pointer.x);
     let Some(cell) = d
         .cells
         .iter()
