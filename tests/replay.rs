@@ -206,6 +206,17 @@ fn assert_the_path_is_the_visits_in_the_outline(
             "{what}: outline node {node} visited before its parent {}",
             n.parent
         );
+        // The words name the diagram's number where the structure's own differs.
+        let Step::Visit { node: own, .. } = replay.steps[i] else {
+            unreachable!()
+        };
+        let named = format!("(node {node} in the diagram and the walk)");
+        assert_eq!(
+            replay.describe(i).contains(&named),
+            own != node,
+            "{what}: {}",
+            replay.describe(i)
+        );
         seen.insert(node);
     }
     if hierarchy && replay.visit_count() > 0 {

@@ -370,8 +370,18 @@ impl Replay {
     }
 
     /// One line per step, as the CLI prints it and the app lists it.
+    /// A visit whose node the diagram and the tree walk number otherwise (a wide BVH's, a
+    /// k-d tree's) names that number too.
     pub fn describe(&self, i: usize) -> String {
-        describe(&self.steps[i], self.visits.binary_search(&i).ok())
+        let visit = self.visits.binary_search(&i).ok();
+        let text = describe(&self.steps[i], visit);
+        let outline = visit.and_then(|v| self.outline_nodes.get(v).copied().flatten());
+        match (&self.steps[i], outline) {
+            (Step::Visit { node, .. }, Some(o)) if *node != o => {
+                format!("{text} (node {o} in the diagram and the walk)")
+            }
+            _ => text,
+        }
     }
 
     /// The whole replay as text.
