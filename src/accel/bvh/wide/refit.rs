@@ -228,9 +228,12 @@ fn fill_blocks(blocks: &mut [TriangleBlock], indices: &[u32], scene: &[Triangle]
 /// The box of one lane's triangle, as `Triangle::bounds` folds its vertices.
 #[inline(always)]
 fn lane_box(block: &TriangleBlock, lane: usize) -> (Vec4, Vec4) {
-    let [p0, p1, p2] = block
-        .v
-        .map(|p| Vec4::new(p[0][lane], p[1][lane], p[2][lane], 0.0));
+    // Read in place (a `map` over the rows copied the whole block to the stack first).
+    let p = |k: usize| {
+        let v = &block.v[k];
+        Vec4::new(v[0][lane], v[1][lane], v[2][lane], 0.0)
+    };
+    let (p0, p1, p2) = (p(0), p(1), p(2));
     (p0.min(p1).min(p2), p0.max(p1).max(p2))
 }
 
