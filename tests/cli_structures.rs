@@ -828,6 +828,51 @@ fn embree_peers_are_reported_or_refused_clearly() {
     }
 }
 
+/// The tinybvh peer: in a build without it, `bench --tinybvh` is a clear error naming the
+/// feature; with it, both of its builds are reported, named, with no packet figure (its CPU
+/// layout has none) and their primary hits against bvhlab's.
+#[test]
+fn the_tinybvh_peer_is_reported_or_refused_clearly() {
+    let mut args = vec!["bench", "--scene", "sphere:500", "--json", "--tinybvh"];
+    args.extend(SMALL_BENCH);
+    let out = bvhlab(&args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    if cfg!(feature = "tinybvh") {
+        assert!(out.status.success(), "{stderr}");
+        let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let peers = json["peers"].as_array().unwrap();
+        let names: Vec<&str> = peers.iter().map(|p| p["name"].as_str().unwrap()).collect();
+        assert_eq!(
+            names,
+            [
+                "tinybvh BVH8_CPU (default build)",
+                "tinybvh BVH8_CPU (BuildHQ: SBVH)"
+            ]
+        );
+        for p in peers {
+            assert!(p["primary_packets"].is_null());
+            assert!(p["primary"]["mrays_per_s"].as_f64().unwrap() > 0.0);
+            let differing = p["differing_primary_hits"].as_u64().unwrap();
+            let rays = p["primary"]["rays"].as_u64().unwrap();
+            assert!(differing * 100 <= rays, "{differing} of {rays}");
+        }
+    } else {
+        assert!(!out.status.success());
+        assert!(
+            stderr.contains("built without tinybvh") && stderr.contains("--features tinybvh"),
+            "{stderr}"
+        );
+    }
+    // Island places its instances: tinybvh, given triangles, is refused with the reason.
+    let out = bvhlab(&["bench", "--scene", "island", "--tinybvh"]);
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("without storing them") || stderr.contains("built without tinybvh"),
+        "{stderr}"
+    );
+}
+
 /// `frames --preset lecture:N --json`: the step as the app shows it, its first image no
 /// later than its full frame; the flags of one form are refused with the other.
 #[test]

@@ -27,6 +27,8 @@ pub mod sah_check;
 pub mod split_costs;
 pub mod stats;
 pub mod structure;
+#[cfg(feature = "tinybvh")]
+pub mod tinybvh;
 pub mod triangle_cost;
 pub mod two_level;
 pub mod visit_index;

@@ -53,7 +53,8 @@ pub struct PeerJson {
     pub name: &'static str,
     pub build_ms: f64,
     pub primary: RaySetJson,
-    pub primary_packets: RaySetJson,
+    /// `null` for a peer without a packet query (tinybvh's BVH8_CPU).
+    pub primary_packets: Option<RaySetJson>,
     pub diffuse: RaySetJson,
     pub shadow: RaySetJson,
     pub tied_primary_hits: usize,
@@ -150,7 +151,7 @@ impl PeerJson {
             name: p.name,
             build_ms: round3(p.build.as_secs_f64() * 1e3),
             primary: set(&p.primary, false),
-            primary_packets: set(&p.primary_packets, false),
+            primary_packets: p.primary_packets.as_ref().map(|r| set(r, false)),
             diffuse: set(&p.diffuse, false),
             shadow: set(&p.shadow, true),
             tied_primary_hits: p.tied_primary_hits,

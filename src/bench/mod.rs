@@ -6,6 +6,8 @@ pub mod accuracy;
 pub mod compare;
 pub mod cpu_time;
 pub mod json;
+pub mod peers;
+pub use peers::{EMBREE_AVAILABLE, EMBREE_MISSING, TINYBVH_AVAILABLE, TINYBVH_MISSING};
 pub mod plot;
 pub mod rank_correlation;
 pub mod rays;
@@ -22,8 +24,6 @@ pub use crate::accel::sah_check::MeanWork;
 use crate::accel::sah_check::mean_work_of;
 use crate::accel::structure::{self, AccelKind, Built, Structure, StructureError};
 use crate::accel::{Accel, NoStats, StructureParams, StructureReport};
-#[cfg(feature = "embree")]
-use crate::geometry::Watertight;
 use crate::geometry::{Intersector, IntersectorKind, Ray};
 use crate::scene::{Camera, Scene};
 use glam::Vec3;
@@ -52,6 +52,8 @@ pub struct BenchConfig {
     /// Also Embree with its robust flag (`RTC_SCENE_FLAG_ROBUST`), the peer with the
     /// guarantee bvhlab's watertight test gives.
     pub embree_robust: bool,
+    /// Also tinybvh's BVH8_CPU, from its default build and from its SBVH.
+    pub tinybvh: bool,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -135,7 +137,8 @@ pub struct PeerResult {
     /// The best of the builds.
     pub build: Duration,
     pub primary: RaySetResult,
-    pub primary_packets: RaySetResult,
+    /// `None` for a peer without a packet query.
+    pub primary_packets: Option<RaySetResult>,
     pub diffuse: RaySetResult,
     pub shadow: RaySetResult,
     /// Primary rays that name another triangle than bvhlab at a depth within
@@ -160,9 +163,14 @@ pub fn run(scene: &Scene, cfg: &BenchConfig) -> Result<BenchResult, BenchError> 
     let mut result = measure(scene, cfg, &cfg.params, &built, &sets);
     for (asked, robust) in [(cfg.embree, false), (cfg.embree_robust, true)] {
         if asked {
-            let peer = run_embree(&built.structure, scene, cfg, &sets, robust)?;
+            let peer = peers::run_embree(&built.structure, scene, cfg, &sets, robust)?;
             result.peers.push(peer);
         }
+    }
+    if cfg.tinybvh {
+        result
+            .peers
+            .extend(peers::run_tinybvh(&built.structure, scene, cfg, &sets)?);
     }
     Ok(result)
 }
@@ -385,96 +393,6 @@ fn best_build<T, E>(
         }
     }
     Ok(best)
-}
-
-/// Whether this build can run Embree beside bvhlab.
-pub const EMBREE_AVAILABLE: bool = cfg!(feature = "embree");
-
-pub const EMBREE_MISSING: &str = "this bvhlab was built without Embree: install libembree-dev \
-     and build with `cargo build --release --features embree`";
-
-#[cfg(not(feature = "embree"))]
-fn run_embree(
-    _: &Structure,
-    _: &Scene,
-    _: &BenchConfig,
-    _: &RaySets,
-    _: bool,
-) -> Result<PeerResult, BenchError> {
-    Err(BenchError::Peer(EMBREE_MISSING.into()))
-}
-
-/// Embree on the same ray sets, with as many build and trace threads as bvhlab had; with
-/// `robust`, built with its robust flag.
-#[cfg(feature = "embree")]
-fn run_embree(
-    ours: &Structure,
-    scene: &Scene,
-    cfg: &BenchConfig,
-    sets: &RaySets,
-    robust: bool,
-) -> Result<PeerResult, BenchError> {
-    use crate::accel::embree::{Embree, EmbreeMode};
-    let threads = rayon::current_num_threads();
-    let mode = if robust {
-        EmbreeMode::Robust
-    } else {
-        EmbreeMode::Default
-    };
-    // Two levels against Embree's two levels over the same meshes and instances; any other
-    // structure against Embree's BVH over the flattened triangles.
-    let two_level = ours.places_instances();
-    let embree = best_build(
-        cfg.builds,
-        || {
-            if two_level {
-                Embree::build_instanced(&scene.instancing(), threads, mode)
-            } else {
-                Embree::build(&scene.triangles, threads, mode)
-            }
-            .map_err(BenchError::Peer)
-        },
-        |e| e.build_time,
-    )?;
-    let [primary, diffuse, shadow] = time_sets::<_, Watertight>(&embree, sets, cfg.runs);
-    let primary_packets = time_packets::<_, Watertight>(&embree, &sets.primary_tiles, cfg.runs);
-    let (tied_primary_hits, differing_primary_hits) = sets
-        .primary
-        .par_iter()
-        .map(|r| {
-            let ours = ours.closest_hit::<Watertight, _>(r, &mut NoStats);
-            let theirs = embree.closest_hit::<Watertight, _>(r, &mut NoStats);
-            match (ours, theirs) {
-                (Some(a), Some(b)) if a.triangle == b.triangle => (0, 0),
-                (Some(a), Some(b)) if ulps_apart(a.t, b.t) <= TIE_ULPS => (1, 0),
-                (None, None) => (0, 0),
-                _ => (0, 1),
-            }
-        })
-        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
-    Ok(PeerResult {
-        name: mode.name(two_level),
-        build: embree.build_time,
-        primary,
-        primary_packets,
-        diffuse,
-        shadow,
-        tied_primary_hits,
-        differing_primary_hits,
-    })
-}
-
-/// Two hits this close in depth are a tie: f32 rounding of two nearly coplanar triangles'
-/// distances, decided differently by the two ray–triangle tests.
-#[cfg(feature = "embree")]
-const TIE_ULPS: u32 = 16;
-
-#[cfg(feature = "embree")]
-fn ulps_apart(a: f32, b: f32) -> u32 {
-    if a.is_sign_negative() != b.is_sign_negative() {
-        return u32::MAX;
-    }
-    a.to_bits().abs_diff(b.to_bits())
 }
 
 /// Primary, diffuse and shadow sets traced `runs` times each with the intersector `I`.

@@ -80,6 +80,10 @@ pub struct BenchCommand {
     /// --embree or on its own (needs a build with `--features embree`).
     #[arg(long)]
     pub embree_robust: bool,
+    /// Also tinybvh's BVH8_CPU (its fastest CPU layout), from its default build and from
+    /// its SBVH, on the same rays and threads (needs a build with `--features tinybvh`).
+    #[arg(long)]
+    pub tinybvh: bool,
 }
 
 /// The studies behind `bench`, one file each.
@@ -184,6 +188,7 @@ impl BenchCommand {
             json: common.json,
             embree: self.embree,
             embree_robust: self.embree_robust,
+            tinybvh: self.tinybvh,
             intersector: common.intersector,
             accuracy: false,
             builders: false,
@@ -240,6 +245,7 @@ pub struct BenchArgs {
     pub json: bool,
     pub embree: bool,
     pub embree_robust: bool,
+    pub tinybvh: bool,
     pub intersector: IntersectorKind,
     pub accuracy: bool,
     pub builders: bool,
@@ -283,10 +289,14 @@ fn run_settings(args: BenchArgs) -> Result<()> {
     };
     check_size(width, height, 1)?;
     ray_sets()?;
-    let peers = args.embree || args.embree_robust;
-    if peers && !bench::EMBREE_AVAILABLE {
+    let embree = args.embree || args.embree_robust;
+    if embree && !bench::EMBREE_AVAILABLE {
         anyhow::bail!(bench::EMBREE_MISSING);
     }
+    if args.tinybvh && !bench::TINYBVH_AVAILABLE {
+        anyhow::bail!(bench::TINYBVH_MISSING);
+    }
+    let peers = embree || args.tinybvh;
     // A study that sets a parameter itself would ignore the flag.
     let sets_itself = [
         (
@@ -341,6 +351,7 @@ fn run_settings(args: BenchArgs) -> Result<()> {
         intersector: args.intersector,
         embree: args.embree,
         embree_robust: args.embree_robust,
+        tinybvh: args.tinybvh,
     };
     let all = args.build.accel == Some(super::AccelArg::All);
     // One structure timed (not every structure, not a study's own builders): a parameter
@@ -350,16 +361,17 @@ fn run_settings(args: BenchArgs) -> Result<()> {
     }
     if all && (peers || args.accuracy) {
         anyhow::bail!(
-            "--accel all times bvhlab's structures only: leave out --embree (and `bench accuracy` takes one structure)"
+            "--accel all times bvhlab's structures only: leave out --embree and --tinybvh (and `bench accuracy` takes one structure)"
         );
     }
-    // Embree's instanced build needs no flattened triangles when the two levels are traced.
-    let peer_flattens = peers && !cfg.params.kind.places_instances();
+    // Embree's instanced build needs no flattened triangles when the two levels are traced;
+    // tinybvh is given the triangles.
+    let peer_flattens = (embree && !cfg.params.kind.places_instances()) || args.tinybvh;
     if (peer_flattens || args.accuracy) && !scene.is_flattened() {
         anyhow::bail!(
-            "--embree and `bench accuracy` work on the scene's stored triangles: {} places its \
-             instances without storing them (--embree with --accel two-level compares \
-             Embree's instances instead)",
+            "--embree, --tinybvh and `bench accuracy` work on the scene's stored triangles: {} \
+             places its instances without storing them (--embree with --accel two-level \
+             compares Embree's instances instead)",
             scene.name
         );
     }

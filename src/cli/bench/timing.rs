@@ -131,12 +131,25 @@ pub(super) fn print_peer(r: &bench::BenchResult, p: &bench::PeerResult) -> Resul
         v = w - 3
     );
     for (name, a, b) in [
-        ("primary", &r.primary, &p.primary),
-        ("primary in packets", &r.primary_packets, &p.primary_packets),
-        ("diffuse", &r.diffuse, &p.diffuse),
-        ("shadow", &r.shadow, &p.shadow),
+        ("primary", &r.primary, Some(&p.primary)),
+        (
+            "primary in packets",
+            &r.primary_packets,
+            p.primary_packets.as_ref(),
+        ),
+        ("diffuse", &r.diffuse, Some(&p.diffuse)),
+        ("shadow", &r.shadow, Some(&p.shadow)),
     ] {
-        let (x, y) = (a.mrays_per_s(), b.mrays_per_s());
+        let x = a.mrays_per_s();
+        let Some(b) = b else {
+            out!(
+                "  {name:<22} {x:>7.2} Mr/s {:>w$}",
+                "no packet query",
+                w = w + 5
+            );
+            continue;
+        };
+        let y = b.mrays_per_s();
         out!(
             "  {name:<22} {x:>7.2} Mr/s {y:>v$.2} Mr/s {:>9.2}×",
             x / y.max(1e-9),

@@ -1,0 +1,164 @@
+//! The peers of `bvhlab bench`: Embree 3 (`--embree`, `--embree-robust`) and tinybvh's
+//! BVH8_CPU (`--tinybvh`), each built over the same scene and traced over the same ray sets
+//! on the same threads as bvhlab's structure, their primary hits compared with bvhlab's.
+//! Each is compiled in only with its feature; without it the command says how to get it.
+
+use super::{BenchConfig, BenchError, PeerResult};
+#[cfg(any(feature = "embree", feature = "tinybvh"))]
+use super::{RaySets, time_packets, time_sets};
+use crate::accel::structure::Structure;
+#[cfg(any(feature = "embree", feature = "tinybvh"))]
+use crate::accel::{Accel, NoStats};
+#[cfg(any(feature = "embree", feature = "tinybvh"))]
+use crate::geometry::Watertight;
+use crate::scene::Scene;
+#[cfg(any(feature = "embree", feature = "tinybvh"))]
+use rayon::prelude::*;
+#[cfg(any(feature = "embree", feature = "tinybvh"))]
+use std::time::Duration;
+
+/// Whether this build can run Embree beside bvhlab.
+pub const EMBREE_AVAILABLE: bool = cfg!(feature = "embree");
+
+pub const EMBREE_MISSING: &str = "this bvhlab was built without Embree: install libembree-dev \\
+     and build with `cargo build --release --features embree`";
+
+/// Whether this build can run tinybvh beside bvhlab.
+pub const TINYBVH_AVAILABLE: bool = cfg!(feature = "tinybvh");
+
+pub const TINYBVH_MISSING: &str = "this bvhlab was built without tinybvh: build with \\
+     `cargo build --release --features tinybvh` (it compiles peers/tinybvh with the system's C++ compiler)";
+
+#[cfg(not(feature = "embree"))]
+pub(super) fn run_embree(
+    _: &Structure,
+    _: &Scene,
+    _: &BenchConfig,
+    _: &super::RaySets,
+    _: bool,
+) -> Result<PeerResult, BenchError> {
+    Err(BenchError::Peer(EMBREE_MISSING.into()))
+}
+
+/// Embree on the same ray sets, with as many build and trace threads as bvhlab had; with
+/// `robust`, built with its robust flag.
+#[cfg(feature = "embree")]
+pub(super) fn run_embree(
+    ours: &Structure,
+    scene: &Scene,
+    cfg: &BenchConfig,
+    sets: &RaySets,
+    robust: bool,
+) -> Result<PeerResult, BenchError> {
+    use crate::accel::embree::{Embree, EmbreeMode};
+    let threads = rayon::current_num_threads();
+    let mode = if robust {
+        EmbreeMode::Robust
+    } else {
+        EmbreeMode::Default
+    };
+    // Two levels against Embree's two levels over the same meshes and instances; any other
+    // structure against Embree's BVH over the flattened triangles.
+    let two_level = ours.places_instances();
+    let embree = super::best_build(
+        cfg.builds,
+        || {
+            if two_level {
+                Embree::build_instanced(&scene.instancing(), threads, mode)
+            } else {
+                Embree::build(&scene.triangles, threads, mode)
+            }
+            .map_err(BenchError::Peer)
+        },
+        |e| e.build_time,
+    )?;
+    let what = (mode.name(two_level), embree.build_time, true);
+    Ok(measure(what, &embree, ours, sets, cfg))
+}
+
+#[cfg(not(feature = "tinybvh"))]
+pub(super) fn run_tinybvh(
+    _: &Structure,
+    _: &Scene,
+    _: &BenchConfig,
+    _: &super::RaySets,
+) -> Result<Vec<PeerResult>, BenchError> {
+    Err(BenchError::Peer(TINYBVH_MISSING.into()))
+}
+
+/// tinybvh's BVH8_CPU on the same ray sets and trace threads, from its default build and
+/// from its SBVH (its builds use their own threads).
+#[cfg(feature = "tinybvh")]
+pub(super) fn run_tinybvh(
+    ours: &Structure,
+    scene: &Scene,
+    cfg: &BenchConfig,
+    sets: &RaySets,
+) -> Result<Vec<PeerResult>, BenchError> {
+    use crate::accel::tinybvh::{TinyBuild, TinyBvh};
+    [TinyBuild::Default, TinyBuild::Hq]
+        .into_iter()
+        .map(|build| {
+            let tiny = super::best_build(
+                cfg.builds,
+                || TinyBvh::build(&scene.triangles, build).map_err(BenchError::Peer),
+                |t| t.build_time,
+            )?;
+            // One ray at a time: its CPU layout has no packet query.
+            let what = (build.name(), tiny.build_time, false);
+            Ok(measure(what, &tiny, ours, sets, cfg))
+        })
+        .collect()
+}
+
+/// A peer (its name, build time and whether it has a packet query) timed on the ray sets,
+/// and its primary hits against bvhlab's.
+#[cfg(any(feature = "embree", feature = "tinybvh"))]
+fn measure<A: Accel>(
+    (name, build, packets): (&'static str, Duration, bool),
+    peer: &A,
+    ours: &Structure,
+    sets: &RaySets,
+    cfg: &BenchConfig,
+) -> PeerResult {
+    let [primary, diffuse, shadow] = time_sets::<_, Watertight>(peer, sets, cfg.runs);
+    let primary_packets =
+        packets.then(|| time_packets::<_, Watertight>(peer, &sets.primary_tiles, cfg.runs));
+    let (tied_primary_hits, differing_primary_hits) = sets
+        .primary
+        .par_iter()
+        .map(|r| {
+            let mine = ours.closest_hit::<Watertight, _>(r, &mut NoStats);
+            let theirs = peer.closest_hit::<Watertight, _>(r, &mut NoStats);
+            match (mine, theirs) {
+                (Some(a), Some(b)) if a.triangle == b.triangle => (0, 0),
+                (Some(a), Some(b)) if ulps_apart(a.t, b.t) <= TIE_ULPS => (1, 0),
+                (None, None) => (0, 0),
+                _ => (0, 1),
+            }
+        })
+        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+    PeerResult {
+        name,
+        build,
+        primary,
+        primary_packets,
+        diffuse,
+        shadow,
+        tied_primary_hits,
+        differing_primary_hits,
+    }
+}
+
+/// Two hits this close in depth are a tie: f32 rounding of two nearly coplanar triangles'
+/// distances, decided differently by the two ray–triangle tests.
+#[cfg(any(feature = "embree", feature = "tinybvh"))]
+const TIE_ULPS: u32 = 16;
+
+#[cfg(any(feature = "embree", feature = "tinybvh"))]
+fn ulps_apart(a: f32, b: f32) -> u32 {
+    if a.is_sign_negative() != b.is_sign_negative() {
+        return u32::MAX;
+    }
+    a.to_bits().abs_diff(b.to_bits())
+}
