@@ -80,19 +80,7 @@ pub fn controls(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     if !s.show_cracks {
         return;
     }
-    ui.horizontal_wrapped(|ui| {
-        ui.label("test");
-        for kind in IntersectorKind::ALL {
-            ui.selectable_value(&mut s.crack_intersector, kind, test_name(kind));
-        }
-    });
-    ui.horizontal_wrapped(|ui| {
-        ui.label("scene moved to")
-            .on_hover_text("the scene and its camera moved by (d, d, d): far from the origin");
-        for offset in OFFSETS {
-            ui.selectable_value(&mut s.crack_offset, offset, offset_label(offset));
-        }
-    });
+    choices(ui, s);
     match app.cracks.as_ref() {
         Some((request, Ok(shown))) if Some(request) == app.cracks_request().as_ref() => {
             for (kind, report) in &shown.reports {
@@ -111,6 +99,36 @@ pub fn controls(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             ui.label("aiming the rays…");
         }
     }
+}
+
+/// The test and the offset, chosen: in the View section, and over the view itself (where a
+/// lecture's audience looks, and where the choice is in reach whatever the panel shows).
+fn choices(ui: &mut egui::Ui, s: &mut crate::app::settings::Settings) {
+    ui.horizontal_wrapped(|ui| {
+        ui.label("test");
+        for kind in IntersectorKind::ALL {
+            ui.selectable_value(&mut s.crack_intersector, kind, test_name(kind));
+        }
+    });
+    ui.horizontal_wrapped(|ui| {
+        ui.label("scene moved to")
+            .on_hover_text("the scene and its camera moved by (d, d, d): far from the origin");
+        for offset in OFFSETS {
+            ui.selectable_value(&mut s.crack_offset, offset, offset_label(offset));
+        }
+    });
+}
+
+/// The choices over the view's top-left corner, under the count, while the cracks are shown.
+pub fn in_view_controls(app: &mut BvhLabApp, ui: &egui::Ui, rect: egui::Rect) {
+    if app.cracks_request().is_none() {
+        return;
+    }
+    egui::Area::new(egui::Id::unique("crack choices"))
+        .fixed_pos(rect.left_top() + egui::vec2(6.0, 46.0))
+        .show(ui.ctx(), |ui| {
+            egui::Frame::popup(ui.style()).show(ui, |ui| choices(ui, &mut app.settings));
+        });
 }
 
 /// Over the view: the image dimmed, a red dot at every leak, and what the dots are.

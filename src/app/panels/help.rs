@@ -45,6 +45,10 @@ pub fn help_window(app: &mut BvhLabApp, ctx: &egui::Context) {
                         ("[ / ]", "previous / next level"),
                         ("W", "tree walk on/off"),
                         (
+                            "wheel / drag on the tree",
+                            "zoom / pan the hierarchy diagram (double-click: the whole tree)",
+                        ),
+                        (
                             "Up / Left / Right",
                             "walk to parent / first child / last child",
                         ),
