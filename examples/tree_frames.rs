@@ -26,6 +26,16 @@ fn stats(name: &str, mut times: Vec<f64>) {
     );
 }
 
+/// One frame, timed in ms: the app's update and the tessellation of what it drew.
+fn frame(h: &mut Harness<'static, BvhLabApp>) -> f64 {
+    let t = Instant::now();
+    h.step();
+    let shapes = h.output().shapes.clone();
+    let ppp = h.output().pixels_per_point;
+    let _ = h.ctx.tessellate(shapes, ppp);
+    t.elapsed().as_secs_f64() * 1e3
+}
+
 fn main() {
     let Some(scene) = std::env::args().nth(1) else {
         eprintln!("usage: tree_frames <scene>");
@@ -52,12 +62,7 @@ fn main() {
     for i in 0..120 {
         let x = area.left() + 10.0 + (i as f32 * 7.0) % (area.width() - 20.0);
         h.event(egui::Event::PointerMoved(egui::pos2(x, y)));
-        let t = Instant::now();
-        h.step();
-        let shapes = h.output().shapes.clone();
-        let ppp = h.output().pixels_per_point;
-        let _ = h.ctx.tessellate(shapes, ppp);
-        hover.push(t.elapsed().as_secs_f64() * 1e3);
+        hover.push(frame(&mut h));
     }
     stats("hover", hover);
     let mut zoom = Vec::new();
@@ -68,12 +73,7 @@ fn main() {
     h.step();
     for _ in 0..40 {
         h.event(egui::Event::Zoom(1.25));
-        let t = Instant::now();
-        h.step();
-        let shapes = h.output().shapes.clone();
-        let ppp = h.output().pixels_per_point;
-        let _ = h.ctx.tessellate(shapes, ppp);
-        zoom.push(t.elapsed().as_secs_f64() * 1e3);
+        zoom.push(frame(&mut h));
     }
     stats("zoom in, ×1.25 a frame to ×7500", zoom);
     let mut pan = Vec::new();
@@ -91,12 +91,7 @@ fn main() {
             x = area.right() - 20.0;
         }
         h.event(egui::Event::PointerMoved(egui::pos2(x, y)));
-        let t = Instant::now();
-        h.step();
-        let shapes = h.output().shapes.clone();
-        let ppp = h.output().pixels_per_point;
-        let _ = h.ctx.tessellate(shapes, ppp);
-        pan.push(t.elapsed().as_secs_f64() * 1e3);
+        pan.push(frame(&mut h));
     }
     stats("pan (drag) while zoomed", pan);
 }

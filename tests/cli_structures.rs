@@ -862,6 +862,8 @@ fn the_tinybvh_peer_is_reported_or_refused_clearly() {
             stderr.contains("built without tinybvh") && stderr.contains("--features tinybvh"),
             "{stderr}"
         );
+        // One line, as written for a reader (no escaped line break left in it).
+        assert_eq!(stderr.trim_end().lines().count(), 1, "{stderr}");
     }
     // Island places its instances: tinybvh, given triangles, is refused with the reason.
     let out = bvhlab(&["bench", "--scene", "island", "--tinybvh"]);

@@ -20,13 +20,13 @@ use std::time::Duration;
 /// Whether this build can run Embree beside bvhlab.
 pub const EMBREE_AVAILABLE: bool = cfg!(feature = "embree");
 
-pub const EMBREE_MISSING: &str = "this bvhlab was built without Embree: install libembree-dev \\
+pub const EMBREE_MISSING: &str = "this bvhlab was built without Embree: install libembree-dev \
      and build with `cargo build --release --features embree`";
 
 /// Whether this build can run tinybvh beside bvhlab.
 pub const TINYBVH_AVAILABLE: bool = cfg!(feature = "tinybvh");
 
-pub const TINYBVH_MISSING: &str = "this bvhlab was built without tinybvh: build with \\
+pub const TINYBVH_MISSING: &str = "this bvhlab was built without tinybvh: build with \
      `cargo build --release --features tinybvh` (it compiles peers/tinybvh with the system's C++ compiler)";
 
 #[cfg(not(feature = "embree"))]
