@@ -460,7 +460,8 @@ fn diagram(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             StrokeKind::Outside,
         );
     }
-    let Some(pointer) = response.hover_pos() else {
+    // Hovering and clicking name B's nodes only (over A's diagram, nothing).
+    let Some(pointer) = response.hover_pos().filter(|p| area.contains(*p)) else {
         return;
     };
     let depth = ((pointer.y - area.top()) / row) as u32;
