@@ -5,8 +5,10 @@
 use bvhlab_testkit as common;
 
 use bvhlab::app::BvhLabApp;
+use bvhlab::render::Mode;
 use bvhlab::render::colormap::to_rgba8;
 use bvhlab::render::compare::{CompareView, diverging};
+use bvhlab::render::per_triangle::shared_shown;
 use common::app::{launch, settle};
 use eframe::egui::{self, Key};
 use egui_kittest::Harness;
@@ -217,4 +219,44 @@ fn the_frame_carries_a_s_work_per_pixel() {
     };
     assert_eq!(total(a), s.total_a);
     assert_eq!(total(&shown.frame), s.total_b);
+}
+
+#[test]
+fn a_s_triangles_are_coloured_by_a_s_tree_on_the_scale_b_shares() {
+    let mut h = app("soup:3000");
+    h.get_by_role_and_label(egui::accesskit::Role::Button, "SAH cost per triangle")
+        .click();
+    settle(&mut h);
+    h.key_press(Key::A);
+    settle(&mut h);
+    h.get_by_label("object median").click();
+    settle(&mut h);
+    let shown = h.state().shown.clone().unwrap();
+    assert_eq!(shown.job.mode, Mode::TriangleCost);
+    // A's frame has its own tree's costs (the median tree costs more than binned SAH's).
+    let a = shown.pinned_frame.as_ref().expect("A's frame");
+    let a_values = a.triangle_values(Mode::TriangleCost).expect("A's costs");
+    let b_values = shown.frame.triangle_values(Mode::TriangleCost).unwrap();
+    assert!(a_values.total < b_values.total, "A is binned SAH, B median");
+    // A's half is coloured, not left grey: every hit left of the divider is painted on the
+    // scale both halves share, from the cheapest triangle either shows to the dearest.
+    let shared = shared_shown(&[a, &shown.frame], Mode::TriangleCost).unwrap();
+    assert_eq!(shared.0, a_values.shown.0.min(b_values.shown.0));
+    assert_eq!(shared.1, a_values.shown.1.max(b_values.shown.1));
+    let (w, hgt) = (shown.job.width as usize, shown.job.height as usize);
+    let grey = to_rgba8(glam::Vec3::splat(0.5));
+    let left_hits = (0..hgt)
+        .flat_map(|y| (0..w / 2 - 2).map(move |x| (x, y)))
+        .filter(|&(x, y)| a.samples[y * w + x].is_hit())
+        .map(|(x, y)| &shown.rgba[(y * w + x) * 4..(y * w + x) * 4 + 4])
+        .collect::<Vec<_>>();
+    assert!(left_hits.len() > 100);
+    assert!(left_hits.iter().all(|p| *p != grey), "A's hits are grey");
+    // The same in the measured tests per triangle.
+    h.get_by_role_and_label(egui::accesskit::Role::Button, "tests per triangle")
+        .click();
+    settle(&mut h);
+    let shown = h.state().shown.clone().unwrap();
+    let a = shown.pinned_frame.as_ref().expect("A's frame");
+    assert!(a.triangle_values(shown.job.mode).is_some(), "A's tests");
 }

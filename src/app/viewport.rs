@@ -7,6 +7,7 @@ use super::replay::Go;
 use super::{BvhLabApp, Drag, Tool};
 use crate::render::Mode;
 use crate::render::compare::CompareView;
+use crate::render::per_triangle::shared_shown;
 use crate::scene::Camera;
 use eframe::egui::{self, Key, PointerButton, Sense};
 use std::sync::Arc;
@@ -50,7 +51,25 @@ pub fn show(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         } else {
             1.0
         };
-        super::panels::cost_legend(ui, rect, values, scale);
+        // A | B side by side share the scale their images were coloured on.
+        let a = shown
+            .pinned_frame
+            .as_ref()
+            .filter(|_| {
+                shown
+                    .job
+                    .compare
+                    .is_some_and(|c| c.view == CompareView::Split)
+            })
+            .and_then(|a| Some((a, a.triangle_values(Mode::TriangleCost)?)));
+        let (range, trees) = match a {
+            Some((a_frame, a)) => (
+                shared_shown(&[a_frame, &shown.frame], Mode::TriangleCost).unwrap_or(values.shown),
+                format!("A: {:.2}, B: {:.2}", a.total, values.total),
+            ),
+            None => (values.shown, format!("tree: {:.2}", values.total)),
+        };
+        super::panels::cost_legend(ui, rect, range, &trees, scale);
     }
     if let Some(shown) = &app.shown
         && let Some(max) = shown.heat_max

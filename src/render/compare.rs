@@ -6,7 +6,7 @@
 
 use super::colormap::to_rgba8;
 use super::heat::HeatStyle;
-use super::{Frame, Mode, RayKind, colorize_styled};
+use super::{Frame, Mode, RayKind, colorize_styled, per_triangle};
 use crate::accel::Counter;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
@@ -353,10 +353,21 @@ pub fn compare_image(
                     };
                     top(a).max(top(b))
                 })),
+                // Each side's tests and costs on one scale, so the same colour is the same
+                // value on both.
+                Mode::TestsReceived(_) => {
+                    let top = |f: &Frame| per_triangle::tests_top(f, mode, heat_max, style);
+                    top(a).max(top(b))
+                }
                 _ => None,
             };
-            let (left, _) = colorize_styled(a, mode, common, style);
-            let (right, scale) = colorize_styled(b, mode, common, style);
+            let shown = per_triangle::shared_shown(&[a, b], mode);
+            let paint = |f: &Frame| {
+                per_triangle::colorize_on(f, mode, common, style, shown)
+                    .unwrap_or_else(|| colorize_styled(f, mode, common, style))
+            };
+            let (left, _) = paint(a);
+            let (right, scale) = paint(b);
             Ok((split(&left, &right, b.width, b.height), scale))
         }
         CompareView::Difference => {

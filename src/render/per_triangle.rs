@@ -141,24 +141,60 @@ pub(super) fn colorize(
     heat_max: Option<u32>,
     style: &HeatStyle,
 ) -> Option<(Vec<u8>, Option<u32>)> {
-    slot(mode)?;
-    let values = frame.triangle_values(mode);
-    let count = |s: &Sample| {
-        values
-            .and_then(|v| v.of(s))
-            .map_or(0, |x| x.min(f64::from(u32::MAX)) as u32)
-    };
-    let top = match (mode, values) {
+    colorize_on(frame, mode, heat_max, style, None)
+}
+
+/// A value's test count, as the scale reads it.
+fn count(values: Option<&TriangleValues>, s: &Sample) -> u32 {
+    values
+        .and_then(|v| v.of(s))
+        .map_or(0, |x| x.min(f64::from(u32::MAX)) as u32)
+}
+
+/// The top of the tests' scale for `frame` alone (`heat_max`, else the style's percentile
+/// or the largest count shown); `None` in another mode or before its values are worked out.
+pub(super) fn tests_top(
+    frame: &Frame,
+    mode: Mode,
+    heat_max: Option<u32>,
+    style: &HeatStyle,
+) -> Option<u32> {
+    let values = frame.triangle_values(mode).map(|v| &**v);
+    match (mode, values) {
         (Mode::TestsReceived(_), Some(v)) => Some(style.top(heat_max, v.shown.1 as u32, || {
             frame
                 .samples
                 .iter()
                 .filter(|s| s.is_hit())
-                .map(count)
+                .map(|s| count(values, s))
                 .collect()
         })),
         _ => None,
-    };
+    }
+}
+
+/// The cost scale two frames shown side by side share: from the smallest value either
+/// shows to the largest; `None` if neither has values.
+pub fn shared_shown(frames: &[&Frame], mode: Mode) -> Option<(f64, f64)> {
+    frames
+        .iter()
+        .filter_map(|f| f.triangle_values(mode))
+        .map(|v| v.shown)
+        .filter(|&(_, hi)| hi > 0.0)
+        .reduce(|a, b| (a.0.min(b.0), a.1.max(b.1)))
+}
+
+/// `colorize`, the SAH cost on the log scale `shown` when given (else the frame's own).
+pub(super) fn colorize_on(
+    frame: &Frame,
+    mode: Mode,
+    heat_max: Option<u32>,
+    style: &HeatStyle,
+    shown: Option<(f64, f64)>,
+) -> Option<(Vec<u8>, Option<u32>)> {
+    slot(mode)?;
+    let values = frame.triangle_values(mode).map(|v| &**v);
+    let top = tests_top(frame, mode, heat_max, style);
     // The SAH cost is always on a log scale, under the shaded scene.
     let shaded = HeatStyle {
         underlay: true,
@@ -176,9 +212,9 @@ pub(super) fn colorize(
             return super::colormap::to_rgba8(BACKGROUND);
         }
         let c = match (mode, top) {
-            (Mode::TestsReceived(_), Some(top)) => style.color(count(s), top, s),
+            (Mode::TestsReceived(_), Some(top)) => style.color(count(values, s), top, s),
             _ => {
-                let at = log_position(v.of(s).unwrap_or(0.0), v.shown);
+                let at = log_position(v.of(s).unwrap_or(0.0), shown.unwrap_or(v.shown));
                 shaded.color_at(at, s)
             }
         };

@@ -40,24 +40,22 @@ pub fn legend(ui: &mut egui::Ui, rect: egui::Rect, job: &RenderJob, max: u32, sc
     );
 }
 
-/// The SAH cost per triangle's scale: from the cheapest to the dearest triangle shown, on
-/// a log scale, with the tree's whole cost in the title.
+/// The SAH cost per triangle's scale: from the cheapest to the dearest triangle shown
+/// (`shown`), on a log scale, with the trees' whole costs (`trees`) in the title.
 pub fn cost_legend(
     ui: &mut egui::Ui,
     rect: egui::Rect,
-    values: &crate::render::per_triangle::TriangleValues,
+    shown: (f64, f64),
+    trees: &str,
     scale: f32,
 ) {
     use crate::render::per_triangle::log_value_at;
-    let at = |x| format!("{:.2e}", log_value_at(x, values.shown));
+    let at = |x| format!("{:.2e}", log_value_at(x, shown));
     scale_bar(
         ui,
         rect,
         scale,
-        &format!(
-            "SAH cost per triangle, log scale (tree: {:.2})",
-            values.total
-        ),
+        &format!("SAH cost per triangle, log scale ({trees})"),
         crate::render::colormap::viridis,
         [at(0.0), at(0.5), at(1.0)],
     );

@@ -4,7 +4,7 @@
 use super::messages::*;
 use super::state::*;
 use super::streaming::Stream;
-use crate::accel::structure::{self, StructureParams};
+use crate::accel::structure::{self, Structure, StructureParams};
 use crate::geometry::Watertight;
 use crate::render::compare::{compare_image, compared_counters, summarize};
 use crate::render::node_visits::{NodeVisits, node_visits};
@@ -13,6 +13,7 @@ use crate::render::{
     Frame, Mode, RenderSettings, colorize_styled, tile_count, trace, trace_streaming,
     trace_uncoloured_unless, trace_unless,
 };
+use crate::scene::Scene;
 use std::time::Duration;
 
 /// A coarse first image is this many times smaller each way (1/36 of the rays): the first
@@ -181,29 +182,16 @@ impl State {
         };
         let image_time = frame.summary.trace_time;
         if job.mode.colours_triangles() {
-            // The triangles' values, worked out once for the frame (its measured tests from
-            // about TESTS_RAYS of its rays); a newer command stops the tally.
-            let pixels = f64::from(job.width) * f64::from(job.height);
-            let stride = (pixels / TESTS_RAYS).sqrt().ceil().max(1.0) as u32;
             let latest = &self.latest;
             let newer = || latest.load(Ordering::Relaxed) > seq;
-            // Without an SAH cost (the view panel says why) the hits stay grey.
-            let _ = frame.triangle_values_for::<Watertight>(
-                job.mode,
-                structure,
-                &self.params,
-                scene,
-                &settings,
-                stride,
-                &newer,
-            );
+            triangle_values(&frame, structure, &self.params, scene, &settings, &newer);
             if newer() {
                 return None;
             }
         }
         let ((mut rgba, heat_max), compared, pinned_frame) = match job.compare {
             Some(c) => {
-                let (image, compared, a) = self.compare(&frame, &c, &job);
+                let (image, compared, a) = self.compare(&frame, &c, &job, seq);
                 (image, Some(compared), a)
             }
             // A shaded frame comes coloured from the trace.
@@ -323,6 +311,7 @@ impl State {
         b: &Frame,
         c: &CompareJob,
         job: &RenderJob,
+        seq: u64,
     ) -> (Image, Compared, Option<Arc<Frame>>) {
         let b_alone = |error: String| {
             (
@@ -340,6 +329,16 @@ impl State {
                 return (image, compared, None);
             }
         };
+        // A's triangles are coloured by A's tree and A's rays, as B's by B's.
+        let settings = State::trace_settings(self.light(), job);
+        if let (true, Some(scene), Some(pinned)) =
+            (job.mode.colours_triangles(), &self.scene, &self.pinned)
+            && let Ok(structure) = &pinned.structure
+        {
+            let latest = &self.latest;
+            let newer = || latest.load(Ordering::Relaxed) > seq;
+            triangle_values(&a, structure, &pinned.params, scene, &settings, &newer);
+        }
         let summaries = if b.summary.counted() {
             compared_counters(job.mode)
                 .into_iter()
@@ -459,4 +458,29 @@ impl State {
             self.reply(Reply::Outline(self.outline.clone()));
         }
     }
+}
+
+/// Works out, once for the frame, the triangles' values a per-triangle mode colours them by:
+/// the cost the tree charges each, or its measured tests from about TESTS_RAYS of the
+/// frame's rays. `newer` (a newer command) stops the tally; without an SAH cost (the view
+/// panel says why) the hits stay grey.
+fn triangle_values(
+    frame: &Frame,
+    structure: &Structure,
+    params: &StructureParams,
+    scene: &Scene,
+    settings: &RenderSettings,
+    newer: &(dyn Fn() -> bool + Sync),
+) {
+    let pixels = f64::from(settings.width) * f64::from(settings.height);
+    let stride = (pixels / TESTS_RAYS).sqrt().ceil().max(1.0) as u32;
+    let _ = frame.triangle_values_for::<Watertight>(
+        settings.mode,
+        structure,
+        params,
+        scene,
+        settings,
+        stride,
+        newer,
+    );
 }
