@@ -179,6 +179,28 @@ fn the_walls_angle_slider_loads_the_walls_turned_that_far() {
 }
 
 #[test]
+fn the_walls_slider_sits_over_the_view_and_the_top_bar_keeps_one_row_at_1280() {
+    let mut h = launch(
+        Harness::builder().with_size(egui::vec2(1280.0, 720.0)),
+        "walls-rotated:20",
+        |_| {},
+    );
+    settle(&mut h);
+    let slider = h
+        .get_by_role_and_label(egui::accesskit::Role::Slider, "walls turned")
+        .rect();
+    let (first, last) = (
+        h.get_by_label("Open…").rect(),
+        h.get_by_label("Help (F1)").rect(),
+    );
+    assert!((first.center().y - last.center().y).abs() < 1.0, "one row");
+    assert!(
+        slider.top() > last.bottom(),
+        "under the top bar, over the view"
+    );
+}
+
+#[test]
 fn stepping_levels_changes_the_overlay() {
     let mut h = app("cornell");
     let plain = h.state().shown.clone().expect("frame").rgba.clone();

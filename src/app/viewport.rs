@@ -32,6 +32,7 @@ pub fn show(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     app.ask_for_cracks();
     super::cracks::draw(app, &painter, rect);
     super::cracks::in_view_controls(app, ui, rect);
+    super::panels::walls_in_view(app, ui, rect);
     busy_overlay(app, ui, &painter, rect);
     handle_input(app, ui, &response, rect);
     super::replay::draw(app, &painter, rect);

@@ -41,7 +41,6 @@ pub fn top_bar(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                         }
                     }
                 });
-            walls_angle_slider(app, ui, &current);
             ui.separator();
             ui.label("left drag:");
             ui.selectable_value(&mut app.tool, Tool::Orbit, "orbit (O)");
@@ -90,9 +89,26 @@ fn ui_scale_menu(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     .on_hover_text("the size of text and controls");
 }
 
-/// On `walls-rotated`: the angle the walls are turned by, from 0° (the axis-aligned
+/// On `walls-rotated`, over the top of the view (where a class sees it, also in the
+/// presentation layout): the angle the walls are turned by, from 0° (the axis-aligned
 /// `walls`) to 90°. Loads the turned scene when the slider is let go.
-pub(super) fn walls_angle_slider(app: &mut BvhLabApp, ui: &mut egui::Ui, current: &str) {
+pub fn walls_in_view(app: &mut BvhLabApp, ui: &egui::Ui, rect: egui::Rect) {
+    let current = app.settings.scene.clone();
+    if !current.starts_with("walls-rotated") {
+        return;
+    }
+    egui::Area::new(egui::Id::unique("walls angle"))
+        .pivot(egui::Align2::CENTER_TOP)
+        .fixed_pos(rect.center_top() + egui::vec2(0.0, 6.0))
+        .show(ui.ctx(), |ui| {
+            egui::Frame::popup(ui.style()).show(ui, |ui| {
+                ui.spacing_mut().slider_width = 160.0;
+                walls_angle_slider(app, ui, &current);
+            });
+        });
+}
+
+fn walls_angle_slider(app: &mut BvhLabApp, ui: &mut egui::Ui, current: &str) {
     let (name, size) = match current.split_once(':') {
         Some((name, size)) => (name, Some(size)),
         None => (current, None),

@@ -11,7 +11,7 @@ mod stats;
 mod tree;
 mod walk;
 
-pub use bars::{status_bar, top_bar};
+pub use bars::{status_bar, top_bar, walls_in_view};
 pub use help::help_window;
 pub use layout::{presentation_bar, presentation_text, side_panels};
 pub use legend::{cost_legend, legend, scale_bar};
