@@ -169,6 +169,7 @@ where
             simd: SimdLevel::detect(),
             depth: tree.depth,
             lanes: Default::default(),
+            parts: tree.parts,
         };
         let layout = start.elapsed();
         Ok((out, CollapsePhases { table, layout }))
@@ -192,6 +193,8 @@ where
     prim_indices: Vec<u32>,
     /// The depth of its deepest node in the whole tree.
     depth: u32,
+    /// Where the parts appended to it begin (`WideBvh::parts`).
+    parts: Vec<u32>,
 }
 
 impl<const W: usize> Part<W>
@@ -201,6 +204,8 @@ where
     /// Places `part` after this one: its node indices and slots move by this one's counts.
     fn append(&mut self, part: Part<W>) {
         let (node_base, slot_base) = (self.nodes.len() as u32, self.prim_indices.len() as u32);
+        debug_assert!(part.parts.is_empty(), "parts do not nest");
+        self.parts.push(node_base);
         self.nodes.extend(part.nodes.into_iter().map(|mut n| {
             for lane in 0..n.child_count() {
                 n.child[lane] = match n.lane_kind(lane) {
@@ -287,6 +292,7 @@ where
             blocks: Vec::new(),
             prim_indices: Vec::new(),
             depth,
+            parts: Vec::new(),
         };
         let mut cuts = Vec::new();
         let mut packer = BlockPacker::default();
@@ -528,6 +534,7 @@ mod tests {
                     simd: SimdLevel::detect(),
                     depth: part.depth,
                     lanes: Default::default(),
+                    parts: part.parts,
                 };
                 tree.validate()
                     .unwrap_or_else(|e| panic!("{spec}, cut {cut:?}: {e}"));

@@ -51,6 +51,10 @@ where
     /// replay's visit names a child, and its box is in the parent's lane. Moves keep it.
     pub(crate) lanes:
         std::sync::OnceLock<std::sync::Arc<std::collections::HashMap<Subtree, (u32, u8)>>>,
+    /// Where the parts the collapse laid out apart begin: `parts[k]..parts[k + 1]` (the
+    /// last up to the end) is a whole subtree, its nodes' children all inside it; the nodes
+    /// before `parts[0]` are the top of the tree. Empty for a tree laid out in one part.
+    pub(crate) parts: Vec<u32>,
 }
 
 /// The sums over a wide tree's lanes the SAH cost is made of, apart from the costs: the
@@ -190,6 +194,20 @@ where
             super::validate::references_per_triangle(&self.prim_indices, self.triangle_count)?;
         let mut slot_box = vec![Aabb::EMPTY; slots];
         let mut owned = vec![false; slots];
+        // The part each node is in (0: the top), whose subtree its children must not leave.
+        let part_of = |i: usize| self.parts.partition_point(|&p| p as usize <= i);
+        if !self.parts.is_sorted()
+            || self
+                .parts
+                .last()
+                .is_some_and(|&p| p as usize >= self.nodes.len())
+        {
+            return Err(format!(
+                "parts {:?} of {} nodes",
+                self.parts,
+                self.nodes.len()
+            ));
+        }
         for (i, node) in self.nodes.iter().enumerate() {
             let used = node.child_count();
             if node.child[used..].iter().any(|&c| c != Subtree::UNUSED) {
@@ -201,6 +219,11 @@ where
                 let (inside, split) = if node.is_interior(lane) {
                     if c <= i || c >= self.nodes.len() {
                         return Err(format!("node {i} lane {lane} points to node {c}"));
+                    }
+                    // Only the top reaches into a part, at the part's root.
+                    let (from, to) = (part_of(i), part_of(c));
+                    if from != to && (from != 0 || self.parts[to - 1] as usize != c) {
+                        return Err(format!("node {i} lane {lane} leaves its part for node {c}"));
                     }
                     (self.nodes[c].bounds(), false)
                 } else {

@@ -51,7 +51,8 @@ where
     /// triangles from the blocks (one or two lane by lane, more four lanes at a time), an
     /// interior lane takes its child's box, and the SAH cost
     /// before and after is summed in the same pass (each lane's old box is read before it
-    /// is overwritten). Subtrees near the root run as parallel tasks.
+    /// is overwritten). The nodes are swept from the last to the first (children come after
+    /// their parents), the parts the collapse laid out apart as parallel tasks, then the top.
     pub fn refit(
         &mut self,
         scene: &[Triangle],
@@ -70,15 +71,38 @@ where
             trav: c_trav as f64,
             isect: c_isect as f64,
         };
+        let mut sums = vec![RefitSums::default(); self.nodes.len()];
         let tree = SharedTree {
             nodes: self.nodes.as_mut_ptr(),
+            sums: sums.as_mut_ptr(),
             blocks: &self.blocks,
         };
-        let parallel_depth = if scene.len() >= PARALLEL_REFIT { 4 } else { 0 };
-        // SAFETY: every node but the root has exactly one parent lane (what `validate`
-        // checks), so the tasks of `refit_subtree` write disjoint nodes; `self.nodes` stays
-        // borrowed for the whole pass.
-        let sums = unsafe { tree.refit_subtree(0, parallel_depth, costs) };
+        // The parts the collapse laid out apart, each a whole subtree of its own nodes, in
+        // parallel; then the top of the tree, whose lanes reach the parts' roots.
+        let ends = self
+            .parts
+            .iter()
+            .skip(1)
+            .copied()
+            .chain([self.nodes.len() as u32]);
+        let parts: Vec<(u32, u32)> = self.parts.iter().copied().zip(ends).collect();
+        let top = self.parts.first().map_or(self.nodes.len(), |&p| p as usize);
+        // SAFETY: a part's nodes (and their sums) are written by its task alone and its
+        // nodes' children lie inside it, so the tasks touch disjoint nodes; the top runs
+        // after them all. `self.nodes` and `sums` stay borrowed for the whole pass.
+        unsafe {
+            if scene.len() >= PARALLEL_REFIT {
+                parts
+                    .par_iter()
+                    .for_each(|&(a, b)| tree.refit_range(a as usize..b as usize, costs));
+            } else {
+                parts
+                    .iter()
+                    .for_each(|&(a, b)| tree.refit_range(a as usize..b as usize, costs));
+            }
+            tree.refit_range(0..top, costs);
+        }
+        let sums = sums[0];
         let root_after = self.nodes[0].bounds().surface_area() as f64;
         let sah = |root: f64, lanes: f64| {
             if root <= 0.0 {
@@ -285,44 +309,52 @@ fn lane_areas<const W: usize>(rows: &[[f32; W]; 6]) -> [f32; W] {
     areas
 }
 
-/// The tree as the refit's tasks share it: the nodes through a raw pointer, because
-/// parallel tasks write different nodes of one array; the blocks, already filled, are read.
+/// The tree as the refit's tasks share it: the nodes and their subtrees' sums through raw
+/// pointers, because parallel tasks write different nodes of one array; the blocks, already
+/// filled, are read.
 struct SharedTree<'a, const W: usize>
 where
     Lanes<W>: NodeWidth,
 {
     nodes: *mut WideNode<W>,
+    sums: *mut RefitSums,
     blocks: &'a [TriangleBlock],
 }
 
-// SAFETY: the pointer is only written at nodes owned by one task (see `refit_subtree`).
+// SAFETY: the pointers are only written at nodes owned by one task (see `refit_range`).
 unsafe impl<const W: usize> Sync for SharedTree<'_, W> where Lanes<W>: NodeWidth {}
 
 impl<const W: usize> SharedTree<'_, W>
 where
     Lanes<W>: NodeWidth,
 {
-    /// Refits node `i`'s subtree and returns its lane sums; subtrees start as parallel tasks
-    /// while `parallel_depth` > 0. The leaf lanes are bounded first and the children taken
-    /// last to first: the order the collapse laid their blocks and nodes out in, so both
-    /// are read in ascending addresses.
+    /// Refits the nodes `range` from the last to the first: a node's interior children come
+    /// after it, so each is refitted (and its sums known) before its parent reads it. One
+    /// sweep down the array, with no recursion: the nodes stream in, and the reads of one
+    /// node's blocks overlap those of the next.
     ///
     /// # Safety
-    /// No other task may touch `i`'s subtree.
-    unsafe fn refit_subtree(&self, i: usize, parallel_depth: u32, costs: Costs) -> RefitSums {
+    /// No other task may touch the nodes of `range`, and the children of its nodes must lie
+    /// in it or be refitted already.
+    unsafe fn refit_range(&self, range: std::ops::Range<usize>, costs: Costs) {
+        for i in range.rev() {
+            // SAFETY: the caller's contract.
+            unsafe { self.refit_node(i, costs) };
+        }
+    }
+
+    /// Refits node `i` from its triangles' blocks and its refitted children, and stores the
+    /// lane sums of its subtree. The sums are added lane by lane, each child's subtree sum
+    /// before its own lane: the order the recursive refit (and its reference) add them in.
+    ///
+    /// # Safety
+    /// As `refit_range`.
+    #[inline(always)]
+    unsafe fn refit_node(&self, i: usize, costs: Costs) {
         // SAFETY: node `i` is this task's alone (the caller's contract).
         let node = unsafe { &mut *self.nodes.add(i) };
         let lanes = node.child_count();
         let words = node.child;
-        // The children's rows are on their way while the leaves are bounded.
-        for word in &words[..lanes] {
-            if !word.is_leaf() {
-                let child = self.nodes.wrapping_add(word.node_index()).cast::<u8>();
-                for line in (0..size_of::<WideNode<W>>()).step_by(64) {
-                    prefetch(child.wrapping_add(line));
-                }
-            }
-        }
         let old = lane_areas(&node.bounds);
         let mut rows = node.bounds;
         let mut set = |l: usize, lo: Vec4, hi: Vec4| {
@@ -331,6 +363,7 @@ where
                 rows[axis + 3][l] = hi[axis];
             }
         };
+        let mut child_sums = [RefitSums::default(); W];
         for (l, word) in words[..lanes].iter().enumerate() {
             if word.is_leaf() {
                 let (mut lo, mut hi) = (Vec4::INFINITY, Vec4::NEG_INFINITY);
@@ -350,34 +383,13 @@ where
                     }
                 }
                 set(l, lo, hi);
-            }
-        }
-        // Children's sums next: every interior child is refitted before its box is read.
-        let mut child_sums = [RefitSums::default(); W];
-        let interior = (0..lanes).rev().filter(|&l| !words[l].is_leaf());
-        if parallel_depth > 0 {
-            let interior: Vec<usize> = interior.collect();
-            let sums: Vec<RefitSums> = interior
-                .par_iter()
-                // SAFETY: distinct children own disjoint subtrees.
-                .map(|&l| unsafe {
-                    self.refit_subtree(words[l].node_index(), parallel_depth - 1, costs)
-                })
-                .collect();
-            for (&l, s) in interior.iter().zip(sums) {
-                child_sums[l] = s;
-            }
-        } else {
-            for l in interior {
-                // SAFETY: as above.
-                child_sums[l] = unsafe { self.refit_subtree(words[l].node_index(), 0, costs) };
-            }
-        }
-        for (l, word) in words[..lanes].iter().enumerate() {
-            if !word.is_leaf() {
-                // SAFETY: the child's task has finished; nothing else writes it.
-                let b = unsafe { &*self.nodes.add(word.node_index()) }.bounds();
+            } else {
+                let c = word.node_index();
+                // SAFETY: the child was refitted before (it comes after `i`); nothing
+                // writes it now.
+                let b = unsafe { &*self.nodes.add(c) }.bounds();
                 set(l, b.min.extend(0.0), b.max.extend(0.0));
+                child_sums[l] = unsafe { *self.sums.add(c) };
             }
         }
         node.bounds = rows;
@@ -392,7 +404,8 @@ where
                     after: weight * new[l] as f64,
                 };
         }
-        sums
+        // SAFETY: node `i`'s sums are this task's alone.
+        unsafe { *self.sums.add(i) = sums };
     }
 }
 
@@ -522,6 +535,7 @@ mod tests {
             let b2 = bvh::build(&built, &BuildParams::default()).unwrap().0;
             let mut fast = WideBvh::<W>::collapse(&b2, &super::super::CollapseParams::default());
             let mut slow = fast.clone();
+            assert!(fast.parts.len() > 4, "the parts refitted in parallel");
             let moved = grid_soup(n, seed + 1);
             let costs = Costs {
                 trav: 1.0,
