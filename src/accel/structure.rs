@@ -201,7 +201,7 @@ pub enum Structure {
     Grid(Grid),
     Octree(Octree),
     BruteForce(BruteForce),
-    TwoLevel(TwoLevel),
+    TwoLevel(Box<TwoLevel>),
 }
 
 /// A structure with its report; for a BVH also its own detailed report (SAH cost, leaf
@@ -258,7 +258,7 @@ pub fn build_two_level(
     tl.set_order(params.order);
     tl.set_simd(params.simd)?;
     Ok(Built {
-        structure: Structure::TwoLevel(tl),
+        structure: Structure::TwoLevel(Box::new(tl)),
         report,
         bvh_report: None,
     })
