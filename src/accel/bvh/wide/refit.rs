@@ -71,10 +71,10 @@ where
             trav: c_trav as f64,
             isect: c_isect as f64,
         };
-        let mut sums = vec![RefitSums::default(); self.nodes.len()];
+        let mut done = vec![Refitted::default(); self.nodes.len()];
         let tree = SharedTree {
             nodes: self.nodes.as_mut_ptr(),
-            sums: sums.as_mut_ptr(),
+            done: done.as_mut_ptr(),
             blocks: &self.blocks,
         };
         // The parts the collapse laid out apart, each a whole subtree of its own nodes, in
@@ -102,7 +102,7 @@ where
             }
             tree.refit_range(0..top, costs);
         }
-        let sums = sums[0];
+        let sums = done[0].sums;
         let root_after = self.nodes[0].bounds().surface_area() as f64;
         let sah = |root: f64, lanes: f64| {
             if root <= 0.0 {
@@ -309,15 +309,24 @@ fn lane_areas<const W: usize>(rows: &[[f32; W]; 6]) -> [f32; W] {
     areas
 }
 
-/// The tree as the refit's tasks share it: the nodes and their subtrees' sums through raw
-/// pointers, because parallel tasks write different nodes of one array; the blocks, already
-/// filled, are read.
+/// What a refitted node hands its parent: its box (the union of its lanes, which the
+/// parent's lane takes) and its subtree's sums, in one cache line rather than the node's
+/// four.
+#[derive(Clone, Copy, Default)]
+struct Refitted {
+    bounds: Aabb,
+    sums: RefitSums,
+}
+
+/// The tree as the refit's tasks share it: the nodes and what each hands its parent through
+/// raw pointers, because parallel tasks write different nodes of one array; the blocks,
+/// already filled, are read.
 struct SharedTree<'a, const W: usize>
 where
     Lanes<W>: NodeWidth,
 {
     nodes: *mut WideNode<W>,
-    sums: *mut RefitSums,
+    done: *mut Refitted,
     blocks: &'a [TriangleBlock],
 }
 
@@ -384,12 +393,12 @@ where
                 }
                 set(l, lo, hi);
             } else {
-                let c = word.node_index();
                 // SAFETY: the child was refitted before (it comes after `i`); nothing
                 // writes it now.
-                let b = unsafe { &*self.nodes.add(c) }.bounds();
+                let child = unsafe { *self.done.add(word.node_index()) };
+                let b = child.bounds;
                 set(l, b.min.extend(0.0), b.max.extend(0.0));
-                child_sums[l] = unsafe { *self.sums.add(c) };
+                child_sums[l] = child.sums;
             }
         }
         node.bounds = rows;
@@ -404,8 +413,9 @@ where
                     after: weight * new[l] as f64,
                 };
         }
-        // SAFETY: node `i`'s sums are this task's alone.
-        unsafe { *self.sums.add(i) = sums };
+        let bounds = node.bounds();
+        // SAFETY: node `i`'s entry is this task's alone.
+        unsafe { *self.done.add(i) = Refitted { bounds, sums } };
     }
 }
 
