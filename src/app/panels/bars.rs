@@ -93,10 +93,10 @@ fn ui_scale_menu(app: &mut BvhLabApp, ui: &mut egui::Ui) {
 /// presentation layout): the angle the walls are turned by, from 0° (the axis-aligned
 /// `walls`) to 90°. Loads the turned scene when the slider is let go.
 pub fn walls_in_view(app: &mut BvhLabApp, ui: &egui::Ui, rect: egui::Rect) {
-    let current = app.settings.scene.clone();
-    if !current.starts_with("walls-rotated") {
+    if !app.settings.scene.starts_with("walls-rotated") {
         return;
     }
+    let current = app.settings.scene.clone();
     egui::Area::new(egui::Id::unique("walls angle"))
         .pivot(egui::Align2::CENTER_TOP)
         .fixed_pos(rect.center_top() + egui::vec2(0.0, 6.0))

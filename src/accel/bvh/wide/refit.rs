@@ -87,9 +87,10 @@ where
             .chain([self.nodes.len() as u32]);
         let parts: Vec<(u32, u32)> = self.parts.iter().copied().zip(ends).collect();
         let top = self.parts.first().map_or(self.nodes.len(), |&p| p as usize);
-        // SAFETY: a part's nodes (and their sums) are written by its task alone and its
-        // nodes' children lie inside it, so the tasks touch disjoint nodes; the top runs
-        // after them all. `self.nodes` and `sums` stay borrowed for the whole pass.
+        // SAFETY: a part's nodes (and their `done` entries) are written by its task alone
+        // and its nodes' children lie inside it (`validate` checks it), so the tasks touch
+        // disjoint nodes; the top runs after them all. `self.nodes` and `done` stay borrowed
+        // for the whole pass.
         unsafe {
             if scene.len() >= PARALLEL_REFIT {
                 parts
