@@ -13,6 +13,7 @@ pub mod leaf;
 pub mod node;
 mod order;
 pub mod packet;
+mod part;
 pub mod refit;
 pub(crate) mod stack;
 pub mod traverse;
