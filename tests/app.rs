@@ -200,6 +200,67 @@ fn the_walls_slider_sits_over_the_view_and_the_top_bar_keeps_one_row_at_1280() {
     );
 }
 
+/// In the presentation layout the controls over the view grow with the window, as the
+/// caption does: the walls slider and the crack choices are larger there than in the
+/// normal layout, and at 1280 the crack choices still keep one row each.
+#[test]
+fn the_in_view_controls_grow_in_the_presentation_layout() {
+    use egui::accesskit::Role;
+    let mut h = launch(
+        Harness::builder().with_size(egui::vec2(1280.0, 720.0)),
+        "walls-rotated:20",
+        |_| {},
+    );
+    settle(&mut h);
+    let slider = |h: &Harness<'static, BvhLabApp>| {
+        h.get_by_role_and_label(Role::Slider, "walls turned").rect()
+    };
+    let normal = slider(&h);
+    h.state_mut().settings.presentation = true;
+    settle(&mut h);
+    let presented = slider(&h);
+    assert!(
+        presented.height() > 1.4 * normal.height(),
+        "{normal:?} → {presented:?}"
+    );
+    let step = h
+        .state()
+        .lecture
+        .sequence
+        .presets
+        .iter()
+        .position(|p| p.settings.show_cracks)
+        .expect("a step shows the cracks");
+    assert!(h.state_mut().go_to_preset(step));
+    h.state_mut().settings.presentation = false;
+    settle(&mut h);
+    // The View section has the same choices further left: the one over the view is the
+    // rightmost.
+    let over_view = |h: &Harness<'static, BvhLabApp>, label: &str| {
+        h.get_all_by_label(label)
+            .map(|n| n.rect())
+            .max_by(|a, b| a.left().total_cmp(&b.left()))
+            .unwrap_or_else(|| panic!("{label}"))
+    };
+    let normal = over_view(&h, "10^6");
+    h.state_mut().settings.presentation = true;
+    settle(&mut h);
+    let presented = over_view(&h, "10^6");
+    assert!(
+        presented.height() > 1.4 * normal.height(),
+        "{normal:?} → {presented:?}"
+    );
+    let same_row = |a: egui::Rect, b: egui::Rect| (a.center().y - b.center().y).abs() < 1.0;
+    assert!(
+        same_row(over_view(&h, "scene moved to"), presented),
+        "one row"
+    );
+    assert!(
+        same_row(over_view(&h, "test"), over_view(&h, "f64 reference")),
+        "one row"
+    );
+}
+
 #[test]
 fn stepping_levels_changes_the_overlay() {
     let mut h = app("cornell");

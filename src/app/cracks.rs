@@ -124,11 +124,26 @@ pub fn in_view_controls(app: &mut BvhLabApp, ui: &egui::Ui, rect: egui::Rect) {
     if app.cracks_request().is_none() {
         return;
     }
-    egui::Area::new(egui::Id::unique("crack choices"))
-        .fixed_pos(rect.left_top() + egui::vec2(6.0, 46.0))
+    let scale = super::panels::in_view_scale(app.settings.presentation, ui.ctx());
+    // Under the count: its margin, its line and a gap.
+    let below = 12.0 + 1.3 * count_size(scale) + 16.0;
+    let width = (rect.width() - 12.0).max(200.0);
+    // An area keeps the width it first had, and the rows wrap at it: a new one for each
+    // width of the view and size of the text, so they wrap only where the view is narrow.
+    let id = egui::Id::unique(("crack choices", width as u32, scale.to_bits()));
+    egui::Area::new(id)
+        .fixed_pos(rect.left_top() + egui::vec2(6.0, below))
+        .default_width(width)
         .show(ui.ctx(), |ui| {
+            super::panels::scale_widgets(ui, scale);
             egui::Frame::popup(ui.style()).show(ui, |ui| choices(ui, &mut app.settings));
         });
+}
+
+/// The size of the count over the view (points): 18, or in the presentation layout the
+/// size of the in-view text there if larger.
+fn count_size(scale: f32) -> f32 {
+    (12.0 * scale).max(18.0)
 }
 
 /// Over the view: the image dimmed, a red dot at every leak, and what the dots are.
@@ -172,7 +187,8 @@ pub fn draw(app: &BvhLabApp, painter: &egui::Painter, rect: egui::Rect) {
             format!(", scene moved to {}", offset_label(request.offset))
         }
     );
-    let font = egui::FontId::proportional(18.0);
+    let scale = super::panels::in_view_scale(app.settings.presentation, painter.ctx());
+    let font = egui::FontId::proportional(count_size(scale));
     let galley = painter.layout_no_wrap(text, font, Color32::WHITE);
     let at = rect.left_top() + egui::vec2(12.0, 12.0);
     let back = egui::Rect::from_min_size(at, galley.size()).expand(6.0);

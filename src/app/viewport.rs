@@ -47,11 +47,7 @@ pub fn show(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         && let Some(values) = shown.frame.triangle_values(Mode::TriangleCost)
         && shown.job.mode == Mode::TriangleCost
     {
-        let scale = if app.settings.presentation {
-            super::panels::presentation_text(ui.ctx()) / 12.0
-        } else {
-            1.0
-        };
+        let scale = super::panels::in_view_scale(app.settings.presentation, ui.ctx());
         // A | B side by side share the scale their images were coloured on.
         let a = shown
             .pinned_frame
@@ -80,12 +76,7 @@ pub fn show(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             .compare
             .is_some_and(|c| c.view == CompareView::Difference)
             && shown.compared.as_ref().is_some_and(|c| c.error.is_none());
-        // In the presentation layout the scale grows with the window, as the caption does.
-        let scale = if app.settings.presentation {
-            super::panels::presentation_text(ui.ctx()) / 12.0
-        } else {
-            1.0
-        };
+        let scale = super::panels::in_view_scale(app.settings.presentation, ui.ctx());
         if difference {
             super::compare::difference_legend(ui, rect, &shown.job.mode.label(), max, scale);
         } else {

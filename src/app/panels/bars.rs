@@ -97,12 +97,14 @@ pub fn walls_in_view(app: &mut BvhLabApp, ui: &egui::Ui, rect: egui::Rect) {
         return;
     }
     let current = app.settings.scene.clone();
+    let scale = super::in_view_scale(app.settings.presentation, ui.ctx());
     egui::Area::new(egui::Id::unique("walls angle"))
         .pivot(egui::Align2::CENTER_TOP)
         .fixed_pos(rect.center_top() + egui::vec2(0.0, 6.0))
         .show(ui.ctx(), |ui| {
+            ui.spacing_mut().slider_width = 160.0;
+            super::scale_widgets(ui, scale);
             egui::Frame::popup(ui.style()).show(ui, |ui| {
-                ui.spacing_mut().slider_width = 160.0;
                 walls_angle_slider(app, ui, &current);
             });
         });

@@ -143,6 +143,37 @@ pub fn presentation_text(ctx: &egui::Context) -> f32 {
     (height_px / 34.0).clamp(14.0, 64.0) / ctx.pixels_per_point()
 }
 
+/// How much larger what is drawn over the view (legends, counts, the in-view controls) is
+/// in the presentation layout, where it grows with the window as the caption does; 1 in
+/// the normal layout.
+pub fn in_view_scale(presentation: bool, ctx: &egui::Context) -> f32 {
+    if presentation {
+        (presentation_text(ctx) / 12.0).max(1.0)
+    } else {
+        1.0
+    }
+}
+
+/// Scales `ui`'s text and widgets by `scale` (the in-view controls in the presentation
+/// layout): its text styles, spacing and the sizes of its buttons, sliders and boxes.
+pub fn scale_widgets(ui: &mut egui::Ui, scale: f32) {
+    if scale == 1.0 {
+        return;
+    }
+    let style = ui.style_mut();
+    for font in style.text_styles.values_mut() {
+        font.size *= scale;
+    }
+    let s = &mut style.spacing;
+    s.item_spacing *= scale;
+    s.button_padding *= scale;
+    s.interact_size *= scale;
+    s.slider_width *= scale;
+    s.icon_width *= scale;
+    s.icon_width_inner *= scale;
+    s.icon_spacing *= scale;
+}
+
 /// The presentation layout's one bar: the step and its title, the caption, and the way
 /// back to the normal layout.
 pub fn presentation_bar(app: &mut BvhLabApp, ui: &mut egui::Ui) {

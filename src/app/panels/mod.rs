@@ -13,7 +13,7 @@ mod walk;
 
 pub use bars::{status_bar, top_bar, walls_in_view};
 pub use help::help_window;
-pub use layout::{presentation_bar, presentation_text, side_panels};
+pub use layout::{in_view_scale, presentation_bar, presentation_text, scale_widgets, side_panels};
 pub use legend::{cost_legend, legend, scale_bar};
 pub use stats::stats;
 pub(crate) use stats::table;
