@@ -197,7 +197,12 @@ fn linked_tree(internal: &[RadixNode], leaf_bounds: &[Aabb], sah: &SahCost) -> L
     } else {
         Child::Internal(0)
     };
-    let mut nodes = vec![LinkedNode::leaf(Aabb::EMPTY, 0, sah); 2 * n - 1];
+    // Filled on every thread: the first touch of its pages is a large part of its cost.
+    let mut nodes = Vec::with_capacity(2 * n - 1);
+    nodes.par_extend(rayon::iter::repeat_n(
+        LinkedNode::leaf(Aabb::EMPTY, 0, sah),
+        2 * n - 1,
+    ));
     let fill = Fill {
         internal,
         leaf_bounds,
