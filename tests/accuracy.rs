@@ -103,6 +103,7 @@ fn bench_traces_with_the_chosen_intersector() {
             intersector: kind,
             embree: false,
             embree_robust: false,
+            embree_quality: Default::default(),
             tinybvh: false,
         };
         let r = bench::run(&scene, &cfg).unwrap();

@@ -107,6 +107,14 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
             "at least 1",
         ),
         (
+            &["bench", "--scene", "cornell", "--embree-quality", "low"],
+            "does nothing without --embree",
+        ),
+        (
+            &["bench", "--scene", "cornell", "--embree-quality", "lowest"],
+            "invalid value 'lowest'",
+        ),
+        (
             &["frames", "--scene", "cornell", "--runs", "0"],
             "at least 1",
         ),

@@ -27,14 +27,19 @@ fn embree_finds_the_hits_bvhlab_finds() {
         "sphere:5000",
         "walls-rotated",
     ];
-    for (name, mode) in names
-        .into_iter()
-        .flat_map(|n| [(n, EmbreeMode::Default), (n, EmbreeMode::Robust)])
-    {
+    // Embree's defaults, its robust flag, and its low (Morton) and high (spatial splits)
+    // quality builders (`RTCBuildQuality` 0 and 2).
+    let peers = [
+        (EmbreeMode::Default, 1),
+        (EmbreeMode::Robust, 1),
+        (EmbreeMode::Default, 0),
+        (EmbreeMode::Default, 2),
+    ];
+    for (name, (mode, quality)) in names.into_iter().flat_map(|n| peers.map(|p| (n, p))) {
         let scene = Scene::load(name).unwrap();
         let (bvh, _) =
             bvhlab::accel::bvh::build(&scene.triangles, &BuildParams::default()).expect("builds");
-        let embree = Embree::build(&scene.triangles, 2, mode).expect("Embree builds");
+        let embree = Embree::build_at(&scene.triangles, 2, mode, quality).expect("Embree builds");
         let mut rays = view_rays(&scene);
         rays.extend(common::rays(&scene.bounds(), 2000, 3));
         let mut disagree = 0;
@@ -52,7 +57,7 @@ fn embree_finds_the_hits_bvhlab_finds() {
         }
         assert!(
             disagree * 200 <= rays.len(),
-            "{name} ({mode:?}): {disagree} of {} rays disagree",
+            "{name} ({mode:?}, quality {quality}): {disagree} of {} rays disagree",
             rays.len()
         );
         // Embree's packets answer as its single rays do (at the same distance: its two

@@ -115,6 +115,7 @@ mod ffi {
         pub fn rtcGetDeviceError(device: Device) -> c_uint;
         pub fn rtcNewScene(device: Device) -> Scene;
         pub fn rtcSetSceneBuildQuality(scene: Scene, quality: c_uint);
+        pub fn rtcSetGeometryBuildQuality(geometry: Geometry, quality: c_uint);
         pub fn rtcSetSceneFlags(scene: Scene, flags: c_uint);
         pub fn rtcReleaseScene(scene: Scene);
         pub fn rtcNewGeometry(device: Device, kind: c_uint) -> Geometry;
@@ -177,6 +178,9 @@ pub struct Embree {
     device: ffi::Device,
     scene: ffi::Scene,
     mode: EmbreeMode,
+    /// Its builder, as `RTCBuildQuality`: low (0, a Morton builder per mesh under a top
+    /// level), medium (1, the default binned SAH) or high (2, with spatial splits).
+    quality: c_uint,
     /// The unique meshes' scenes of an instanced build (empty for one flattened mesh).
     meshes: Vec<ffi::Scene>,
     /// The flattened number of each instance's first triangle, so that a hit names the
@@ -192,7 +196,7 @@ unsafe impl Sync for Embree {}
 
 impl Embree {
     /// An empty device and top-level scene with `threads` build threads.
-    fn device(threads: usize, mode: EmbreeMode) -> Result<Self, String> {
+    fn device(threads: usize, mode: EmbreeMode, quality: c_uint) -> Result<Self, String> {
         let config = format!("threads={threads}\0");
         // SAFETY: a plain call with a NUL-terminated configuration string.
         let device = unsafe { ffi::rtcNewDevice(config.as_ptr().cast()) };
@@ -205,6 +209,7 @@ impl Embree {
             device,
             scene,
             mode,
+            quality,
             meshes: Vec::new(),
             first_triangle: Vec::new(),
             build_time: Duration::ZERO,
@@ -213,7 +218,17 @@ impl Embree {
 
     /// Builds the scene with `threads` build threads; an error if Embree refuses.
     pub fn build(triangles: &[Triangle], threads: usize, mode: EmbreeMode) -> Result<Self, String> {
-        let mut this = Self::device(threads, mode)?;
+        Self::build_at(triangles, threads, mode, ffi::BUILD_QUALITY_MEDIUM)
+    }
+
+    /// `build` with the builder `quality` names (`RTCBuildQuality`: 0 low, 1 medium, 2 high).
+    pub fn build_at(
+        triangles: &[Triangle],
+        threads: usize,
+        mode: EmbreeMode,
+        quality: c_uint,
+    ) -> Result<Self, String> {
+        let mut this = Self::device(threads, mode, quality)?;
         let start = Instant::now();
         this.commit_mesh(this.scene, triangles)?;
         this.build_time = start.elapsed();
@@ -229,7 +244,17 @@ impl Embree {
         threads: usize,
         mode: EmbreeMode,
     ) -> Result<Self, String> {
-        let mut this = Self::device(threads, mode)?;
+        Self::build_instanced_at(scene, threads, mode, ffi::BUILD_QUALITY_MEDIUM)
+    }
+
+    /// `build_instanced` with the meshes built at `quality` (`RTCBuildQuality`).
+    pub fn build_instanced_at(
+        scene: &Instancing,
+        threads: usize,
+        mode: EmbreeMode,
+        quality: c_uint,
+    ) -> Result<Self, String> {
+        let mut this = Self::device(threads, mode, quality)?;
         let start = Instant::now();
         for mesh in &scene.meshes {
             // SAFETY: the device is live; the scene is kept in `meshes` and released in `Drop`.
@@ -286,10 +311,13 @@ impl Embree {
         // SAFETY: plain calls into Embree's C API with valid pointers and the sizes given;
         // each returned handle is checked before use.
         unsafe {
-            ffi::rtcSetSceneBuildQuality(scene, ffi::BUILD_QUALITY_MEDIUM);
+            // Embree heeds a mesh's quality only under a scene of low quality, where each
+            // mesh gets a BVH of its own (its Morton builder at low quality).
+            ffi::rtcSetSceneBuildQuality(scene, self.quality);
             self.set_flags(scene);
             if n > 0 {
                 let geometry = ffi::rtcNewGeometry(self.device, ffi::GEOMETRY_TYPE_TRIANGLE);
+                ffi::rtcSetGeometryBuildQuality(geometry, self.quality);
                 let vertices = ffi::rtcSetNewGeometryBuffer(
                     geometry,
                     ffi::BUFFER_TYPE_VERTEX,

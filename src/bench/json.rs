@@ -50,7 +50,7 @@ pub struct LevelsJson {
 /// A peer timed on the same rays.
 #[derive(Serialize)]
 pub struct PeerJson {
-    pub name: &'static str,
+    pub name: String,
     pub build_ms: f64,
     pub primary: RaySetJson,
     /// `null` for a peer without a packet query (tinybvh's BVH8_CPU).
@@ -148,7 +148,7 @@ impl PeerJson {
     fn of(p: &PeerResult) -> PeerJson {
         let set = |r, occlusion| RaySetJson::of(r, occlusion, false);
         PeerJson {
-            name: p.name,
+            name: p.name.clone(),
             build_ms: round3(p.build.as_secs_f64() * 1e3),
             primary: set(&p.primary, false),
             primary_packets: p.primary_packets.as_ref().map(|r| set(r, false)),

@@ -7,7 +7,9 @@ pub mod compare;
 pub mod cpu_time;
 pub mod json;
 pub mod peers;
-pub use peers::{EMBREE_AVAILABLE, EMBREE_MISSING, TINYBVH_AVAILABLE, TINYBVH_MISSING};
+pub use peers::{
+    EMBREE_AVAILABLE, EMBREE_MISSING, EmbreeQuality, TINYBVH_AVAILABLE, TINYBVH_MISSING,
+};
 pub mod plot;
 pub mod rank_correlation;
 pub mod rays;
@@ -52,6 +54,8 @@ pub struct BenchConfig {
     /// Also Embree with its robust flag (`RTC_SCENE_FLAG_ROBUST`), the peer with the
     /// guarantee bvhlab's watertight test gives.
     pub embree_robust: bool,
+    /// Which of Embree's builders builds those peers.
+    pub embree_quality: EmbreeQuality,
     /// Also tinybvh's BVH8_CPU, from its default build and from its SBVH.
     pub tinybvh: bool,
 }
@@ -133,7 +137,7 @@ impl BenchResult {
 /// A peer structure timed on the same ray sets and threads.
 #[derive(Clone, Debug)]
 pub struct PeerResult {
-    pub name: &'static str,
+    pub name: String,
     /// The best of the builds.
     pub build: Duration,
     pub primary: RaySetResult,

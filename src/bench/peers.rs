@@ -17,6 +17,39 @@ use rayon::prelude::*;
 #[cfg(any(feature = "embree", feature = "tinybvh"))]
 use std::time::Duration;
 
+/// Which of Embree's builders builds the peer (`--embree-quality`), as `RTCBuildQuality`
+/// names them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum EmbreeQuality {
+    /// Its Morton builder (a BVH per mesh under a top level): the peer of bvhlab's LBVH.
+    Low,
+    /// Its default binned SAH build.
+    #[default]
+    Medium,
+    /// Binned SAH with spatial splits: the peer of bvhlab's SBVH.
+    High,
+}
+
+impl EmbreeQuality {
+    /// The value of `RTCBuildQuality`.
+    pub fn rtc(self) -> u32 {
+        match self {
+            EmbreeQuality::Low => 0,
+            EmbreeQuality::Medium => 1,
+            EmbreeQuality::High => 2,
+        }
+    }
+
+    /// What the peer's name adds: nothing for the default.
+    pub fn suffix(self) -> &'static str {
+        match self {
+            EmbreeQuality::Low => ", low quality",
+            EmbreeQuality::Medium => "",
+            EmbreeQuality::High => ", high quality",
+        }
+    }
+}
+
 /// Whether this build can run Embree beside bvhlab.
 pub const EMBREE_AVAILABLE: bool = cfg!(feature = "embree");
 
@@ -63,16 +96,18 @@ pub(super) fn run_embree(
     let embree = super::best_build(
         cfg.builds,
         || {
+            let quality = cfg.embree_quality.rtc();
             if two_level {
-                Embree::build_instanced(&scene.instancing(), threads, mode)
+                Embree::build_instanced_at(&scene.instancing(), threads, mode, quality)
             } else {
-                Embree::build(&scene.triangles, threads, mode)
+                Embree::build_at(&scene.triangles, threads, mode, quality)
             }
             .map_err(BenchError::Peer)
         },
         |e| e.build_time,
     )?;
-    let what = (mode.name(two_level), embree.build_time, true);
+    let name = format!("{}{}", mode.name(two_level), cfg.embree_quality.suffix());
+    let what = (name, embree.build_time, true);
     Ok(measure(what, &embree, ours, sets, cfg))
 }
 
@@ -105,7 +140,7 @@ pub(super) fn run_tinybvh(
                 |t| t.build_time,
             )?;
             // One ray at a time: its CPU layout has no packet query.
-            let what = (build.name(), tiny.build_time, false);
+            let what = (build.name().to_string(), tiny.build_time, false);
             Ok(measure(what, &tiny, ours, sets, cfg))
         })
         .collect()
@@ -115,7 +150,7 @@ pub(super) fn run_tinybvh(
 /// and its primary hits against bvhlab's.
 #[cfg(any(feature = "embree", feature = "tinybvh"))]
 fn measure<A: Accel>(
-    (name, build, packets): (&'static str, Duration, bool),
+    (name, build, packets): (String, Duration, bool),
     peer: &A,
     ours: &Structure,
     sets: &RaySets,

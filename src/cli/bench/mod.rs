@@ -80,6 +80,10 @@ pub struct BenchCommand {
     /// --embree or on its own (needs a build with `--features embree`).
     #[arg(long)]
     pub embree_robust: bool,
+    /// Which of Embree's builders builds it: low (its Morton builder, beside --builder
+    /// lbvh), medium (its default) or high (spatial splits, beside --builder sbvh).
+    #[arg(long, value_enum, default_value_t = bench::EmbreeQuality::default())]
+    pub embree_quality: bench::EmbreeQuality,
     /// Also tinybvh's BVH8_CPU (its fastest CPU layout), from its default build and from
     /// its SBVH, on the same rays and threads (needs a build with `--features tinybvh`).
     #[arg(long)]
@@ -188,6 +192,7 @@ impl BenchCommand {
             json: common.json,
             embree: self.embree,
             embree_robust: self.embree_robust,
+            embree_quality: self.embree_quality,
             tinybvh: self.tinybvh,
             intersector: common.intersector,
             accuracy: false,
@@ -245,6 +250,7 @@ pub struct BenchArgs {
     pub json: bool,
     pub embree: bool,
     pub embree_robust: bool,
+    pub embree_quality: bench::EmbreeQuality,
     pub tinybvh: bool,
     pub intersector: IntersectorKind,
     pub accuracy: bool,
@@ -295,6 +301,9 @@ fn run_settings(args: BenchArgs) -> Result<()> {
     }
     if args.tinybvh && !bench::TINYBVH_AVAILABLE {
         anyhow::bail!(bench::TINYBVH_MISSING);
+    }
+    if !embree && super::was_given("embree-quality") {
+        bail!("--embree-quality does nothing without --embree or --embree-robust");
     }
     let peers = embree || args.tinybvh;
     // A study that sets a parameter itself would ignore the flag.
@@ -351,6 +360,7 @@ fn run_settings(args: BenchArgs) -> Result<()> {
         intersector: args.intersector,
         embree: args.embree,
         embree_robust: args.embree_robust,
+        embree_quality: args.embree_quality,
         tinybvh: args.tinybvh,
     };
     let all = args.build.accel == Some(super::AccelArg::All);

@@ -48,6 +48,7 @@ pub(super) fn run_rotation_sweep(args: &BenchArgs, width: u32, height: u32) -> R
         intersector: args.intersector,
         embree: false,
         embree_robust: false,
+        embree_quality: Default::default(),
         tinybvh: false,
     };
     cfg.params.validate()?;
