@@ -57,6 +57,13 @@ impl Aabb {
         }
     }
 
+    /// The six corner coordinates' bits (min, then max): what a test compares to ask for
+    /// the same box to the last bit.
+    pub fn bits(&self) -> [u32; 6] {
+        let (a, b) = (self.min, self.max);
+        [a.x, a.y, a.z, b.x, b.y, b.z].map(f32::to_bits)
+    }
+
     pub fn is_empty(&self) -> bool {
         self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
     }

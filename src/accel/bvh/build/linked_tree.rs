@@ -292,14 +292,7 @@ mod tests {
     /// positions, with no node index in it.
     fn canonical(nodes: &Nodes, order: &[u32], i: usize, out: &mut Vec<u64>) {
         let n = nodes[i];
-        let b = n.bounds();
-        out.extend(
-            b.min
-                .to_array()
-                .iter()
-                .chain(&b.max.to_array())
-                .map(|x| x.to_bits() as u64),
-        );
+        out.extend(n.bounds().bits().map(u64::from));
         if n.is_leaf() {
             out.push(n.count as u64);
             out.extend(n.prim_range().map(|k| order[k] as u64));

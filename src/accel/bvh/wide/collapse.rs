@@ -384,14 +384,7 @@ mod tests {
         let node = &t.nodes[n];
         out.push(node.child_count() as u64);
         for lane in 0..node.child_count() {
-            let b = node.child_bounds(lane);
-            out.extend(
-                b.min
-                    .to_array()
-                    .iter()
-                    .chain(&b.max.to_array())
-                    .map(|x| x.to_bits() as u64),
-            );
+            out.extend(node.child_bounds(lane).bits().map(u64::from));
             out.push(node.leaf_count(lane) as u64);
             match node.interior(lane) {
                 Some(c) => canonical(t, c, out),
