@@ -352,7 +352,7 @@ fn measure(
         time_packets::<_, I>(accel, &sets.primary_tiles, cfg.runs)
     });
     let [p, d, s] = mean_work(accel, sets);
-    let sah_check = SahCheck::measure(accel, params, scene, [p, d, s]);
+    let sah_check = SahCheck::measure(accel, params, scene, [p, d, s], sah_check::EPO_DEADLINE);
     primary.mean = Some(p);
     diffuse.mean = Some(d);
     shadow.mean = Some(s);

@@ -7,6 +7,12 @@
 use crate::accel::sah_check::{MeanWork, RANDOM_RAYS, SahPrediction};
 use crate::accel::{Structure, StructureParams};
 use crate::scene::Scene;
+use std::time::{Duration, Instant};
+
+/// How long the EPO may take before the bench gives it up and reports it missing: the
+/// shared scenes' take under a second, but a scene of long random triangles crossing many
+/// boxes (`soup:10000000`) takes minutes, which the run would otherwise spend on it.
+pub const EPO_DEADLINE: Duration = Duration::from_secs(10);
 
 /// The prediction and the measured costs per ray, in the SAH's units (its fields are the
 /// keys of `sah_check` in the bench's JSON).
@@ -26,18 +32,22 @@ pub struct SahCheck {
 }
 
 impl SahCheck {
-    /// `None` for structures without an SAH cost (grid, octree, brute force, two levels).
+    /// `None` for structures without an SAH cost (grid, octree, brute force, two levels);
+    /// the EPO is `None` if it would take longer than `epo_deadline`.
     pub fn measure(
         accel: &Structure,
         params: &StructureParams,
         scene: &Scene,
         [primary, diffuse, shadow]: [MeanWork; 3],
+        epo_deadline: Duration,
     ) -> Option<SahCheck> {
         let p = SahPrediction::of(accel, params, &scene.bounds(), RANDOM_RAYS)?;
+        let start = Instant::now();
+        let late = || start.elapsed() > epo_deadline;
         let epo = scene
             .flattened()
             .ok()
-            .and_then(|triangles| accel.epo(params, &triangles));
+            .and_then(|triangles| accel.epo_unless(params, &triangles, &late));
         let cost = |m: MeanWork| m.cost(p.c_trav, p.c_isect);
         Some(SahCheck {
             c_trav: p.c_trav,
@@ -49,5 +59,35 @@ impl SahCheck {
             diffuse: cost(diffuse),
             shadow: cost(shadow),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::AccelKind;
+    use crate::accel::structure::build;
+
+    /// The EPO is reported within its deadline and left out past it; the rest of the check
+    /// is the same either way.
+    #[test]
+    fn the_epo_is_given_up_past_its_deadline() {
+        let scene = Scene::load("soup:2000").unwrap();
+        let params = StructureParams::of_kind(AccelKind::Bvh8);
+        let built = build(&scene.triangles, &params, &Default::default()).unwrap();
+        let work = [MeanWork::default(); 3];
+        let check = |deadline| {
+            SahCheck::measure(&built.structure, &params, &scene, work, deadline).unwrap()
+        };
+        let (on_time, late) = (check(EPO_DEADLINE), check(Duration::ZERO));
+        assert!(on_time.epo.is_some_and(|e| e > 0.0), "{on_time:?}");
+        assert_eq!(late.epo, None);
+        assert_eq!(
+            SahCheck {
+                epo: None,
+                ..on_time
+            },
+            late
+        );
     }
 }
