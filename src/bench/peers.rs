@@ -93,10 +93,10 @@ pub(super) fn run_embree(
     // Two levels against Embree's two levels over the same meshes and instances; any other
     // structure against Embree's BVH over the flattened triangles.
     let two_level = ours.places_instances();
+    let quality = cfg.embree_quality.rtc();
     let embree = super::best_build(
         cfg.builds,
         || {
-            let quality = cfg.embree_quality.rtc();
             if two_level {
                 Embree::build_instanced_at(&scene.instancing(), threads, mode, quality)
             } else {

@@ -183,6 +183,21 @@ impl Layout<'_> {
         size
     }
 
+    /// The positions of the leaves under `id`, left first, into `order` (one per leaf): a
+    /// recursion as deep as the links (at most the radix tree's 97 levels, which treelet
+    /// restructuring never deepens past the traversal stack), with no allocation per leaf.
+    fn leaves_under(&self, id: u32, order: &mut [u32]) {
+        let n = &self.nodes[id as usize];
+        if n.is_leaf() {
+            order[0] = n.left;
+            return;
+        }
+        let left_count = self.nodes[n.left as usize].count as usize;
+        let (left, right) = order.split_at_mut(left_count);
+        self.leaves_under(n.left, left);
+        self.leaves_under(n.right, right);
+    }
+
     /// Writes the subtree of `id`: its node into `slot`, its descendants into `below`
     /// (whose first is node `base`), and its leaves' positions into `order` (which starts
     /// at position `first` of the leaf order).
@@ -198,18 +213,7 @@ impl Layout<'_> {
         let n = &self.nodes[id as usize];
         if self.becomes_leaf(n) {
             *slot = Node::leaf(n.bounds, first, n.count);
-            // The leaves under it, left first.
-            let (mut stack, mut k) = (vec![id], 0);
-            while let Some(g) = stack.pop() {
-                let m = &self.nodes[g as usize];
-                if m.is_leaf() {
-                    order[k] = m.left;
-                    k += 1;
-                } else {
-                    stack.push(m.right);
-                    stack.push(m.left);
-                }
-            }
+            self.leaves_under(id, order);
             return;
         }
         *slot = Node::interior(n.bounds, base as u32);
