@@ -38,7 +38,17 @@ where
     Lanes<W>: NodeWidth,
     WideBvh<W>: Accel,
 {
-    let mut wide = WideBvh::<W>::collapse(b2, &CollapseParams::default());
+    let wide = WideBvh::<W>::collapse(b2, &CollapseParams::default());
+    assert_tree_equals_bvh2(wide, b2, rays, what);
+}
+
+/// Every kernel and order of the W-wide tree `wide` against the BVH2 `b2` over the same
+/// triangles.
+fn assert_tree_equals_bvh2<const W: usize>(mut wide: WideBvh<W>, b2: &Bvh, rays: &[Ray], what: &str)
+where
+    Lanes<W>: NodeWidth,
+    WideBvh<W>: Accel,
+{
     wide.validate()
         .unwrap_or_else(|e| panic!("{what}: BVH{W}: {e}"));
     wide.outline()
@@ -97,6 +107,55 @@ fn wide_trees_equal_the_bvh2_on_every_builtin_scene() {
         assert_wide_equals_bvh2::<4>(&b2, &rays, name);
         assert_wide_equals_bvh2::<8>(&b2, &rays, name);
     }
+}
+
+/// The wide trees made straight from the Morton order (`--direct-wide`) give the BVH2's
+/// hits on random soups, every small built-in scene and the degenerate inputs, and are the
+/// same tree on 1 and 2 threads where their parts are laid out in parallel.
+#[test]
+fn wide_trees_straight_from_the_morton_order_equal_the_bvh2() {
+    let mut cases: Vec<(String, Vec<Triangle>, Vec<Ray>)> = Vec::new();
+    for seed in 0..2 {
+        let tris = soup(3000, seed);
+        let rays = rays(&bounds(&tris), 1500, seed + 30);
+        cases.push((format!("soup {seed}"), tris, rays));
+    }
+    for name in SMALL_BUILTINS {
+        let scene = Scene::load(name).unwrap();
+        let mut rays = view_rays(&scene, 32, 24);
+        rays.extend(common::rays(&scene.bounds(), 500, 7));
+        cases.push((name.to_string(), scene.triangles, rays));
+    }
+    for (what, tris) in degenerate_cases() {
+        let box_ = if tris.is_empty() {
+            Aabb::new(Vec3::splat(-1.0), Vec3::ONE)
+        } else {
+            bounds(&tris)
+        };
+        cases.push((what.to_string(), tris, common::rays(&box_, 300, 3)));
+    }
+    for (what, tris, rays) in &cases {
+        let b2 = bvh2(tris, Strategy::SahBinned);
+        for leaf_size in [1, 4] {
+            let what = format!("{what}, direct, leaves of {leaf_size}");
+            let (w4, _) = WideBvh::<4>::morton(tris, leaf_size).expect("direct BVH4");
+            assert_tree_equals_bvh2(w4, &b2, rays, &what);
+            let (w8, _) = WideBvh::<8>::morton(tris, leaf_size).expect("direct BVH8");
+            assert_tree_equals_bvh2(w8, &b2, rays, &what);
+        }
+    }
+    let tris = soup(70_000, 5);
+    let on = |threads| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("thread pool");
+        pool.install(|| fingerprint(&WideBvh::<8>::morton(&tris, 4).unwrap().0))
+    };
+    assert_eq!(on(1), on(2));
+    let b2 = bvh2(&tris, Strategy::Lbvh);
+    let (w8, _) = WideBvh::<8>::morton(&tris, 4).unwrap();
+    assert_tree_equals_bvh2(w8, &b2, &rays(&bounds(&tris), 1000, 9), "soup of 70 000");
 }
 
 /// Any hit of segments that end before, at and past each ray's closest hit, in a tree that

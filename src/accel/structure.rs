@@ -22,7 +22,7 @@ use super::two_level::{self, TwoLevel};
 use super::{Accel, BruteForce, Hit, Stats, TraversalOrder};
 use crate::accel::report::Detail;
 use crate::budget::BudgetError;
-use crate::geometry::simd::SimdLevel;
+use crate::geometry::simd::{BLOCK, SimdLevel};
 use crate::geometry::{Intersector, Ray, Triangle};
 use crate::scene::{FlattenError, Instancing, Scene};
 use std::time::Instant;
@@ -514,8 +514,9 @@ impl Accel for Structure {
     }
 }
 
-/// A wide BVH: the BVH2 built as usual, then collapsed; the report is the BVH2's with the
-/// collapse's time, the wide tree's SAH cost and its memory.
+/// A wide BVH: the BVH2 built as usual, then collapsed (the report is the BVH2's with the
+/// collapse's time), or, for the LBVH with `direct_wide`, made straight from the Morton
+/// order; with the wide tree's SAH cost and its memory.
 fn build_wide<const W: usize>(
     triangles: &[Triangle],
     params: &StructureParams,
@@ -525,18 +526,60 @@ fn build_wide<const W: usize>(
 where
     Lanes<W>: NodeWidth,
 {
-    let (bvh2, bvh_report) = bvh::build_with_progress(triangles, &params.bvh, progress)?;
-    if progress.is_abandoned() {
-        return Err(StructureError::Abandoned);
-    }
-    let start = Instant::now();
-    let collapse = CollapseParams {
-        c_trav: params.bvh.c_trav,
-        c_isect: params.bvh.c_isect,
-        max_leaf_size: params.bvh.max_leaf_size,
+    let (mut wide, build_time, times) = if params.bvh.builds_direct_wide() {
+        params.bvh.validate()?;
+        if params.bvh.presplit > 0.0 {
+            return Err(BuildError::PresplitDirectWide.into());
+        }
+        let start = Instant::now();
+        let leaf_size = params.bvh.max_leaf_size.min(BLOCK as u32);
+        let (wide, phases) = WideBvh::<W>::morton(triangles, leaf_size)?;
+        let build_time = start.elapsed();
+        progress.add(triangles.len());
+        let rows = vec![(
+            "builder".into(),
+            "lbvh, wide nodes straight from the Morton order".into(),
+        )];
+        (
+            wide,
+            build_time,
+            rows.into_iter()
+                .chain(phases.time_rows())
+                .collect::<Vec<_>>(),
+        )
+    } else {
+        let (bvh2, bvh_report) = bvh::build_with_progress(triangles, &params.bvh, progress)?;
+        if progress.is_abandoned() {
+            return Err(StructureError::Abandoned);
+        }
+        let start = Instant::now();
+        let collapse = CollapseParams {
+            c_trav: params.bvh.c_trav,
+            c_isect: params.bvh.c_isect,
+            max_leaf_size: params.bvh.max_leaf_size,
+        };
+        let (wide, collapse_phases) = WideBvh::<W>::collapse_timed(&bvh2, &collapse)?;
+        let collapse_time = start.elapsed();
+        let rows = [
+            ("builder".into(), params.bvh.strategy.label().into()),
+            ("BVH2 build".into(), Detail::Time(bvh_report.build_time)),
+            ("collapse".into(), Detail::Time(collapse_time)),
+        ]
+        .into_iter()
+        .chain(bvh_report.phases.time_rows())
+        .chain([
+            (
+                "time: collapse table".into(),
+                Detail::Time(collapse_phases.table),
+            ),
+            (
+                "time: collapse layout".into(),
+                Detail::Time(collapse_phases.layout),
+            ),
+        ])
+        .collect::<Vec<_>>();
+        (wide, bvh_report.build_time + collapse_time, rows)
     };
-    let (mut wide, collapse_phases) = WideBvh::<W>::collapse_timed(&bvh2, &collapse)?;
-    let collapse_time = start.elapsed();
     wide.order = params.order;
     let leaves = wide.leaf_count();
     let largest_leaf = wide
@@ -558,7 +601,7 @@ where
         }
         .label(),
         triangles: triangles.len(),
-        build_time: bvh_report.build_time + collapse_time,
+        build_time,
         bytes,
         nodes: wide.nodes.len(),
         leaves,
@@ -566,36 +609,23 @@ where
         max_depth: wide.depth,
         references: wide.references(),
         largest_leaf,
-        details: vec![
-            ("builder".into(), params.bvh.strategy.label().into()),
-            ("BVH2 build".into(), Detail::Time(bvh_report.build_time)),
-            ("collapse".into(), Detail::Time(collapse_time)),
-            (
+        details: times
+            .into_iter()
+            .chain([(
                 "threads".into(),
                 Detail::count(rayon::current_num_threads()),
-            ),
-        ]
-        .into_iter()
-        .chain(bvh_report.phases.time_rows())
-        .chain([
-            (
-                "time: collapse table".into(),
-                Detail::Time(collapse_phases.table),
-            ),
-            (
-                "time: collapse layout".into(),
-                Detail::Time(collapse_phases.layout),
-            ),
-            (
-                "SAH cost".into(),
-                Detail::Number(wide.sah_cost(params.bvh.c_trav, params.bvh.c_isect), 2),
-            ),
-            (
-                "bytes per triangle".into(),
-                Detail::Number(bytes as f64 / triangles.len().max(1) as f64, 1),
-            ),
-        ])
-        .collect(),
+            )])
+            .chain([
+                (
+                    "SAH cost".into(),
+                    Detail::Number(wide.sah_cost(params.bvh.c_trav, params.bvh.c_isect), 2),
+                ),
+                (
+                    "bytes per triangle".into(),
+                    Detail::Number(bytes as f64 / triangles.len().max(1) as f64, 1),
+                ),
+            ])
+            .collect(),
         caps_hit: Vec::new(),
     };
     Ok(Built {

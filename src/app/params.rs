@@ -52,7 +52,7 @@ pub fn structure_params(ui: &mut egui::Ui, p: &mut StructureParams) {
             traversal_order(ui, &mut p.order);
         }
         AccelKind::Bvh4 | AccelKind::Bvh8 => {
-            edit(ui, &mut p.bvh, &[]);
+            edit(ui, &mut p.bvh, &["wide"]);
             traversal_order(ui, &mut p.order);
             simd_level(ui, &mut p.simd);
         }

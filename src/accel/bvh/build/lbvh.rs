@@ -253,20 +253,10 @@ impl Fill<'_> {
     }
 }
 
-/// Builds the LBVH (and, for `Strategy::LbvhTreelet`, restructures it) over the triangle
-/// references `refs`, which is not empty. Returns the nodes, the leaf order as triangle
-/// indices, and the time of each phase.
-pub fn build(
-    refs: &[PrimRef],
-    params: &BuildParams,
-) -> (crate::accel::bvh::Nodes, Vec<u32>, BuildPhases) {
-    let sah = SahCost {
-        c_trav: params.c_trav as f64,
-        c_isect: params.c_isect as f64,
-        max_leaf_size: params.max_leaf_size,
-    };
-    let mut phases = BuildPhases::default();
-
+/// The references sorted along the Morton curve through their centroids (a stable sort, so
+/// equal codes keep the references' order): each one's code, and its index into `refs`.
+/// Also returns the references' boxes, in `refs`' order. Times its two phases.
+pub(crate) fn morton_order(refs: &[PrimRef], phases: &mut BuildPhases) -> (Vec<Keyed>, Vec<Aabb>) {
     let start = Instant::now();
     let bounds: Vec<Aabb> = refs.par_iter().map(|r| Aabb::new(r.min, r.max)).collect();
     let centroids = bounds
@@ -287,9 +277,27 @@ pub fn build(
     let start = Instant::now();
     radix_sort::sort(&mut keyed);
     phases.add("radix sort", start.elapsed());
+    (keyed, bounds)
+}
+
+/// Builds the LBVH (and, for `Strategy::LbvhTreelet`, restructures it) over the triangle
+/// references `refs`, which is not empty. Returns the nodes, the leaf order as triangle
+/// indices, and the time of each phase.
+pub fn build(
+    refs: &[PrimRef],
+    params: &BuildParams,
+) -> (crate::accel::bvh::Nodes, Vec<u32>, BuildPhases) {
+    let sah = SahCost {
+        c_trav: params.c_trav as f64,
+        c_isect: params.c_isect as f64,
+        max_leaf_size: params.max_leaf_size,
+    };
+    let mut phases = BuildPhases::default();
+    let (keyed, bounds) = morton_order(refs, &mut phases);
 
     let start = Instant::now();
     let codes: Vec<u64> = keyed.par_iter().map(|k| k.key).collect();
+
     let order: Vec<u32> = keyed.par_iter().map(|k| k.value).collect();
     drop(keyed);
     let radix = RadixTree { codes: &codes };

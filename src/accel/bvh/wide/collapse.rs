@@ -216,26 +216,19 @@ where
             s
         };
         let mut layout = Layout { bvh, costs, cut };
-        let (mut tree, cuts) = layout.lay_out(root_slots, 1);
+        let (tree, cuts) = layout.lay_out(root_slots, 1);
         layout.cut = None;
-        let parts: Vec<(Part<W>, Cut)> = cuts
-            .into_par_iter()
+        let parts: Vec<Part<W>> = cuts
+            .par_iter()
             .map(|c| {
                 let mut slots = Vec::with_capacity(W);
                 open(bvh, costs, c.slot, W, &mut slots);
-                (layout.lay_out(slots, c.depth).0, c)
+                layout.lay_out(slots, c.depth).0
             })
             .collect();
-        // One copy of each part: the whole tree's room reserved before the first.
-        tree.nodes
-            .reserve(parts.iter().map(|(p, _)| p.nodes.len()).sum());
-        tree.blocks
-            .reserve(parts.iter().map(|(p, _)| p.blocks.len()).sum());
-        tree.prim_indices
-            .reserve(parts.iter().map(|(p, _)| p.prim_indices.len()).sum());
-        for (part, c) in parts {
-            tree.nodes[c.node].child[c.lane] = Subtree::node(tree.nodes.len() as u32);
-            tree.append(part);
+        let (mut tree, bases) = tree.concat(parts);
+        for (c, base) in cuts.iter().zip(bases) {
+            tree.nodes[c.node].child[c.lane] = Subtree::node(base);
         }
         tree
     }
@@ -370,15 +363,18 @@ impl Bvh {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::accel::bvh::{self, BuildParams};
     use crate::scene::builtin;
 
     /// The subtree under `lane` of node `n`, written out depth first: boxes, counts and the
     /// scene triangles of each leaf, with no node index or slot in it.
-    fn canonical<const W: usize>(t: &WideBvh<W>, n: usize, out: &mut Vec<u64>)
-    where
+    pub(in crate::accel::bvh::wide) fn canonical<const W: usize>(
+        t: &WideBvh<W>,
+        n: usize,
+        out: &mut Vec<u64>,
+    ) where
         Lanes<W>: NodeWidth,
     {
         let node = &t.nodes[n];

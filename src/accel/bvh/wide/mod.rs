@@ -10,6 +10,7 @@
 
 pub mod collapse;
 pub mod leaf;
+pub mod morton;
 pub mod node;
 mod order;
 pub mod packet;

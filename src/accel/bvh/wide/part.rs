@@ -1,11 +1,12 @@
 //! A part of a wide tree: nodes, leaf blocks and slots laid out as if they were a whole
 //! tree, so that subtrees can be laid out side by side on several threads and then placed
-//! one after another (`append`). The collapse and the direct build both lay out in parts.
+//! one after another (`concat`). The collapse and the direct build both lay out in parts.
 
 use super::leaf::BlockPacker;
 use super::node::{LaneKind, Lanes, MAX_LEAF_COUNT, NodeWidth, Subtree, WideNode};
 use crate::geometry::simd::TriangleBlock;
 use crate::geometry::{Aabb, Triangle};
+use rayon::prelude::*;
 
 /// A part of the wide tree laid out as if it were a whole tree: its first node is its root,
 /// its leaves' slots start at 0.
@@ -18,7 +19,7 @@ where
     pub prim_indices: Vec<u32>,
     /// The depth of its deepest node in the whole tree.
     pub depth: u32,
-    /// Where the parts appended to it begin (`WideBvh::parts`).
+    /// Where the parts placed after it begin (`WideBvh::parts`).
     pub parts: Vec<u32>,
 }
 
@@ -26,24 +27,61 @@ impl<const W: usize> Part<W>
 where
     Lanes<W>: NodeWidth,
 {
-    /// Places `part` after this one: its node indices and slots move by this one's counts.
-    pub fn append(&mut self, part: Part<W>) {
-        let (node_base, slot_base) = (self.nodes.len() as u32, self.prim_indices.len() as u32);
-        debug_assert!(part.parts.is_empty(), "parts do not nest");
-        self.parts.push(node_base);
-        self.nodes.extend(part.nodes.into_iter().map(|mut n| {
-            for lane in 0..n.child_count() {
-                n.child[lane] = match n.lane_kind(lane) {
+    /// This part (the top of the tree) and `parts` placed after it in order, as one: each
+    /// part's node indices and slots moved by the counts before it. Every node, block and
+    /// slot is written once, in place, on every thread (a copy of a large tree is mostly
+    /// the first touch of its pages). Returns where each part's nodes begin.
+    pub fn concat(self, parts: Vec<Part<W>>) -> (Part<W>, Vec<u32>) {
+        // Where each piece (the top, then the parts) begins in the three arrays.
+        let mut starts = Vec::with_capacity(parts.len() + 1);
+        let (mut n, mut b, mut s) = (0, 0, 0);
+        for p in std::iter::once(&self).chain(&parts) {
+            debug_assert!(p.parts.is_empty(), "parts do not nest");
+            starts.push([n, b, s]);
+            n += p.nodes.len();
+            b += p.blocks.len();
+            s += p.prim_indices.len();
+        }
+        let pieces: Vec<&Part<W>> = std::iter::once(&self).chain(&parts).collect();
+        // Element i of array a: its piece (the last starting at or before i) and offset.
+        let locate = |a: usize, i: usize| {
+            let k = starts.partition_point(|st| st[a] <= i) - 1;
+            (k, i - starts[k][a])
+        };
+        let mut nodes = Vec::with_capacity(n);
+        nodes.par_extend((0..n).into_par_iter().map(|i| {
+            let (k, j) = locate(0, i);
+            let [node_base, _, slot_base] = starts[k].map(|x| x as u32);
+            let mut node = pieces[k].nodes[j];
+            for lane in 0..node.child_count() {
+                node.child[lane] = match node.lane_kind(lane) {
                     LaneKind::Interior(c) => Subtree::node(c + node_base),
                     LaneKind::Leaf { first, count } => Subtree::leaf(first + slot_base, count),
                     LaneKind::Unused => Subtree::UNUSED,
                 };
             }
-            n
+            node
         }));
-        self.blocks.extend(part.blocks);
-        self.prim_indices.extend(part.prim_indices);
-        self.depth = self.depth.max(part.depth);
+        let mut blocks = Vec::with_capacity(b);
+        blocks.par_extend((0..b).into_par_iter().map(|i| {
+            let (k, j) = locate(1, i);
+            pieces[k].blocks[j]
+        }));
+        let mut prim_indices = Vec::with_capacity(s);
+        prim_indices.par_extend((0..s).into_par_iter().map(|i| {
+            let (k, j) = locate(2, i);
+            pieces[k].prim_indices[j]
+        }));
+        let bases: Vec<u32> = starts[1..].iter().map(|st| st[0] as u32).collect();
+        let depth = pieces.iter().map(|p| p.depth).max().unwrap_or(1);
+        let whole = Part {
+            nodes,
+            blocks,
+            prim_indices,
+            depth,
+            parts: bases.clone(),
+        };
+        (whole, bases)
     }
 }
 

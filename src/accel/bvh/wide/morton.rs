@@ -1,0 +1,369 @@
+//! A wide BVH straight from the Morton order: the LBVH's radix tree, grouped into wide nodes
+//! as it is found, for scenes that move and must be rebuilt every frame.
+//!
+//! The LBVH of the lecture makes three trees: the radix tree (a link per triangle), the
+//! canonical BVH2, and the wide tree collapsed from it. Here the triangles are sorted along
+//! the Morton curve as there, and then one top-down pass makes the wide nodes: a node's
+//! range of sorted triangles is split where the radix tree splits it (the highest bit in
+//! which its first and last codes differ), and its largest part split again, until it has
+//! W parts or every part is a leaf of at most `leaf_size` triangles. The boxes are found on
+//! the way back up. No SAH is evaluated: the tree follows the curve.
+//!
+//! Large subtrees are laid out as parts of their own, in parallel, as the collapse lays
+//! out its parts (`part`); the tree is the same for any number of threads.
+
+use super::WideBvh;
+use super::collapse::MAX_REFERENCES;
+use super::leaf::BlockPacker;
+use super::node::{LaneKind, Lanes, MAX_LEAF_COUNT, MAX_NODE, NodeWidth, Subtree, WideNode};
+use super::part::Part;
+use crate::accel::bvh::TraversalOrder;
+use crate::accel::bvh::build::{BuildError, morton_order, whole_references};
+use crate::accel::bvh::report::BuildPhases;
+use crate::geometry::simd::SimdLevel;
+use crate::geometry::{Aabb, Triangle};
+use rayon::prelude::*;
+use std::ops::Range;
+use std::time::Instant;
+
+/// The sorted triangles and their codes, and the leaf size.
+struct Sorted<'a> {
+    codes: &'a [u64],
+    /// The triangles in Morton order, with their scene indices.
+    tris: &'a [(Triangle, u32)],
+    leaf_size: usize,
+    /// Subtrees of at most this many triangles are left as parts of their own.
+    cut: Option<usize>,
+}
+
+/// A subtree left to be laid out as a part: the range under lane `lane` of node `node`.
+struct Cut {
+    node: usize,
+    lane: usize,
+    range: Range<usize>,
+    depth: u32,
+}
+
+impl<const W: usize> WideBvh<W>
+where
+    Lanes<W>: NodeWidth,
+{
+    /// The wide tree over `triangles` straight from their Morton order, with leaves of at
+    /// most `leaf_size` triangles (1..=`MAX_LEAF_COUNT`). Returns the time of its phases.
+    pub fn morton(
+        triangles: &[Triangle],
+        leaf_size: u32,
+    ) -> Result<(Self, BuildPhases), BuildError> {
+        if triangles.len() > MAX_REFERENCES {
+            return Err(BuildError::TooManyForWide(triangles.len()));
+        }
+        if let Some(i) = triangles.par_iter().position_any(|t| !t.is_finite()) {
+            return Err(BuildError::NonFinite(i));
+        }
+        let leaf_size = leaf_size.clamp(1, MAX_LEAF_COUNT) as usize;
+        let mut phases = BuildPhases::default();
+        let refs = whole_references(triangles);
+        let (keyed, _) = morton_order(&refs, &mut phases);
+        drop(refs);
+        let start = Instant::now();
+        let codes: Vec<u64> = keyed.par_iter().map(|k| k.key).collect();
+        let tris: Vec<(Triangle, u32)> = keyed
+            .par_iter()
+            .map(|k| (triangles[k.value as usize], k.value))
+            .collect();
+        drop(keyed);
+        phases.add("sorted triangles", start.elapsed());
+
+        let start = Instant::now();
+        let n = tris.len();
+        let sorted = Sorted {
+            codes: &codes,
+            tris: &tris,
+            leaf_size,
+            cut: (n >= 1 << 15).then(|| (n / 32).max(1 << 12)),
+        };
+        let tree = sorted.lay_out_tree::<W>();
+        phases.add("wide nodes", start.elapsed());
+        Ok((
+            WideBvh {
+                nodes: tree.nodes,
+                blocks: tree.blocks,
+                prim_indices: tree.prim_indices,
+                triangle_count: n,
+                order: TraversalOrder::default(),
+                simd: SimdLevel::detect(),
+                depth: tree.depth,
+                lanes: Default::default(),
+                parts: tree.parts,
+            },
+            phases,
+        ))
+    }
+}
+
+impl Sorted<'_> {
+    /// Where the radix tree splits `r` (of two triangles or more): the first position
+    /// whose code differs from the first code in their highest differing bit; the middle
+    /// where all codes are equal.
+    fn split(&self, r: &Range<usize>) -> usize {
+        let (first, last) = (self.codes[r.start], self.codes[r.end - 1]);
+        if first == last {
+            return r.start + r.len() / 2;
+        }
+        let prefix = (first ^ last).leading_zeros();
+        r.start + self.codes[r.clone()].partition_point(|&c| (c ^ first).leading_zeros() > prefix)
+    }
+
+    /// The length of the code prefix shared by the range: the shorter, the larger the
+    /// Morton cell that holds its centroids.
+    fn prefix(&self, r: &Range<usize>) -> u32 {
+        (self.codes[r.start] ^ self.codes[r.end - 1]).leading_zeros()
+    }
+
+    /// The ranges the node over `r` takes as children, in Morton order: `r` split, then
+    /// the largest part over a leaf's size split again, while the node has lanes free.
+    fn children<const W: usize>(&self, r: Range<usize>) -> ([Range<usize>; W], usize) {
+        let mut kids: [Range<usize>; W] = std::array::from_fn(|_| 0..0);
+        kids[0] = r;
+        let mut count = 1;
+        while count < W {
+            let Some(k) = (0..count)
+                .filter(|&k| kids[k].len() > self.leaf_size)
+                .min_by_key(|&k| (self.prefix(&kids[k]), usize::MAX - kids[k].len(), k))
+            else {
+                break;
+            };
+            let whole = kids[k].clone();
+            let s = self.split(&whole);
+            for j in (k + 1..count).rev() {
+                kids[j + 1] = kids[j].clone();
+            }
+            kids[k] = whole.start..s;
+            kids[k + 1] = s..whole.end;
+            count += 1;
+        }
+        (kids, count)
+    }
+
+    /// The whole tree: its top down to the cuts, then the parts below the cuts in
+    /// parallel, placed after the top in the order of their cuts, and the top's boxes
+    /// completed from theirs.
+    fn lay_out_tree<const W: usize>(&self) -> Part<W>
+    where
+        Lanes<W>: NodeWidth,
+    {
+        let mut tree = Part {
+            nodes: Vec::new(),
+            blocks: Vec::new(),
+            prim_indices: Vec::new(),
+            depth: 1,
+            parts: Vec::new(),
+        };
+        let all = 0..self.tris.len();
+        let mut packer = BlockPacker::default();
+        let mut cuts = Vec::new();
+        if all.len() <= self.leaf_size {
+            // One lane: a leaf of every triangle (or none).
+            let mut root = WideNode::<W>::default();
+            if !all.is_empty() {
+                let (leaf, _) = tree.place_leaf(&mut packer, self.tris, None, 2);
+                root.child[0] = leaf;
+                root.set_child_bounds(0, bounds_of(self.tris));
+            }
+            tree.nodes.push(root);
+            return tree;
+        }
+        self.node(&mut tree, &mut packer, all, 1, &mut cuts);
+        let solo = Sorted { cut: None, ..*self };
+        let parts: Vec<(Part<W>, Aabb)> = cuts
+            .par_iter()
+            .map(|c| {
+                let mut part = Part {
+                    nodes: Vec::new(),
+                    blocks: Vec::new(),
+                    prim_indices: Vec::new(),
+                    depth: c.depth,
+                    parts: Vec::new(),
+                };
+                let bounds = solo.node(
+                    &mut part,
+                    &mut BlockPacker::default(),
+                    c.range.clone(),
+                    c.depth,
+                    &mut Vec::new(),
+                );
+                (part, bounds)
+            })
+            .collect();
+        let top = tree.nodes.len();
+        let (parts, bounds): (Vec<Part<W>>, Vec<Aabb>) = parts.into_iter().unzip();
+        let (mut tree, bases) = tree.concat(parts);
+        for ((c, base), b) in cuts.iter().zip(bases).zip(bounds) {
+            let node = &mut tree.nodes[c.node];
+            node.child[c.lane] = Subtree::node(base);
+            node.set_child_bounds(c.lane, b);
+        }
+        // The top's boxes over the cuts, children (after their parents) first.
+        for i in (0..top).rev() {
+            for lane in 0..W {
+                if let LaneKind::Interior(c) = tree.nodes[i].lane_kind(lane)
+                    && (c as usize) < top
+                {
+                    let b = tree.nodes[c as usize].bounds();
+                    tree.nodes[i].set_child_bounds(lane, b);
+                }
+            }
+        }
+        tree
+    }
+
+    /// Lays out the node over `r` (more than a leaf's triangles) at depth `depth`, and all
+    /// below it depth first, but for subtrees within the cut, left in `cuts`; returns its
+    /// box (missing the cut subtrees', which the caller adds).
+    fn node<const W: usize>(
+        &self,
+        part: &mut Part<W>,
+        packer: &mut BlockPacker,
+        r: Range<usize>,
+        depth: u32,
+        cuts: &mut Vec<Cut>,
+    ) -> Aabb
+    where
+        Lanes<W>: NodeWidth,
+    {
+        part.depth = part.depth.max(depth);
+        let index = part.nodes.len();
+        part.nodes.push(WideNode::default());
+        let (kids, count) = self.children::<W>(r);
+        let mut node = WideNode::<W>::default();
+        for (lane, k) in kids[..count].iter().enumerate() {
+            if k.len() <= self.leaf_size {
+                let tris = &self.tris[k.clone()];
+                let (leaf, _) = part.place_leaf(packer, tris, None, depth + 1);
+                node.child[lane] = leaf;
+                node.set_child_bounds(lane, bounds_of(tris));
+            } else if self.cut.is_some_and(|c| k.len() <= c) {
+                // The part's first node, once the parts are placed.
+                node.child[lane] = Subtree::node(MAX_NODE);
+                cuts.push(Cut {
+                    node: index,
+                    lane,
+                    range: k.clone(),
+                    depth: depth + 1,
+                });
+            } else {
+                node.child[lane] = Subtree::node(part.nodes.len() as u32);
+                let b = self.node(part, packer, k.clone(), depth + 1, cuts);
+                node.set_child_bounds(lane, b);
+            }
+        }
+        let bounds = node.bounds();
+        part.nodes[index] = node;
+        bounds
+    }
+}
+
+fn bounds_of(tris: &[(Triangle, u32)]) -> Aabb {
+    tris.iter().fold(Aabb::EMPTY, |b, t| b.union(t.0.bounds()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::bvh::wide::collapse::tests::canonical;
+    use crate::accel::bvh::wide::leaf::PADDING;
+    use crate::scene::builtin;
+
+    /// The tree over `tris` with the parts cut at `cut` triangles (`None`: one piece).
+    fn tree(tris: &[Triangle], cut: Option<usize>) -> WideBvh<8> {
+        let refs = whole_references(tris);
+        let (keyed, _) = morton_order(&refs, &mut BuildPhases::default());
+        let codes: Vec<u64> = keyed.iter().map(|k| k.key).collect();
+        let sorted: Vec<(Triangle, u32)> = keyed
+            .iter()
+            .map(|k| (tris[k.value as usize], k.value))
+            .collect();
+        let s = Sorted {
+            codes: &codes,
+            tris: &sorted,
+            leaf_size: 4,
+            cut,
+        };
+        let part = s.lay_out_tree::<8>();
+        WideBvh {
+            nodes: part.nodes,
+            blocks: part.blocks,
+            prim_indices: part.prim_indices,
+            triangle_count: tris.len(),
+            order: TraversalOrder::default(),
+            simd: SimdLevel::detect(),
+            depth: part.depth,
+            lanes: Default::default(),
+            parts: part.parts,
+        }
+    }
+
+    /// Laying the tree out in parts, at any cut, gives the tree laid out in one piece, and
+    /// that tree holds every triangle once, in leaves of at most four, inside its boxes.
+    #[test]
+    fn parts_laid_out_apart_make_the_same_tree() {
+        for spec in [
+            "soup:6000",
+            "sphere:5000",
+            "teapot-in-stadium",
+            "same-centroid",
+        ] {
+            let tris = builtin::by_name(spec).unwrap().unwrap().triangles;
+            let whole = |cut| {
+                let t = tree(&tris, cut);
+                t.validate()
+                    .unwrap_or_else(|e| panic!("{spec}, cut {cut:?}: {e}"));
+                let mut c = Vec::new();
+                canonical(&t, 0, &mut c);
+                (c, t.depth, t.nodes.len())
+            };
+            let one_piece = whole(None);
+            for cut in [5, 8, 50, 400, 3000, 1 << 20] {
+                assert_eq!(whole(Some(cut)), one_piece, "{spec}, cut {cut}");
+            }
+            let t = tree(&tris, None);
+            let mut held: Vec<u32> = t
+                .prim_indices
+                .iter()
+                .copied()
+                .filter(|&i| i != PADDING)
+                .collect();
+            held.sort_unstable();
+            assert!(held.iter().copied().eq(0..tris.len() as u32), "{spec}");
+            let largest = t
+                .nodes
+                .iter()
+                .flat_map(|n| (0..8).map(|l| n.leaf_count(l)))
+                .max();
+            assert!(largest <= Some(4), "{spec}: {largest:?}");
+        }
+    }
+
+    /// A range splits where the radix tree splits it: before the first code that differs
+    /// from the range's first in their highest differing bit; equal codes are halved.
+    #[test]
+    fn ranges_split_at_the_radix_trees_split() {
+        let codes: Vec<u64> = vec![1, 2, 4, 5, 5, 5, 19, 24, 25, 30, 30];
+        let s = Sorted {
+            codes: &codes,
+            tris: &[],
+            leaf_size: 1,
+            cut: None,
+        };
+        assert_eq!(s.split(&(0..11)), 6); // 19 = 0b10011 starts the half with bit 4 set.
+        assert_eq!(s.split(&(0..6)), 2); // 4 = 0b100 starts bit 2.
+        assert_eq!(s.split(&(3..6)), 4); // Three equal codes: halved.
+        assert_eq!(s.split(&(9..11)), 10);
+        // The node opens the part of the largest cell first (19..30 differ from bit 3 on,
+        // 1..5 from bit 2), then, of equal cells, the larger part: 19 is split off, then
+        // 1..5 (six codes) before 24..30 (four).
+        let (kids, count) = s.children::<4>(0..11);
+        assert_eq!(count, 4);
+        assert_eq!(kids.to_vec(), vec![0..2, 2..6, 6..7, 7..11]);
+    }
+}
