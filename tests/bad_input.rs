@@ -385,7 +385,7 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
                 "--presplit",
                 "0.5",
             ],
-            "pre-splitting does not apply to the wide tree made straight from the Morton order",
+            "the pre-split budget (--presplit) must be 0 for wide nodes straight from the Morton order (--direct-wide)",
         ),
         (
             &["stats", "--scene", "cornell", "--direct-wide", "yes"],

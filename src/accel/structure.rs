@@ -45,9 +45,9 @@ pub enum AccelKind {
     /// The BVH2 built with the --builder parameters.
     #[default]
     Bvh,
-    /// The BVH2 collapsed into a 4-wide BVH, traced with SIMD (--simd).
+    /// The BVH2 collapsed into a 4-wide BVH (or the LBVH's made directly, --direct-wide), traced with SIMD (--simd).
     Bvh4,
-    /// The BVH2 collapsed into an 8-wide BVH, traced with SIMD (--simd).
+    /// The BVH2 collapsed into an 8-wide BVH (or the LBVH's made directly, --direct-wide), traced with SIMD (--simd).
     Bvh8,
     /// SAH k-d tree with perfect splits (--kd-* parameters, --empty-bonus).
     #[value(name = "kdtree")]

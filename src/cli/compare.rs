@@ -193,6 +193,8 @@ mod tests {
             "0.5",
             "--presplit",
             "0.2",
+            "--direct-wide",
+            "true",
             "--rebraid",
             "2",
             "--order",

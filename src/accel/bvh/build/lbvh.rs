@@ -253,10 +253,9 @@ impl Fill<'_> {
     }
 }
 
-/// The references sorted along the Morton curve through their centroids (a stable sort, so
-/// equal codes keep the references' order): each one's code, and its index into `refs`.
-/// Also returns the references' boxes, in `refs`' order. Times its two phases.
-pub(crate) fn morton_order(refs: &[PrimRef], phases: &mut BuildPhases) -> (Vec<Keyed>, Vec<Aabb>) {
+/// The Morton code of each reference's centroid (63 bits: 21 per axis, over the centroids'
+/// bounds), with its index into `refs`, in `refs`' order; and the references' boxes.
+pub(crate) fn morton_keys(refs: &[PrimRef], phases: &mut BuildPhases) -> (Vec<Keyed>, Vec<Aabb>) {
     let start = Instant::now();
     let bounds: Vec<Aabb> = refs.par_iter().map(|r| Aabb::new(r.min, r.max)).collect();
     let centroids = bounds
@@ -264,7 +263,7 @@ pub(crate) fn morton_order(refs: &[PrimRef], phases: &mut BuildPhases) -> (Vec<K
         .fold(|| CentroidBounds::EMPTY, |b, t| b.grow(centroid(t)))
         .reduce(|| CentroidBounds::EMPTY, CentroidBounds::union);
     let quantizer = Quantizer::new(&centroids);
-    let mut keyed: Vec<Keyed> = bounds
+    let keyed: Vec<Keyed> = bounds
         .par_iter()
         .enumerate()
         .map(|(i, b)| Keyed {
@@ -273,10 +272,6 @@ pub(crate) fn morton_order(refs: &[PrimRef], phases: &mut BuildPhases) -> (Vec<K
         })
         .collect();
     phases.add("Morton codes", start.elapsed());
-
-    let start = Instant::now();
-    radix_sort::sort(&mut keyed);
-    phases.add("radix sort", start.elapsed());
     (keyed, bounds)
 }
 
@@ -293,7 +288,10 @@ pub fn build(
         max_leaf_size: params.max_leaf_size,
     };
     let mut phases = BuildPhases::default();
-    let (keyed, bounds) = morton_order(refs, &mut phases);
+    let (mut keyed, bounds) = morton_keys(refs, &mut phases);
+    let start = Instant::now();
+    radix_sort::sort(&mut keyed);
+    phases.add("radix sort", start.elapsed());
 
     let start = Instant::now();
     let codes: Vec<u64> = keyed.par_iter().map(|k| k.key).collect();

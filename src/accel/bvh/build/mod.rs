@@ -32,7 +32,8 @@ pub mod split_costs;
 mod subset_terms;
 pub mod treelet;
 
-pub(crate) use lbvh::morton_order;
+pub(crate) use lbvh::morton_keys;
+pub(crate) use radix_sort::sort_from as radix_sort_from;
 pub use split_costs::split_costs;
 
 use super::node::{Node, Nodes};
@@ -360,7 +361,7 @@ pub enum BuildError {
     #[error("{name} = {value} must be {}", crate::accel::params::cost_rule(name))]
     Cost { name: &'static str, value: f32 },
     #[error(
-        "pre-splitting does not apply to the wide tree made straight from the Morton order: set --presplit 0 or --direct-wide false"
+        "the pre-split budget (--presplit) must be 0 for wide nodes straight from the Morton order (--direct-wide), which split no reference"
     )]
     PresplitDirectWide,
     #[error("triangle {0} has a NaN or infinite vertex")]

@@ -19,17 +19,44 @@ const MIN_CHUNK: usize = 16 * 1024;
 /// At most this many chunks, so the per-pass bookkeeping stays small for huge inputs.
 const MAX_CHUNKS: usize = 256;
 
+/// What the sort orders: an item with a 64-bit key.
+pub trait Radix: Copy + Default + Send + Sync {
+    fn key(&self) -> u64;
+}
+
+impl Radix for Keyed {
+    #[inline(always)]
+    fn key(&self) -> u64 {
+        self.key
+    }
+}
+
+/// A key that carries its own value in its low bits (the direct wide build: a 30-bit
+/// Morton code above a 32-bit index), sorted by its high bits only (`sort_high`).
+impl Radix for u64 {
+    #[inline(always)]
+    fn key(&self) -> u64 {
+        *self
+    }
+}
+
 /// Sorts `items` by key, stably.
-pub fn sort(items: &mut Vec<Keyed>) {
+pub fn sort<T: Radix>(items: &mut Vec<T>) {
+    sort_from(items, 0);
+}
+
+/// Sorts `items` stably by the key's bits from `low_bit` up (a multiple of eight): half the
+/// passes for keys whose low half is a value to carry along.
+pub fn sort_from<T: Radix>(items: &mut Vec<T>, low_bit: u32) {
     let n = items.len();
     if n < 2 {
         return;
     }
     let chunk = n.div_ceil(MAX_CHUNKS).max(MIN_CHUNK);
-    let mut other = vec![Keyed::default(); n];
-    for pass in 0..u64::BITS.div_ceil(DIGIT_BITS) {
+    let mut other = vec![T::default(); n];
+    for pass in low_bit / DIGIT_BITS..u64::BITS.div_ceil(DIGIT_BITS) {
         let shift = pass * DIGIT_BITS;
-        let digit = move |k: &Keyed| ((k.key >> shift) as usize) & (BUCKETS - 1);
+        let digit = move |k: &T| ((k.key() >> shift) as usize) & (BUCKETS - 1);
         let histograms: Vec<[usize; BUCKETS]> = items
             .par_chunks(chunk)
             .map(|c| {
@@ -47,10 +74,10 @@ pub fn sort(items: &mut Vec<Keyed>) {
         // The output in bucket-major, chunk-minor order, cut into one piece per (chunk,
         // bucket): chunk c's keys of bucket d land in piece [c][d], after the keys of bucket
         // d from the chunks before it. That is what makes the pass stable.
-        let mut pieces: Vec<Vec<&mut [Keyed]>> = (0..histograms.len())
+        let mut pieces: Vec<Vec<&mut [T]>> = (0..histograms.len())
             .map(|_| Vec::with_capacity(BUCKETS))
             .collect();
-        let mut rest: &mut [Keyed] = &mut other;
+        let mut rest: &mut [T] = &mut other;
         for d in 0..BUCKETS {
             for (c, h) in histograms.iter().enumerate() {
                 let (piece, tail) = std::mem::take(&mut rest).split_at_mut(h[d]);
@@ -110,5 +137,26 @@ mod tests {
             check((0..n).map(|_| (next() % 3) << 40).collect());
         }
         check(vec![u64::MAX, 0, u64::MAX, 1 << 63, 0]);
+    }
+
+    /// Sorted by their high half only, keys keep the order of their low halves among
+    /// equal high halves: the low half travels as a value.
+    #[test]
+    fn sorting_from_a_bit_leaves_the_bits_below_it_as_values() {
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        for n in [1usize, 3, 50_000] {
+            let mut keys: Vec<u64> = (0..n as u64)
+                .map(|i| {
+                    x ^= x << 13;
+                    x ^= x >> 7;
+                    x ^= x << 17;
+                    (x % 5) << 32 | (u32::MAX as u64 - i)
+                })
+                .collect();
+            let mut expected = keys.clone();
+            expected.sort_by_key(|k| k >> 32); // stable
+            sort_from(&mut keys, 32);
+            assert_eq!(keys, expected);
+        }
     }
 }

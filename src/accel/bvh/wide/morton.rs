@@ -18,13 +18,16 @@ use super::leaf::BlockPacker;
 use super::node::{LaneKind, Lanes, MAX_LEAF_COUNT, MAX_NODE, NodeWidth, Subtree, WideNode};
 use super::part::Part;
 use crate::accel::bvh::TraversalOrder;
-use crate::accel::bvh::build::{BuildError, morton_order, whole_references};
+use crate::accel::bvh::build::{BuildError, morton_keys, radix_sort_from, whole_references};
 use crate::accel::bvh::report::BuildPhases;
 use crate::geometry::simd::SimdLevel;
 use crate::geometry::{Aabb, Triangle};
 use rayon::prelude::*;
 use std::ops::Range;
 use std::time::Instant;
+
+/// Bits of the Morton codes the triangles are sorted by (10 per axis).
+const CODE_BITS: u32 = 30;
 
 /// The sorted triangles and their codes, and the leaf size.
 struct Sorted<'a> {
@@ -62,17 +65,7 @@ where
         }
         let leaf_size = leaf_size.clamp(1, MAX_LEAF_COUNT) as usize;
         let mut phases = BuildPhases::default();
-        let refs = whole_references(triangles);
-        let (keyed, _) = morton_order(&refs, &mut phases);
-        drop(refs);
-        let start = Instant::now();
-        let codes: Vec<u64> = keyed.par_iter().map(|k| k.key).collect();
-        let tris: Vec<(Triangle, u32)> = keyed
-            .par_iter()
-            .map(|k| (triangles[k.value as usize], k.value))
-            .collect();
-        drop(keyed);
-        phases.add("sorted triangles", start.elapsed());
+        let (codes, tris) = sorted_along_the_curve(triangles, &mut phases);
 
         let start = Instant::now();
         let n = tris.len();
@@ -99,6 +92,35 @@ where
             phases,
         ))
     }
+}
+
+/// The triangles sorted along the Morton curve through their boxes' centroids, with their
+/// scene indices, and their codes. Sorted by the codes' top 30 bits (10 per axis, as
+/// Embree's Morton builder): each key a code above its index, eight bytes sorted in four
+/// passes where the full code and an index take sixteen in eight. Equal codes are halved.
+fn sorted_along_the_curve(
+    triangles: &[Triangle],
+    phases: &mut BuildPhases,
+) -> (Vec<u64>, Vec<(Triangle, u32)>) {
+    let refs = whole_references(triangles);
+    let (keyed, _) = morton_keys(&refs, phases);
+    drop(refs);
+    let start = Instant::now();
+    let mut packed: Vec<u64> = keyed
+        .par_iter()
+        .map(|k| (k.key >> (63 - CODE_BITS)) << 32 | u64::from(k.value))
+        .collect();
+    drop(keyed);
+    radix_sort_from(&mut packed, 32);
+    phases.add("radix sort", start.elapsed());
+    let start = Instant::now();
+    let codes: Vec<u64> = packed.par_iter().map(|k| k >> 32).collect();
+    let tris: Vec<(Triangle, u32)> = packed
+        .par_iter()
+        .map(|&k| (triangles[k as u32 as usize], k as u32))
+        .collect();
+    phases.add("sorted triangles", start.elapsed());
+    (codes, tris)
 }
 
 impl Sorted<'_> {
@@ -276,13 +298,7 @@ mod tests {
 
     /// The tree over `tris` with the parts cut at `cut` triangles (`None`: one piece).
     fn tree(tris: &[Triangle], cut: Option<usize>) -> WideBvh<8> {
-        let refs = whole_references(tris);
-        let (keyed, _) = morton_order(&refs, &mut BuildPhases::default());
-        let codes: Vec<u64> = keyed.iter().map(|k| k.key).collect();
-        let sorted: Vec<(Triangle, u32)> = keyed
-            .iter()
-            .map(|k| (tris[k.value as usize], k.value))
-            .collect();
+        let (codes, sorted) = sorted_along_the_curve(tris, &mut BuildPhases::default());
         let s = Sorted {
             codes: &codes,
             tris: &sorted,
