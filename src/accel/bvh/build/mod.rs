@@ -178,7 +178,8 @@ pub struct BuildParams {
     /// lbvh, as BVH4 or BVH8: make the wide nodes straight from the Morton order, the radix
     /// tree's splits grouped W to a node with leaves of at most four triangles (or
     /// --max-leaf, if fewer), instead of collapsing the LBVH's BVH2 by the SAH: a build
-    /// about twice as fast, for scenes rebuilt every frame, and a tree of higher SAH cost.
+    /// about three times as fast, for scenes rebuilt every frame, and a tree of higher SAH
+    /// cost.
     /// Pre-splitting does not apply to it.
     #[arg(long, default_value_t = BuildParams::default().direct_wide, action = clap::ArgAction::Set)]
     #[param(label = "wide nodes straight from the Morton order", when = Self::takes_direct_wide, scope = "wide")]
