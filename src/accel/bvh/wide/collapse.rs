@@ -23,9 +23,8 @@
 use super::WideBvh;
 use super::leaf::BlockPacker;
 use super::node::{Lanes, MAX_INDEX, MAX_NODE, NodeWidth, ROWS, Subtree, WideNode};
-use super::part::Part;
+use super::part::{Part, part_size};
 use crate::accel::bvh::{BuildError, Bvh};
-use crate::geometry::simd::SimdLevel;
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
@@ -157,27 +156,15 @@ where
         let costs = Costs::<W>::new(bvh, params);
         let table = start.elapsed();
         let start = Instant::now();
-        let tree = Layout::lay_out_tree(bvh, &costs, part_size(bvh.triangles.len()));
-        let out = WideBvh {
-            nodes: tree.nodes,
-            blocks: tree.blocks,
-            prim_indices: tree.prim_indices,
-            triangle_count: bvh.triangle_count,
-            order: bvh.order,
-            simd: SimdLevel::detect(),
-            depth: tree.depth,
-            lanes: Default::default(),
-            parts: tree.parts,
-        };
+        let tree = Layout::lay_out_tree(
+            bvh,
+            &costs,
+            part_size(bvh.triangles.len()).map(|c| c as u32),
+        );
+        let out = tree.into_tree(bvh.triangle_count, bvh.order);
         let layout = start.elapsed();
         Ok((out, CollapsePhases { table, layout }))
     }
-}
-
-/// Subtrees of at most this many triangles are laid out as parts of their own, in parallel
-/// (none for a small tree, where the parts would cost more than they save).
-fn part_size(triangles: usize) -> Option<u32> {
-    (triangles >= 1 << 15).then(|| (triangles / 32).max(1 << 12) as u32)
 }
 
 /// A subtree left to be laid out as a part: the BVH2 node `slot` under lane `lane` of wide
@@ -427,17 +414,7 @@ pub(super) mod tests {
             let costs = Costs::<8>::new(&b2, &CollapseParams::default());
             let whole = |cut| {
                 let part = Layout::lay_out_tree(&b2, &costs, cut);
-                let tree = WideBvh::<8> {
-                    nodes: part.nodes,
-                    blocks: part.blocks,
-                    prim_indices: part.prim_indices,
-                    triangle_count: b2.triangle_count,
-                    order: b2.order,
-                    simd: SimdLevel::detect(),
-                    depth: part.depth,
-                    lanes: Default::default(),
-                    parts: part.parts,
-                };
+                let tree = part.into_tree(b2.triangle_count, b2.order);
                 tree.validate()
                     .unwrap_or_else(|e| panic!("{spec}, cut {cut:?}: {e}"));
                 let mut c = Vec::new();

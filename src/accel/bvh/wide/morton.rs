@@ -16,11 +16,10 @@ use super::WideBvh;
 use super::collapse::MAX_REFERENCES;
 use super::leaf::BlockPacker;
 use super::node::{LaneKind, Lanes, MAX_LEAF_COUNT, MAX_NODE, NodeWidth, Subtree, WideNode};
-use super::part::Part;
+use super::part::{Part, part_size};
 use crate::accel::bvh::TraversalOrder;
 use crate::accel::bvh::build::{BuildError, morton_keys, radix_sort_from, whole_references};
 use crate::accel::bvh::report::BuildPhases;
-use crate::geometry::simd::SimdLevel;
 use crate::geometry::{Aabb, Triangle};
 use rayon::prelude::*;
 use std::ops::Range;
@@ -73,24 +72,11 @@ where
             codes: &codes,
             tris: &tris,
             leaf_size,
-            cut: (n >= 1 << 15).then(|| (n / 32).max(1 << 12)),
+            cut: part_size(n),
         };
         let tree = sorted.lay_out_tree::<W>();
         phases.add("wide nodes", start.elapsed());
-        Ok((
-            WideBvh {
-                nodes: tree.nodes,
-                blocks: tree.blocks,
-                prim_indices: tree.prim_indices,
-                triangle_count: n,
-                order: TraversalOrder::default(),
-                simd: SimdLevel::detect(),
-                depth: tree.depth,
-                lanes: Default::default(),
-                parts: tree.parts,
-            },
-            phases,
-        ))
+        Ok((tree.into_tree(n, TraversalOrder::default()), phases))
     }
 }
 
@@ -306,17 +292,7 @@ mod tests {
             cut,
         };
         let part = s.lay_out_tree::<8>();
-        WideBvh {
-            nodes: part.nodes,
-            blocks: part.blocks,
-            prim_indices: part.prim_indices,
-            triangle_count: tris.len(),
-            order: TraversalOrder::default(),
-            simd: SimdLevel::detect(),
-            depth: part.depth,
-            lanes: Default::default(),
-            parts: part.parts,
-        }
+        part.into_tree(tris.len(), TraversalOrder::default())
     }
 
     /// Laying the tree out in parts, at any cut, gives the tree laid out in one piece, and

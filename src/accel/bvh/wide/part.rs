@@ -2,11 +2,21 @@
 //! tree, so that subtrees can be laid out side by side on several threads and then placed
 //! one after another (`concat`). The collapse and the direct build both lay out in parts.
 
+use super::WideBvh;
 use super::leaf::BlockPacker;
 use super::node::{LaneKind, Lanes, MAX_LEAF_COUNT, NodeWidth, Subtree, WideNode};
+use crate::accel::bvh::TraversalOrder;
+use crate::geometry::simd::SimdLevel;
 use crate::geometry::simd::TriangleBlock;
 use crate::geometry::{Aabb, Triangle};
 use rayon::prelude::*;
+
+/// Subtrees of at most this many triangles are laid out as parts of their own, in parallel
+/// (none for a small tree, where the parts would cost more than they save). The cut
+/// depends on the triangle count alone, so the tree is the same for any number of threads.
+pub fn part_size(triangles: usize) -> Option<usize> {
+    (triangles >= 1 << 15).then(|| (triangles / 32).max(1 << 12))
+}
 
 /// A part of the wide tree laid out as if it were a whole tree: its first node is its root,
 /// its leaves' slots start at 0.
@@ -27,6 +37,22 @@ impl<const W: usize> Part<W>
 where
     Lanes<W>: NodeWidth,
 {
+    /// The wide tree this part, laid out as a whole tree, is: over `triangle_count`
+    /// triangles, traced in `order` with the widest kernel this CPU has.
+    pub fn into_tree(self, triangle_count: usize, order: TraversalOrder) -> WideBvh<W> {
+        WideBvh {
+            nodes: self.nodes,
+            blocks: self.blocks,
+            prim_indices: self.prim_indices,
+            triangle_count,
+            order,
+            simd: SimdLevel::detect(),
+            depth: self.depth,
+            lanes: Default::default(),
+            parts: self.parts,
+        }
+    }
+
     /// This part (the top of the tree) and `parts` placed after it in order, as one: each
     /// part's node indices and slots moved by the counts before it. Every node, block and
     /// slot is written once, in place, on every thread (a copy of a large tree is mostly
