@@ -357,11 +357,8 @@ pub(super) mod tests {
 
     /// The subtree under `lane` of node `n`, written out depth first: boxes, counts and the
     /// scene triangles of each leaf, with no node index or slot in it.
-    pub(in crate::accel::bvh::wide) fn canonical<const W: usize>(
-        t: &WideBvh<W>,
-        n: usize,
-        out: &mut Vec<u64>,
-    ) where
+    fn canonical<const W: usize>(t: &WideBvh<W>, n: usize, out: &mut Vec<u64>)
+    where
         Lanes<W>: NodeWidth,
     {
         let node = &t.nodes[n];
@@ -376,6 +373,27 @@ pub(super) mod tests {
                     out.extend(slots.map(|s| t.prim_indices[s] as u64));
                 }
             }
+        }
+    }
+
+    /// The tree made with the parts cut at each of `cuts` triangles is the tree made in
+    /// one piece (`tree(None)`), and every one is valid.
+    pub(in crate::accel::bvh::wide) fn assert_cuts_agree(
+        spec: &str,
+        cuts: &[usize],
+        tree: impl Fn(Option<usize>) -> WideBvh<8>,
+    ) {
+        let whole = |cut| {
+            let t = tree(cut);
+            t.validate()
+                .unwrap_or_else(|e| panic!("{spec}, cut {cut:?}: {e}"));
+            let mut c = Vec::new();
+            canonical(&t, 0, &mut c);
+            (c, t.depth, t.nodes.len())
+        };
+        let one_piece = whole(None);
+        for &cut in cuts {
+            assert_eq!(whole(Some(cut)), one_piece, "{spec}, cut {cut}");
         }
     }
 
@@ -412,19 +430,10 @@ pub(super) mod tests {
             let scene = builtin::by_name(spec).unwrap().unwrap();
             let (b2, _) = bvh::build(&scene.triangles, &BuildParams::default()).unwrap();
             let costs = Costs::<8>::new(&b2, &CollapseParams::default());
-            let whole = |cut| {
-                let part = Layout::lay_out_tree(&b2, &costs, cut);
-                let tree = part.into_tree(b2.triangle_count, b2.order);
-                tree.validate()
-                    .unwrap_or_else(|e| panic!("{spec}, cut {cut:?}: {e}"));
-                let mut c = Vec::new();
-                canonical(&tree, 0, &mut c);
-                (c, tree.depth, tree.nodes.len())
-            };
-            let one_piece = whole(None);
-            for cut in [1, 8, 50, 400, 3000, 1 << 20] {
-                assert_eq!(whole(Some(cut)), one_piece, "{spec}, cut {cut}");
-            }
+            assert_cuts_agree(spec, &[1, 8, 50, 400, 3000, 1 << 20], |cut| {
+                let part = Layout::lay_out_tree(&b2, &costs, cut.map(|c| c as u32));
+                part.into_tree(b2.triangle_count, b2.order)
+            });
         }
     }
 }

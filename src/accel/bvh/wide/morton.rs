@@ -278,7 +278,7 @@ fn bounds_of(tris: &[(Triangle, u32)]) -> Aabb {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::accel::bvh::wide::collapse::tests::canonical;
+    use crate::accel::bvh::wide::collapse::tests::assert_cuts_agree;
     use crate::accel::bvh::wide::leaf::PADDING;
     use crate::scene::builtin;
 
@@ -306,18 +306,9 @@ mod tests {
             "same-centroid",
         ] {
             let tris = builtin::by_name(spec).unwrap().unwrap().triangles;
-            let whole = |cut| {
-                let t = tree(&tris, cut);
-                t.validate()
-                    .unwrap_or_else(|e| panic!("{spec}, cut {cut:?}: {e}"));
-                let mut c = Vec::new();
-                canonical(&t, 0, &mut c);
-                (c, t.depth, t.nodes.len())
-            };
-            let one_piece = whole(None);
-            for cut in [5, 8, 50, 400, 3000, 1 << 20] {
-                assert_eq!(whole(Some(cut)), one_piece, "{spec}, cut {cut}");
-            }
+            assert_cuts_agree(spec, &[5, 8, 50, 400, 3000, 1 << 20], |cut| {
+                tree(&tris, cut)
+            });
             let t = tree(&tris, None);
             let mut held: Vec<u32> = t
                 .prim_indices
