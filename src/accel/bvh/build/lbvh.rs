@@ -295,7 +295,6 @@ pub fn build(
 
     let start = Instant::now();
     let codes: Vec<u64> = keyed.par_iter().map(|k| k.key).collect();
-
     let order: Vec<u32> = keyed.par_iter().map(|k| k.value).collect();
     drop(keyed);
     let radix = RadixTree { codes: &codes };

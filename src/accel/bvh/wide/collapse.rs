@@ -213,8 +213,8 @@ where
                 layout.lay_out(slots, c.depth).0
             })
             .collect();
-        let (mut tree, bases) = tree.concat(parts);
-        for (c, base) in cuts.iter().zip(bases) {
+        let mut tree = tree.concat(parts);
+        for (c, &base) in cuts.iter().zip(&tree.parts) {
             tree.nodes[c.node].child[c.lane] = Subtree::node(base);
         }
         tree

@@ -205,8 +205,8 @@ impl Sorted<'_> {
             .collect();
         let top = tree.nodes.len();
         let (parts, bounds): (Vec<Part<W>>, Vec<Aabb>) = parts.into_iter().unzip();
-        let (mut tree, bases) = tree.concat(parts);
-        for ((c, base), b) in cuts.iter().zip(bases).zip(bounds) {
+        let mut tree = tree.concat(parts);
+        for ((c, &base), b) in cuts.iter().zip(&tree.parts).zip(bounds) {
             let node = &mut tree.nodes[c.node];
             node.child[c.lane] = Subtree::node(base);
             node.set_child_bounds(c.lane, b);

@@ -56,8 +56,8 @@ where
     /// This part (the top of the tree) and `parts` placed after it in order, as one: each
     /// part's node indices and slots moved by the counts before it. Every node, block and
     /// slot is written once, in place, on every thread (a copy of a large tree is mostly
-    /// the first touch of its pages). Returns where each part's nodes begin.
-    pub fn concat(self, parts: Vec<Part<W>>) -> (Part<W>, Vec<u32>) {
+    /// the first touch of its pages). Where each part's nodes begin is the result's `parts`.
+    pub fn concat(self, parts: Vec<Part<W>>) -> Part<W> {
         // Where each piece (the top, then the parts) begins in the three arrays.
         let mut starts = Vec::with_capacity(parts.len() + 1);
         let (mut n, mut b, mut s) = (0, 0, 0);
@@ -98,16 +98,13 @@ where
             let (k, j) = locate(2, i);
             pieces[k].prim_indices[j]
         }));
-        let bases: Vec<u32> = starts[1..].iter().map(|st| st[0] as u32).collect();
-        let depth = pieces.iter().map(|p| p.depth).max().unwrap_or(1);
-        let whole = Part {
+        Part {
             nodes,
             blocks,
             prim_indices,
-            depth,
-            parts: bases.clone(),
-        };
-        (whole, bases)
+            depth: pieces.iter().map(|p| p.depth).max().unwrap_or(1),
+            parts: starts[1..].iter().map(|st| st[0] as u32).collect(),
+        }
     }
 }
 
