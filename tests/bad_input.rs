@@ -357,7 +357,7 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
                 "--direct-wide",
                 "true",
             ],
-            "--direct-wide is BVH4's and BVH8's; the structure here is BVH2",
+            "--direct-wide is BVH4's, BVH8's and the two levels'; the structure here is BVH2",
         ),
         (
             &[
@@ -378,6 +378,22 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
                 "cornell",
                 "--accel",
                 "bvh8",
+                "--builder",
+                "lbvh",
+                "--direct-wide",
+                "true",
+                "--presplit",
+                "0.5",
+            ],
+            "the pre-split budget (--presplit) must be 0 for wide nodes straight from the Morton order (--direct-wide)",
+        ),
+        (
+            &[
+                "stats",
+                "--scene",
+                "cornell",
+                "--accel",
+                "two-level",
                 "--builder",
                 "lbvh",
                 "--direct-wide",

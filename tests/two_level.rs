@@ -6,8 +6,8 @@
 
 use bvhlab_testkit as common;
 
-use bvhlab::accel::bvh::Subtree;
 use bvhlab::accel::bvh::build::{DEFAULT_REBRAID, MAX_REBRAID};
+use bvhlab::accel::bvh::{Strategy, Subtree};
 use bvhlab::accel::structure::{self, AccelKind, Structure, StructureParams};
 use bvhlab::accel::two_level::{LeafReference, Reference, TwoLevel};
 use bvhlab::accel::{Accel, BruteForce, Counters, NoStats, TraversalOrder};
@@ -33,6 +33,13 @@ const BUDGETS: [f32; 3] = [0.0, DEFAULT_REBRAID, MAX_REBRAID];
 fn rebraided(order: TraversalOrder, rebraid: f32) -> StructureParams {
     let mut p = two_level_params(order);
     p.bvh.rebraid = rebraid;
+    p
+}
+
+/// Both levels built as the LBVH's wide trees straight from the Morton order.
+fn direct_wide(mut p: StructureParams) -> StructureParams {
+    p.bvh.strategy = Strategy::Lbvh;
+    p.bvh.direct_wide = true;
     p
 }
 
@@ -131,20 +138,30 @@ fn instanced_scenes_hit_what_their_flattened_scenes_hit() {
         let mut rays = common::rays(&scene.bounds(), 2000, seed);
         rays.extend(rays_at_triangles(&scene, 2000, seed));
         let (mut hits, mut grazing) = (0, 0);
-        let configurations = TraversalOrder::ALL
+        // Each order at each budget, and the direct wide build of both levels.
+        let configurations: Vec<(StructureParams, String)> = TraversalOrder::ALL
             .into_iter()
-            .flat_map(|order| BUDGETS.map(|rebraid| (order, rebraid)));
-        for (order, rebraid) in configurations {
-            let built =
-                structure::build_scene(&scene, &rebraided(order, rebraid), &Default::default())
-                    .unwrap();
+            .flat_map(|order| BUDGETS.map(|rebraid| (order, rebraid)))
+            .map(|(order, rebraid)| {
+                let label = format!("{count} instances, {}, rebraid {rebraid}", order.label());
+                (rebraided(order, rebraid), label)
+            })
+            .chain(BUDGETS.map(|rebraid| {
+                let p = direct_wide(rebraided(TraversalOrder::FrontToBack, rebraid));
+                (
+                    p,
+                    format!("{count} instances, direct wide, rebraid {rebraid}"),
+                )
+            }))
+            .collect();
+        for (params, label) in &configurations {
+            let built = structure::build_scene(&scene, params, &Default::default()).unwrap();
             let tl = &built.structure;
             assert_eq!(tl.kind(), AccelKind::TwoLevel);
             for ray in &rays {
                 let want = flat.closest_hit::<Watertight, _>(ray, &mut NoStats);
                 let got = tl.closest_hit::<Watertight, _>(ray, &mut NoStats);
-                let label = format!("{count} instances, {}, rebraid {rebraid}", order.label());
-                if compare(&label, &scene.triangles, EXTENT, ray, got, want) {
+                if compare(label, &scene.triangles, EXTENT, ray, got, want) {
                     grazing += 1;
                     continue;
                 }
@@ -169,7 +186,7 @@ fn instanced_scenes_hit_what_their_flattened_scenes_hit() {
                 );
             }
         }
-        let traced = 2 * BUDGETS.len() * rays.len();
+        let traced = configurations.len() * rays.len();
         assert!(hits > traced / 2, "the rays find the instances: {hits}");
         // Rays within rounding of an edge are rare: at most 1 in 500.
         assert!(grazing * 500 <= traced, "{grazing} rays grazing an edge");
@@ -517,10 +534,20 @@ fn nested_gltf_nodes_hit_what_their_flattened_scene_hits() {
 
 #[test]
 fn moving_instances_rebuilds_the_top_level_only_and_equals_a_full_rebuild() {
-    use bvhlab::accel::two_level::MoveError;
     let scene = instanced_scene(40, 31);
-    let params = two_level_params(TraversalOrder::FrontToBack);
-    let built = structure::build_scene(&scene, &params, &Default::default()).unwrap();
+    for rebraid in [0.0, DEFAULT_REBRAID] {
+        let params = rebraided(TraversalOrder::FrontToBack, rebraid);
+        moves_equal_a_full_rebuild(&scene, &params);
+        moves_equal_a_full_rebuild(&scene, &direct_wide(params));
+    }
+}
+
+/// Moves five of `scene`'s instances built with `params`: the refitted two levels, their
+/// top level rebuilt and the scene built again from scratch with the instances moved
+/// agree; bad moves change nothing.
+fn moves_equal_a_full_rebuild(scene: &Scene, params: &StructureParams) {
+    use bvhlab::accel::two_level::MoveError;
+    let built = structure::build_scene(scene, params, &Default::default()).unwrap();
     let Structure::TwoLevel(mut moved) = built.structure else {
         panic!("a two-level structure")
     };
@@ -564,7 +591,7 @@ fn moving_instances_rebuilds_the_top_level_only_and_equals_a_full_rebuild() {
         let placed = Instance::new(inst.mesh, *m).unwrap();
         again.push_instance(format!("instance {k}"), Vec3::ONE, placed);
     }
-    let rebuilt = structure::build_scene(&again, &params, &Default::default()).unwrap();
+    let rebuilt = structure::build_scene(&again, params, &Default::default()).unwrap();
     let flat = BruteForce::new(&again.triangles, false);
     let mut rays = common::rays(&again.bounds(), 1500, 33);
     rays.extend(rays_at_triangles(&again, 1500, 34));
@@ -594,6 +621,25 @@ fn moving_instances_rebuilds_the_top_level_only_and_equals_a_full_rebuild() {
         let refitted = moved.closest_hit::<Watertight, _>(ray, &mut NoStats);
         let again = rebuilt_top.closest_hit::<Watertight, _>(ray, &mut NoStats);
         assert_eq!(refitted, again, "{ray:?}");
+    }
+    // The rebuild keeps the references, each in a leaf of its refitted box.
+    assert_eq!(rebuilt_top.references, moved.references);
+    for r in 0..moved.references.len() {
+        let leaf_box = |tl: &TwoLevel| {
+            let (node, lane) = tl.top_index.slot_of(r).unwrap();
+            tl.tlas.nodes[node as usize].child_bounds(lane as usize)
+        };
+        assert_eq!(leaf_box(&rebuilt_top), leaf_box(&moved), "reference {r}");
+    }
+    // Without re-braiding the references are the instances themselves, as a build from
+    // scratch makes them: over the same boxes, the rebuilt top level is its top level.
+    if params.bvh.rebraid == 0.0 {
+        let Structure::TwoLevel(fresh) = &rebuilt.structure else {
+            panic!("a two-level structure")
+        };
+        assert_eq!(rebuilt_top.references, fresh.references);
+        assert_eq!(rebuilt_top.tlas.nodes, fresh.tlas.nodes);
+        assert_eq!(rebuilt_top.tlas.prim_indices, fresh.tlas.prim_indices);
     }
 
     // Bad moves change nothing.
@@ -909,7 +955,6 @@ fn an_island_instances_outline_is_its_meshs_blas_alone() {
 /// triangle the reference that reaches it; the budget bounds their number.
 #[test]
 fn rebraiding_cuts_each_instances_blas_into_references() {
-    use bvhlab::accel::bvh::Subtree;
     use bvhlab::accel::two_level::rebraid::SMALL_SCENE;
     let scene = instanced_scene(40, 41);
     for rebraid in [0.01, DEFAULT_REBRAID, MAX_REBRAID] {

@@ -184,8 +184,8 @@ impl StructureParams {
                     other(whose)
                 } else if c.scope == Some("two-level") && !kind.places_instances() {
                     other("the two levels'")
-                } else if c.scope == Some("wide") && !kind.is_wide() {
-                    other("BVH4's and BVH8's")
+                } else if c.scope == Some("wide") && !(kind.is_wide() || kind.places_instances()) {
+                    other("BVH4's, BVH8's and the two levels'")
                 } else if !c.enabled {
                     format!("is not used by the {} builder", self.bvh.strategy.label())
                 } else {

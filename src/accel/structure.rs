@@ -536,10 +536,7 @@ where
         let (wide, phases) = WideBvh::<W>::morton(triangles, leaf_size)?;
         let build_time = start.elapsed();
         progress.add(triangles.len());
-        let rows = vec![(
-            "builder".into(),
-            "lbvh, wide nodes straight from the Morton order".into(),
-        )];
+        let rows = vec![("builder".into(), params.bvh.wide_builder_label().into())];
         (
             wide,
             build_time,
@@ -561,7 +558,7 @@ where
         let (wide, collapse_phases) = WideBvh::<W>::collapse_timed(&bvh2, &collapse)?;
         let collapse_time = start.elapsed();
         let rows = [
-            ("builder".into(), params.bvh.strategy.label().into()),
+            ("builder".into(), params.bvh.wide_builder_label().into()),
             ("BVH2 build".into(), Detail::Time(bvh_report.build_time)),
             ("collapse".into(), Detail::Time(collapse_time)),
         ]

@@ -44,7 +44,7 @@ pub fn structure_params(ui: &mut egui::Ui, p: &mut StructureParams) {
     match p.kind {
         AccelKind::Bvh | AccelKind::TwoLevel => {
             let scopes: &[&str] = if p.kind.places_instances() {
-                &["two-level"]
+                &["two-level", "wide"]
             } else {
                 &[]
             };

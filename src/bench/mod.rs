@@ -117,6 +117,9 @@ pub struct BenchResult {
     pub sah_check: Option<SahCheck>,
     /// The peers timed beside bvhlab: Embree with its defaults, then robust, as asked.
     pub peers: Vec<PeerResult>,
+    /// Under the two levels, the best of the builds' count of top-level rebuilds over the
+    /// references where they are (`TwoLevel::rebuild_top_level`): the rebuild per frame.
+    pub top_level_rebuild: Option<Duration>,
 }
 
 impl BenchResult {
@@ -151,11 +154,14 @@ pub struct PeerResult {
     /// Primary rays whose hit really differs from bvhlab's: a hit against a miss, or a
     /// depth further than `TIE_ULPS` apart.
     pub differing_primary_hits: usize,
+    /// Of a peer's two levels, its top level's build alone (its meshes' already built).
+    pub top_level_build: Option<Duration>,
 }
 
 /// Runs the benchmark of `cfg.params.kind` on the current rayon thread pool.
 pub fn run(scene: &Scene, cfg: &BenchConfig) -> Result<BenchResult, BenchError> {
-    let built = timed_build(scene, cfg, &cfg.params)?;
+    let mut built = timed_build(scene, cfg, &cfg.params)?;
+    let top_level_rebuild = time_top_level_rebuild(&mut built.structure, cfg.builds)?;
     let sets = RaySets::standard(
         &built.structure,
         scene,
@@ -165,6 +171,7 @@ pub fn run(scene: &Scene, cfg: &BenchConfig) -> Result<BenchResult, BenchError> 
         cfg.height,
     );
     let mut result = measure(scene, cfg, &cfg.params, &built, &sets);
+    result.top_level_rebuild = top_level_rebuild;
     for (asked, robust) in [(cfg.embree, false), (cfg.embree_robust, true)] {
         if asked {
             let peer = peers::run_embree(&built.structure, scene, cfg, &sets, robust)?;
@@ -371,7 +378,26 @@ fn measure(
         shadow,
         sah_check,
         peers: Vec::new(),
+        top_level_rebuild: None,
     }
+}
+
+/// The best of `builds` rebuilds of a two-level structure's top level over its references
+/// where they are (`TwoLevel::rebuild_top_level`); `None` for the other structures.
+fn time_top_level_rebuild(
+    structure: &mut Structure,
+    builds: u32,
+) -> Result<Option<Duration>, BenchError> {
+    let Structure::TwoLevel(levels) = structure else {
+        return Ok(None);
+    };
+    let mut best = Duration::MAX;
+    for _ in 0..builds.max(1) {
+        let start = Instant::now();
+        levels.rebuild_top_level().map_err(StructureError::from)?;
+        best = best.min(start.elapsed());
+    }
+    Ok(Some(best))
 }
 
 /// The mean counters per ray of the primary, diffuse and shadow sets (one counting pass).

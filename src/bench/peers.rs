@@ -108,7 +108,10 @@ pub(super) fn run_embree(
     )?;
     let name = format!("{}{}", mode.name(two_level), cfg.embree_quality.suffix());
     let what = (name, embree.build_time, true);
-    Ok(measure(what, &embree, ours, sets, cfg))
+    Ok(PeerResult {
+        top_level_build: embree.top_level_time,
+        ..measure(what, &embree, ours, sets, cfg)
+    })
 }
 
 #[cfg(not(feature = "tinybvh"))]
@@ -182,6 +185,7 @@ fn measure<A: Accel>(
         shadow,
         tied_primary_hits,
         differing_primary_hits,
+        top_level_build: None,
     }
 }
 

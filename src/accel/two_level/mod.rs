@@ -26,6 +26,7 @@ use super::{BuildParams, Outline, OutlineNode, StructureReport, TraversalOrder};
 use crate::accel::progress::BuildProgress;
 use crate::accel::report::Detail;
 use crate::geometry::simd::SimdLevel;
+use crate::geometry::simd::triangle::BLOCK;
 use crate::geometry::{Aabb, Triangle};
 use crate::scene::{Instance, Instancing, TransformError};
 use glam::Affine3A;
@@ -92,6 +93,9 @@ pub fn build(
     progress: &BuildProgress,
 ) -> Result<(TwoLevel, StructureReport), BuildError> {
     params.validate()?;
+    if params.builds_direct_wide() && params.presplit > 0.0 {
+        return Err(BuildError::PresplitDirectWide);
+    }
     let instanced = scene.instanced_triangles();
     for mesh in &scene.meshes {
         if mesh.len() >= (u32::MAX / 2) as usize {
@@ -117,22 +121,17 @@ pub fn build(
         .par_iter()
         .enumerate()
         .map(|(m, triangles)| {
-            bvh::build_with_progress(triangles, params, progress)
-                .and_then(|(blas, _)| {
-                    Bvh8::collapse_timed(&blas, &collapse_params(params, params.max_leaf_size))
-                        .map(|(blas, _)| blas)
-                })
-                .map_err(|e| match e {
-                    // Name the triangle as the flattened scene numbers it, where it is placed.
-                    BuildError::NonFinite(t) => BuildError::NonFinite(
-                        scene
-                            .instances
-                            .iter()
-                            .position(|i| i.mesh == m)
-                            .map_or(t, |i| first_triangle[i] as usize + t),
-                    ),
-                    e => e,
-                })
+            build_blas(triangles, params, progress).map_err(|e| match e {
+                // Name the triangle as the flattened scene numbers it, where it is placed.
+                BuildError::NonFinite(t) => BuildError::NonFinite(
+                    scene
+                        .instances
+                        .iter()
+                        .position(|i| i.mesh == m)
+                        .map_or(t, |i| first_triangle[i] as usize + t),
+                ),
+                e => e,
+            })
         })
         .collect::<Result<Vec<_>, _>>()?;
     let blas_time = start.elapsed();
@@ -159,6 +158,23 @@ pub fn build(
     };
     let report = two_level.report(instanced, times);
     Ok((two_level, report))
+}
+
+/// The BVH8 of one mesh: the BVH2 `params` build, collapsed, or for the LBVH with
+/// `direct_wide` the wide tree straight from the Morton order.
+fn build_blas(
+    triangles: &[Triangle],
+    params: &BuildParams,
+    progress: &BuildProgress,
+) -> Result<Bvh8, BuildError> {
+    if params.builds_direct_wide() {
+        let (blas, _) = Bvh8::morton(triangles, params.max_leaf_size.min(BLOCK as u32))?;
+        progress.add(triangles.len());
+        return Ok(blas);
+    }
+    let (bvh2, _) = bvh::build_with_progress(triangles, params, progress)?;
+    let collapse = collapse_params(params, params.max_leaf_size);
+    Ok(Bvh8::collapse_timed(&bvh2, &collapse)?.0)
 }
 
 /// The collapse of a BVH2 built with `params` into a BVH8 with leaves of at most
@@ -195,7 +211,7 @@ fn leaf_references(
     instances: &[Instance],
 ) -> Vec<LeafReference> {
     tlas.prim_indices
-        .iter()
+        .par_iter()
         .map(|&r| match references.get(r as usize) {
             Some(reference) => {
                 LeafReference::new(reference, &instances[reference.instance as usize])
@@ -206,32 +222,51 @@ fn leaf_references(
         .collect()
 }
 
-/// The top level over the references' world boxes (`rebraid::references`), one reference
-/// per leaf lane. The BVH builder sees primitives only as boxes, so each box goes in as the
-/// triangle from its min corner to its max corner, whose bounds are exactly that box.
-/// Instances of empty meshes have no reference: no ray can hit them.
+/// The top level over the instances' references (`rebraid::references`, opened as
+/// `params.rebraid` allows) and the references.
 fn build_tlas(
     blases: &[Bvh8],
     instances: &[Instance],
     params: &BuildParams,
 ) -> Result<(Bvh8, Vec<Reference>), BuildError> {
     let placed = rebraid::references(blases, instances, params.rebraid);
-    let boxes: Vec<Triangle> = placed
-        .iter()
-        .map(|p| Triangle::new(p.bounds.min, p.bounds.max, p.bounds.max))
-        .collect();
+    let boxes: Vec<Aabb> = placed.iter().map(|p| p.bounds).collect();
     let references: Vec<Reference> = placed.iter().map(|p| p.reference).collect();
-    let tlas_params = BuildParams {
-        max_leaf_size: 1,
-        ..params.whole_references()
-    };
-    let (tlas2, _) = bvh::build(&boxes, &tlas_params).map_err(|e| match e {
+    let tlas = build_top(&boxes, &references, params)?;
+    Ok((tlas, references))
+}
+
+/// The top level over the world boxes `boxes` of `references`, one reference per leaf lane:
+/// binned SAH's BVH2 collapsed, or for the LBVH with `direct_wide` the wide tree straight
+/// from the Morton order (the builder for a top level rebuilt every frame). The builders
+/// see primitives only as boxes, so each box goes in as the triangle from its min corner to
+/// its max corner, whose bounds are exactly that box. Instances of empty meshes have no
+/// reference: no ray can hit them.
+fn build_top(
+    boxes: &[Aabb],
+    references: &[Reference],
+    params: &BuildParams,
+) -> Result<Bvh8, BuildError> {
+    let triangles: Vec<Triangle> = boxes
+        .par_iter()
+        .map(|b| Triangle::new(b.min, b.max, b.max))
+        .collect();
+    let instance_named = |e| match e {
         BuildError::NonFinite(b) => BuildError::NonFinite(references[b].instance as usize),
         e => e,
-    })?;
-    let (mut tlas, _) = Bvh8::collapse_timed(&tlas2, &collapse_params(params, 1))?;
+    };
+    let mut tlas = if params.builds_direct_wide() {
+        Bvh8::morton(&triangles, 1).map_err(instance_named)?.0
+    } else {
+        let tlas_params = BuildParams {
+            max_leaf_size: 1,
+            ..params.whole_references()
+        };
+        let (tlas2, _) = bvh::build(&triangles, &tlas_params).map_err(instance_named)?;
+        Bvh8::collapse_timed(&tlas2, &collapse_params(params, 1))?.0
+    };
     tlas.blocks = Vec::new();
-    Ok((tlas, references))
+    Ok(tlas)
 }
 
 impl TwoLevel {
@@ -296,18 +331,25 @@ impl TwoLevel {
         Ok(())
     }
 
-    /// Builds the top level again over the instances where they are now (after moves,
-    /// whose refits loosen it), its references opened anew: the BLASes stay.
+    /// Builds the top level again over the instances where they are now: the references
+    /// as they were opened, each with the world box its last move gave it (the box its TLAS
+    /// leaf holds), sorted anew; the BLASes stay. After moves, whose refits loosen the
+    /// top level, this is its rebuild per frame; `build` opens the references anew.
     pub fn rebuild_top_level(&mut self) -> Result<(), BuildError> {
-        let (mut tlas, references) = build_tlas(&self.blases, &self.instances, &self.params)?;
+        let boxes: Vec<Aabb> = (0..self.references.len())
+            .into_par_iter()
+            .map(|r| match self.top_index.slot_of(r) {
+                Some((node, lane)) => self.tlas.nodes[node as usize].child_bounds(lane as usize),
+                None => self.references[r].world_box(&self.instances, &self.blases),
+            })
+            .collect();
+        let mut tlas = build_top(&boxes, &self.references, &self.params)?;
         tlas.order = self.order;
         // `self.simd` passed `set_simd`, so this cannot fail (and the new TLAS would keep the
         // level detected here if it did).
         let _ = tlas.set_simd(self.simd);
-        self.top_index = TopLevelIndex::new(&tlas, references.len());
-        self.leaves = leaf_references(&tlas, &references, &self.instances);
-        self.first_reference = first_reference(&references, self.instances.len());
-        self.references = references;
+        self.top_index = TopLevelIndex::new(&tlas, self.references.len());
+        self.leaves = leaf_references(&tlas, &self.references, &self.instances);
         self.tlas = tlas;
         Ok(())
     }
@@ -445,6 +487,7 @@ impl TwoLevel {
             references: instanced,
             largest_leaf,
             details: vec![
+                ("builder".into(), self.params.wide_builder_label().into()),
                 ("instances".into(), Detail::count(self.instances.len())),
                 (
                     "TLAS references".into(),

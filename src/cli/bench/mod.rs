@@ -422,10 +422,10 @@ fn run_settings(args: BenchArgs) -> Result<()> {
     let r = &result;
     let what = match &r.bvh_report {
         Some(b) => format!("BVH2, {}", b.params.strategy.label()),
-        None if r.params.kind.is_wide() => format!(
+        None if r.params.kind.is_wide() || r.params.kind.places_instances() => format!(
             "{}, {}, {} kernel",
             r.params.kind.title(),
-            r.params.bvh.strategy.label(),
+            r.params.bvh.wide_builder_label(),
             r.params.simd.label()
         ),
         None => r.params.kind.title().to_string(),
@@ -458,6 +458,13 @@ fn run_settings(args: BenchArgs) -> Result<()> {
     let detail = |name: &str| r.report.detail(name).map(|v| v.to_string());
     if let (Some(blas), Some(tlas)) = (detail("BLAS builds"), detail("TLAS build")) {
         out!("  of which BLAS builds {blas}, TLAS build {tlas}");
+    }
+    if let Some(t) = r.top_level_rebuild {
+        out!(
+            "  top level rebuilt over its references where they are: {:.2} ms (best of {})",
+            t.as_secs_f64() * 1e3,
+            cfg.builds.max(1)
+        );
     }
     out!(
         "  load {:.2} ms, ready (load + build) {:.2} ms",

@@ -130,6 +130,17 @@ pub(super) fn print_peer(r: &bench::BenchResult, p: &bench::PeerResult) -> Resul
         theirs / ours.max(1e-9),
         v = w - 3
     );
+    if let (Some(ours), Some(theirs)) = (r.top_level_rebuild, p.top_level_build) {
+        let (ours, theirs) = (build_ms(ours), build_ms(theirs));
+        out!(
+            "  {:<22} {:>9.2} ms {:>v$.2} ms {:>9.2}×",
+            "top level build",
+            ours,
+            theirs,
+            theirs / ours.max(1e-9),
+            v = w - 3
+        );
+    }
     for (name, a, b) in [
         ("primary", &r.primary, Some(&p.primary)),
         (

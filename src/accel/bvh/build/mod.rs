@@ -175,11 +175,11 @@ pub struct BuildParams {
     #[arg(long, default_value_t = BuildParams::default().presplit, allow_negative_numbers = true)]
     #[param(label = "pre-split budget × N", range = 0.0..=MAX_SPLIT_BUDGET, when = Self::takes_presplit)]
     pub presplit: f32,
-    /// lbvh, as BVH4 or BVH8: make the wide nodes straight from the Morton order, the radix
-    /// tree's splits grouped W to a node with leaves of at most four triangles (or
-    /// --max-leaf, if fewer), instead of collapsing the LBVH's BVH2 by the SAH: a build
-    /// about three times as fast, for scenes rebuilt every frame, and a tree of higher SAH
-    /// cost.
+    /// lbvh, as BVH4, BVH8 or two levels: make the wide nodes straight from the Morton
+    /// order, the radix tree's splits grouped W to a node with leaves of at most four
+    /// triangles (or --max-leaf, if fewer), instead of collapsing the LBVH's BVH2 by the
+    /// SAH: a build about three times as fast, for scenes rebuilt every frame, and a tree
+    /// of higher SAH cost. Under two levels, both the BLASes and the top level.
     /// Pre-splitting does not apply to it.
     #[arg(long, default_value_t = BuildParams::default().direct_wide, action = clap::ArgAction::Set)]
     #[param(label = "wide nodes straight from the Morton order", when = Self::takes_direct_wide, scope = "wide")]
@@ -218,6 +218,15 @@ impl BuildParams {
     /// Whether the wide trees are built straight from the Morton order (`direct_wide`).
     pub fn builds_direct_wide(&self) -> bool {
         self.direct_wide && self.takes_direct_wide()
+    }
+
+    /// The builder of the wide trees, as build reports name it.
+    pub fn wide_builder_label(&self) -> &'static str {
+        if self.builds_direct_wide() {
+            "LBVH, wide nodes straight from the Morton order"
+        } else {
+            self.strategy.label()
+        }
     }
 
     /// Whether `presplit` applies (see `Strategy::takes_presplit`).
