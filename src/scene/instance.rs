@@ -126,6 +126,86 @@ impl Instance {
         Aabb::new(w.min - pad, w.max + pad)
     }
 
+    /// The union of `world_bounds` of the boxes in the lanes of `rows` that `lanes` marks
+    /// (bit k for lane k), `rows` being a wide node's (min x, y, z, max x, y, z; a box per
+    /// lane): all lanes at once, a lane's box placed by Arvo's rule. Per world axis, the
+    /// lowest corner is the sum of the lower of each axis's two terms, summed in
+    /// `transform_point3`'s order, and the highest likewise; rounding is monotonic in each
+    /// term, so that is the lowest corner of `corners_box` bit for bit (up to the sign of a
+    /// zero), without the eight corners. A lane that is not finite takes `world_bounds`.
+    pub fn world_bounds_of_lanes<const W: usize>(&self, rows: &[[f32; W]; 6], lanes: u32) -> Aabb {
+        let m = &self.transform.matrix3;
+        let axes = [m.x_axis, m.y_axis, m.z_axis];
+        let t = self.transform.translation;
+        let (mut lo, mut hi) = ([[0.0f32; W]; 3], [[0.0f32; W]; 3]);
+        for j in 0..3 {
+            if self.is_translation() {
+                for k in 0..W {
+                    lo[j][k] = rows[j][k] + t[j];
+                    hi[j][k] = rows[j + 3][k] + t[j];
+                }
+                continue;
+            }
+            for (i, axis) in axes.iter().enumerate() {
+                for k in 0..W {
+                    let (p, q) = (axis[j] * rows[i][k], axis[j] * rows[i + 3][k]);
+                    let (low, high) = if p < q { (p, q) } else { (q, p) };
+                    (lo[j][k], hi[j][k]) = match i {
+                        0 => (low, high),
+                        _ => (lo[j][k] + low, hi[j][k] + high),
+                    };
+                }
+            }
+            for k in 0..W {
+                lo[j][k] += t[j];
+                hi[j][k] += t[j];
+            }
+        }
+        // Each lane padded as `world_bounds` pads (an unused lane emptied), then the lanes'
+        // union, halving the lanes at each step: all lanes at once.
+        let mut finite = true;
+        for j in 0..3 {
+            for k in 0..W {
+                let (l, h) = (lo[j][k], hi[j][k]);
+                let used = lanes >> k & 1 == 1;
+                finite &= !used || (l.is_finite() && h.is_finite());
+                let magnitude = l.abs().max(h.abs()) + (h - l);
+                let pad = magnitude * (16.0 * f32::EPSILON);
+                (lo[j][k], hi[j][k]) = match used {
+                    true => (l - pad, h + pad),
+                    false => (f32::INFINITY, f32::NEG_INFINITY),
+                };
+            }
+            // (Halving needs a power of two: wide nodes have 4 or 8 lanes.)
+            const { assert!(W.is_power_of_two()) };
+            let mut width = W;
+            while width > 1 {
+                width /= 2;
+                for k in 0..width {
+                    let (l, h) = (lo[j][k + width], hi[j][k + width]);
+                    lo[j][k] = if l < lo[j][k] { l } else { lo[j][k] };
+                    hi[j][k] = if h > hi[j][k] { h } else { hi[j][k] };
+                }
+            }
+        }
+        let (low, high) = (
+            [lo[0][0], lo[1][0], lo[2][0]],
+            [hi[0][0], hi[1][0], hi[2][0]],
+        );
+        if finite {
+            return Aabb::new(low.into(), high.into());
+        }
+        (0..W)
+            .filter(|&k| lanes >> k & 1 == 1)
+            .map(|k| {
+                self.world_bounds(&Aabb::new(
+                    glam::Vec3::new(rows[0][k], rows[1][k], rows[2][k]),
+                    glam::Vec3::new(rows[3][k], rows[4][k], rows[5][k]),
+                ))
+            })
+            .fold(Aabb::EMPTY, Aabb::union)
+    }
+
     /// The box of `b`'s eight corners placed by the transform. A corner is placed as
     /// `transform_point3` places it, x·x_axis + y·y_axis + z·z_axis + translation summed in
     /// that order; the six products and the four sums of x and y terms are shared by the
@@ -301,5 +381,63 @@ mod tests {
             overflowed > 0,
             "no placement overflowed: the fallback went untested"
         );
+    }
+
+    /// Eight boxes placed together by Arvo's rule give the union of each placed on its own,
+    /// for turned, shifted and identity placements, any choice of lanes, boxes from tiny to
+    /// huge and placements that overflow f32.
+    #[test]
+    fn lanes_placed_together_give_the_union_of_each_placed_box() {
+        let mut rng = crate::random::Rng(0x1234_5678_9abc_def1);
+        let mut next = |range: i32| {
+            (rng.unit() as f32 - 0.5) * 10f32.powi(rng.below(2 * range as u64 + 1) as i32 - range)
+        };
+        let mut overflowed = 0;
+        for k in 0..5_000 {
+            let range = if k % 10 == 0 { 37 } else { 6 };
+            let m = match k % 3 {
+                0 => Mat3A::IDENTITY,
+                _ => Mat3A::from_cols(
+                    Vec3A::new(next(3), next(3), next(3)),
+                    Vec3A::new(next(3), next(3), next(3)),
+                    Vec3A::new(next(3), next(3), next(3)),
+                ),
+            };
+            let t = Vec3A::new(next(range), next(range), next(range));
+            let Ok(instance) =
+                Instance::new(0, Affine3A::from_mat3_translation(m.into(), t.into()))
+            else {
+                continue;
+            };
+            let mut rows = [[0.0f32; 8]; 6];
+            let mut boxes = Vec::new();
+            for lane in 0..8 {
+                let (a, b) = (
+                    Vec3::new(next(range), next(range), next(range)),
+                    Vec3::new(next(range), next(range), next(range)),
+                );
+                let b = Aabb::new(a.min(b), a.max(b));
+                for axis in 0..3 {
+                    rows[axis][lane] = b.min[axis];
+                    rows[axis + 3][lane] = b.max[axis];
+                }
+                boxes.push(b);
+            }
+            let lanes = 1 + (k as u32 * 37) % 255;
+            let together = instance.world_bounds_of_lanes(&rows, lanes);
+            let each = (0..8)
+                .filter(|&l| lanes >> l & 1 == 1)
+                .fold(Aabb::EMPTY, |u, l| {
+                    u.union(instance.world_bounds(&boxes[l]))
+                });
+            overflowed += usize::from(!(each.min.is_finite() && each.max.is_finite()));
+            let same =
+                |a: Vec3, b: Vec3| (0..3).all(|i| a[i] == b[i] || (a[i].is_nan() && b[i].is_nan()));
+            assert!(
+                same(together.min, each.min) && same(together.max, each.max),
+                "{instance:?} lanes {lanes:#b}: {together:?} against {each:?}"
+            );
+        }
+        assert!(overflowed > 0, "no placement overflowed");
     }
 }

@@ -88,14 +88,17 @@ pub fn placed_box(instance: &Instance, blas: &Bvh8, subtree: Subtree) -> Aabb {
         len -= 1;
         let (n, depth) = stack[len];
         let node = &blas.nodes[n];
+        let mut placed = 0u32;
         for lane in 0..node.child_count() {
             if let Some(c) = node.interior(lane).filter(|_| depth < WORLD_BOX_DEPTH) {
                 stack[len] = (c, depth + 1);
                 len += 1;
             } else {
-                world = world.union(instance.world_bounds(&node.child_bounds(lane)));
+                placed |= 1 << lane;
             }
         }
+        // The node's boxes not opened further, placed together.
+        world = world.union(instance.world_bounds_of_lanes(&node.bounds, placed));
     }
     world
 }
