@@ -409,20 +409,21 @@ mod tests {
             else {
                 continue;
             };
-            let mut rows = [[0.0f32; 8]; 6];
-            let mut boxes = Vec::new();
-            for lane in 0..8 {
-                let (a, b) = (
-                    Vec3::new(next(range), next(range), next(range)),
-                    Vec3::new(next(range), next(range), next(range)),
-                );
-                let b = Aabb::new(a.min(b), a.max(b));
-                for axis in 0..3 {
-                    rows[axis][lane] = b.min[axis];
-                    rows[axis + 3][lane] = b.max[axis];
-                }
-                boxes.push(b);
-            }
+            let boxes: Vec<Aabb> = (0..8)
+                .map(|_| {
+                    let (a, b) = (
+                        Vec3::new(next(range), next(range), next(range)),
+                        Vec3::new(next(range), next(range), next(range)),
+                    );
+                    Aabb::new(a.min(b), a.max(b))
+                })
+                .collect();
+            let rows: [[f32; 8]; 6] = std::array::from_fn(|row| {
+                std::array::from_fn(|lane| match row {
+                    0..3 => boxes[lane].min[row],
+                    _ => boxes[lane].max[row - 3],
+                })
+            });
             let lanes = 1 + (k as u32 * 37) % 255;
             let together = instance.world_bounds_of_lanes(&rows, lanes);
             let each = (0..8)
