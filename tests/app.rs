@@ -679,6 +679,85 @@ fn dragging_an_object_under_the_two_levels_moves_its_instance() {
     assert!(worst < 1e-4, "t differs by {worst} relative");
 }
 
+/// On an island (a scene of instances), a moved object's instance is refitted into the top
+/// level, and Rebuild (B) then builds the top level alone over the instances where they
+/// are: the BLASes kept, the frame the same as a whole build of the moved scene gives.
+#[test]
+fn rebuilding_an_island_after_a_move_rebuilds_its_top_level_only() {
+    use bvhlab::accel::structure::{self, StructureParams};
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(1400.0, 900.0))
+        .with_max_steps(16)
+        .build_eframe(|cc| {
+            BvhLabApp::new(
+                cc,
+                bvhlab::app::Launch {
+                    scene: Some("island:1".into()),
+                    accel: Some(bvhlab::accel::AccelKind::TwoLevel),
+                    fresh: true,
+                    ..Default::default()
+                },
+            )
+        });
+    settle(&mut h);
+    let built = h.state().report.clone().unwrap();
+    assert_ne!(built.detail("BLAS builds").unwrap().to_string(), "kept");
+    // The first object moved twice, as a drag moves it.
+    for _ in 0..2 {
+        h.state_mut()
+            .move_object(0, glam::Vec3::new(3.0, 0.5, -2.0));
+        settle(&mut h);
+    }
+    h.state_mut().end_gesture();
+    settle(&mut h);
+    assert!(h.state().last_instance_move.is_some(), "an instance moved");
+    h.state_mut().rebuild();
+    settle(&mut h);
+    h.state_mut().request_snapshot();
+    settle(&mut h);
+    let app = h.state();
+    let report = app.report.clone().unwrap();
+    assert_eq!(report.detail("BLAS builds").unwrap().to_string(), "kept");
+    assert_eq!(
+        report.nodes - report.detail("TLAS nodes").unwrap().as_count().unwrap() as usize,
+        built.nodes - built.detail("TLAS nodes").unwrap().as_count().unwrap() as usize,
+        "the BLASes' nodes are the build's"
+    );
+    let moved = app.snapshot.clone().expect("snapshot");
+    let shown = app.shown.clone().unwrap();
+    let params = StructureParams::of_kind(bvhlab::accel::AccelKind::TwoLevel);
+    let fresh = structure::build_scene(&moved, &params, &Default::default()).unwrap();
+    let settings = RenderSettings {
+        width: shown.job.width,
+        height: shown.job.height,
+        camera: shown.job.camera,
+        light: moved.light(),
+        mode: shown.job.mode,
+        heat_max: None,
+        shadows: true,
+        counters: true,
+    };
+    let expected = render(&fresh.structure, &moved, &settings);
+    let differing = |samples: &[bvhlab::render::Sample]| {
+        (shown.frame.samples.iter().zip(samples))
+            .filter(|(a, b)| a.triangle != b.triangle || a.t.to_bits() != b.t.to_bits())
+            .count()
+    };
+    assert_eq!(
+        differing(&expected.samples),
+        0,
+        "the rebuilt top level traces a whole build's hits"
+    );
+    // The move shows: the island where it was gives another picture.
+    let unmoved = bvhlab::scene::Scene::load("island:1").unwrap();
+    let before = structure::build_scene(&unmoved, &params, &Default::default()).unwrap();
+    let before = render(&before.structure, &unmoved, &settings);
+    assert!(
+        differing(&before.samples) > 1000,
+        "the object moved in view"
+    );
+}
+
 fn outline_children(outline: &bvhlab::accel::Outline, node: usize) -> usize {
     outline.nodes[node].children().len()
 }

@@ -26,7 +26,12 @@ pub(super) fn refit_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 if ui.button("Undo move (Ctrl+Z)").clicked() {
                     app.undo();
                 }
-                if ui.button("Rebuild (B)").clicked() {
+                let rebuild = ui.button("Rebuild (B)").on_hover_text(
+                    "Build the structure again over the scene as it is now. Under the two \
+                     levels, after instances moved, only the top level is built again: the \
+                     meshes did not change, so neither did their BLASes.",
+                );
+                if rebuild.clicked() {
                     app.rebuild();
                 }
             });

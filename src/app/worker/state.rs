@@ -388,6 +388,9 @@ impl State {
     }
 
     pub(in crate::app) fn rebuild(&mut self) -> bool {
+        if self.rebuild_top_level_only() {
+            return true;
+        }
         let Some(scene) = &self.scene else {
             return true;
         };
@@ -418,6 +421,37 @@ impl State {
                 false
             }
         }
+    }
+
+    /// Under the two levels over a scene of instances where only instances moved since
+    /// the build (no triangle), rebuilds the top level alone over them where they are: the
+    /// meshes did not change, so neither do their BLASes (the lecture's dynamic scene).
+    /// False, changing nothing, where a whole build is needed.
+    fn rebuild_top_level_only(&mut self) -> bool {
+        let (Some(scene), Some(Structure::TwoLevel(levels))) = (&self.scene, &mut self.structure)
+        else {
+            return false;
+        };
+        if scene.instances.is_empty() || !self.moved.is_empty() || levels.params != self.params.bvh
+        {
+            return false;
+        }
+        let start = std::time::Instant::now();
+        if levels.rebuild_top_level().is_err() {
+            return false;
+        }
+        let report = levels.top_level_report(scene.placed_triangles(), start.elapsed());
+        let Some(structure) = self.structure.take() else {
+            return false;
+        };
+        let built = Built {
+            structure,
+            report,
+            bvh_report: None,
+        };
+        let sah = predict_sah(&built, &self.params, scene);
+        self.install(built, sah);
+        true
     }
 
     /// Makes `built` (over the current scene) the structure the worker traces, and says so
