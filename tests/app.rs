@@ -216,12 +216,19 @@ fn the_in_view_controls_grow_in_the_presentation_layout() {
         h.get_by_role_and_label(Role::Slider, "walls turned").rect()
     };
     let normal = slider(&h);
+    let button = h.get_by_label("Present (Tab)").rect();
     h.state_mut().settings.presentation = true;
     settle(&mut h);
     let presented = slider(&h);
     assert!(
         presented.height() > 1.4 * normal.height(),
         "{normal:?} → {presented:?}"
+    );
+    // The presentation bar's buttons grow with its caption.
+    let exit = h.get_by_label("exit presentation").rect();
+    assert!(
+        exit.height() > 1.2 * button.height(),
+        "{button:?} → {exit:?}"
     );
     let step = h
         .state()

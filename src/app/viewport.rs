@@ -89,7 +89,10 @@ pub fn show(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         && app.screenshot.is_none()
         && let Some(text) = pixel_report(app, rect, pos)
     {
+        // Read from the back of the room in the presentation layout, as the legends are.
+        let scale = super::panels::in_view_scale(app.settings.presentation, ui.ctx());
         response.on_hover_ui_at_pointer(|ui| {
+            super::panels::scale_widgets(ui, scale);
             ui.label(text);
         });
     }

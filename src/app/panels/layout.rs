@@ -200,6 +200,9 @@ pub fn presentation_bar(app: &mut BvhLabApp, ui: &mut egui::Ui) {
                 }
             }
             ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
+                // Buttons the lecturer finds at a glance on the projected window: their
+                // text as large as the caption's.
+                scale_widgets(ui, (size * 0.8 / 12.5).max(1.0));
                 if ui
                     .button("exit presentation")
                     .on_hover_text("back to the panels (Tab or F11)")
