@@ -309,6 +309,20 @@ fn drag_an_object(h: &mut Harness<'static, BvhLabApp>) {
     settle(h);
 }
 
+/// The settings `shown` was traced with, over `scene`, counting.
+fn settings_of(shown: &bvhlab::app::worker::Shown, scene: &bvhlab::scene::Scene) -> RenderSettings {
+    RenderSettings {
+        width: shown.job.width,
+        height: shown.job.height,
+        camera: shown.job.camera,
+        light: scene.light(),
+        mode: shown.job.mode,
+        heat_max: None,
+        shadows: true,
+        counters: true,
+    }
+}
+
 /// The frame shown equals one traced through a fresh BVH2 build of the moved scene.
 fn assert_frame_equals_a_fresh_build(h: &mut Harness<'static, BvhLabApp>) {
     h.state_mut().request_snapshot();
@@ -317,16 +331,7 @@ fn assert_frame_equals_a_fresh_build(h: &mut Harness<'static, BvhLabApp>) {
     let moved = app.snapshot.clone().expect("snapshot");
     let shown = app.shown.clone().unwrap();
     let (fresh, _) = build(&moved.triangles, &BuildParams::default()).unwrap();
-    let settings = RenderSettings {
-        width: shown.job.width,
-        height: shown.job.height,
-        camera: shown.job.camera,
-        light: moved.light(),
-        mode: shown.job.mode,
-        heat_max: None,
-        shadows: true,
-        counters: true,
-    };
+    let settings = settings_of(&shown, &moved);
     let expected = render(&fresh, &moved, &settings);
     let mut differing = 0;
     for (a, b) in shown.frame.samples.iter().zip(&expected.samples) {
@@ -659,16 +664,7 @@ fn dragging_an_object_under_the_two_levels_moves_its_instance() {
     );
     let shown = app.shown.clone().unwrap();
     let (fresh, _) = build(&moved.triangles, &BuildParams::default()).unwrap();
-    let settings = RenderSettings {
-        width: shown.job.width,
-        height: shown.job.height,
-        camera: shown.job.camera,
-        light: moved.light(),
-        mode: shown.job.mode,
-        heat_max: None,
-        shadows: true,
-        counters: true,
-    };
+    let settings = settings_of(&shown, &moved);
     let expected = render(&fresh, &moved, &settings);
     let (mut other_triangle, mut worst) = (0, 0.0f32);
     for (a, b) in shown.frame.samples.iter().zip(&expected.samples) {
@@ -686,12 +682,8 @@ fn dragging_an_object_under_the_two_levels_moves_its_instance() {
     assert!(worst < 1e-4, "t differs by {worst} relative");
 }
 
-/// On an island (a scene of instances), a moved object's instance is refitted into the top
-/// level, and Rebuild (B) then builds the top level alone over the instances where they
-/// are: the BLASes kept, the frame the same as a whole build of the moved scene gives.
-#[test]
-fn rebuilding_an_island_after_a_move_rebuilds_its_top_level_only() {
-    use bvhlab::accel::structure::{self, StructureParams};
+/// The app on a small island (three objects) under the two levels, settled.
+fn small_island() -> Harness<'static, BvhLabApp> {
     let mut h = Harness::builder()
         .with_size(egui::vec2(1400.0, 900.0))
         .with_max_steps(16)
@@ -707,6 +699,16 @@ fn rebuilding_an_island_after_a_move_rebuilds_its_top_level_only() {
             )
         });
     settle(&mut h);
+    h
+}
+
+/// On an island (a scene of instances), a moved object's instance is refitted into the top
+/// level, and Rebuild (B) then builds the top level alone over the instances where they
+/// are: the BLASes kept, the frame the same as a whole build of the moved scene gives.
+#[test]
+fn rebuilding_an_island_after_a_move_rebuilds_its_top_level_only() {
+    use bvhlab::accel::structure::{self, StructureParams};
+    let mut h = small_island();
     let built = h.state().report.clone().unwrap();
     assert_ne!(built.detail("BLAS builds").unwrap().to_string(), "kept");
     // The first object moved twice, as a drag moves it.
@@ -734,16 +736,7 @@ fn rebuilding_an_island_after_a_move_rebuilds_its_top_level_only() {
     let shown = app.shown.clone().unwrap();
     let params = StructureParams::of_kind(bvhlab::accel::AccelKind::TwoLevel);
     let fresh = structure::build_scene(&moved, &params, &Default::default()).unwrap();
-    let settings = RenderSettings {
-        width: shown.job.width,
-        height: shown.job.height,
-        camera: shown.job.camera,
-        light: moved.light(),
-        mode: shown.job.mode,
-        heat_max: None,
-        shadows: true,
-        counters: true,
-    };
+    let settings = settings_of(&shown, &moved);
     let expected = render(&fresh.structure, &moved, &settings);
     let differing = |samples: &[bvhlab::render::Sample]| {
         (shown.frame.samples.iter().zip(samples))
@@ -945,14 +938,8 @@ fn the_stats_panel_says_counting_until_the_counted_pass_arrives() {
     // The same view traced as the worker shows it first: without counting.
     let (bvh, _) = build(&scene.triangles, &BuildParams::default()).unwrap();
     let settings = RenderSettings {
-        width: shown.job.width,
-        height: shown.job.height,
-        camera: shown.job.camera,
-        light: scene.light(),
-        mode: shown.job.mode,
-        heat_max: None,
-        shadows: true,
         counters: false,
+        ..settings_of(&shown, &scene)
     };
     let uncounted = Arc::new(trace(&bvh, &scene, &settings));
     let first = Shown {
@@ -988,21 +975,7 @@ fn the_stats_panel_says_counting_until_the_counted_pass_arrives() {
 /// memory a flattened copy would take, as `bvhlab stats` does.
 #[test]
 fn an_instanced_scene_shows_its_placed_triangles_and_flattened_size() {
-    let mut h = Harness::builder()
-        .with_size(egui::vec2(1400.0, 900.0))
-        .with_max_steps(16)
-        .build_eframe(|cc| {
-            BvhLabApp::new(
-                cc,
-                bvhlab::app::Launch {
-                    scene: Some("island:1".into()),
-                    accel: Some(bvhlab::accel::AccelKind::TwoLevel),
-                    fresh: true,
-                    ..Default::default()
-                },
-            )
-        });
-    settle(&mut h);
+    let h = small_island();
     let scene = h.state().scene.clone().expect("the island loaded");
     assert!(
         scene.triangles.is_empty(),

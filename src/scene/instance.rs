@@ -336,42 +336,64 @@ mod tests {
         assert!(!turned.is_translation());
     }
 
+    /// Random numbers from tiny to huge, of both signs.
+    struct Wild(crate::random::Rng);
+
+    impl Wild {
+        /// A number of magnitude up to 10^`range` and down to 10^-`range`.
+        fn next(&mut self, range: i32) -> f32 {
+            let rng = &mut self.0;
+            (rng.unit() as f32 - 0.5) * 10f32.powi(rng.below(2 * range as u64 + 1) as i32 - range)
+        }
+
+        fn point(&mut self, range: i32) -> Vec3 {
+            Vec3::new(self.next(range), self.next(range), self.next(range))
+        }
+
+        fn boxed(&mut self, range: i32) -> Aabb {
+            let (a, b) = (self.point(range), self.point(range));
+            Aabb::new(a.min(b), a.max(b))
+        }
+
+        /// An instance shifted by up to 10^`range`: turned, scaled, sheared or mirrored by
+        /// a random matrix, or with `shift_only` only shifted; `None` if it is singular.
+        fn instance(&mut self, range: i32, shift_only: bool) -> Option<Instance> {
+            let m = match shift_only {
+                true => Mat3A::IDENTITY,
+                false => Mat3A::from_cols(
+                    self.point(3).into(),
+                    self.point(3).into(),
+                    self.point(3).into(),
+                ),
+            };
+            let t = self.point(range);
+            Instance::new(0, Affine3A::from_mat3_translation(m.into(), t)).ok()
+        }
+    }
+
+    /// Equal values (a zero's sign aside), or NaN in both.
+    fn same(a: Vec3, b: Vec3) -> bool {
+        (0..3).all(|i| a[i] == b[i] || (a[i].is_nan() && b[i].is_nan()))
+    }
+
     /// The corners placed with shared products and sums give the box of the corners placed
     /// one by one, for rotations, scales, shears and mirrors, boxes from tiny to huge, and
     /// placements that overflow f32 (where the shared form steps aside).
     #[test]
     fn corners_placed_together_give_the_corners_placed_one_by_one() {
-        let mut rng = crate::random::Rng(0x9e37_79b9_7f4a_7c15);
-        let mut next = |range: i32| {
-            (rng.unit() as f32 - 0.5) * 10f32.powi(rng.below(2 * range as u64 + 1) as i32 - range)
-        };
+        let mut wild = Wild(crate::random::Rng(0x9e37_79b9_7f4a_7c15));
         let mut overflowed = 0;
         for k in 0..20_000 {
             let range = if k % 10 == 0 { 37 } else { 6 };
-            let m = Mat3A::from_cols(
-                Vec3A::new(next(3), next(3), next(3)),
-                Vec3A::new(next(3), next(3), next(3)),
-                Vec3A::new(next(3), next(3), next(3)),
-            );
-            let t = Vec3A::new(next(range), next(range), next(range));
-            let Ok(instance) =
-                Instance::new(0, Affine3A::from_mat3_translation(m.into(), t.into()))
-            else {
+            let Some(instance) = wild.instance(range, false) else {
                 continue;
             };
-            let (a, b) = (
-                Vec3::new(next(range), next(range), next(range)),
-                Vec3::new(next(range), next(range), next(range)),
-            );
-            let boxed = Aabb::new(a.min(b), a.max(b));
+            let boxed = wild.boxed(range);
             let (fast, exact) = (
                 instance.corners_box(&boxed),
                 instance.corners_box_one_by_one(&boxed),
             );
             overflowed += usize::from(!(exact.min.is_finite() && exact.max.is_finite()));
-            // Equal values (a zero's sign aside), or NaN in both.
-            let same =
-                |a: Vec3, b: Vec3| (0..3).all(|i| a[i] == b[i] || (a[i].is_nan() && b[i].is_nan()));
             assert!(
                 same(fast.min, exact.min) && same(fast.max, exact.max),
                 "{instance:?} {boxed:?}: {fast:?} against {exact:?}"
@@ -388,36 +410,14 @@ mod tests {
     /// huge and placements that overflow f32.
     #[test]
     fn lanes_placed_together_give_the_union_of_each_placed_box() {
-        let mut rng = crate::random::Rng(0x1234_5678_9abc_def1);
-        let mut next = |range: i32| {
-            (rng.unit() as f32 - 0.5) * 10f32.powi(rng.below(2 * range as u64 + 1) as i32 - range)
-        };
+        let mut wild = Wild(crate::random::Rng(0x1234_5678_9abc_def1));
         let mut overflowed = 0;
         for k in 0..5_000 {
             let range = if k % 10 == 0 { 37 } else { 6 };
-            let m = match k % 3 {
-                0 => Mat3A::IDENTITY,
-                _ => Mat3A::from_cols(
-                    Vec3A::new(next(3), next(3), next(3)),
-                    Vec3A::new(next(3), next(3), next(3)),
-                    Vec3A::new(next(3), next(3), next(3)),
-                ),
-            };
-            let t = Vec3A::new(next(range), next(range), next(range));
-            let Ok(instance) =
-                Instance::new(0, Affine3A::from_mat3_translation(m.into(), t.into()))
-            else {
+            let Some(instance) = wild.instance(range, k % 3 == 0) else {
                 continue;
             };
-            let boxes: Vec<Aabb> = (0..8)
-                .map(|_| {
-                    let (a, b) = (
-                        Vec3::new(next(range), next(range), next(range)),
-                        Vec3::new(next(range), next(range), next(range)),
-                    );
-                    Aabb::new(a.min(b), a.max(b))
-                })
-                .collect();
+            let boxes: Vec<Aabb> = (0..8).map(|_| wild.boxed(range)).collect();
             let rows: [[f32; 8]; 6] = std::array::from_fn(|row| {
                 std::array::from_fn(|lane| match row {
                     0..3 => boxes[lane].min[row],
@@ -432,8 +432,6 @@ mod tests {
                     u.union(instance.world_bounds(&boxes[l]))
                 });
             overflowed += usize::from(!(each.min.is_finite() && each.max.is_finite()));
-            let same =
-                |a: Vec3, b: Vec3| (0..3).all(|i| a[i] == b[i] || (a[i].is_nan() && b[i].is_nan()));
             assert!(
                 same(together.min, each.min) && same(together.max, each.max),
                 "{instance:?} lanes {lanes:#b}: {together:?} against {each:?}"
