@@ -135,6 +135,8 @@ mod ffi {
             transform: *const c_void,
         );
         pub fn rtcCommitGeometry(geometry: Geometry);
+        pub fn rtcGetGeometry(scene: Scene, geom_id: c_uint) -> Geometry;
+        pub fn rtcUpdateGeometryBuffer(geometry: Geometry, kind: c_uint, slot: c_uint);
         pub fn rtcAttachGeometry(scene: Scene, geometry: Geometry) -> c_uint;
         pub fn rtcReleaseGeometry(geometry: Geometry);
         pub fn rtcCommitScene(scene: Scene);
@@ -365,6 +367,31 @@ impl Embree {
             ffi::rtcCommitScene(scene);
         }
         self.check("a mesh's build")
+    }
+
+    /// Rebuilds a flattened scene as a scene that moved is rebuilt every frame: its
+    /// vertices marked changed (`rtcUpdateGeometryBuffer`) and the mesh and scene committed
+    /// again, into the memory Embree kept from the build before. Returns how long that
+    /// took; `None` for two levels or an empty scene.
+    pub fn rebuild(&mut self) -> Result<Option<Duration>, String> {
+        if !self.meshes.is_empty() {
+            return Ok(None);
+        }
+        // SAFETY: the scene is live and committed; geometry 0, where there is one, is the
+        // mesh `commit_mesh` attached, and its vertex buffer is slot 0.
+        let took = unsafe {
+            let geometry = ffi::rtcGetGeometry(self.scene, 0);
+            if geometry.is_null() {
+                return Ok(None);
+            }
+            let start = Instant::now();
+            ffi::rtcUpdateGeometryBuffer(geometry, ffi::BUFFER_TYPE_VERTEX, 0);
+            ffi::rtcCommitGeometry(geometry);
+            ffi::rtcCommitScene(self.scene);
+            start.elapsed()
+        };
+        self.check("the rebuild")?;
+        Ok(Some(took))
     }
 
     /// Sets the scene flags of this mode on `scene`, before its commit.

@@ -22,7 +22,7 @@ use super::two_level::{self, TwoLevel};
 use super::{Accel, BruteForce, Hit, Stats, TraversalOrder};
 use crate::accel::report::Detail;
 use crate::budget::BudgetError;
-use crate::geometry::simd::{BLOCK, SimdLevel};
+use crate::geometry::simd::SimdLevel;
 use crate::geometry::{Intersector, Ray, Triangle};
 use crate::scene::{FlattenError, Instancing, Scene};
 use std::time::Instant;
@@ -532,7 +532,7 @@ where
             return Err(BuildError::PresplitDirectWide.into());
         }
         let start = Instant::now();
-        let leaf_size = params.bvh.max_leaf_size.min(BLOCK as u32);
+        let leaf_size = params.bvh.direct_wide_leaf_size();
         let (wide, phases) = WideBvh::<W>::morton(triangles, leaf_size)?;
         let build_time = start.elapsed();
         progress.add(triangles.len());

@@ -62,6 +62,9 @@ pub struct PeerJson {
     /// Of a peer's two levels, its top level's build alone.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub top_level_build_ms: Option<f64>,
+    /// The peer's scene rebuilt after its vertices were marked changed, best of the builds.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rebuild_ms: Option<f64>,
 }
 
 /// One benchmark run: the structure, its build, the ray sets, the SAH check and the peers.
@@ -86,6 +89,10 @@ pub struct BenchJson {
     /// The wide layouts' and the two levels' SIMD kernel (null for the others).
     pub simd: Option<&'static str>,
     pub build_ms: f64,
+    /// The wide tree built straight from the Morton order, rebuilt into its own memory
+    /// (as every frame of a moving scene), best of the builds.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rebuild_ms: Option<f64>,
     pub bytes: usize,
     pub sah_cost: Option<f64>,
     pub nodes: usize,
@@ -168,6 +175,7 @@ impl PeerJson {
             tied_primary_hits: p.tied_primary_hits,
             differing_primary_hits: p.differing_primary_hits,
             top_level_build_ms: p.top_level_build.map(ms),
+            rebuild_ms: p.rebuild.map(ms),
         }
     }
 }
@@ -199,6 +207,7 @@ impl BenchResult {
             mailbox: self.params.mailbox,
             simd: (self.params.kind.is_wide() || levels).then(|| self.params.simd.label()),
             build_ms: round3(r.build_ms()),
+            rebuild_ms: self.wide_rebuild.map(ms),
             bytes: r.bytes,
             sah_cost: self.sah_cost().map(round3),
             nodes: r.nodes,

@@ -21,12 +21,13 @@ pub mod stress;
 pub mod tradeoff;
 
 use crate::accel::bvh::packet::PACKET_SIZE;
+use crate::accel::bvh::wide::{Lanes, MortonScratch, NodeWidth, WideBvh};
 use crate::accel::bvh::{BuildParams, BuildReport, Strategy};
 pub use crate::accel::sah_check::MeanWork;
 use crate::accel::sah_check::mean_work_of;
 use crate::accel::structure::{self, AccelKind, Built, Structure, StructureError};
 use crate::accel::{Accel, NoStats, StructureParams, StructureReport};
-use crate::geometry::{Intersector, IntersectorKind, Ray};
+use crate::geometry::{Intersector, IntersectorKind, Ray, Triangle};
 use crate::scene::{Camera, Scene};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -120,6 +121,10 @@ pub struct BenchResult {
     /// Under the two levels, the best of the builds' count of top-level rebuilds over the
     /// references where they are (`TwoLevel::rebuild_top_level`): the rebuild per frame.
     pub top_level_rebuild: Option<Duration>,
+    /// A BVH4 or BVH8 built straight from the Morton order (`--direct-wide`), rebuilt over
+    /// the same triangles into its own memory (`WideBvh::rebuild_morton`), as a scene that
+    /// moves is rebuilt every frame: the best of the builds' count.
+    pub wide_rebuild: Option<Duration>,
 }
 
 impl BenchResult {
@@ -156,12 +161,16 @@ pub struct PeerResult {
     pub differing_primary_hits: usize,
     /// Of a peer's two levels, its top level's build alone (its meshes' already built).
     pub top_level_build: Option<Duration>,
+    /// The peer's scene rebuilt after its vertices were marked changed, into the memory
+    /// it kept (timed where bvhlab's `wide_rebuild` is): the best of the builds' count.
+    pub rebuild: Option<Duration>,
 }
 
 /// Runs the benchmark of `cfg.params.kind` on the current rayon thread pool.
 pub fn run(scene: &Scene, cfg: &BenchConfig) -> Result<BenchResult, BenchError> {
     let mut built = timed_build(scene, cfg, &cfg.params)?;
     let top_level_rebuild = time_top_level_rebuild(&mut built.structure, cfg.builds)?;
+    let wide_rebuild = time_wide_rebuild(&mut built.structure, scene, &cfg.params, cfg.builds)?;
     let sets = RaySets::standard(
         &built.structure,
         scene,
@@ -172,6 +181,7 @@ pub fn run(scene: &Scene, cfg: &BenchConfig) -> Result<BenchResult, BenchError> 
     );
     let mut result = measure(scene, cfg, &cfg.params, &built, &sets);
     result.top_level_rebuild = top_level_rebuild;
+    result.wide_rebuild = wide_rebuild;
     for (asked, robust) in [(cfg.embree, false), (cfg.embree_robust, true)] {
         if asked {
             let peer = peers::run_embree(&built.structure, scene, cfg, &sets, robust)?;
@@ -379,6 +389,7 @@ fn measure(
         sah_check,
         peers: Vec::new(),
         top_level_rebuild: None,
+        wide_rebuild: None,
     }
 }
 
@@ -398,6 +409,47 @@ fn time_top_level_rebuild(
         best = best.min(start.elapsed());
     }
     Ok(Some(best))
+}
+
+/// The best of `builds` rebuilds of a BVH4 or BVH8 built straight from the Morton order,
+/// into its own memory, after one that fills the kept scratch; `None` for other builds.
+/// The tree rebuilt is the tree built, so the rays after it trace the same tree.
+fn time_wide_rebuild(
+    structure: &mut Structure,
+    scene: &Scene,
+    params: &StructureParams,
+    builds: u32,
+) -> Result<Option<Duration>, BenchError> {
+    if !params.bvh.builds_direct_wide() {
+        return Ok(None);
+    }
+    let leaf_size = params.bvh.direct_wide_leaf_size();
+    fn best<const W: usize>(
+        tree: &mut WideBvh<W>,
+        triangles: &[Triangle],
+        leaf_size: u32,
+        builds: u32,
+    ) -> Result<Duration, BenchError>
+    where
+        Lanes<W>: NodeWidth,
+    {
+        let mut scratch = MortonScratch::default();
+        let mut best = Duration::MAX;
+        for k in 0..=builds.max(1) {
+            let start = Instant::now();
+            tree.rebuild_morton(triangles, leaf_size, &mut scratch)
+                .map_err(StructureError::from)?;
+            if k > 0 {
+                best = best.min(start.elapsed());
+            }
+        }
+        Ok(best)
+    }
+    Ok(match structure {
+        Structure::Bvh4(t) => Some(best(t, &scene.triangles, leaf_size, builds)?),
+        Structure::Bvh8(t) => Some(best(t, &scene.triangles, leaf_size, builds)?),
+        _ => None,
+    })
 }
 
 /// The mean counters per ray of the primary, diffuse and shadow sets (one counting pass).

@@ -26,7 +26,6 @@ use super::{BuildParams, Outline, OutlineNode, StructureReport, TraversalOrder};
 use crate::accel::progress::BuildProgress;
 use crate::accel::report::Detail;
 use crate::geometry::simd::SimdLevel;
-use crate::geometry::simd::triangle::BLOCK;
 use crate::geometry::{Aabb, Triangle};
 use crate::scene::{Instance, Instancing, TransformError};
 use glam::Affine3A;
@@ -168,7 +167,7 @@ fn build_blas(
     progress: &BuildProgress,
 ) -> Result<Bvh8, BuildError> {
     if params.builds_direct_wide() {
-        let (blas, _) = Bvh8::morton(triangles, params.max_leaf_size.min(BLOCK as u32))?;
+        let (blas, _) = Bvh8::morton(triangles, params.direct_wide_leaf_size())?;
         progress.add(triangles.len());
         return Ok(blas);
     }

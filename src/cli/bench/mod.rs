@@ -459,6 +459,13 @@ fn run_settings(args: BenchArgs) -> Result<()> {
     if let (Some(blas), Some(tlas)) = (detail("BLAS builds"), detail("TLAS build")) {
         out!("  of which BLAS builds {blas}, TLAS build {tlas}");
     }
+    if let Some(t) = r.wide_rebuild {
+        out!(
+            "  rebuilt into its own memory, as every frame of a moving scene: {:.2} ms (best of {})",
+            t.as_secs_f64() * 1e3,
+            cfg.builds.max(1)
+        );
+    }
     if let Some(t) = r.top_level_rebuild {
         out!(
             "  top level rebuilt over its references where they are: {:.2} ms (best of {})",

@@ -134,6 +134,9 @@ pub(super) fn print_peer(r: &bench::BenchResult, p: &bench::PeerResult) -> Resul
     if let (Some(ours), Some(theirs)) = (r.top_level_rebuild, p.top_level_build) {
         times("top level build", build_ms(ours), build_ms(theirs))?;
     }
+    if let (Some(ours), Some(theirs)) = (r.wide_rebuild, p.rebuild) {
+        times("rebuilt per frame", build_ms(ours), build_ms(theirs))?;
+    }
     for (name, a, b) in [
         ("primary", &r.primary, Some(&p.primary)),
         (

@@ -8,7 +8,7 @@ use super::prim::PrimRef;
 use super::radix_sort::{self, Keyed};
 use super::{BuildParams, PARALLEL_SUBTREE, Strategy, treelet};
 use crate::accel::bvh::report::BuildPhases;
-use crate::geometry::Aabb;
+use crate::geometry::{Aabb, Triangle};
 use rayon::prelude::*;
 use std::time::Instant;
 
@@ -16,6 +16,7 @@ use std::time::Instant;
 const MORTON_BITS: u32 = 21;
 
 /// Spreads the low 21 bits of `v` so that bit k moves to bit 3k.
+#[inline(always)]
 fn spread_bits(v: u64) -> u64 {
     let mut x = v & 0x1f_ffff;
     x = (x | (x << 32)) & 0x001f_0000_0000_ffff;
@@ -28,6 +29,7 @@ fn spread_bits(v: u64) -> u64 {
 
 /// The Morton code of a point quantised to 21 bits per axis: x, y and z bits interleaved,
 /// x the most significant of each triple.
+#[inline(always)]
 pub fn morton3(q: [u32; 3]) -> u64 {
     (spread_bits(q[0] as u64) << 2) | (spread_bits(q[1] as u64) << 1) | spread_bits(q[2] as u64)
 }
@@ -55,6 +57,7 @@ impl Quantizer {
         }
     }
 
+    #[inline(always)]
     fn code(&self, c: [f64; 3]) -> u64 {
         let top = ((1u32 << MORTON_BITS) - 1) as f64;
         let q =
@@ -76,13 +79,29 @@ impl CentroidBounds {
         max: [f64::NEG_INFINITY; 3],
     };
 
+    /// The bounds grown by the finite point `c` (a compare and a select per bound: no NaN
+    /// to handle, as `f64::min` does).
+    #[inline(always)]
     fn grow(self, c: [f64; 3]) -> Self {
         CentroidBounds {
-            min: std::array::from_fn(|k| self.min[k].min(c[k])),
-            max: std::array::from_fn(|k| self.max[k].max(c[k])),
+            min: std::array::from_fn(|k| {
+                if c[k] < self.min[k] {
+                    c[k]
+                } else {
+                    self.min[k]
+                }
+            }),
+            max: std::array::from_fn(|k| {
+                if c[k] > self.max[k] {
+                    c[k]
+                } else {
+                    self.max[k]
+                }
+            }),
         }
     }
 
+    #[inline(always)]
     fn union(self, o: CentroidBounds) -> Self {
         CentroidBounds {
             min: std::array::from_fn(|k| self.min[k].min(o.min[k])),
@@ -91,6 +110,7 @@ impl CentroidBounds {
     }
 }
 
+#[inline(always)]
 fn centroid(b: &Aabb) -> [f64; 3] {
     std::array::from_fn(|k| 0.5 * (b.min[k] as f64 + b.max[k] as f64))
 }
@@ -255,7 +275,7 @@ impl Fill<'_> {
 
 /// The Morton code of each reference's centroid (63 bits: 21 per axis, over the centroids'
 /// bounds), with its index into `refs`, in `refs`' order; and the references' boxes.
-pub(crate) fn morton_keys(refs: &[PrimRef], phases: &mut BuildPhases) -> (Vec<Keyed>, Vec<Aabb>) {
+fn morton_keys(refs: &[PrimRef], phases: &mut BuildPhases) -> (Vec<Keyed>, Vec<Aabb>) {
     let start = Instant::now();
     let bounds: Vec<Aabb> = refs.par_iter().map(|r| Aabb::new(r.min, r.max)).collect();
     let centroids = bounds
@@ -273,6 +293,43 @@ pub(crate) fn morton_keys(refs: &[PrimRef], phases: &mut BuildPhases) -> (Vec<Ke
         .collect();
     phases.add("Morton codes", start.elapsed());
     (keyed, bounds)
+}
+
+/// The Morton code of each triangle's box centroid, as `morton_keys` codes a whole
+/// reference, packed with the triangle's index by `pack(code, index)` into `keys`. Both
+/// vectors are emptied first and keep their memory (`boxes` is scratch): a scene rebuilt
+/// every frame writes its codes over last frame's.
+/// Triangles a task of `triangle_codes_into`'s first pass takes.
+const CODE_CHUNK: usize = 1 << 14;
+
+pub(crate) fn triangle_codes_into(
+    triangles: &[Triangle],
+    boxes: &mut Vec<Aabb>,
+    keys: &mut Vec<u64>,
+    pack: impl Fn(u64, u32) -> u64 + Sync,
+) {
+    // Each triangle's box written and its centroid taken into the bounds in one pass.
+    boxes.resize(triangles.len(), Aabb::EMPTY);
+    let bounds = boxes
+        .par_chunks_mut(CODE_CHUNK)
+        .zip(triangles.par_chunks(CODE_CHUNK))
+        .map(|(out, tris)| {
+            let mut c = CentroidBounds::EMPTY;
+            for (o, t) in out.iter_mut().zip(tris) {
+                *o = t.bounds();
+                c = c.grow(centroid(o));
+            }
+            c
+        })
+        .reduce(|| CentroidBounds::EMPTY, CentroidBounds::union);
+    let quantizer = Quantizer::new(&bounds);
+    keys.clear();
+    keys.par_extend(
+        boxes
+            .par_iter()
+            .enumerate()
+            .map(|(i, b)| pack(quantizer.code(centroid(b)), i as u32)),
+    );
 }
 
 /// Builds the LBVH (and, for `Strategy::LbvhTreelet`, restructures it) over the triangle

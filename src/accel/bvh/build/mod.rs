@@ -32,8 +32,8 @@ pub mod split_costs;
 mod subset_terms;
 pub mod treelet;
 
-pub(crate) use lbvh::morton_keys;
-pub(crate) use radix_sort::sort_from as radix_sort_from;
+pub(crate) use lbvh::triangle_codes_into;
+pub(crate) use radix_sort::sort_from_with as radix_sort_from_with;
 pub use split_costs::split_costs;
 
 use super::node::{Node, Nodes};
@@ -218,6 +218,12 @@ impl BuildParams {
     /// Whether the wide trees are built straight from the Morton order (`direct_wide`).
     pub fn builds_direct_wide(&self) -> bool {
         self.direct_wide && self.takes_direct_wide()
+    }
+
+    /// The leaf size of a wide tree built straight from the Morton order: `max_leaf_size`
+    /// within one block of triangles.
+    pub fn direct_wide_leaf_size(&self) -> u32 {
+        self.max_leaf_size.min(crate::geometry::simd::BLOCK as u32)
     }
 
     /// The builder of the wide trees, as build reports name it.

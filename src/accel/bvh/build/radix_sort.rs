@@ -48,12 +48,20 @@ pub fn sort<T: Radix>(items: &mut Vec<T>) {
 /// Sorts `items` stably by the key's bits from `low_bit` up (a multiple of eight): half the
 /// passes for keys whose low half is a value to carry along.
 pub fn sort_from<T: Radix>(items: &mut Vec<T>, low_bit: u32) {
+    sort_from_with(items, &mut Vec::new(), low_bit);
+}
+
+/// `sort_from` with `other` as the second buffer the passes scatter into: a sort run every
+/// frame keeps it, and writes over last frame's keys instead of fresh pages. What it holds
+/// after the sort is unspecified.
+pub fn sort_from_with<T: Radix>(items: &mut Vec<T>, other: &mut Vec<T>, low_bit: u32) {
     let n = items.len();
     if n < 2 {
         return;
     }
     let chunk = n.div_ceil(MAX_CHUNKS).max(MIN_CHUNK);
-    let mut other = vec![T::default(); n];
+    // Only the part beyond what `other` holds is written here; the passes overwrite all.
+    other.resize(n, T::default());
     for pass in low_bit / DIGIT_BITS..u64::BITS.div_ceil(DIGIT_BITS) {
         let shift = pass * DIGIT_BITS;
         let digit = move |k: &T| ((k.key() >> shift) as usize) & (BUCKETS - 1);
@@ -77,7 +85,7 @@ pub fn sort_from<T: Radix>(items: &mut Vec<T>, low_bit: u32) {
         let mut pieces: Vec<Vec<&mut [T]>> = (0..histograms.len())
             .map(|_| Vec::with_capacity(BUCKETS))
             .collect();
-        let mut rest: &mut [T] = &mut other;
+        let mut rest: &mut [T] = other.as_mut_slice();
         for d in 0..BUCKETS {
             for (c, h) in histograms.iter().enumerate() {
                 let (piece, tail) = std::mem::take(&mut rest).split_at_mut(h[d]);
@@ -96,7 +104,7 @@ pub fn sort_from<T: Radix>(items: &mut Vec<T>, low_bit: u32) {
                     next[d] += 1;
                 }
             });
-        std::mem::swap(items, &mut other);
+        std::mem::swap(items, other);
     }
 }
 
@@ -137,6 +145,28 @@ mod tests {
             check((0..n).map(|_| (next() % 3) << 40).collect());
         }
         check(vec![u64::MAX, 0, u64::MAX, 1 << 63, 0]);
+    }
+
+    /// A sort given a second buffer of any length and contents (last frame's) sorts as
+    /// one given none.
+    #[test]
+    fn a_kept_buffer_of_any_length_sorts_the_same() {
+        let mut x = 0x1234_5678_9abc_def1u64;
+        let mut other: Vec<u64> = vec![7; 123_456];
+        for n in [50_000usize, 200_000, 3, 70_000] {
+            let keys: Vec<u64> = (0..n)
+                .map(|_| {
+                    x ^= x << 13;
+                    x ^= x >> 7;
+                    x ^= x << 17;
+                    x
+                })
+                .collect();
+            let (mut a, mut b) = (keys.clone(), keys);
+            sort_from(&mut a, 32);
+            sort_from_with(&mut b, &mut other, 32);
+            assert_eq!(a, b, "{n} keys");
+        }
     }
 
     /// Sorted by their high half only, keys keep the order of their low halves among

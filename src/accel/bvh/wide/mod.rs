@@ -21,6 +21,7 @@ pub mod traverse;
 
 pub use collapse::CollapseParams;
 pub use leaf::PADDING;
+pub use morton::MortonScratch;
 pub use node::{LaneKind, Lanes, NodeWidth, Subtree, WideNode};
 
 use super::TraversalOrder;

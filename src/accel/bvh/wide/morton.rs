@@ -11,6 +11,11 @@
 //!
 //! Large subtrees are laid out as parts of their own, in parallel, as the collapse lays
 //! out its parts (`part`); the tree is the same for any number of threads.
+//!
+//! A scene that moves is built again every frame. `rebuild_morton` builds into the memory
+//! of the tree it replaces and of a `MortonScratch` kept beside it: built into fresh
+//! memory, a third of the time went to the kernel zeroing pages for arrays of the same
+//! sizes as those the frame before had just freed.
 
 use super::WideBvh;
 use super::collapse::MAX_REFERENCES;
@@ -18,7 +23,7 @@ use super::leaf::BlockPacker;
 use super::node::{LaneKind, Lanes, MAX_LEAF_COUNT, MAX_NODE, NodeWidth, Subtree, WideNode};
 use super::part::{Part, part_size};
 use crate::accel::bvh::TraversalOrder;
-use crate::accel::bvh::build::{BuildError, morton_keys, radix_sort_from, whole_references};
+use crate::accel::bvh::build::{BuildError, radix_sort_from_with, triangle_codes_into};
 use crate::accel::bvh::report::BuildPhases;
 use crate::geometry::{Aabb, Triangle};
 use rayon::prelude::*;
@@ -46,6 +51,42 @@ struct Cut {
     depth: u32,
 }
 
+/// What the direct build keeps from one build to the next, so that a tree rebuilt every
+/// frame writes over memory it already has: the codes and their sort's buffers, the
+/// triangles in Morton order, and the parts the tree is laid out in.
+pub struct MortonScratch<const W: usize>
+where
+    Lanes<W>: NodeWidth,
+{
+    boxes: Vec<Aabb>,
+    keys: Vec<u64>,
+    sort_buffer: Vec<u64>,
+    codes: Vec<u64>,
+    /// The triangles in Morton order, with their scene indices.
+    tris: Vec<(Triangle, u32)>,
+    /// The top of the tree, down to the cuts.
+    top: Part<W>,
+    /// The parts below the cuts; as many as the most cuts seen.
+    parts: Vec<Part<W>>,
+}
+
+impl<const W: usize> Default for MortonScratch<W>
+where
+    Lanes<W>: NodeWidth,
+{
+    fn default() -> Self {
+        MortonScratch {
+            boxes: Vec::new(),
+            keys: Vec::new(),
+            sort_buffer: Vec::new(),
+            codes: Vec::new(),
+            tris: Vec::new(),
+            top: Part::new(1),
+            parts: Vec::new(),
+        }
+    }
+}
+
 impl<const W: usize> WideBvh<W>
 where
     Lanes<W>: NodeWidth,
@@ -56,6 +97,20 @@ where
         triangles: &[Triangle],
         leaf_size: u32,
     ) -> Result<(Self, BuildPhases), BuildError> {
+        let mut tree = Part::new(1).into_tree(0, TraversalOrder::default());
+        let phases = tree.rebuild_morton(triangles, leaf_size, &mut MortonScratch::default())?;
+        Ok((tree, phases))
+    }
+
+    /// Builds this tree again over `triangles` (the scene moved), as `morton` builds it,
+    /// into its own memory and `scratch`'s: the same tree, without the fresh pages. The
+    /// traversal order and kernel stay. On an error the tree is as it was.
+    pub fn rebuild_morton(
+        &mut self,
+        triangles: &[Triangle],
+        leaf_size: u32,
+        scratch: &mut MortonScratch<W>,
+    ) -> Result<BuildPhases, BuildError> {
         if triangles.len() > MAX_REFERENCES {
             return Err(BuildError::TooManyForWide(triangles.len()));
         }
@@ -64,49 +119,66 @@ where
         }
         let leaf_size = leaf_size.clamp(1, MAX_LEAF_COUNT) as usize;
         let mut phases = BuildPhases::default();
-        let (codes, tris) = sorted_along_the_curve(triangles, &mut phases);
+        sort_along_the_curve(triangles, scratch, &mut phases);
 
         let start = Instant::now();
-        let n = tris.len();
+        let n = triangles.len();
         let sorted = Sorted {
-            codes: &codes,
-            tris: &tris,
+            codes: &scratch.codes,
+            tris: &scratch.tris,
             leaf_size,
             cut: part_size(n),
         };
-        let tree = sorted.lay_out_tree::<W>();
+        let mut whole = Part {
+            nodes: std::mem::take(&mut self.nodes),
+            blocks: std::mem::take(&mut self.blocks),
+            prim_indices: std::mem::take(&mut self.prim_indices),
+            depth: 1,
+            parts: std::mem::take(&mut self.parts),
+        };
+        sorted.lay_out_tree_into(&mut scratch.top, &mut scratch.parts, &mut whole);
+        self.nodes = whole.nodes;
+        self.blocks = whole.blocks;
+        self.prim_indices = whole.prim_indices;
+        self.parts = whole.parts;
+        self.depth = whole.depth;
+        self.triangle_count = n;
+        self.lanes = Default::default();
         phases.add("wide nodes", start.elapsed());
-        Ok((tree.into_tree(n, TraversalOrder::default()), phases))
+        Ok(phases)
     }
 }
 
-/// The triangles sorted along the Morton curve through their boxes' centroids, with their
-/// scene indices, and their codes. Sorted by the codes' top 30 bits (10 per axis, as
-/// Embree's Morton builder): each key a code above its index, eight bytes sorted in four
-/// passes where the full code and an index take sixteen in eight. Equal codes are halved.
-fn sorted_along_the_curve(
+/// Sorts the triangles along the Morton curve through their boxes' centroids, into
+/// `s.tris` (with their scene indices) and `s.codes`. Sorted by the codes' top 30 bits (10
+/// per axis, as Embree's Morton builder): each key a code above its index, eight bytes
+/// sorted in four passes where the full code and an index take sixteen in eight. Equal
+/// codes are halved.
+fn sort_along_the_curve<const W: usize>(
     triangles: &[Triangle],
+    s: &mut MortonScratch<W>,
     phases: &mut BuildPhases,
-) -> (Vec<u64>, Vec<(Triangle, u32)>) {
-    let refs = whole_references(triangles);
-    let (keyed, _) = morton_keys(&refs, phases);
-    drop(refs);
+) where
+    Lanes<W>: NodeWidth,
+{
     let start = Instant::now();
-    let mut packed: Vec<u64> = keyed
-        .par_iter()
-        .map(|k| (k.key >> (63 - CODE_BITS)) << 32 | u64::from(k.value))
-        .collect();
-    drop(keyed);
-    radix_sort_from(&mut packed, 32);
+    triangle_codes_into(triangles, &mut s.boxes, &mut s.keys, |code, i| {
+        (code >> (63 - CODE_BITS)) << 32 | u64::from(i)
+    });
+    phases.add("Morton codes", start.elapsed());
+    let start = Instant::now();
+    radix_sort_from_with(&mut s.keys, &mut s.sort_buffer, 32);
     phases.add("radix sort", start.elapsed());
     let start = Instant::now();
-    let codes: Vec<u64> = packed.par_iter().map(|k| k >> 32).collect();
-    let tris: Vec<(Triangle, u32)> = packed
-        .par_iter()
-        .map(|&k| (triangles[k as u32 as usize], k as u32))
-        .collect();
+    s.codes.clear();
+    s.codes.par_extend(s.keys.par_iter().map(|k| k >> 32));
+    s.tris.clear();
+    s.tris.par_extend(
+        s.keys
+            .par_iter()
+            .map(|&k| (triangles[k as u32 as usize], k as u32)),
+    );
     phases.add("sorted triangles", start.elapsed());
-    (codes, tris)
 }
 
 impl Sorted<'_> {
@@ -153,20 +225,19 @@ impl Sorted<'_> {
         (kids, count)
     }
 
-    /// The whole tree: its top down to the cuts, then the parts below the cuts in
-    /// parallel, placed after the top in the order of their cuts, and the top's boxes
-    /// completed from theirs.
-    fn lay_out_tree<const W: usize>(&self) -> Part<W>
-    where
+    /// The whole tree, written into `whole`: its top down to the cuts (laid out in `top`),
+    /// then the parts below the cuts in parallel (in `parts`, grown to as many as there
+    /// are cuts), placed after the top in the order of their cuts, and the top's boxes
+    /// completed from theirs. Every part keeps its memory for the next build.
+    fn lay_out_tree_into<const W: usize>(
+        &self,
+        top: &mut Part<W>,
+        parts: &mut Vec<Part<W>>,
+        whole: &mut Part<W>,
+    ) where
         Lanes<W>: NodeWidth,
     {
-        let mut tree = Part {
-            nodes: Vec::new(),
-            blocks: Vec::new(),
-            prim_indices: Vec::new(),
-            depth: 1,
-            parts: Vec::new(),
-        };
+        top.reset(1);
         let all = 0..self.tris.len();
         let mut packer = BlockPacker::default();
         let mut cuts = Vec::new();
@@ -174,55 +245,52 @@ impl Sorted<'_> {
             // One lane: a leaf of every triangle (or none).
             let mut root = WideNode::<W>::default();
             if !all.is_empty() {
-                let (leaf, _) = tree.place_leaf(&mut packer, self.tris, None, 2);
+                let (leaf, _) = top.place_leaf(&mut packer, self.tris, None, 2);
                 root.child[0] = leaf;
                 root.set_child_bounds(0, bounds_of(self.tris));
             }
-            tree.nodes.push(root);
-            return tree;
+            top.nodes.push(root);
+            top.place_into(&[], whole);
+            return;
         }
-        self.node(&mut tree, &mut packer, all, 1, &mut cuts);
+        self.node(top, &mut packer, all, 1, &mut cuts);
         let solo = Sorted { cut: None, ..*self };
-        let parts: Vec<(Part<W>, Aabb)> = cuts
-            .par_iter()
-            .map(|c| {
-                let mut part = Part {
-                    nodes: Vec::new(),
-                    blocks: Vec::new(),
-                    prim_indices: Vec::new(),
-                    depth: c.depth,
-                    parts: Vec::new(),
-                };
-                let bounds = solo.node(
-                    &mut part,
+        if parts.len() < cuts.len() {
+            parts.resize_with(cuts.len(), || Part::new(1));
+        }
+        let parts = &mut parts[..cuts.len()];
+        let bounds: Vec<Aabb> = parts
+            .par_iter_mut()
+            .zip(&cuts)
+            .map(|(part, c)| {
+                part.reset(c.depth);
+                solo.node(
+                    part,
                     &mut BlockPacker::default(),
                     c.range.clone(),
                     c.depth,
                     &mut Vec::new(),
-                );
-                (part, bounds)
+                )
             })
             .collect();
-        let top = tree.nodes.len();
-        let (parts, bounds): (Vec<Part<W>>, Vec<Aabb>) = parts.into_iter().unzip();
-        let mut tree = tree.concat(parts);
-        for ((c, &base), b) in cuts.iter().zip(&tree.parts).zip(bounds) {
-            let node = &mut tree.nodes[c.node];
+        top.place_into(parts, whole);
+        let top = top.nodes.len();
+        for ((c, &base), b) in cuts.iter().zip(&whole.parts).zip(bounds) {
+            let node = &mut whole.nodes[c.node];
             node.child[c.lane] = Subtree::node(base);
             node.set_child_bounds(c.lane, b);
         }
         // The top's boxes over the cuts, children (after their parents) first.
         for i in (0..top).rev() {
             for lane in 0..W {
-                if let LaneKind::Interior(c) = tree.nodes[i].lane_kind(lane)
+                if let LaneKind::Interior(c) = whole.nodes[i].lane_kind(lane)
                     && (c as usize) < top
                 {
-                    let b = tree.nodes[c as usize].bounds();
-                    tree.nodes[i].set_child_bounds(lane, b);
+                    let b = whole.nodes[c as usize].bounds();
+                    whole.nodes[i].set_child_bounds(lane, b);
                 }
             }
         }
-        tree
     }
 
     /// Lays out the node over `r` (more than a leaf's triangles) at depth `depth`, and all
@@ -284,15 +352,17 @@ mod tests {
 
     /// The tree over `tris` with the parts cut at `cut` triangles (`None`: one piece).
     fn tree(tris: &[Triangle], cut: Option<usize>) -> WideBvh<8> {
-        let (codes, sorted) = sorted_along_the_curve(tris, &mut BuildPhases::default());
+        let mut scratch = MortonScratch::<8>::default();
+        sort_along_the_curve(tris, &mut scratch, &mut BuildPhases::default());
         let s = Sorted {
-            codes: &codes,
-            tris: &sorted,
+            codes: &scratch.codes,
+            tris: &scratch.tris,
             leaf_size: 4,
             cut,
         };
-        let part = s.lay_out_tree::<8>();
-        part.into_tree(tris.len(), TraversalOrder::default())
+        let mut whole = Part::new(1);
+        s.lay_out_tree_into(&mut Part::new(1), &mut Vec::new(), &mut whole);
+        whole.into_tree(tris.len(), TraversalOrder::default())
     }
 
     /// Laying the tree out in parts, at any cut, gives the tree laid out in one piece, and
@@ -325,6 +395,55 @@ mod tests {
                 .max();
             assert!(largest <= Some(4), "{spec}: {largest:?}");
         }
+    }
+
+    /// Everything a tree holds, as text (padding lanes hold NaN, which `==` refuses).
+    fn contents(t: &WideBvh<8>) -> String {
+        format!(
+            "{:?} {:?} {:?} {} {} {:?}",
+            t.nodes, t.blocks, t.prim_indices, t.triangle_count, t.depth, t.parts
+        )
+    }
+
+    /// Rebuilt in its own memory over scenes of other sizes in turn, and over a scene that
+    /// moved, with the scratch of the builds before, the tree is the one built fresh:
+    /// nothing of an earlier tree or part stays behind. A refused rebuild leaves the tree.
+    #[test]
+    fn a_tree_rebuilt_in_its_own_memory_is_the_tree_built_fresh() {
+        let scene = |spec: &str| builtin::by_name(spec).unwrap().unwrap().triangles;
+        let mut moved = scene("soup:60000");
+        for (i, t) in moved.iter_mut().enumerate() {
+            let shift = glam::Vec3::new((i % 7) as f32, 0.5, -(i as f32) * 1e-4);
+            *t = Triangle::new(t.v[0] + shift, t.v[1] - shift, t.v[2] + 0.5 * shift);
+        }
+        let scenes = [
+            scene("soup:60000"),
+            scene("sphere:5000"),
+            moved,
+            scene("cornell"),
+            scene("soup:2"),
+            Vec::new(),
+            scene("soup:40000"),
+        ];
+        let (mut tree, _) = WideBvh::<8>::morton(&scenes[0], 4).unwrap();
+        let mut scratch = MortonScratch::default();
+        for (k, tris) in scenes.iter().enumerate() {
+            for leaf in [4, 1] {
+                tree.rebuild_morton(tris, leaf, &mut scratch).unwrap();
+                let (fresh, _) = WideBvh::<8>::morton(tris, leaf).unwrap();
+                assert!(
+                    contents(&tree) == contents(&fresh),
+                    "scene {k}, leaf {leaf}"
+                );
+                tree.validate().unwrap();
+            }
+        }
+        let before = contents(&tree);
+        let mut bad = scenes[6].clone();
+        bad[123].v[1].y = f32::NAN;
+        let got = tree.rebuild_morton(&bad, 4, &mut scratch);
+        assert_eq!(got.err(), Some(BuildError::NonFinite(123)));
+        assert!(contents(&tree) == before);
     }
 
     /// A range splits where the radix tree splits it: before the first code that differs

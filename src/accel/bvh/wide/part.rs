@@ -53,59 +53,108 @@ where
         }
     }
 
-    /// This part (the top of the tree) and `parts` placed after it in order, as one: each
-    /// part's node indices and slots moved by the counts before it. Every node, block and
-    /// slot is written once, in place, on every thread (a copy of a large tree is mostly
-    /// the first touch of its pages). Where each part's nodes begin is the result's `parts`.
-    pub fn concat(self, parts: Vec<Part<W>>) -> Part<W> {
-        // Where each piece (the top, then the parts) begins in the three arrays.
-        let mut starts = Vec::with_capacity(parts.len() + 1);
-        let (mut n, mut b, mut s) = (0, 0, 0);
-        for p in std::iter::once(&self).chain(&parts) {
-            debug_assert!(p.parts.is_empty(), "parts do not nest");
-            starts.push([n, b, s]);
-            n += p.nodes.len();
-            b += p.blocks.len();
-            s += p.prim_indices.len();
-        }
-        let pieces: Vec<&Part<W>> = std::iter::once(&self).chain(&parts).collect();
-        // Element i of array a: its piece (the last starting at or before i) and offset.
-        let locate = |a: usize, i: usize| {
-            let k = starts.partition_point(|st| st[a] <= i) - 1;
-            (k, i - starts[k][a])
-        };
-        let mut nodes = Vec::with_capacity(n);
-        nodes.par_extend((0..n).into_par_iter().map(|i| {
-            let (k, j) = locate(0, i);
-            let [node_base, _, slot_base] = starts[k].map(|x| x as u32);
-            let mut node = pieces[k].nodes[j];
-            for lane in 0..node.child_count() {
-                node.child[lane] = match node.lane_kind(lane) {
-                    LaneKind::Interior(c) => Subtree::node(c + node_base),
-                    LaneKind::Leaf { first, count } => Subtree::leaf(first + slot_base, count),
-                    LaneKind::Unused => Subtree::UNUSED,
-                };
-            }
-            node
-        }));
-        let mut blocks = Vec::with_capacity(b);
-        blocks.par_extend((0..b).into_par_iter().map(|i| {
-            let (k, j) = locate(1, i);
-            pieces[k].blocks[j]
-        }));
-        let mut prim_indices = Vec::with_capacity(s);
-        prim_indices.par_extend((0..s).into_par_iter().map(|i| {
-            let (k, j) = locate(2, i);
-            pieces[k].prim_indices[j]
-        }));
+    /// An empty part whose root sits at depth `depth` of the whole tree.
+    pub fn new(depth: u32) -> Self {
         Part {
-            nodes,
-            blocks,
-            prim_indices,
-            depth: pieces.iter().map(|p| p.depth).max().unwrap_or(1),
-            parts: starts[1..].iter().map(|st| st[0] as u32).collect(),
+            nodes: Vec::new(),
+            blocks: Vec::new(),
+            prim_indices: Vec::new(),
+            depth,
+            parts: Vec::new(),
         }
     }
+
+    /// Empties the part for a new subtree at depth `depth`, keeping its memory.
+    pub fn reset(&mut self, depth: u32) {
+        self.nodes.clear();
+        self.blocks.clear();
+        self.prim_indices.clear();
+        self.parts.clear();
+        self.depth = depth;
+    }
+
+    /// This part (the top of the tree) and `parts` placed after it in order, as one: each
+    /// part's node indices and slots moved by the counts before it (`place_into`).
+    pub fn concat(self, parts: Vec<Part<W>>) -> Part<W> {
+        let mut whole = Part::new(1);
+        self.place_into(&parts, &mut whole);
+        whole
+    }
+
+    /// Writes this part (the top of the tree) and `parts` after it, in order, into `out`
+    /// (its memory kept): each part's node indices and slots moved by the counts before
+    /// it. Each piece is copied whole into its place, the pieces on every thread, and its
+    /// nodes' lanes moved there. Where each part's nodes begin is `out.parts`.
+    pub fn place_into(&self, parts: &[Part<W>], out: &mut Part<W>) {
+        let pieces: Vec<&Part<W>> = std::iter::once(self).chain(parts).collect();
+        out.depth = pieces.iter().map(|p| p.depth).max().unwrap_or(1);
+        out.parts.clear();
+        let (mut nodes, mut slots) = (0u32, 0u32);
+        let mut bases = Vec::with_capacity(pieces.len());
+        for (k, p) in pieces.iter().enumerate() {
+            debug_assert!(p.parts.is_empty(), "parts do not nest");
+            if k > 0 {
+                out.parts.push(nodes);
+            }
+            bases.push((nodes, slots));
+            nodes += p.nodes.len() as u32;
+            slots += p.prim_indices.len() as u32;
+        }
+        let lengths = |f: fn(&Part<W>) -> usize| pieces.iter().map(move |p| f(p));
+        let node_pieces = pieces_of(
+            &mut out.nodes,
+            WideNode::default(),
+            lengths(|p| p.nodes.len()),
+        );
+        let block_pieces = pieces_of(
+            &mut out.blocks,
+            TriangleBlock::EMPTY,
+            lengths(|p| p.blocks.len()),
+        );
+        let slot_pieces = pieces_of(&mut out.prim_indices, 0, lengths(|p| p.prim_indices.len()));
+        node_pieces
+            .into_par_iter()
+            .zip(block_pieces)
+            .zip(slot_pieces)
+            .zip(pieces.par_iter().zip(&bases))
+            .for_each(|(((nodes, blocks), slots), (p, &(node_base, slot_base)))| {
+                nodes.copy_from_slice(&p.nodes);
+                blocks.copy_from_slice(&p.blocks);
+                slots.copy_from_slice(&p.prim_indices);
+                if node_base == 0 && slot_base == 0 {
+                    return;
+                }
+                for node in nodes {
+                    for lane in 0..node.child_count() {
+                        node.child[lane] = match node.lane_kind(lane) {
+                            LaneKind::Interior(c) => Subtree::node(c + node_base),
+                            LaneKind::Leaf { first, count } => {
+                                Subtree::leaf(first + slot_base, count)
+                            }
+                            LaneKind::Unused => Subtree::UNUSED,
+                        };
+                    }
+                }
+            });
+    }
+}
+
+/// `v` made as long as the sum of `lengths` (writing `fill` only where it grows: every
+/// element is written over after) and cut into consecutive pieces of those lengths.
+fn pieces_of<T: Copy>(
+    v: &mut Vec<T>,
+    fill: T,
+    lengths: impl Iterator<Item = usize> + Clone,
+) -> Vec<&mut [T]> {
+    v.resize(lengths.clone().sum(), fill);
+    let mut rest = v.as_mut_slice();
+    lengths
+        .map(|n| {
+            let (piece, tail) = std::mem::take(&mut rest).split_at_mut(n);
+            rest = tail;
+            piece
+        })
+        .collect()
 }
 
 impl<const W: usize> Part<W>
