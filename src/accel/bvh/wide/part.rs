@@ -10,6 +10,7 @@ use crate::geometry::simd::SimdLevel;
 use crate::geometry::simd::TriangleBlock;
 use crate::geometry::{Aabb, Triangle};
 use rayon::prelude::*;
+use std::mem::MaybeUninit;
 
 /// Subtrees of at most this many triangles are laid out as parts of their own, in parallel
 /// (none for a small tree, where the parts would cost more than they save). The cut
@@ -101,26 +102,18 @@ where
             slots += p.prim_indices.len() as u32;
         }
         let lengths = |f: fn(&Part<W>) -> usize| pieces.iter().map(move |p| f(p));
-        let node_pieces = pieces_of(
-            &mut out.nodes,
-            WideNode::default(),
-            lengths(|p| p.nodes.len()),
-        );
-        let block_pieces = pieces_of(
-            &mut out.blocks,
-            TriangleBlock::EMPTY,
-            lengths(|p| p.blocks.len()),
-        );
-        let slot_pieces = pieces_of(&mut out.prim_indices, 0, lengths(|p| p.prim_indices.len()));
+        let node_pieces = pieces_of(&mut out.nodes, lengths(|p| p.nodes.len()));
+        let block_pieces = pieces_of(&mut out.blocks, lengths(|p| p.blocks.len()));
+        let slot_pieces = pieces_of(&mut out.prim_indices, lengths(|p| p.prim_indices.len()));
         node_pieces
             .into_par_iter()
             .zip(block_pieces)
             .zip(slot_pieces)
             .zip(pieces.par_iter().zip(&bases))
             .for_each(|(((nodes, blocks), slots), (p, &(node_base, slot_base)))| {
-                nodes.copy_from_slice(&p.nodes);
-                blocks.copy_from_slice(&p.blocks);
-                slots.copy_from_slice(&p.prim_indices);
+                let nodes = nodes.write_copy_of_slice(&p.nodes);
+                blocks.write_copy_of_slice(&p.blocks);
+                slots.write_copy_of_slice(&p.prim_indices);
                 if node_base == 0 && slot_base == 0 {
                     return;
                 }
@@ -136,18 +129,28 @@ where
                     }
                 }
             });
+        // SAFETY: the pieces cover the first `total` elements of each vector's capacity,
+        // and every piece was written whole above (a panic there leaves the vectors empty).
+        unsafe {
+            out.nodes.set_len(nodes as usize);
+            out.blocks
+                .set_len(pieces.iter().map(|p| p.blocks.len()).sum());
+            out.prim_indices.set_len(slots as usize);
+        }
     }
 }
 
-/// `v` made as long as the sum of `lengths` (writing `fill` only where it grows: every
-/// element is written over after) and cut into consecutive pieces of those lengths.
+/// `v` emptied (its memory kept) and its capacity, as long as the sum of `lengths`, cut
+/// into consecutive pieces of those lengths, to be written before `v`'s length is set.
+/// Nothing is written twice: neither a fill nor the copy of a vector that grew.
 fn pieces_of<T: Copy>(
     v: &mut Vec<T>,
-    fill: T,
     lengths: impl Iterator<Item = usize> + Clone,
-) -> Vec<&mut [T]> {
-    v.resize(lengths.clone().sum(), fill);
-    let mut rest = v.as_mut_slice();
+) -> Vec<&mut [MaybeUninit<T>]> {
+    v.clear();
+    let total = lengths.clone().sum();
+    v.reserve(total);
+    let mut rest = &mut v.spare_capacity_mut()[..total];
     lengths
         .map(|n| {
             let (piece, tail) = std::mem::take(&mut rest).split_at_mut(n);
