@@ -132,6 +132,47 @@ fn single_structure_bench_json_keeps_its_keys_and_adds_the_structure() {
     }
 }
 
+/// A wide tree built straight from the Morton order is also rebuilt into its own memory, as
+/// every frame of a moving scene: `bench` prints that time and `--json` gives it as
+/// `rebuild_ms`; a tree built otherwise has neither.
+#[test]
+fn bench_times_the_direct_wide_rebuild_per_frame() {
+    for (accel, direct) in [("bvh8", true), ("bvh4", true), ("bvh8", false)] {
+        let mut args = vec![
+            "bench",
+            "--scene",
+            "sphere:2000",
+            "--accel",
+            accel,
+            "--builder",
+            "lbvh",
+        ];
+        if direct {
+            args.extend(["--direct-wide", "true"]);
+        }
+        args.extend(SMALL_BENCH);
+        let text = bvhlab(&args);
+        assert!(
+            text.status.success(),
+            "{}",
+            String::from_utf8_lossy(&text.stderr)
+        );
+        let text = String::from_utf8_lossy(&text.stdout).to_string();
+        assert_eq!(
+            text.contains("rebuilt into its own memory, as every frame of a moving scene"),
+            direct,
+            "{accel}, direct {direct}: {text}"
+        );
+        args.push("--json");
+        let out = bvhlab(&args);
+        let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(json["rebuild_ms"].is_number(), direct, "{accel}: {json}");
+        if direct {
+            assert!(json["rebuild_ms"].as_f64().unwrap() > 0.0);
+        }
+    }
+}
+
 /// `--rebraid f` reaches the two levels' build: `bench --json` reports the budget and the
 /// top level's references (one per object with 0), `stats` the opened instances, and a
 /// budget out of range is an error naming it.
