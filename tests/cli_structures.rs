@@ -124,7 +124,11 @@ fn single_structure_bench_json_keeps_its_keys_and_adds_the_structure() {
             json["sah_cost"].is_number(),
             matches!(
                 kind,
-                AccelKind::Bvh | AccelKind::Bvh4 | AccelKind::Bvh8 | AccelKind::KdTree
+                AccelKind::Bvh
+                    | AccelKind::Bvh4
+                    | AccelKind::Bvh8
+                    | AccelKind::KdTree
+                    | AccelKind::Octree
             ),
             "{}",
             kind.label()
@@ -973,7 +977,11 @@ fn stats_json_gives_the_sah_cost_and_epo_of_trees_and_null_for_the_others() {
         assert_eq!(json["triangles"], 300);
         let tree = matches!(
             kind,
-            AccelKind::Bvh | AccelKind::Bvh4 | AccelKind::Bvh8 | AccelKind::KdTree
+            AccelKind::Bvh
+                | AccelKind::Bvh4
+                | AccelKind::Bvh8
+                | AccelKind::KdTree
+                | AccelKind::Octree
         );
         for key in ["sah_cost", "epo", "c_trav", "c_isect", "epo_ms"] {
             assert_eq!(
@@ -983,12 +991,12 @@ fn stats_json_gives_the_sah_cost_and_epo_of_trees_and_null_for_the_others() {
                 kind.label()
             );
         }
-        // A BVH over a soup overlaps itself; the k-d tree's cells do not.
+        // A BVH over a soup overlaps itself; the k-d tree's and octree's cells do not.
         if tree {
             let epo = json["epo"].as_f64().unwrap();
             assert_eq!(
                 epo > 1e-6,
-                kind != AccelKind::KdTree,
+                !matches!(kind, AccelKind::KdTree | AccelKind::Octree),
                 "{}: {epo}",
                 kind.label()
             );
@@ -1154,7 +1162,7 @@ fn render_colours_triangles_by_their_cost_and_their_tests() {
         let rest = &text[text.find(before).unwrap_or_else(|| panic!("{text}")) + before.len()..];
         rest[..rest.find(after).unwrap()].trim().parse().unwrap()
     };
-    for accel in ["bvh", "bvh4", "kdtree"] {
+    for accel in ["bvh", "bvh4", "kdtree", "octree"] {
         let text = render(accel, "triangle-cost", &[]);
         let cost = number(&text, "SAH cost per triangle: the tree's ", " over");
         let stats = bvhlab(&["stats", "--scene", "soup:500", "--accel", accel, "--json"]);
@@ -1190,11 +1198,11 @@ fn render_colours_triangles_by_their_cost_and_their_tests() {
         &[
             (
                 &["--mode", "triangle-cost", "--accel", "grid"][..],
-                "use --accel bvh, bvh4, bvh8 or kdtree",
+                "use --accel bvh, bvh4, bvh8, kdtree or octree",
             ),
             (
                 &["--mode", "triangle-cost", "--accel", "two-level"][..],
-                "only the BVHs and the k-d tree have an SAH cost",
+                "only the BVHs, the k-d tree and the octree have an SAH cost",
             ),
             (
                 &["--mode", "triangle-cost", "--heat-max", "4"][..],

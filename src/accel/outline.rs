@@ -71,6 +71,31 @@ impl Outline {
         out
     }
 
+    /// The SAH cost of the tree these nodes are: Σ SA(n)/SA(root) · C(n), with C_trav for an
+    /// interior node and C_isect for each reference in a leaf; every node weighs as the
+    /// root under a flat root. A structure's own SAH cost is this of its outline.
+    pub fn sah_cost(&self, c_trav: f32, c_isect: f32) -> f64 {
+        let root = self
+            .nodes
+            .first()
+            .map_or(0.0, |r| r.bounds.surface_area() as f64);
+        self.nodes
+            .iter()
+            .map(|n| {
+                let p = if root > 0.0 {
+                    n.bounds.surface_area() as f64 / root
+                } else {
+                    1.0
+                };
+                p * if n.is_leaf() {
+                    f64::from(c_isect) * f64::from(n.refs.1)
+                } else {
+                    f64::from(c_trav)
+                }
+            })
+            .sum()
+    }
+
     /// Checks the shape: children after their parent and pointing back to it, depths one
     /// more than the parent's, references in range. For tests of every structure.
     pub fn validate(&self) -> Result<(), String> {

@@ -76,6 +76,15 @@ impl StructureParams {
         }
     }
 
+    /// The C_trav and C_isect this structure's SAH cost is weighed with: the k-d tree's
+    /// for the structures that walk cells (k-d tree, octree), the BVH's for the others.
+    pub fn sah_constants(&self) -> (f32, f32) {
+        match self.kind {
+            AccelKind::KdTree | AccelKind::Octree => (self.kdtree.c_trav, self.kdtree.c_isect),
+            _ => (self.bvh.c_trav, self.bvh.c_isect),
+        }
+    }
+
     /// Checks the parameters of the chosen structure.
     pub fn validate(&self) -> Result<(), StructureError> {
         match self.kind {

@@ -133,11 +133,15 @@ impl AccelKind {
     }
 
     /// A wide BVH: the BVH2 collapsed, traced with SIMD slab tests.
-    /// The trees with an SAH cost (and an EPO): the BVHs and the k-d tree.
+    /// The trees with an SAH cost (and an EPO): the BVHs, the k-d tree and the octree.
     pub fn has_sah_cost(self) -> bool {
         matches!(
             self,
-            AccelKind::Bvh | AccelKind::Bvh4 | AccelKind::Bvh8 | AccelKind::KdTree
+            AccelKind::Bvh
+                | AccelKind::Bvh4
+                | AccelKind::Bvh8
+                | AccelKind::KdTree
+                | AccelKind::Octree
         )
     }
 
@@ -306,9 +310,21 @@ pub fn build(
             }
         }
         AccelKind::Octree => {
-            let (octree, report) =
+            let (octree, mut report) =
                 octree::build_with_progress(triangles, &params.octree, progress)?;
             progress.finish(triangles.len());
+            // Weighed as the k-d tree's cells are (`Structure::sah_cost`).
+            let (c_trav, c_isect) = params.sah_constants();
+            report.details.extend([
+                (
+                    "C_trav / C_isect (the k-d tree's)".to_string(),
+                    Detail::Text(format!("{c_trav} / {c_isect}")),
+                ),
+                (
+                    "SAH cost".to_string(),
+                    Detail::Number(octree.outline().sah_cost(c_trav, c_isect), 2),
+                ),
+            ]);
             Built {
                 structure: Structure::Octree(octree),
                 report,
@@ -369,16 +385,20 @@ impl Structure {
     }
 
     /// The SAH cost of a tree with the C_trav and C_isect it was weighed with, or `None`
-    /// for structures the SAH does not describe (grid, octree, brute force, two levels).
+    /// for structures the SAH does not describe (grid, brute force, two levels). The
+    /// octree, not built by the SAH, walks cells as the k-d tree does and is weighed with
+    /// the k-d tree's constants (`--kd-c-trav`, `--kd-c-isect`).
     pub fn sah_cost(&self, params: &StructureParams) -> Option<(f64, f32, f32)> {
-        let (b, k) = (&params.bvh, &params.kdtree);
-        Some(match self {
-            Structure::Bvh(t) => (t.sah_cost(b.c_trav, b.c_isect), b.c_trav, b.c_isect),
-            Structure::Bvh4(t) => (t.sah_cost(b.c_trav, b.c_isect), b.c_trav, b.c_isect),
-            Structure::Bvh8(t) => (t.sah_cost(b.c_trav, b.c_isect), b.c_trav, b.c_isect),
-            Structure::KdTree(t) => (t.sah_cost(), k.c_trav, k.c_isect),
+        let (c_trav, c_isect) = params.sah_constants();
+        let cost = match self {
+            Structure::Bvh(t) => t.sah_cost(c_trav, c_isect),
+            Structure::Bvh4(t) => t.sah_cost(c_trav, c_isect),
+            Structure::Bvh8(t) => t.sah_cost(c_trav, c_isect),
+            Structure::KdTree(t) => t.sah_cost(),
+            Structure::Octree(t) => t.outline().sah_cost(c_trav, c_isect),
             _ => return None,
-        })
+        };
+        Some((cost, c_trav, c_isect))
     }
 
     /// The tree's EPO (`accel::epo`) over `scene`, the triangles it was built over, in the
@@ -394,14 +414,15 @@ impl Structure {
         scene: &[Triangle],
         abandon: &(dyn Fn() -> bool + Sync),
     ) -> Option<f64> {
-        let (b, k) = (&params.bvh, &params.kdtree);
-        let (outline, c_trav, c_isect) = match self {
-            Structure::Bvh(t) => (t.outline(), b.c_trav, b.c_isect),
-            Structure::Bvh4(t) => (t.outline(), b.c_trav, b.c_isect),
-            Structure::Bvh8(t) => (t.outline(), b.c_trav, b.c_isect),
-            Structure::KdTree(t) => (t.outline(), k.c_trav, k.c_isect),
+        let outline = match self {
+            Structure::Bvh(_)
+            | Structure::Bvh4(_)
+            | Structure::Bvh8(_)
+            | Structure::KdTree(_)
+            | Structure::Octree(_) => self.outline(),
             _ => return None,
         };
+        let (c_trav, c_isect) = params.sah_constants();
         super::epo::epo_unless(&outline, scene, c_trav, c_isect, abandon)
     }
 

@@ -60,7 +60,7 @@ pub fn sah_cost_per_triangle(
 
 /// The SAH cost per triangle of `structure`, with the C_trav and C_isect its SAH cost
 /// uses (`Structure::sah_cost`); `None` for structures the SAH does not describe (grid,
-/// octree, brute force, two levels).
+/// brute force, two levels).
 pub fn triangle_costs(
     structure: &Structure,
     params: &StructureParams,
@@ -154,6 +154,9 @@ mod tests {
         let mut kd = StructureParams::of_kind(AccelKind::KdTree);
         kd.kdtree.c_trav = 1.5;
         cases.push(kd);
+        let mut octree = StructureParams::of_kind(AccelKind::Octree);
+        octree.kdtree.c_isect = 3.0;
+        cases.push(octree);
         for params in cases {
             let built = build_scene(&scene, &params, &Default::default()).unwrap();
             let what = format!("{:?} {:?}", params.kind, params.bvh.strategy);
@@ -162,6 +165,16 @@ mod tests {
             assert!(
                 (sum - costs.total).abs() <= 1e-9 * costs.total,
                 "{what}: {sum} against {}",
+                costs.total
+            );
+            // The structure's own SAH cost is its outline's.
+            let outlined = built
+                .structure
+                .outline()
+                .sah_cost(costs.c_trav, costs.c_isect);
+            assert!(
+                (outlined - costs.total).abs() <= 1e-9 * costs.total,
+                "{what}: outline {outlined} against {}",
                 costs.total
             );
             assert!(costs.per_triangle.iter().all(|&c| c > 0.0), "{what}");

@@ -114,7 +114,7 @@ pub fn check_counts(
                 "compare two-level structures"
             }
         } else if mode == ViewMode::TriangleCost {
-            "use --accel bvh, bvh4, bvh8 or kdtree"
+            "use --accel bvh, bvh4, bvh8, kdtree or octree"
         } else {
             "use --accel kdtree, grid or octree with --mailbox false"
         };

@@ -35,7 +35,7 @@ pub fn run(scene: &Scene, args: &RenderArgs, settings: &RenderSettings, out: &Pa
     let _held = bvhlab::budget::hold(built.structure.bytes() as u64);
     let outline = built.structure.outline();
     let sah = built.structure.sah_cost(&params);
-    let costs = sah.map_or((params.bvh.c_trav, params.bvh.c_isect), |(_, t, i)| (t, i));
+    let costs = sah.map_or(params.sah_constants(), |(_, t, i)| (t, i));
     let size = (args.width, args.height);
     // The measured choices count the visits of the primary rays of the view's frame.
     let measured = args.tree_color.is_measured() || args.tree_width == hierarchy::Width::Visits;

@@ -62,7 +62,7 @@ impl TriangleValues {
 
 /// Why a structure without an SAH cost has no cost per triangle to show.
 pub const NO_SAH_COST: &str = "it splits a tree's SAH cost among the triangles, and only the \
-     BVHs and the k-d tree have an SAH cost (a grid, octree, brute force or two-level \
+     BVHs, the k-d tree and the octree have an SAH cost (a grid, brute force or two-level \
      structure has none)";
 
 /// The per-triangle values kept with a frame, one slot per mode that colours triangles.

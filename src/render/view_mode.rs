@@ -34,7 +34,7 @@ pub enum ViewMode {
     Instances,
     /// Each triangle coloured by its share of the tree's SAH cost: the surface-area
     /// probabilities of the leaves holding it times C_isect, plus C_trav of every node
-    /// above shared among that node's references (log scale; BVHs and the k-d tree).
+    /// above shared among that node's references (log scale; BVHs, the k-d tree and the octree).
     TriangleCost,
     /// Each triangle coloured by the ray–triangle tests the frame's rays did on it
     /// (measured).

@@ -327,8 +327,7 @@ fn diagram(app: &mut BvhLabApp, ui: &mut egui::Ui) {
     // With a pinned A: A's tree above B's, on one colour scale, each with its costs.
     let pinned = app.shown.as_ref().and_then(|s| s.pinned_tree.clone());
     let mut area = response.rect;
-    let b = app.settings.structure.bvh;
-    let costs = (b.c_trav, b.c_isect);
+    let costs = app.settings.structure.sah_constants();
     let a_area = pinned.as_ref().map(|_| {
         let half = area.height() / 2.0;
         let a_area = Rect::from_min_max(area.min, pos2(area.right(), area.top() + half - 2.0))
