@@ -99,7 +99,18 @@ fn bench_reports_the_sah_check_for_trees_only() {
             );
         }
     }
-    for accel in ["grid", "brute-force", "two-level"] {
+    // Both levels placed: the SAH over the top level and each reference's placed BLAS
+    // boxes (no EPO); measured on the island's random lines within the SAH's usual margin.
+    let v = bench_json("two-level", "island:1");
+    let c = &v["sah_check"];
+    let predicted = c["predicted"].as_f64().expect("predicted");
+    let random = c["random"].as_f64().expect("random");
+    assert!(
+        (random / predicted - 1.0).abs() < 0.5,
+        "{random} against {predicted}"
+    );
+    assert!(c["epo"].is_null());
+    for accel in ["grid", "brute-force"] {
         assert!(
             bench_json(accel, "cornell")["sah_check"].is_null(),
             "{accel}"

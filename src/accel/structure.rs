@@ -385,9 +385,10 @@ impl Structure {
     }
 
     /// The SAH cost of a tree with the C_trav and C_isect it was weighed with, or `None`
-    /// for structures the SAH does not describe (grid, brute force, two levels). The
-    /// octree, not built by the SAH, walks cells as the k-d tree does and is weighed with
-    /// the k-d tree's constants (`--kd-c-trav`, `--kd-c-isect`).
+    /// for structures the SAH does not describe (grid, brute force). The octree, not built
+    /// by the SAH, walks cells as the k-d tree does and is weighed with the k-d tree's
+    /// constants (`--kd-c-trav`, `--kd-c-isect`); the two levels with the BVH's, over both
+    /// levels placed (`TwoLevel::sah_cost`).
     pub fn sah_cost(&self, params: &StructureParams) -> Option<(f64, f32, f32)> {
         let (c_trav, c_isect) = params.sah_constants();
         let cost = match self {
@@ -396,6 +397,7 @@ impl Structure {
             Structure::Bvh8(t) => t.sah_cost(c_trav, c_isect),
             Structure::KdTree(t) => t.sah_cost(),
             Structure::Octree(t) => t.outline().sah_cost(c_trav, c_isect),
+            Structure::TwoLevel(t) => t.sah_cost(c_trav, c_isect),
             _ => return None,
         };
         Some((cost, c_trav, c_isect))

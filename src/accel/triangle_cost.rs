@@ -66,6 +66,10 @@ pub fn triangle_costs(
     params: &StructureParams,
     triangles: usize,
 ) -> Option<TriangleCosts> {
+    // The two levels' cost is placed per reference, not per scene triangle.
+    if !structure.kind().has_sah_cost() {
+        return None;
+    }
     let (total, c_trav, c_isect) = structure.sah_cost(params)?;
     let per_triangle = sah_cost_per_triangle(&structure.outline(), triangles, c_trav, c_isect);
     Some(TriangleCosts {

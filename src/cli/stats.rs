@@ -46,13 +46,13 @@ struct StatsJson {
     details: BTreeMap<String, serde_json::Value>,
 }
 
-/// The tree's SAH cost and EPO with the costs they weigh with, and the EPO's time.
+/// The tree's SAH cost and EPO with the costs they weigh with, and the EPO's time (no EPO
+/// for the two levels, whose placed triangles are not listed).
 struct Predictors {
     c_trav: f32,
     c_isect: f32,
     sah_cost: f64,
-    epo: f64,
-    epo_ms: f64,
+    epo: Option<(f64, f64)>,
 }
 
 fn predictors(
@@ -64,15 +64,15 @@ fn predictors(
         return Ok(None);
     };
     let start = Instant::now();
-    let Some(epo) = built.structure.epo(params, &scene.flattened()?) else {
-        return Ok(None);
+    let epo = match built.structure.kind().has_sah_cost() {
+        true => built.structure.epo(params, &scene.flattened()?),
+        false => None,
     };
     Ok(Some(Predictors {
         c_trav,
         c_isect,
         sah_cost,
-        epo,
-        epo_ms: start.elapsed().as_secs_f64() * 1e3,
+        epo: epo.map(|e| (e, start.elapsed().as_secs_f64() * 1e3)),
     }))
 }
 
@@ -101,8 +101,8 @@ pub fn run(args: StatsArgs) -> Result<()> {
             c_trav: p.map(|p| p.c_trav),
             c_isect: p.map(|p| p.c_isect),
             sah_cost: p.map(|p| p.sah_cost),
-            epo: p.map(|p| p.epo),
-            epo_ms: p.map(|p| p.epo_ms),
+            epo: p.and_then(|p| p.epo.map(|e| e.0)),
+            epo_ms: p.and_then(|p| p.epo.map(|e| e.1)),
             details: report
                 .details
                 .iter()
@@ -119,22 +119,21 @@ pub fn run(args: StatsArgs) -> Result<()> {
         .map(|(k, v)| (format!("scene {k}"), v))
         .chain(report.rows())
         .collect();
-    if let Some(p) = &predicted {
+    if let Some((p, (epo, epo_ms))) = predicted.as_ref().and_then(|p| Some((p, p.epo?))) {
         // Beside the SAH cost, the other predictor.
         let at = rows
             .iter()
             .position(|(k, _)| k == "SAH cost")
             .map_or(rows.len(), |i| i + 1);
         let epo = format!(
-            "{:.3} ({:.0} % of the SAH cost)",
-            p.epo,
-            100.0 * p.epo / p.sah_cost
+            "{epo:.3} ({:.0} % of the SAH cost)",
+            100.0 * epo / p.sah_cost
         );
         rows.splice(
             at..at,
             [
                 ("EPO (end-point overlap)".to_string(), epo),
-                ("EPO computed in".to_string(), format!("{:.2} ms", p.epo_ms)),
+                ("EPO computed in".to_string(), format!("{epo_ms:.2} ms")),
             ],
         );
     }

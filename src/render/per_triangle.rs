@@ -60,10 +60,10 @@ impl TriangleValues {
     }
 }
 
-/// Why a structure without an SAH cost has no cost per triangle to show.
-pub const NO_SAH_COST: &str = "it splits a tree's SAH cost among the triangles, and only the \
-     BVHs, the k-d tree and the octree have an SAH cost (a grid, brute force or two-level \
-     structure has none)";
+/// Why a structure has no SAH cost per triangle to show.
+pub const NO_SAH_COST: &str = "it splits a tree's SAH cost among the triangles, which only the \
+     BVHs, the k-d tree and the octree do (a grid or brute force has no SAH cost; the two \
+     levels' is placed per reference, not per triangle)";
 
 /// The per-triangle values kept with a frame, one slot per mode that colours triangles.
 #[derive(Clone, Debug, Default)]

@@ -13,6 +13,7 @@ pub mod outline;
 mod packet;
 pub mod rebraid;
 pub mod refit;
+mod sah;
 mod traverse;
 
 pub use leaf::LeafReference;
@@ -512,6 +513,10 @@ impl TwoLevel {
                 ("BLAS nodes".into(), Detail::count(blas_nodes)),
                 ("BLAS builds".into(), Detail::Time(times.blas)),
                 ("TLAS build".into(), Detail::Time(times.tlas)),
+                (
+                    "SAH cost, both levels".into(),
+                    Detail::Number(self.sah_cost(self.params.c_trav, self.params.c_isect), 3),
+                ),
             ],
             caps_hit: Vec::new(),
         }

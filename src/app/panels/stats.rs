@@ -186,11 +186,14 @@ pub(super) fn sah_check_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         ));
     }
     // The second predictor: what the SAH does not see, the other geometry inside each box.
+    // (None for the two levels: their placed triangles are not listed to clip.)
+    let kind = app.settings.structure.kind;
     rows.push((
         "EPO (end-point overlap)".into(),
         vec![match p.epo {
             Some(epo) => format!("{epo:.2} ({} of the SAH cost)", ratio(epo)),
-            None => "computing…".into(),
+            None if kind.has_sah_cost() => "computing…".into(),
+            None => "not computed for the two levels".into(),
         }],
     ));
     table(ui, "sah check", &[], rows);
