@@ -366,10 +366,12 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
                 "cornell",
                 "--accel",
                 "bvh8",
+                "--builder",
+                "sah-sweep",
                 "--direct-wide",
                 "true",
             ],
-            "--direct-wide is not used by the binned SAH builder",
+            "--direct-wide is not used by the full-sweep SAH builder",
         ),
         (
             &[
@@ -385,7 +387,7 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
                 "--presplit",
                 "0.5",
             ],
-            "the pre-split budget (--presplit) must be 0 for wide nodes straight from the Morton order (--direct-wide)",
+            "the pre-split budget (--presplit) must be 0 for wide nodes built straight from the splits (--direct-wide)",
         ),
         (
             &[
@@ -401,7 +403,7 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
                 "--presplit",
                 "0.5",
             ],
-            "the pre-split budget (--presplit) must be 0 for wide nodes straight from the Morton order (--direct-wide)",
+            "the pre-split budget (--presplit) must be 0 for wide nodes built straight from the splits (--direct-wide)",
         ),
         (
             &["stats", "--scene", "cornell", "--direct-wide", "yes"],

@@ -347,4 +347,26 @@ fn an_abandoned_build_stops_and_says_so() {
         }
         assert!(seen.iter().all(|&s| s >= 1), "{strategy:?}");
     }
+    // The wide trees straight from the builders' splits: abandoned like the others, still
+    // valid, and every triangle counted once when wanted (parts laid out in parallel too).
+    for strategy in [Strategy::SahBinned, Strategy::Lbvh] {
+        let mut params = StructureParams::of_kind(AccelKind::Bvh8);
+        params.bvh.strategy = strategy;
+        params.bvh.direct_wide = true;
+        assert!(
+            matches!(
+                structure::build(&tris, &params, &abandoned),
+                Err(structure::StructureError::Abandoned)
+            ),
+            "{strategy:?}, direct"
+        );
+        let (tree, _) = bvhlab::accel::bvh::Bvh8::direct(&tris, &params.bvh, &abandoned).unwrap();
+        tree.validate().unwrap();
+        for n in [3000, 70_000] {
+            let counted = AtomicUsize::new(0);
+            let progress = BuildProgress::counting(&counted);
+            bvhlab::accel::bvh::Bvh8::direct(&soup(n, 3), &params.bvh, &progress).unwrap();
+            assert_eq!(counted.into_inner(), n, "{strategy:?}, direct");
+        }
+    }
 }

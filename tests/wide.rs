@@ -9,6 +9,7 @@ use bvhlab_testkit as common;
 
 use bvhlab::accel::bvh::wide::{CollapseParams, LaneKind, Lanes, NodeWidth};
 use bvhlab::accel::bvh::{self, BuildParams, Bvh, Strategy, TraversalOrder, WideBvh};
+use bvhlab::accel::progress::BuildProgress;
 use bvhlab::accel::{Accel, Counters, Hit, NoStats};
 use bvhlab::geometry::aabb::{SlabRay, slab_entry};
 use bvhlab::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab};
@@ -109,11 +110,12 @@ fn wide_trees_equal_the_bvh2_on_every_builtin_scene() {
     }
 }
 
-/// The wide trees made straight from the Morton order (`--direct-wide`) give the BVH2's
-/// hits on random soups, every small built-in scene and the degenerate inputs, and are the
-/// same tree on 1 and 2 threads where their parts are laid out in parallel.
+/// The wide trees made straight from the Morton order and from binned SAH's splits
+/// (`--direct-wide`) give the BVH2's hits on random soups, every small built-in scene and
+/// the degenerate inputs, and are the same tree on 1 and 2 threads where their parts are
+/// laid out in parallel.
 #[test]
-fn wide_trees_straight_from_the_morton_order_equal_the_bvh2() {
+fn wide_trees_built_directly_equal_the_bvh2() {
     let mut cases: Vec<(String, Vec<Triangle>, Vec<Ray>)> = Vec::new();
     for seed in 0..2 {
         let tris = soup(3000, seed);
@@ -134,6 +136,7 @@ fn wide_trees_straight_from_the_morton_order_equal_the_bvh2() {
         };
         cases.push((what.to_string(), tris, common::rays(&box_, 300, 3)));
     }
+    let none = BuildProgress::default();
     for (what, tris, rays) in &cases {
         let b2 = bvh2(tris, Strategy::SahBinned);
         for leaf_size in [1, 4] {
@@ -142,20 +145,38 @@ fn wide_trees_straight_from_the_morton_order_equal_the_bvh2() {
             assert_tree_equals_bvh2(w4, &b2, rays, &what);
             let (w8, _) = WideBvh::<8>::morton(tris, leaf_size).expect("direct BVH8");
             assert_tree_equals_bvh2(w8, &b2, rays, &what);
+            let p = BuildParams {
+                max_leaf_size: leaf_size,
+                ..BuildParams::default()
+            };
+            let what = format!("{what}, from binned SAH");
+            let (w4, _) = WideBvh::<4>::binned_sah(tris, &p, &none).expect("direct BVH4");
+            assert_tree_equals_bvh2(w4, &b2, rays, &what);
+            let (w8, _) = WideBvh::<8>::binned_sah(tris, &p, &none).expect("direct BVH8");
+            assert_tree_equals_bvh2(w8, &b2, rays, &what);
         }
     }
+    // Large enough for parts laid out in parallel.
     let tris = soup(70_000, 5);
+    let p = BuildParams::default();
     let on = |threads| {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
             .build()
             .expect("thread pool");
-        pool.install(|| fingerprint(&WideBvh::<8>::morton(&tris, 4).unwrap().0))
+        pool.install(|| {
+            let morton = WideBvh::<8>::morton(&tris, 4).unwrap().0;
+            let sah = WideBvh::<8>::binned_sah(&tris, &p, &none).unwrap().0;
+            (fingerprint(&morton), fingerprint(&sah))
+        })
     };
     assert_eq!(on(1), on(2));
+    let rays = rays(&bounds(&tris), 1000, 9);
     let b2 = bvh2(&tris, Strategy::Lbvh);
     let (w8, _) = WideBvh::<8>::morton(&tris, 4).unwrap();
-    assert_tree_equals_bvh2(w8, &b2, &rays(&bounds(&tris), 1000, 9), "soup of 70 000");
+    assert_tree_equals_bvh2(w8, &b2, &rays, "soup of 70 000");
+    let (w8, _) = WideBvh::<8>::binned_sah(&tris, &p, &none).unwrap();
+    assert_tree_equals_bvh2(w8, &b2, &rays, "soup of 70 000, from binned SAH");
 }
 
 /// Any hit of segments that end before, at and past each ray's closest hit, in a tree that

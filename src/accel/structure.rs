@@ -538,8 +538,8 @@ impl Accel for Structure {
 }
 
 /// A wide BVH: the BVH2 built as usual, then collapsed (the report is the BVH2's with the
-/// collapse's time), or, for the LBVH with `direct_wide`, made straight from the Morton
-/// order; with the wide tree's SAH cost and its memory.
+/// collapse's time), or, with `direct_wide`, made straight from the builder's splits
+/// (`WideBvh::direct`); with the wide tree's SAH cost and its memory.
 fn build_wide<const W: usize>(
     triangles: &[Triangle],
     params: &StructureParams,
@@ -555,10 +555,11 @@ where
             return Err(BuildError::PresplitDirectWide.into());
         }
         let start = Instant::now();
-        let leaf_size = params.bvh.direct_wide_leaf_size();
-        let (wide, phases) = WideBvh::<W>::morton(triangles, leaf_size)?;
+        let (wide, phases) = WideBvh::<W>::direct(triangles, &params.bvh, progress)?;
         let build_time = start.elapsed();
-        progress.add(triangles.len());
+        if progress.is_abandoned() {
+            return Err(StructureError::Abandoned);
+        }
         let rows = vec![("builder".into(), params.bvh.wide_builder_label().into())];
         (
             wide,

@@ -420,7 +420,7 @@ fn time_wide_rebuild(
     params: &StructureParams,
     builds: u32,
 ) -> Result<Option<Duration>, BenchError> {
-    if !params.bvh.builds_direct_wide() {
+    if !params.bvh.builds_morton_wide() {
         return Ok(None);
     }
     let leaf_size = params.bvh.direct_wide_leaf_size();

@@ -109,7 +109,7 @@ pub(super) fn run_embree(
     // Where bvhlab timed its tree rebuilt into its own memory, Embree's scene rebuilt
     // into its own: the best of as many, after one.
     let mut rebuild = None;
-    if cfg.params.bvh.builds_direct_wide() && !two_level {
+    if cfg.params.bvh.builds_morton_wide() && !two_level {
         for k in 0..=cfg.builds.max(1) {
             let took = embree.rebuild().map_err(BenchError::Peer)?;
             if k > 0 {

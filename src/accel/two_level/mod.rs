@@ -160,17 +160,15 @@ pub fn build(
     Ok((two_level, report))
 }
 
-/// The BVH8 of one mesh: the BVH2 `params` build, collapsed, or for the LBVH with
-/// `direct_wide` the wide tree straight from the Morton order.
+/// The BVH8 of one mesh: the BVH2 `params` build, collapsed, or with `direct_wide` the
+/// wide tree straight from the builder's splits.
 fn build_blas(
     triangles: &[Triangle],
     params: &BuildParams,
     progress: &BuildProgress,
 ) -> Result<Bvh8, BuildError> {
     if params.builds_direct_wide() {
-        let (blas, _) = Bvh8::morton(triangles, params.direct_wide_leaf_size())?;
-        progress.add(triangles.len());
-        return Ok(blas);
+        return Ok(Bvh8::direct(triangles, params, progress)?.0);
     }
     let (bvh2, _) = bvh::build_with_progress(triangles, params, progress)?;
     let collapse = collapse_params(params, params.max_leaf_size);
@@ -237,8 +235,9 @@ fn build_tlas(
 }
 
 /// The top level over the world boxes `boxes` of `references`, one reference per leaf lane:
-/// binned SAH's BVH2 collapsed, or for the LBVH with `direct_wide` the wide tree straight
-/// from the Morton order (the builder for a top level rebuilt every frame). The builders
+/// binned SAH's BVH2 collapsed, or with `direct_wide` the wide tree straight from the
+/// builder's splits (the LBVH's Morton order: the builder for a top level rebuilt every
+/// frame). The builders
 /// see primitives only as boxes, so each box goes in as the triangle from its min corner to
 /// its max corner, whose bounds are exactly that box. Instances of empty meshes have no
 /// reference: no ray can hit them.
@@ -255,13 +254,15 @@ fn build_top(
         BuildError::NonFinite(b) => BuildError::NonFinite(references[b].instance as usize),
         e => e,
     };
+    let tlas_params = BuildParams {
+        max_leaf_size: 1,
+        ..params.whole_references()
+    };
     let mut tlas = if params.builds_direct_wide() {
-        Bvh8::morton(&triangles, 1).map_err(instance_named)?.0
+        Bvh8::direct(&triangles, &tlas_params, &BuildProgress::default())
+            .map_err(instance_named)?
+            .0
     } else {
-        let tlas_params = BuildParams {
-            max_leaf_size: 1,
-            ..params.whole_references()
-        };
         let (tlas2, _) = bvh::build(&triangles, &tlas_params).map_err(instance_named)?;
         Bvh8::collapse_timed(&tlas2, &collapse_params(params, 1))?.0
     };

@@ -33,6 +33,7 @@ mod subset_terms;
 pub mod treelet;
 
 pub(crate) use lbvh::triangle_codes_into;
+pub(crate) use prim::{NodeInfo, PrimRef, Split};
 pub(crate) use radix_sort::sort_from_with as radix_sort_from_with;
 pub use split_costs::split_costs;
 
@@ -41,7 +42,6 @@ use super::report::{BuildPhases, BuildReport};
 use super::{Bvh, TraversalOrder};
 use crate::accel::progress::BuildProgress;
 use crate::geometry::{Aabb, Triangle};
-use prim::{NodeInfo, PrimRef, Split};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
@@ -175,14 +175,16 @@ pub struct BuildParams {
     #[arg(long, default_value_t = BuildParams::default().presplit, allow_negative_numbers = true)]
     #[param(label = "pre-split budget × N", range = 0.0..=MAX_SPLIT_BUDGET, when = Self::takes_presplit)]
     pub presplit: f32,
-    /// lbvh, as BVH4, BVH8 or two levels: make the wide nodes straight from the Morton
-    /// order, the radix tree's splits grouped W to a node with leaves of at most four
-    /// triangles (or --max-leaf, if fewer), instead of collapsing the LBVH's BVH2 by the
-    /// SAH: a build about three times as fast, for scenes rebuilt every frame, and a tree
-    /// of higher SAH cost. Under two levels, both the BLASes and the top level.
-    /// Pre-splitting does not apply to it.
+    /// lbvh and sah-binned, as BVH4, BVH8 or two levels: make the wide nodes straight from
+    /// the builder's splits, with no BVH2 in between. For the LBVH, the radix tree's splits
+    /// grouped W to a node with leaves of at most four triangles (or --max-leaf, if fewer):
+    /// about three times as fast as its BVH2 collapsed, for scenes rebuilt every frame, at
+    /// a higher SAH cost. For binned SAH, its splits grouped W to a node as they are made:
+    /// a faster build with the BVH2's leaves, at a slightly higher SAH cost than the
+    /// collapse's. Under two levels, both the BLASes and the top level. Pre-splitting does
+    /// not apply to it.
     #[arg(long, default_value_t = BuildParams::default().direct_wide, action = clap::ArgAction::Set)]
-    #[param(label = "wide nodes straight from the Morton order", when = Self::takes_direct_wide, scope = "wide")]
+    #[param(label = "wide nodes straight from the splits (no BVH2)", when = Self::takes_direct_wide, scope = "wide")]
     pub direct_wide: bool,
     /// two-level: partial re-braiding; the top level may open large instances into
     /// references to their BLAS's subtrees, largest first, up to this many extra references
@@ -210,14 +212,21 @@ impl BuildParams {
         self.strategy == Strategy::Sbvh
     }
 
-    /// Whether `direct_wide` applies: the LBVH's wide trees.
+    /// Whether `direct_wide` applies: the LBVH's and binned SAH's wide trees.
     pub fn takes_direct_wide(&self) -> bool {
-        self.strategy == Strategy::Lbvh
+        matches!(self.strategy, Strategy::Lbvh | Strategy::SahBinned)
     }
 
-    /// Whether the wide trees are built straight from the Morton order (`direct_wide`).
+    /// Whether the wide trees are built straight from the builder's splits, with no BVH2
+    /// (`direct_wide`).
     pub fn builds_direct_wide(&self) -> bool {
         self.direct_wide && self.takes_direct_wide()
+    }
+
+    /// Whether the wide trees are built straight from the Morton order: the build a scene
+    /// rebuilt every frame uses (`WideBvh::rebuild_morton`).
+    pub fn builds_morton_wide(&self) -> bool {
+        self.builds_direct_wide() && self.strategy == Strategy::Lbvh
     }
 
     /// The leaf size of a wide tree built straight from the Morton order: `max_leaf_size`
@@ -228,10 +237,12 @@ impl BuildParams {
 
     /// The builder of the wide trees, as build reports name it.
     pub fn wide_builder_label(&self) -> &'static str {
-        if self.builds_direct_wide() {
+        if !self.builds_direct_wide() {
+            self.strategy.label()
+        } else if self.strategy == Strategy::Lbvh {
             "LBVH, wide nodes straight from the Morton order"
         } else {
-            self.strategy.label()
+            "binned SAH, wide nodes straight from its splits"
         }
     }
 
@@ -377,7 +388,7 @@ pub enum BuildError {
     #[error("{name} = {value} must be {}", crate::accel::params::cost_rule(name))]
     Cost { name: &'static str, value: f32 },
     #[error(
-        "the pre-split budget (--presplit) must be 0 for wide nodes straight from the Morton order (--direct-wide), which split no reference"
+        "the pre-split budget (--presplit) must be 0 for wide nodes built straight from the splits (--direct-wide), which split no reference"
     )]
     PresplitDirectWide,
     #[error("triangle {0} has a NaN or infinite vertex")]
@@ -422,8 +433,11 @@ impl TopSplitClock {
             .fetch_add(t.as_nanos() as u64, Ordering::Relaxed);
     }
 
-    fn read(a: &AtomicU64) -> Duration {
-        Duration::from_nanos(a.load(Ordering::Relaxed))
+    /// Both times, as the build report's phases.
+    pub fn add_phases(&self, phases: &mut BuildPhases) {
+        let read = |a: &AtomicU64| Duration::from_nanos(a.load(Ordering::Relaxed));
+        phases.add("binning near the root", read(&self.binning_ns));
+        phases.add("partition near the root", read(&self.partition_ns));
     }
 }
 
@@ -588,14 +602,7 @@ fn build_tree(
     };
     let recursion = start.elapsed();
     if params.strategy == Strategy::SahBinned {
-        phases.add(
-            "binning near the root",
-            TopSplitClock::read(&clock.binning_ns),
-        );
-        phases.add(
-            "partition near the root",
-            TopSplitClock::read(&clock.partition_ns),
-        );
+        clock.add_phases(phases);
     }
     phases.add("splits (whole recursion)", recursion);
     let start = Instant::now();
@@ -605,11 +612,14 @@ fn build_tree(
     bvh
 }
 
-struct Builder<'a> {
-    params: &'a BuildParams,
-    clock: &'a TopSplitClock,
+/// The top-down builders' choice of splits, node by node; the wide tree built straight from
+/// binned SAH (`wide::sah`) makes the same choices.
+#[derive(Clone, Copy)]
+pub(crate) struct Builder<'a> {
+    pub params: &'a BuildParams,
+    pub clock: &'a TopSplitClock,
     /// Counted per sequential subtree, not per leaf, to keep the atomic out of the way.
-    progress: &'a BuildProgress<'a>,
+    pub progress: &'a BuildProgress<'a>,
 }
 
 impl Builder<'_> {
@@ -676,7 +686,7 @@ impl Builder<'_> {
 
     /// Where to split `refs` (partitioning them so that `refs[..m]` is the left child), or
     /// `None` to make a leaf.
-    fn split(&self, refs: &mut [PrimRef], info: &NodeInfo, depth: u32) -> Option<Split> {
+    pub(crate) fn split(&self, refs: &mut [PrimRef], info: &NodeInfo, depth: u32) -> Option<Split> {
         let n = refs.len();
         let p = self.params;
         let must_split = n > p.max_leaf_size as usize;

@@ -16,6 +16,7 @@ mod order;
 pub mod packet;
 mod part;
 pub mod refit;
+pub mod sah;
 pub(crate) mod stack;
 pub mod traverse;
 
@@ -25,6 +26,9 @@ pub use morton::MortonScratch;
 pub use node::{LaneKind, Lanes, NodeWidth, Subtree, WideNode};
 
 use super::TraversalOrder;
+use super::build::{BuildError, BuildParams, Strategy};
+use super::report::BuildPhases;
+use crate::accel::progress::BuildProgress;
 use crate::accel::{Outline, OutlineNode};
 use crate::geometry::simd::{BLOCK, SimdLevel, TriangleBlock};
 use crate::geometry::{Aabb, Triangle};
@@ -138,6 +142,24 @@ where
     /// The slab kernel the traversal runs.
     pub fn simd(&self) -> SimdLevel {
         self.simd
+    }
+
+    /// The wide tree built straight from the builder's splits, with no BVH2 in between
+    /// (`BuildParams::builds_direct_wide`): from the Morton order for the LBVH (`morton`),
+    /// from binned SAH's splits otherwise (`binned_sah`).
+    pub fn direct(
+        triangles: &[Triangle],
+        params: &BuildParams,
+        progress: &BuildProgress,
+    ) -> Result<(Self, BuildPhases), BuildError> {
+        if params.strategy == Strategy::Lbvh {
+            params.validate()?;
+            let built = Self::morton(triangles, params.direct_wide_leaf_size())?;
+            progress.add(triangles.len());
+            Ok(built)
+        } else {
+            Self::binned_sah(triangles, params, progress)
+        }
     }
 
     pub fn set_simd(&mut self, level: SimdLevel) -> Result<(), UnsupportedSimd> {
