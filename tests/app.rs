@@ -783,6 +783,7 @@ fn under_the_two_levels_a_selected_instances_blas_continues_the_levels_and_the_w
     assert_eq!(h.state().levels().max_depth(), top);
     assert!(h.state().instance_outline.is_none());
     h.get_by_label_contains("select an instance to see its BLAS levels");
+    h.get_by_label("a BLAS's SAH cost and EPO");
     // Choose instance 0 in the panel (its "select" button lies below the fold under the
     // longer control lists: pressed as the click would).
     assert!(h.query_by_label("select").is_some());
@@ -798,6 +799,23 @@ fn under_the_two_levels_a_selected_instances_blas_continues_the_levels_and_the_w
     assert!(blas_levels >= 2, "a BLAS of more than its root");
     assert_eq!(h.state().levels().max_depth(), top + blas_levels);
     h.get_by_label_contains("instance 0 of mesh 0");
+    // Its BLAS weighed as a tree of its own, in its mesh's space: the SAH cost at once, the
+    // EPO at the worker's next quiet moment (the two levels have none of their own).
+    h.get_by_label("instance 0's BLAS, in its mesh's space: SAH cost");
+    let sah = o.blas.sah_cost(1.0, 1.0);
+    h.get_by_label(&format!("{sah:.2}"));
+    let scene = bvhlab::scene::Scene::load("cornell").unwrap();
+    let mesh = scene.instancing().meshes[o.mesh];
+    let epo = bvhlab::accel::epo::epo(&o.blas, mesh, 1.0, 1.0);
+    let shown = format!("{epo:.2} ({:.0} % of its SAH cost)", 100.0 * epo / sah);
+    for _ in 0..50 {
+        if h.query_by_label(&shown).is_some() {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+        settle(&mut h);
+    }
+    h.get_by_label(&shown);
     h.get_by_label_contains("translation (0.000, 0.000, 0.000)");
     h.get_by_label_contains("rotation 0.0°");
     h.get_by_label_contains("[   1.000    0.000    0.000 |     0.000]");

@@ -2,6 +2,7 @@
 //! handles input; a worker thread owns the scene and the BVH and renders frames
 //! (see `worker`). Panels are plain functions of the app state.
 
+mod blas_costs;
 mod bucket_plot;
 mod compare;
 mod cracks;
@@ -104,6 +105,8 @@ pub struct BvhLabApp {
     /// Under the two levels: the selected instance's BLAS, which the levels and the walk
     /// continue into, and the instance each top-level leaf holds (by outline node).
     pub instance_outline: Option<Arc<InstanceOutline>>,
+    /// Its BLAS's SAH cost and EPO, as a tree of its own.
+    blas_costs: Option<blas_costs::BlasCosts>,
     pub leaf_instances: Arc<Vec<u32>>,
     /// The walk stepped into a top-level leaf whose instance is being outlined: enter its
     /// BLAS when it arrives.
@@ -264,6 +267,7 @@ impl BvhLabApp {
             busy_since: None,
             outline: Arc::new(Outline::default()),
             instance_outline: None,
+            blas_costs: None,
             leaf_instances: Arc::default(),
             enter_blas: false,
             shown: None,
@@ -490,6 +494,9 @@ impl BvhLabApp {
                 .map(|k| k as u32)
                 .or_else(|| self.instance_outline.as_ref().and_then(|i| i.first_leaf()))
         };
+        let constants = self.settings.structure.sah_constants();
+        self.blas_costs =
+            blas_costs::BlasCosts::of(outlined.as_ref(), self.blas_costs.take(), constants);
         self.instance_outline = outlined;
         let levels = self.levels();
         let max = levels.max_depth();

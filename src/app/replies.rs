@@ -197,6 +197,11 @@ impl BvhLabApp {
                         p.epo = Some(epo);
                     }
                 }
+                Reply::BlasEpo { instance, epo } => {
+                    if let Some(b) = &mut self.blas_costs {
+                        b.set_epo(instance, epo);
+                    }
+                }
                 Reply::NodeVisits(request, visits) => {
                     if self.visits_asked.as_ref() == Some(&request) {
                         self.visits_asked = None;

@@ -196,6 +196,32 @@ pub(super) fn sah_check_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
             None => "not computed for the two levels".into(),
         }],
     ));
+    // Under the two levels, the selected BLAS weighed as a tree of its own.
+    if !kind.has_sah_cost() {
+        match &app.blas_costs {
+            Some(b) => {
+                let of_it =
+                    |x: f64| format!("{:.0} %", 100.0 * x / b.sah_cost.max(f64::MIN_POSITIVE));
+                rows.push((
+                    format!(
+                        "instance {}'s BLAS, in its mesh's space: SAH cost",
+                        b.instance
+                    ),
+                    vec![format!("{:.2}", b.sah_cost)],
+                ));
+                rows.push((
+                    "its EPO".into(),
+                    vec![b.epo.map_or("computing…".into(), |e| {
+                        format!("{e:.2} ({} of its SAH cost)", of_it(e))
+                    })],
+                ));
+            }
+            None => rows.push((
+                "a BLAS's SAH cost and EPO".into(),
+                vec!["select an instance".into()],
+            )),
+        }
+    }
     table(ui, "sah check", &[], rows);
 }
 

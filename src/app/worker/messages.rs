@@ -293,6 +293,11 @@ pub enum Reply {
     Prefetched(String),
     /// The EPO of the tree built or refitted last.
     Epo(f64),
+    /// Under the two levels: the EPO of the selected instance's BLAS in its mesh's space.
+    BlasEpo {
+        instance: usize,
+        epo: f64,
+    },
     /// The visits counted for a request, or `None` when a newer command cut it short.
     NodeVisits(VisitsRequest, Option<Arc<NodeVisits>>),
     /// The crack view of a request, or why there is none (an offset too far, say).

@@ -95,6 +95,7 @@ impl Worker {
             drag_bounds: None,
             prefetch: None,
             epo_version: None,
+            blas_epo_for: None,
             crack_view: None,
         };
         let thread = std::thread::Builder::new()

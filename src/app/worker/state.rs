@@ -107,6 +107,9 @@ pub(in crate::app) struct State {
     pub(in crate::app) prefetch: Option<super::prefetch::Prefetch>,
     /// The `version` whose tree's EPO was sent last.
     pub(in crate::app) epo_version: Option<u64>,
+    /// Under the two levels: the `version` and selected instance whose BLAS's EPO was sent
+    /// last.
+    pub(in crate::app) blas_epo_for: Option<(u64, usize)>,
     /// The crack view made last, kept while the view, offset, scene and tree stay.
     pub(in crate::app) crack_view: Option<(
         super::cracks::CrackKey,
