@@ -17,22 +17,25 @@ pub struct BlasCosts {
 }
 
 impl BlasCosts {
-    /// The costs of the selected instance's BLAS weighed with (C_trav, C_isect), keeping
-    /// the EPO of `before` where the BLAS is the same (the instance only moved).
+    /// The costs of the selected instance's BLAS weighed with (C_trav, C_isect), kept from
+    /// `before` where the BLAS is the same (the instance only moved: a drag sends the
+    /// selection again at every step, and the BLAS need not be summed again).
     pub fn of(
         selected: Option<&Arc<InstanceOutline>>,
         before: Option<BlasCosts>,
         (c_trav, c_isect): (f32, f32),
     ) -> Option<BlasCosts> {
         let selected = selected?;
-        let same = before.as_ref().is_some_and(|b| {
-            b.instance == selected.instance && Arc::ptr_eq(&b.blas, &selected.blas)
-        });
+        let same =
+            |b: &BlasCosts| b.instance == selected.instance && Arc::ptr_eq(&b.blas, &selected.blas);
+        if let Some(before) = before.filter(same) {
+            return Some(before);
+        }
         Some(BlasCosts {
             instance: selected.instance,
             blas: selected.blas.clone(),
             sah_cost: selected.blas.sah_cost(c_trav, c_isect),
-            epo: before.filter(|_| same).and_then(|b| b.epo),
+            epo: None,
         })
     }
 
