@@ -18,7 +18,7 @@
 
 use super::TwoLevel;
 use crate::accel::bvh::Bvh8;
-use crate::accel::bvh::wide::LaneKind;
+use crate::accel::bvh::wide::{LaneKind, LaneSums};
 use crate::geometry::Aabb;
 use glam::DVec3;
 
@@ -88,14 +88,7 @@ impl TwoLevel {
             })
             .collect();
         // The top level's nodes: the root and its interior lanes.
-        let mut sum = c_trav * root;
-        for node in &self.tlas.nodes {
-            for lane in 0..node.child_count() {
-                if node.is_interior(lane) {
-                    sum += c_trav * f64::from(node.child_bounds(lane).surface_area());
-                }
-            }
-        }
+        let mut sum = c_trav * (root + LaneSums::of(&self.tlas.nodes).interior_area());
         for (r, reference) in self.references.iter().enumerate() {
             let Some((node, lane)) = self.top_index.slot_of(r) else {
                 continue;

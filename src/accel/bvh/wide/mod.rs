@@ -96,6 +96,11 @@ impl LaneSums {
             / root_area
     }
 
+    /// Σ of the interior lanes' surface areas (the nodes below the root).
+    pub(crate) fn interior_area(&self) -> f64 {
+        self.interior_area
+    }
+
     pub(crate) fn add<const W: usize>(&mut self, node: &WideNode<W>)
     where
         Lanes<W>: NodeWidth,
