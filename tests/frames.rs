@@ -550,7 +550,7 @@ fn a_prefetched_step_opens_without_building_and_gives_way_to_commands() {
 }
 
 /// Waits for the worker's next EPO; the replies on the way.
-fn until_epo(worker: &mut Worker) -> (f64, Vec<Reply>) {
+fn until_epo(worker: &mut Worker) -> (bvhlab::accel::epo::Epo, Vec<Reply>) {
     let mut seen = Vec::new();
     while let Some(r) = worker.next_reply(Duration::from_secs(120)) {
         if let Reply::Epo(epo) = r {
@@ -562,7 +562,8 @@ fn until_epo(worker: &mut Worker) -> (f64, Vec<Reply>) {
 }
 
 /// The shown tree's EPO comes after its build, at a quiet moment: the tree's own EPO, and
-/// after a move the refitted tree's. A structure without an SAH cost gets none.
+/// after a move the refitted tree's; under the two levels, both levels'. A structure
+/// without an SAH cost gets none.
 #[test]
 fn the_worker_sends_the_epo_of_the_tree_built_and_of_the_tree_refitted() {
     let mut worker = Worker::spawn(|| {});
@@ -574,7 +575,7 @@ fn the_worker_sends_the_epo_of_the_tree_built_and_of_the_tree_refitted() {
     let scene = load(&mut worker, "soup:3000");
     let (epo, _) = until_epo(&mut worker);
     let expected = built(&scene, AccelKind::Bvh)
-        .epo(&params, &scene.triangles)
+        .epo(&params, &scene)
         .unwrap();
     assert_eq!(epo, expected);
     worker.send(Command::Move {
@@ -593,4 +594,13 @@ fn the_worker_sends_the_epo_of_the_tree_built_and_of_the_tree_refitted() {
     assert!(replies.iter().any(|r| matches!(r, Reply::Built { .. })));
     std::thread::sleep(Duration::from_millis(500));
     assert!(worker.next_reply(Duration::from_millis(300)).is_none());
+    // Both levels' EPO, clipped exactly on a scene this small.
+    let two = StructureParams {
+        kind: AccelKind::TwoLevel,
+        ..Default::default()
+    };
+    worker.send(Command::Build(two));
+    let (epo, _) = until_epo(&mut worker);
+    assert!(epo.estimate.is_none() && epo.value > 0.0, "{epo:?}");
+    assert_eq!(epo, built(&scene, AccelKind::TwoLevel).epo(&two, &scene).unwrap());
 }

@@ -201,6 +201,8 @@ fn epo_by_definition(outline: &Outline, scene: &[Triangle], c_trav: f32, c_isect
 #[test]
 fn epo_of_every_tree_equals_its_definition_node_by_node() {
     let scene = bvhlab_testkit::soup(300, 11);
+    let mut whole = bvhlab::scene::Scene::new("soup");
+    whole.push_object("soup", glam::Vec3::ONE, &scene);
     let mut params = StructureParams::of_kind(AccelKind::Bvh);
     let progress = Default::default();
     for strategy in Strategy::ALL {
@@ -216,7 +218,9 @@ fn epo_of_every_tree_equals_its_definition_node_by_node() {
             }
             params.kind = kind;
             let built = structures::build(&scene, &params, &progress).unwrap();
-            let got = built.structure.epo(&params, &scene).unwrap();
+            let got = built.structure.epo(&params, &whole).unwrap();
+            assert!(got.estimate.is_none());
+            let got = got.value;
             let (c_trav, c_isect) = if kind == AccelKind::KdTree {
                 (params.kdtree.c_trav, params.kdtree.c_isect)
             } else {

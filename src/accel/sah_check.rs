@@ -26,7 +26,7 @@ pub struct SahPrediction {
     /// C_trav · nodes visited + C_isect · triangle tests per random line, closest hit.
     pub random: f64,
     /// The tree's EPO (`accel::epo`), once computed (the app computes it after the frame).
-    pub epo: Option<f64>,
+    pub epo: Option<crate::accel::epo::Epo>,
 }
 
 impl SahPrediction {

@@ -14,6 +14,7 @@ use super::bvh::{self, BuildError, BuildReport, Bvh, Bvh4, Bvh8, WideBvh};
 use super::grid::{self, Grid, GridError};
 use super::kdtree::{self, KdError, KdTree};
 use super::octree::{self, Octree, OctreeError};
+use super::epo::Epo;
 use super::outline::Outline;
 pub use super::params::StructureParams;
 use super::progress::BuildProgress;
@@ -403,9 +404,11 @@ impl Structure {
         Some((cost, c_trav, c_isect))
     }
 
-    /// The tree's EPO (`accel::epo`) over `scene`, the triangles it was built over, in the
-    /// units of its SAH cost; `None` where `sah_cost` is.
-    pub fn epo(&self, params: &StructureParams, scene: &[Triangle]) -> Option<f64> {
+    /// The tree's EPO (`accel::epo`) over `scene`, the scene it was built over, in the
+    /// units of its SAH cost; `None` where `sah_cost` is, and for a flat tree over a scene
+    /// too large to flatten. The two levels' is exact up to `two_level::epo::EXACT_MAX`
+    /// placed triangles and estimated past it.
+    pub fn epo(&self, params: &StructureParams, scene: &Scene) -> Option<Epo> {
         self.epo_unless(params, scene, &|| false)
     }
 
@@ -413,19 +416,29 @@ impl Structure {
     pub fn epo_unless(
         &self,
         params: &StructureParams,
-        scene: &[Triangle],
+        scene: &Scene,
         abandon: &(dyn Fn() -> bool + Sync),
-    ) -> Option<f64> {
-        let outline = match self {
+    ) -> Option<Epo> {
+        let (c_trav, c_isect) = params.sah_constants();
+        match self {
             Structure::Bvh(_)
             | Structure::Bvh4(_)
             | Structure::Bvh8(_)
             | Structure::KdTree(_)
-            | Structure::Octree(_) => self.outline(),
-            _ => return None,
-        };
-        let (c_trav, c_isect) = params.sah_constants();
-        super::epo::epo_unless(&outline, scene, c_trav, c_isect, abandon)
+            | Structure::Octree(_) => {
+                let triangles = scene.flattened().ok()?;
+                super::epo::epo_unless(&self.outline(), &triangles, c_trav, c_isect, abandon)
+                    .map(Epo::exact)
+            }
+            Structure::TwoLevel(t) => {
+                let meshes = scene.instancing().meshes;
+                let built_over = |(m, b): (&&[Triangle], &Bvh8)| m.len() == b.triangle_count;
+                let same = meshes.len() == t.blases.len()
+                    && meshes.iter().zip(&t.blases).all(built_over);
+                same.then(|| t.epo_unless(&meshes, c_trav, c_isect, abandon))?
+            }
+            _ => None,
+        }
     }
 
     /// The nodes or cells the explorer draws.

@@ -44,10 +44,7 @@ impl SahCheck {
         let p = SahPrediction::of(accel, params, &scene.bounds(), RANDOM_RAYS)?;
         let start = Instant::now();
         let late = || start.elapsed() > epo_deadline;
-        let epo = scene
-            .flattened()
-            .ok()
-            .and_then(|triangles| accel.epo_unless(params, &triangles, &late));
+        let epo = accel.epo_unless(params, scene, &late).map(|e| e.value);
         let cost = |m: MeanWork| m.cost(p.c_trav, p.c_isect);
         Some(SahCheck {
             c_trav: p.c_trav,

@@ -3,6 +3,7 @@
 
 use super::{BuildArgs, load_scene};
 use anyhow::Result;
+use bvhlab::accel::epo::Epo;
 use bvhlab::accel::report::Detail;
 use bvhlab::accel::{Built, StructureParams};
 use bvhlab::scene::Scene;
@@ -42,38 +43,36 @@ struct StatsJson {
     c_isect: Option<f32>,
     sah_cost: Option<f64>,
     epo: Option<f64>,
+    /// An estimated EPO's (two levels placing too many triangles to clip) standard error
+    /// and end points; null when exact.
+    epo_std_error: Option<f64>,
+    epo_end_points: Option<u64>,
     epo_ms: Option<f64>,
     details: BTreeMap<String, serde_json::Value>,
 }
 
-/// The tree's SAH cost and EPO with the costs they weigh with, and the EPO's time (no EPO
-/// for the two levels, whose placed triangles are not listed).
+/// The tree's SAH cost and EPO with the costs they weigh with, and the EPO's time.
 struct Predictors {
     c_trav: f32,
     c_isect: f32,
     sah_cost: f64,
-    epo: Option<(f64, f64)>,
+    epo: Option<(Epo, f64)>,
 }
 
 fn predictors(
     built: &Built,
     params: &StructureParams,
     scene: &Scene,
-) -> Result<Option<Predictors>> {
-    let Some((sah_cost, c_trav, c_isect)) = built.structure.sah_cost(params) else {
-        return Ok(None);
-    };
+) -> Option<Predictors> {
+    let (sah_cost, c_trav, c_isect) = built.structure.sah_cost(params)?;
     let start = Instant::now();
-    let epo = match built.structure.kind().has_sah_cost() {
-        true => built.structure.epo(params, &scene.flattened()?),
-        false => None,
-    };
-    Ok(Some(Predictors {
+    let epo = built.structure.epo(params, scene);
+    Some(Predictors {
         c_trav,
         c_isect,
         sah_cost,
         epo: epo.map(|e| (e, start.elapsed().as_secs_f64() * 1e3)),
-    }))
+    })
 }
 
 pub fn run(args: StatsArgs) -> Result<()> {
@@ -82,7 +81,7 @@ pub fn run(args: StatsArgs) -> Result<()> {
     let _held = scene.hold_budget();
     let built = args.build.build(&scene)?;
     let params = args.build.structure_params(&scene)?;
-    let predicted = predictors(&built, &params, &scene)?;
+    let predicted = predictors(&built, &params, &scene);
     let report = &built.report;
     if args.json {
         let p = predicted.as_ref();
@@ -101,7 +100,9 @@ pub fn run(args: StatsArgs) -> Result<()> {
             c_trav: p.map(|p| p.c_trav),
             c_isect: p.map(|p| p.c_isect),
             sah_cost: p.map(|p| p.sah_cost),
-            epo: p.and_then(|p| p.epo.map(|e| e.0)),
+            epo: p.and_then(|p| p.epo.map(|e| e.0.value)),
+            epo_std_error: p.and_then(|p| Some(p.epo?.0.estimate?.std_error)),
+            epo_end_points: p.and_then(|p| Some(p.epo?.0.estimate?.end_points)),
             epo_ms: p.and_then(|p| p.epo.map(|e| e.1)),
             details: report
                 .details
@@ -123,16 +124,25 @@ pub fn run(args: StatsArgs) -> Result<()> {
         // Beside the SAH cost, the other predictor.
         let at = rows
             .iter()
-            .position(|(k, _)| k == "SAH cost")
+            .position(|(k, _)| k.starts_with("SAH cost"))
             .map_or(rows.len(), |i| i + 1);
-        let epo = format!(
-            "{epo:.3} ({:.0} % of the SAH cost)",
-            100.0 * epo / p.sah_cost
-        );
+        let share = format!("{:.0} % of the SAH cost", 100.0 * epo.value / p.sah_cost);
+        let (name, value) = match (epo.estimate, built.structure.kind().has_sah_cost()) {
+            (None, true) => ("EPO (end-point overlap)", format!("{} ({share})", epo.label(3))),
+            (None, false) => ("EPO, both levels", format!("{} ({share})", epo.label(3))),
+            (Some(e), _) => (
+                "EPO, both levels (estimated)",
+                format!(
+                    "{} ({share}; {} end points drawn by area)",
+                    epo.label(3),
+                    e.end_points
+                ),
+            ),
+        };
         rows.splice(
             at..at,
             [
-                ("EPO (end-point overlap)".to_string(), epo),
+                (name.to_string(), value),
                 ("EPO computed in".to_string(), format!("{epo_ms:.2} ms")),
             ],
         );

@@ -16,11 +16,51 @@
 //! above any of them.
 
 mod by_triangle;
-mod part;
+pub(crate) mod part;
 
 use super::Outline;
 use crate::geometry::{Aabb, Triangle};
 use part::{Against, Part};
+
+/// A tree's EPO, in the units of its SAH cost: clipped exactly triangle by triangle, or,
+/// for two levels placing more triangles than can be clipped one by one, estimated from
+/// end points sampled uniformly over the placed surfaces (`TwoLevel::epo_unless`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Epo {
+    pub value: f64,
+    /// `None` when exact.
+    pub estimate: Option<Estimate>,
+}
+
+/// How good an estimated EPO is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Estimate {
+    /// The standard error of the mean over the end points.
+    pub std_error: f64,
+    pub end_points: u64,
+}
+
+impl Epo {
+    pub fn exact(value: f64) -> Epo {
+        Epo {
+            value,
+            estimate: None,
+        }
+    }
+
+    /// "0.123", or "0.1234 ± 0.0021" for an estimate: `decimals` after the point, more
+    /// where the standard error needs them to show two digits.
+    pub fn label(&self, decimals: usize) -> String {
+        match self.estimate {
+            None => format!("{:.decimals$}", self.value),
+            Some(e) => {
+                let needed = (1.0 - e.std_error.max(1e-12).log10().floor()) as usize;
+                let d = decimals.max(needed.min(12));
+                format!("{:.d$} ± {:.d$}", self.value, e.std_error)
+            }
+        }
+    }
+}
 
 /// The EPO of a tree given as its `outline` (BVH2, BVH4/8, k-d tree, octree), whose leaves
 /// reference `scene`'s triangles. 0 for a scene without area.

@@ -14,6 +14,9 @@ pub struct Part {
     pub lo: DVec3,
     pub hi: DVec3,
     pub area: f64,
+    /// Twice its vector area (Σ of the fan's cross products): its area in another space
+    /// is half the length of this carried by the map's cofactor matrix.
+    pub normal: DVec3,
 }
 
 /// Where a part lies against a box, from its bounds.
@@ -50,7 +53,17 @@ impl Part {
             lo,
             hi,
             area: 0.5 * normal.length(),
+            normal,
         }
+    }
+
+    /// The part carried by `map` (an instance's world → object map, say).
+    pub fn mapped(&self, map: impl Fn(DVec3) -> DVec3) -> Part {
+        let mut v = self.v;
+        for p in &mut v[..self.n] {
+            *p = map(*p);
+        }
+        Part::new(v, self.n)
     }
 
     #[inline(always)]

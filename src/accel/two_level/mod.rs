@@ -8,6 +8,8 @@
 //! Each leaf slot keeps what a ray needs to enter its reference in one cache line (`leaf`).
 //! Coherent primary rays walk the top level in packets (`packet`).
 
+mod end_points;
+mod epo;
 mod leaf;
 pub mod outline;
 mod packet;

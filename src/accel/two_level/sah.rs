@@ -112,7 +112,7 @@ impl TwoLevel {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::accel::BuildParams;
     use crate::accel::progress::BuildProgress;
@@ -121,7 +121,7 @@ mod tests {
     use crate::scene::{Instance, Instancing, builtin};
     use glam::{Affine3A, Quat, Vec3};
 
-    fn two_levels(
+    pub(in crate::accel::two_level) fn two_levels(
         meshes: &[&[Triangle]],
         transforms: &[(usize, Affine3A)],
         rebraid: f32,

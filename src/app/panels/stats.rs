@@ -186,14 +186,16 @@ pub(super) fn sah_check_section(app: &mut BvhLabApp, ui: &mut egui::Ui) {
         ));
     }
     // The second predictor: what the SAH does not see, the other geometry inside each box.
-    // (None for the two levels: their placed triangles are not listed to clip.)
+    // Under the two levels, past a few million placed triangles, estimated from end points.
     let kind = app.settings.structure.kind;
     rows.push((
-        "EPO (end-point overlap)".into(),
+        match p.epo.and_then(|e| e.estimate) {
+            None => "EPO (end-point overlap)".into(),
+            Some(e) => format!("EPO, from {} end points drawn by area", e.end_points),
+        },
         vec![match p.epo {
-            Some(epo) => format!("{epo:.2} ({} of the SAH cost)", ratio(epo)),
-            None if kind.has_sah_cost() => "computing…".into(),
-            None => "not computed for the two levels".into(),
+            Some(epo) => format!("{} ({} of the SAH cost)", epo.label(2), ratio(epo.value)),
+            None => "computing…".into(),
         }],
     ));
     // Under the two levels, the selected BLAS weighed as a tree of its own.

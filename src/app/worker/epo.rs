@@ -1,8 +1,8 @@
 //! The tree's EPO for "SAH predicted against measured": made at a quiet moment after each
 //! build or refit, since on a large scene it takes as long as a build and the frame comes
 //! first; given up as soon as a command arrives, and made again at the next quiet moment.
-//! The two levels have no EPO of their own (their placed triangles are not listed to
-//! clip): there it is the selected instance's BLAS's, in its mesh's space.
+//! Under the two levels it is both levels' (estimated from end points on a scene placing
+//! too many triangles to clip), then the selected instance's BLAS's, in its mesh's space.
 
 use super::messages::Reply;
 use super::state::State;
@@ -20,16 +20,24 @@ impl State {
         let Some(structure) = &self.structure else {
             return false;
         };
-        if structure.kind().has_sah_cost() {
-            return self.epo_version != Some(self.version);
+        if structure.sah_cost(&self.params).is_none() {
+            return false;
         }
-        self.instance
-            .as_ref()
-            .is_some_and(|i| self.blas_epo_for != Some((self.version, i.instance)))
+        self.epo_version != Some(self.version) || self.blas_epo_waiting()
     }
 
-    /// Computes the current tree's EPO (or the selected BLAS's) and sends it, unless a
-    /// command arrives first.
+    /// Under the two levels, whether the selected instance's BLAS's EPO is still to come.
+    fn blas_epo_waiting(&self) -> bool {
+        let two_level = self.structure.as_ref().is_some_and(|s| !s.kind().has_sah_cost());
+        two_level
+            && self
+                .instance
+                .as_ref()
+                .is_some_and(|i| self.blas_epo_for != Some((self.version, i.instance)))
+    }
+
+    /// Computes the current tree's EPO, then under the two levels the selected BLAS's, and
+    /// sends each, unless a command arrives first.
     pub(in crate::app) fn epo_now(&mut self) {
         let (Some(structure), Some(scene)) = (&self.structure, &self.scene) else {
             return;
@@ -37,36 +45,37 @@ impl State {
         let asked = self.latest.load(Ordering::Relaxed);
         let latest = &self.latest;
         let abandon = || latest.load(Ordering::Relaxed) != asked;
-        if !structure.kind().has_sah_cost() {
-            let Some(selected) = &self.instance else {
-                return;
-            };
-            let done = (self.version, selected.instance);
-            let instancing = scene.instancing();
-            let mesh = instancing.meshes.get(selected.mesh).copied();
-            let Some(mesh) = mesh.filter(|m| m.len() == selected.triangle_count) else {
-                self.blas_epo_for = Some(done);
-                return;
-            };
-            let (c_trav, c_isect) = self.params.sah_constants();
-            let epo =
-                crate::accel::epo::epo_unless(&selected.blas, mesh, c_trav, c_isect, &abandon);
-            if let Some(epo) = epo {
-                self.blas_epo_for = Some(done);
-                self.reply(Reply::BlasEpo {
-                    instance: selected.instance,
-                    epo,
-                });
+        if self.epo_version != Some(self.version) {
+            // Given up: made again at the next quiet moment. A structure without one (a
+            // flat tree over a scene too large to flatten) is not asked again.
+            match structure.epo_unless(&self.params, scene, &abandon) {
+                Some(epo) => self.reply(Reply::Epo(epo)),
+                None if abandon() => return,
+                None => {}
             }
+            self.epo_version = Some(self.version);
+        }
+        if !self.blas_epo_waiting() {
             return;
         }
-        let Ok(triangles) = scene.flattened() else {
-            self.epo_version = Some(self.version);
+        let (Some(selected), Some(scene)) = (&self.instance, &self.scene) else {
             return;
         };
-        if let Some(epo) = structure.epo_unless(&self.params, &triangles, &abandon) {
-            self.epo_version = Some(self.version);
-            self.reply(Reply::Epo(epo));
+        let done = (self.version, selected.instance);
+        let instancing = scene.instancing();
+        let mesh = instancing.meshes.get(selected.mesh).copied();
+        let Some(mesh) = mesh.filter(|m| m.len() == selected.triangle_count) else {
+            self.blas_epo_for = Some(done);
+            return;
+        };
+        let (c_trav, c_isect) = self.params.sah_constants();
+        let epo = crate::accel::epo::epo_unless(&selected.blas, mesh, c_trav, c_isect, &abandon);
+        if let Some(epo) = epo {
+            self.blas_epo_for = Some(done);
+            self.reply(Reply::BlasEpo {
+                instance: selected.instance,
+                epo,
+            });
         }
     }
 }

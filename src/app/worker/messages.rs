@@ -292,7 +292,7 @@ pub enum Reply {
     /// The scene and structure asked for by `Command::Prefetch` are ready.
     Prefetched(String),
     /// The EPO of the tree built or refitted last.
-    Epo(f64),
+    Epo(crate::accel::epo::Epo),
     /// Under the two levels: the EPO of the selected instance's BLAS in its mesh's space.
     BlasEpo {
         instance: usize,
