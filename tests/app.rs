@@ -800,7 +800,7 @@ fn under_the_two_levels_a_selected_instances_blas_continues_the_levels_and_the_w
     assert_eq!(h.state().levels().max_depth(), top + blas_levels);
     h.get_by_label_contains("instance 0 of mesh 0");
     // Its BLAS weighed as a tree of its own, in its mesh's space: the SAH cost at once, the
-    // EPO at the worker's next quiet moment (the two levels have none of their own).
+    // EPO at the worker's next quiet moment.
     h.get_by_label("instance 0's BLAS, in its mesh's space: SAH cost");
     let sah = o.blas.sah_cost(1.0, 1.0);
     h.get_by_label(&format!("{sah:.2}"));
@@ -815,6 +815,19 @@ fn under_the_two_levels_a_selected_instances_blas_continues_the_levels_and_the_w
         std::thread::sleep(std::time::Duration::from_millis(50));
         settle(&mut h);
     }
+    h.get_by_label(&shown);
+    // Both levels' own EPO beside their SAH cost, clipped exactly on a scene this small.
+    let params = bvhlab::accel::StructureParams::of_kind(bvhlab::accel::AccelKind::TwoLevel);
+    let built = bvhlab::accel::structure::build_scene(&scene, &params, &Default::default())
+        .unwrap()
+        .structure;
+    let (both_sah, ..) = built.sah_cost(&params).unwrap();
+    let both = built.epo(&params, &scene).unwrap();
+    let shown = format!(
+        "{} ({:.0} % of the SAH cost)",
+        both.label(2),
+        100.0 * both.value / both_sah
+    );
     h.get_by_label(&shown);
     h.get_by_label_contains("translation (0.000, 0.000, 0.000)");
     h.get_by_label_contains("rotation 0.0°");

@@ -984,7 +984,7 @@ fn stats_json_gives_the_sah_cost_and_epo_of_trees_and_null_for_the_others() {
                 | AccelKind::KdTree
                 | AccelKind::Octree
         );
-        // The two levels have an SAH cost over both levels placed, and no EPO.
+        // The two levels have an SAH cost and an EPO over both levels placed.
         let two_level = kind == AccelKind::TwoLevel;
         for key in ["sah_cost", "c_trav", "c_isect"] {
             let has = json[key].is_number();
@@ -993,10 +993,14 @@ fn stats_json_gives_the_sah_cost_and_epo_of_trees_and_null_for_the_others() {
         for key in ["epo", "epo_ms"] {
             assert_eq!(
                 json[key].is_number(),
-                tree,
+                tree || two_level,
                 "{} {key}: {json}",
                 kind.label()
             );
+        }
+        // Clipped exactly: no standard error.
+        for key in ["epo_std_error", "epo_end_points"] {
+            assert!(json[key].is_null(), "{} {key}: {json}", kind.label());
         }
         // A BVH over a soup overlaps itself; the k-d tree's and octree's cells do not.
         if tree {
@@ -1019,6 +1023,32 @@ fn stats_json_gives_the_sah_cost_and_epo_of_trees_and_null_for_the_others() {
             .contains("EPO (end-point overlap)"),
         "{text}"
     );
+    // Two levels placing more triangles than are clipped one by one: an estimate, with its
+    // standard error and end points, in the table and the JSON.
+    let out = bvhlab(&["stats", "--scene", "island:2000", "--accel", "two-level"]);
+    let text = String::from_utf8(out.stdout).unwrap();
+    let sah = text.lines().position(|l| l.contains("SAH cost")).unwrap();
+    let row = text.lines().nth(sah + 1).unwrap();
+    assert!(row.contains("EPO, both levels (estimated)"), "{text}");
+    assert!(
+        row.contains(" ± ") && row.contains("1048576 end points"),
+        "{row}"
+    );
+    let out = bvhlab(&[
+        "stats",
+        "--scene",
+        "island:2000",
+        "--accel",
+        "two-level",
+        "--json",
+    ]);
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let (epo, se) = (
+        json["epo"].as_f64().unwrap(),
+        json["epo_std_error"].as_f64().unwrap(),
+    );
+    assert!(se > 0.0 && se < 0.05 * epo, "{json}");
+    assert_eq!(json["epo_end_points"], 1 << 20);
 }
 
 #[test]

@@ -574,10 +574,24 @@ fn the_worker_sends_the_epo_of_the_tree_built_and_of_the_tree_refitted() {
     worker.send(Command::SetParams(params));
     let scene = load(&mut worker, "soup:3000");
     let (epo, _) = until_epo(&mut worker);
-    let expected = built(&scene, AccelKind::Bvh)
-        .epo(&params, &scene)
-        .unwrap();
+    let expected = built(&scene, AccelKind::Bvh).epo(&params, &scene).unwrap();
     assert_eq!(epo, expected);
+    // Both levels' EPO, clipped exactly on a scene this small; then the BVH's again.
+    let two = StructureParams {
+        kind: AccelKind::TwoLevel,
+        ..Default::default()
+    };
+    worker.send(Command::Build(two));
+    let (both, _) = until_epo(&mut worker);
+    assert!(both.estimate.is_none() && both.value > 0.0, "{both:?}");
+    assert_eq!(
+        both,
+        built(&scene, AccelKind::TwoLevel)
+            .epo(&two, &scene)
+            .unwrap()
+    );
+    worker.send(Command::Build(params));
+    assert_eq!(until_epo(&mut worker).0, epo);
     worker.send(Command::Move {
         triangles: std::sync::Arc::new((0..300).collect()),
         delta: glam::Vec3::new(0.3, 0.0, 0.0),
@@ -594,13 +608,4 @@ fn the_worker_sends_the_epo_of_the_tree_built_and_of_the_tree_refitted() {
     assert!(replies.iter().any(|r| matches!(r, Reply::Built { .. })));
     std::thread::sleep(Duration::from_millis(500));
     assert!(worker.next_reply(Duration::from_millis(300)).is_none());
-    // Both levels' EPO, clipped exactly on a scene this small.
-    let two = StructureParams {
-        kind: AccelKind::TwoLevel,
-        ..Default::default()
-    };
-    worker.send(Command::Build(two));
-    let (epo, _) = until_epo(&mut worker);
-    assert!(epo.estimate.is_none() && epo.value > 0.0, "{epo:?}");
-    assert_eq!(epo, built(&scene, AccelKind::TwoLevel).epo(&two, &scene).unwrap());
 }

@@ -11,10 +11,10 @@ use super::bvh::refit::{RefitError, RefitIndex, RefitReport};
 use super::bvh::wide::{CollapseParams, UnsupportedSimd};
 use super::bvh::wide::{Lanes, NodeWidth};
 use super::bvh::{self, BuildError, BuildReport, Bvh, Bvh4, Bvh8, WideBvh};
+use super::epo::Epo;
 use super::grid::{self, Grid, GridError};
 use super::kdtree::{self, KdError, KdTree};
 use super::octree::{self, Octree, OctreeError};
-use super::epo::Epo;
 use super::outline::Outline;
 pub use super::params::StructureParams;
 use super::progress::BuildProgress;
@@ -433,8 +433,8 @@ impl Structure {
             Structure::TwoLevel(t) => {
                 let meshes = scene.instancing().meshes;
                 let built_over = |(m, b): (&&[Triangle], &Bvh8)| m.len() == b.triangle_count;
-                let same = meshes.len() == t.blases.len()
-                    && meshes.iter().zip(&t.blases).all(built_over);
+                let same =
+                    meshes.len() == t.blases.len() && meshes.iter().zip(&t.blases).all(built_over);
                 same.then(|| t.epo_unless(&meshes, c_trav, c_isect, abandon))?
             }
             _ => None,

@@ -59,11 +59,7 @@ struct Predictors {
     epo: Option<(Epo, f64)>,
 }
 
-fn predictors(
-    built: &Built,
-    params: &StructureParams,
-    scene: &Scene,
-) -> Option<Predictors> {
+fn predictors(built: &Built, params: &StructureParams, scene: &Scene) -> Option<Predictors> {
     let (sah_cost, c_trav, c_isect) = built.structure.sah_cost(params)?;
     let start = Instant::now();
     let epo = built.structure.epo(params, scene);
@@ -128,7 +124,10 @@ pub fn run(args: StatsArgs) -> Result<()> {
             .map_or(rows.len(), |i| i + 1);
         let share = format!("{:.0} % of the SAH cost", 100.0 * epo.value / p.sah_cost);
         let (name, value) = match (epo.estimate, built.structure.kind().has_sah_cost()) {
-            (None, true) => ("EPO (end-point overlap)", format!("{} ({share})", epo.label(3))),
+            (None, true) => (
+                "EPO (end-point overlap)",
+                format!("{} ({share})", epo.label(3)),
+            ),
             (None, false) => ("EPO, both levels", format!("{} ({share})", epo.label(3))),
             (Some(e), _) => (
                 "EPO, both levels (estimated)",

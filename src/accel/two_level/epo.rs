@@ -40,7 +40,11 @@ impl TwoLevel {
         c_isect: f32,
         abandon: &(dyn Fn() -> bool + Sync),
     ) -> Option<Epo> {
-        let placed: u64 = self.instances.iter().map(|i| mesh_len(meshes, i.mesh)).sum();
+        let placed: u64 = self
+            .instances
+            .iter()
+            .map(|i| mesh_len(meshes, i.mesh))
+            .sum();
         let walk = Walk::of(self, meshes, c_trav, c_isect)?;
         if placed <= EXACT_MAX {
             walk.exact(abandon).map(Epo::exact)
@@ -405,7 +409,10 @@ impl<'a> Walk<'a> {
         const RUN: usize = 256;
         let runs: Vec<(usize, usize)> = (0..self.tl.instances.len())
             .flat_map(|i| {
-                let len = self.blas.get(self.tl.instances[i].mesh).map_or(0, |b| b.order.len());
+                let len = self
+                    .blas
+                    .get(self.tl.instances[i].mesh)
+                    .map_or(0, |b| b.order.len());
                 (0..len).step_by(RUN).map(move |s| (i, s))
             })
             .collect();
@@ -563,7 +570,8 @@ mod tests {
     #[test]
     fn meshes_apart_weigh_their_epos_by_placed_area() {
         let (a, b) = (mesh("sphere:2000"), mesh("teapot-in-stadium"));
-        let area = |m: &[crate::geometry::Triangle]| m.iter().map(crate::accel::epo::area).sum::<f64>();
+        let area =
+            |m: &[crate::geometry::Triangle]| m.iter().map(crate::accel::epo::area).sum::<f64>();
         let grown = Affine3A::from_scale_rotation_translation(
             Vec3::splat(0.3),
             Quat::IDENTITY,
@@ -578,7 +586,10 @@ mod tests {
         let want = (wa * ea + wb * eb) / (wa + wb);
         let got = t.epo_exact(&[&a, &b], 1.0, 1.0);
         assert!((got - want).abs() <= 1e-6 * want, "{got} against {want}");
-        assert!((ea - eb).abs() > 0.05 * want, "the test needs two different EPOs");
+        assert!(
+            (ea - eb).abs() > 0.05 * want,
+            "the test needs two different EPOs"
+        );
     }
 
     /// Turned, unevenly scaled, mirrored and overlapping instances, opened by re-braiding:
@@ -587,12 +598,30 @@ mod tests {
     #[test]
     fn the_estimate_finds_the_clipped_epo() {
         let (a, b) = (mesh("sphere:2000"), mesh("teapot-in-stadium"));
-        let turned = |s: Vec3, q: Quat, at: Vec3| Affine3A::from_scale_rotation_translation(s, q, at);
+        let turned =
+            |s: Vec3, q: Quat, at: Vec3| Affine3A::from_scale_rotation_translation(s, q, at);
         let placed = [
             (0, Affine3A::IDENTITY),
-            (1, turned(Vec3::new(0.01, 0.03, 0.02), Quat::from_rotation_y(0.5), Vec3::ZERO)),
-            (0, turned(Vec3::new(-0.8, 1.0, 0.5), Quat::from_rotation_z(1.1), Vec3::X * 0.3)),
-            (1, turned(Vec3::splat(0.02), Quat::from_rotation_x(2.0), Vec3::Y * 0.2)),
+            (
+                1,
+                turned(
+                    Vec3::new(0.01, 0.03, 0.02),
+                    Quat::from_rotation_y(0.5),
+                    Vec3::ZERO,
+                ),
+            ),
+            (
+                0,
+                turned(
+                    Vec3::new(-0.8, 1.0, 0.5),
+                    Quat::from_rotation_z(1.1),
+                    Vec3::X * 0.3,
+                ),
+            ),
+            (
+                1,
+                turned(Vec3::splat(0.02), Quat::from_rotation_x(2.0), Vec3::Y * 0.2),
+            ),
         ];
         for rebraid in [0.0, 4.0] {
             let t = two_levels(&[&a, &b], &placed, rebraid);

@@ -28,7 +28,10 @@ impl State {
 
     /// Under the two levels, whether the selected instance's BLAS's EPO is still to come.
     fn blas_epo_waiting(&self) -> bool {
-        let two_level = self.structure.as_ref().is_some_and(|s| !s.kind().has_sah_cost());
+        let two_level = self
+            .structure
+            .as_ref()
+            .is_some_and(|s| !s.kind().has_sah_cost());
         two_level
             && self
                 .instance
