@@ -1199,7 +1199,7 @@ fn render_colours_triangles_by_their_cost_and_their_tests() {
         let rest = &text[text.find(before).unwrap_or_else(|| panic!("{text}")) + before.len()..];
         rest[..rest.find(after).unwrap()].trim().parse().unwrap()
     };
-    for accel in ["bvh", "bvh4", "kdtree", "octree"] {
+    for accel in ["bvh", "bvh4", "kdtree", "octree", "two-level"] {
         let text = render(accel, "triangle-cost", &[]);
         let cost = number(&text, "SAH cost per triangle: the tree's ", " over");
         let stats = bvhlab(&["stats", "--scene", "soup:500", "--accel", accel, "--json"]);
@@ -1211,7 +1211,7 @@ fn render_colours_triangles_by_their_cost_and_their_tests() {
         );
         assert!(text.contains("colour scale (log)"), "{text}");
     }
-    for accel in ["bvh8", "grid", "brute-force"] {
+    for accel in ["bvh8", "grid", "brute-force", "two-level"] {
         let text = render(accel, "tests-received", &[]);
         let tests = number(&text, "tests per triangle: ", " tests by");
         let rays = number(&text, " tests by ", " rays");
@@ -1235,11 +1235,7 @@ fn render_colours_triangles_by_their_cost_and_their_tests() {
         &[
             (
                 &["--mode", "triangle-cost", "--accel", "grid"][..],
-                "use --accel bvh, bvh4, bvh8, kdtree or octree",
-            ),
-            (
-                &["--mode", "triangle-cost", "--accel", "two-level"][..],
-                "which only the BVHs, the k-d tree and the octree do",
+                "use --accel bvh, bvh4, bvh8, kdtree, octree or two-level",
             ),
             (
                 &["--mode", "triangle-cost", "--heat-max", "4"][..],

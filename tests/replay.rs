@@ -11,7 +11,7 @@ use bvhlab::accel::structure::{self, AccelKind, Structure, StructureParams};
 use bvhlab::accel::{Strategy, TraversalOrder};
 use bvhlab::geometry::Watertight;
 use bvhlab::geometry::slab::Slabs;
-use bvhlab::render::node_visits::{TallySize, node_visits, tally};
+use bvhlab::render::node_visits::{TallySize, TriangleCounts, node_visits, tally};
 use bvhlab::render::replay::{Replay, ReplayError, replay_pixel};
 use bvhlab::render::{self, RayKind, RenderSettings};
 use bvhlab::scene::island::{self, Detail};
@@ -346,12 +346,55 @@ fn tests_per_triangle_of_a_frame_sum_to_the_frames_counted_triangle_tests() {
                 .map(|x| u64::from(x.counters(rays).triangle_tests))
                 .sum();
             let what = format!("{} {rays:?}", kind.label());
-            assert_eq!(t.per_triangle.len(), triangles, "{what}");
-            assert_eq!(t.per_triangle.iter().sum::<u64>(), counted, "{what}: tests");
+            assert!(
+                matches!(&t.per_triangle, TriangleCounts::Every(v) if v.len() == triangles),
+                "{what}"
+            );
+            assert_eq!(t.per_triangle.total(), counted, "{what}: tests");
             assert!(counted > 0, "{what}");
+            // Each triangle a primary ray hits was tested, under the scene's number (a
+            // BLAS's own number would credit another).
+            if rays == RayKind::Primary {
+                for x in frame.samples.iter().filter(|x| x.is_hit()) {
+                    assert!(t.per_triangle.get(x.triangle) > 0, "{what}: {}", x.triangle);
+                }
+            }
             let v = node_visits::<Watertight>(s, &scene, &settings, rays, 1, nodes, &|| false);
             assert_eq!(Some(t.per_node), v.map(|v| v.per_node), "{what}: visits");
         }
+    }
+}
+
+/// A scene placing more triangles than are counted one by one (`EVERY_TRIANGLE_MAX`)
+/// counts only the tested ones: the same sum, each hit triangle among them.
+#[test]
+fn tests_per_triangle_on_a_huge_placed_scene_count_only_the_tested() {
+    let scene = builtin::by_name("island:2000").unwrap().unwrap();
+    let triangles = scene.placed_triangles();
+    assert!(triangles > bvhlab::render::node_visits::EVERY_TRIANGLE_MAX);
+    let settings = RenderSettings::for_scene(&scene, W, H);
+    let params = StructureParams::of_kind(AccelKind::TwoLevel);
+    let built = structure::build_scene(&scene, &params, &Default::default()).unwrap();
+    let s = &built.structure;
+    let frame = render::trace(s, &scene, &settings);
+    let size = TallySize {
+        nodes: 0,
+        triangles,
+    };
+    let t =
+        tally::<Watertight>(s, &scene, &settings, RayKind::Primary, 1, size, &|| false).unwrap();
+    let TriangleCounts::Tested(tested) = &t.per_triangle else {
+        panic!("every triangle counted");
+    };
+    let counted: u64 = frame
+        .samples
+        .iter()
+        .map(|x| u64::from(x.counters(RayKind::Primary).triangle_tests))
+        .sum();
+    assert_eq!(t.per_triangle.total(), counted);
+    assert!(tested.len() as u64 == t.per_triangle.tested() && !tested.is_empty());
+    for x in frame.samples.iter().filter(|x| x.is_hit()) {
+        assert!(t.per_triangle.get(x.triangle) > 0, "{}", x.triangle);
     }
 }
 

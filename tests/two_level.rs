@@ -1404,3 +1404,52 @@ fn packets_through_identity_instances_hit_what_single_rays_hit() {
         });
     }
 }
+
+/// The cost-per-triangle view under the two levels: each pixel's triangle carries its
+/// placed share of both levels' SAH cost, worked out for the triangles shown only, the
+/// shares of all placed triangles summing to the SAH cost (`PlacedCosts`' unit test).
+#[test]
+fn the_cost_per_triangle_view_shows_each_placed_triangles_share() {
+    use bvhlab::render::per_triangle::PerTriangle;
+    use bvhlab::render::{self, Mode, RenderSettings};
+    let scene = instanced_scene(40, 5);
+    let params = StructureParams::of_kind(AccelKind::TwoLevel);
+    let s = structure::build_scene(&scene, &params, &Default::default())
+        .unwrap()
+        .structure;
+    let settings = RenderSettings::for_scene(&scene, 64, 48);
+    let frame = render::trace(&s, &scene, &settings);
+    let v = frame
+        .triangle_values_for::<Watertight>(
+            Mode::TriangleCost,
+            &s,
+            &params,
+            &scene,
+            &settings,
+            1,
+            &|| false,
+        )
+        .unwrap()
+        .unwrap();
+    let (sah, c_trav, c_isect) = s.sah_cost(&params).unwrap();
+    assert_eq!(v.total, sah);
+    let Structure::TwoLevel(tl) = &s else {
+        unreachable!()
+    };
+    let costs = tl.placed_costs(c_trav, c_isect);
+    let PerTriangle::Some(worked_out) = &v.values else {
+        panic!("every placed triangle worked out");
+    };
+    let hits: Vec<_> = frame.samples.iter().filter(|x| x.is_hit()).collect();
+    assert!(hits.len() > 100);
+    for x in hits {
+        let share = v.of(x).unwrap();
+        assert!(
+            share > 0.0 && share == costs.of(x.triangle),
+            "{}",
+            x.triangle
+        );
+        assert!(worked_out.contains_key(&x.triangle));
+    }
+    assert!(worked_out.len() < scene.placed_triangles());
+}

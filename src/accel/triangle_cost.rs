@@ -60,13 +60,13 @@ pub fn sah_cost_per_triangle(
 
 /// The SAH cost per triangle of `structure`, with the C_trav and C_isect its SAH cost
 /// uses (`Structure::sah_cost`); `None` for structures the SAH does not describe (grid,
-/// brute force, two levels).
+/// brute force) and for the two levels, whose shares are worked out only for the placed
+/// triangles asked for (`TwoLevel::placed_costs`).
 pub fn triangle_costs(
     structure: &Structure,
     params: &StructureParams,
     triangles: usize,
 ) -> Option<TriangleCosts> {
-    // The two levels' cost is placed per reference, not per scene triangle.
     if !structure.kind().has_sah_cost() {
         return None;
     }

@@ -114,7 +114,7 @@ pub fn check_counts(
                 "compare two-level structures"
             }
         } else if mode == ViewMode::TriangleCost {
-            "use --accel bvh, bvh4, bvh8, kdtree or octree"
+            "use --accel bvh, bvh4, bvh8, kdtree, octree or two-level"
         } else {
             "use --accel kdtree, grid or octree with --mailbox false"
         };
@@ -286,7 +286,7 @@ fn print_triangle_values(
     v: &render::per_triangle::TriangleValues,
     top: Option<u32>,
 ) -> Result<()> {
-    let triangles = v.values.len().max(1) as f64;
+    let triangles = v.triangles.max(1) as f64;
     let (lo, hi) = v.shown;
     match mode {
         render::Mode::TriangleCost => {
@@ -294,20 +294,20 @@ fn print_triangle_values(
                 "SAH cost per triangle: the tree's {:.4} over {} triangles (mean {:.3e}); the \
                  triangles shown cost {lo:.3e} to {hi:.3e}",
                 v.total,
-                v.values.len(),
+                v.triangles,
                 v.total / triangles
             );
             let mid = render::per_triangle::log_value_at(0.5, v.shown);
             out!("colour scale (log): {lo:.3e} (dark purple), {mid:.3e} (teal), {hi:.3e} (yellow)");
         }
         _ => {
-            let untested = v.values.iter().filter(|&&n| n == 0.0).count();
+            let untested = v.triangles - v.above_zero;
             out!(
                 "tests per triangle: {} tests by {} rays on {} triangles ({} never tested); the \
                  most on a triangle shown: {hi}",
                 v.total,
                 v.rays,
-                v.values.len(),
+                v.triangles,
                 untested
             );
             if let Some(max) = top {

@@ -44,17 +44,101 @@ pub struct Tally {
     pub per_node: Vec<u64>,
     /// The ray–triangle tests each triangle received (a test the mailbox skipped is none),
     /// numbered as in the flattened scene.
-    pub per_triangle: Vec<u64>,
+    pub per_triangle: TriangleCounts,
     /// The rays traced: a frame's sampled pixels (for shadow rays, those whose primary ray
     /// hit something).
     pub rays: u64,
+}
+
+/// Scenes placing more triangles than this count only the triangles tested, not a zero for
+/// each of the rest (the island places 10^10).
+pub const EVERY_TRIANGLE_MAX: usize = 1 << 22;
+
+/// Tests per triangle: a count for every triangle of the scene, or for a scene placing
+/// more than `EVERY_TRIANGLE_MAX` only the tested triangles' counts.
+#[derive(Clone, Debug, PartialEq)]
+pub enum TriangleCounts {
+    Every(Vec<u64>),
+    Tested(std::collections::HashMap<u64, u64>),
+}
+
+impl Default for TriangleCounts {
+    fn default() -> Self {
+        TriangleCounts::Every(Vec::new())
+    }
+}
+
+impl TriangleCounts {
+    fn new(triangles: usize) -> Self {
+        match triangles <= EVERY_TRIANGLE_MAX {
+            true => TriangleCounts::Every(vec![0; triangles]),
+            false => TriangleCounts::Tested(Default::default()),
+        }
+    }
+
+    /// One test of triangle `t` (of a scene of `triangles`).
+    fn count(&mut self, t: u64, triangles: usize) {
+        match self {
+            TriangleCounts::Every(v) => {
+                if let Some(n) = usize::try_from(t).ok().and_then(|t| v.get_mut(t)) {
+                    *n += 1;
+                }
+            }
+            TriangleCounts::Tested(m) if t < triangles as u64 => *m.entry(t).or_default() += 1,
+            TriangleCounts::Tested(_) => {}
+        }
+    }
+
+    fn add(&mut self, b: &TriangleCounts) {
+        match (self, b) {
+            (TriangleCounts::Every(a), TriangleCounts::Every(b)) => {
+                for (x, y) in a.iter_mut().zip(b) {
+                    *x += y;
+                }
+            }
+            (TriangleCounts::Tested(a), TriangleCounts::Tested(b)) => {
+                for (t, n) in b {
+                    *a.entry(*t).or_default() += n;
+                }
+            }
+            _ => {}
+        }
+    }
+
+    /// The tests of triangle `t`.
+    pub fn get(&self, t: u64) -> u64 {
+        match self {
+            TriangleCounts::Every(v) => usize::try_from(t)
+                .ok()
+                .and_then(|t| v.get(t))
+                .copied()
+                .unwrap_or(0),
+            TriangleCounts::Tested(m) => m.get(&t).copied().unwrap_or(0),
+        }
+    }
+
+    /// All tests counted.
+    pub fn total(&self) -> u64 {
+        match self {
+            TriangleCounts::Every(v) => v.iter().sum(),
+            TriangleCounts::Tested(m) => m.values().sum(),
+        }
+    }
+
+    /// The triangles tested at least once.
+    pub fn tested(&self) -> u64 {
+        match self {
+            TriangleCounts::Every(v) => v.iter().filter(|&&n| n > 0).count() as u64,
+            TriangleCounts::Tested(m) => m.len() as u64,
+        }
+    }
 }
 
 impl Tally {
     fn empty(size: TallySize) -> Tally {
         Tally {
             per_node: vec![0; size.nodes],
-            per_triangle: vec![0; size.triangles],
+            per_triangle: TriangleCounts::new(size.triangles),
             rays: 0,
         }
     }
@@ -63,9 +147,7 @@ impl Tally {
         for (x, y) in self.per_node.iter_mut().zip(&b.per_node) {
             *x += y;
         }
-        for (x, y) in self.per_triangle.iter_mut().zip(&b.per_triangle) {
-            *x += y;
-        }
+        self.per_triangle.add(&b.per_triangle);
         self.rays += b.rays;
         self
     }
@@ -135,7 +217,15 @@ pub fn tally<I: Intersector>(
                 }
             }
             out.rays += 1;
+            // A BLAS numbers its triangles from 0: the scene's number adds its instance's
+            // first (as the replay numbers them).
+            let mut first_triangle = 0u64;
             for step in &recorder.steps {
+                if let Step::Instance { instance } = step {
+                    first_triangle = structure
+                        .instance_first_triangle(*instance as usize)
+                        .unwrap_or(0);
+                }
                 if let Some(n) = index
                     .as_ref()
                     .and_then(|index| index.node(step))
@@ -144,11 +234,10 @@ pub fn tally<I: Intersector>(
                     out.per_node[n as usize] += 1;
                 }
                 if let Step::Triangle { triangle, .. } = step
-                    && let Some(t) = usize::try_from(*triangle)
-                        .ok()
-                        .and_then(|t| out.per_triangle.get_mut(t))
+                    && size.triangles > 0
                 {
-                    *t += 1;
+                    out.per_triangle
+                        .count(first_triangle + triangle, size.triangles);
                 }
             }
         }

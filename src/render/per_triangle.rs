@@ -6,19 +6,24 @@
 //! report, and coloured here rather than in the heatmaps' per-pixel path.
 
 use super::heat::HeatStyle;
-use super::node_visits::{TallySize, tally};
+use super::node_visits::{TallySize, TriangleCounts, tally};
 use super::{BACKGROUND, Frame, Mode, RayKind, RenderSettings, Sample};
 use crate::accel::triangle_cost::triangle_costs;
 use crate::accel::{Structure, StructureParams};
 use crate::geometry::Intersector;
 use crate::scene::Scene;
 use rayon::prelude::*;
+use std::collections::HashMap;
 use std::sync::{Arc, OnceLock};
 
 /// One value per scene triangle (numbered as in the flattened scene), for one frame.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TriangleValues {
-    pub values: Vec<f64>,
+    pub values: PerTriangle,
+    /// The scene's triangles (placed, under the two levels).
+    pub triangles: u64,
+    /// Of them, those with a value above 0 (tested at least once, for the tests).
+    pub above_zero: u64,
     /// Their sum: the tree's SAH cost, or the tests the traced rays did.
     pub total: f64,
     /// The smallest positive and the largest value among the triangles the frame's pixels
@@ -30,18 +35,55 @@ pub struct TriangleValues {
     pub stride: u32,
 }
 
+/// The values: every triangle's, or on a scene placing more than
+/// `node_visits::EVERY_TRIANGLE_MAX` triangles only those of the triangles worked out (the
+/// frame shows, or its rays tested); the others' are 0.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PerTriangle {
+    Every(Vec<f64>),
+    Some(HashMap<u64, f64>),
+}
+
+impl PerTriangle {
+    pub fn get(&self, t: u64) -> f64 {
+        match self {
+            PerTriangle::Every(v) => usize::try_from(t)
+                .ok()
+                .and_then(|t| v.get(t))
+                .copied()
+                .unwrap_or(0.0),
+            PerTriangle::Some(m) => m.get(&t).copied().unwrap_or(0.0),
+        }
+    }
+
+    fn above_zero(&self) -> u64 {
+        match self {
+            PerTriangle::Every(v) => v.iter().filter(|&&x| x > 0.0).count() as u64,
+            PerTriangle::Some(m) => m.values().filter(|&&x| x > 0.0).count() as u64,
+        }
+    }
+}
+
 impl TriangleValues {
     /// The value of the triangle `sample` hit, if it hit one.
     pub fn of(&self, sample: &Sample) -> Option<f64> {
-        usize::try_from(sample.triangle)
-            .ok()
-            .and_then(|t| self.values.get(t))
-            .copied()
+        Some(sample.triangle)
+            .filter(|&t| t < self.triangles)
+            .map(|t| self.values.get(t))
     }
 
-    fn new(values: Vec<f64>, total: f64, frame: &Frame, rays: u64, stride: u32) -> Self {
+    fn new(
+        values: PerTriangle,
+        triangles: u64,
+        total: f64,
+        frame: &Frame,
+        rays: u64,
+        stride: u32,
+    ) -> Self {
         let mut v = TriangleValues {
+            above_zero: values.above_zero(),
             values,
+            triangles,
             total,
             shown: (0.0, 0.0),
             rays,
@@ -62,8 +104,8 @@ impl TriangleValues {
 
 /// Why a structure has no SAH cost per triangle to show.
 pub const NO_SAH_COST: &str = "it splits a tree's SAH cost among the triangles, which only the \
-     BVHs, the k-d tree and the octree do (a grid or brute force has no SAH cost; the two \
-     levels' is placed per reference, not per triangle)";
+     trees do: the BVHs, the k-d tree, the octree and the two levels (a grid or brute force \
+     has no SAH cost)";
 
 /// The per-triangle values kept with a frame, one slot per mode that colours triangles.
 #[derive(Clone, Debug, Default)]
@@ -108,12 +150,26 @@ impl Frame {
             return Ok(Some(v.clone()));
         }
         let triangles = scene.placed_triangles();
-        let values = match mode {
-            Mode::TriangleCost => {
-                let costs = triangle_costs(structure, params, triangles).ok_or(NO_SAH_COST)?;
-                TriangleValues::new(costs.per_triangle, costs.total, self, 0, 0)
+        let count = triangles as u64;
+        let values = match (mode, structure) {
+            // Both levels' shares, worked out for the triangles the frame shows.
+            (Mode::TriangleCost, Structure::TwoLevel(tl)) => {
+                let (total, c_trav, c_isect) = structure.sah_cost(params).ok_or(NO_SAH_COST)?;
+                let costs = tl.placed_costs(c_trav, c_isect);
+                let shown = self
+                    .samples
+                    .iter()
+                    .map(|s| s.triangle)
+                    .filter(|&t| t < count);
+                let values = PerTriangle::Some(costs.of_all(shown));
+                TriangleValues::new(values, count, total, self, 0, 0)
             }
-            Mode::TestsReceived(rays) => {
+            (Mode::TriangleCost, _) => {
+                let costs = triangle_costs(structure, params, triangles).ok_or(NO_SAH_COST)?;
+                let values = PerTriangle::Every(costs.per_triangle);
+                TriangleValues::new(values, count, costs.total, self, 0, 0)
+            }
+            (Mode::TestsReceived(rays), _) => {
                 let size = TallySize {
                     nodes: 0,
                     triangles,
@@ -122,9 +178,16 @@ impl Frame {
                 else {
                     return Ok(None);
                 };
-                let total = t.per_triangle.iter().sum::<u64>() as f64;
-                let values = t.per_triangle.iter().map(|&n| n as f64).collect();
-                TriangleValues::new(values, total, self, t.rays, stride.max(1))
+                let total = t.per_triangle.total() as f64;
+                let values = match t.per_triangle {
+                    TriangleCounts::Every(v) => {
+                        PerTriangle::Every(v.iter().map(|&n| n as f64).collect())
+                    }
+                    TriangleCounts::Tested(m) => {
+                        PerTriangle::Some(m.into_iter().map(|(t, n)| (t, n as f64)).collect())
+                    }
+                };
+                TriangleValues::new(values, count, total, self, t.rays, stride.max(1))
             }
             _ => return Ok(None),
         };

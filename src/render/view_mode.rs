@@ -117,7 +117,7 @@ impl ViewMode {
                  tree, grid or octree records",
             );
         }
-        if self == ViewMode::TriangleCost && !kind.has_sah_cost() {
+        if self == ViewMode::TriangleCost && !kind.has_sah_cost() && !kind.places_instances() {
             return Some(super::per_triangle::NO_SAH_COST);
         }
         None

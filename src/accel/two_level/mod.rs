@@ -8,6 +8,7 @@
 //! Each leaf slot keeps what a ray needs to enter its reference in one cache line (`leaf`).
 //! Coherent primary rays walk the top level in packets (`packet`).
 
+mod blas_index;
 mod end_points;
 mod epo;
 mod leaf;
@@ -17,11 +18,13 @@ pub mod rebraid;
 pub mod refit;
 mod sah;
 mod traverse;
+mod triangle_cost;
 
 pub use leaf::LeafReference;
 pub use outline::{BlasEntry, InstanceOutline, ReferenceLocator};
 pub use rebraid::Reference;
 pub use refit::{MovedReference, TopLevelIndex};
+pub use triangle_cost::PlacedCosts;
 
 use super::bvh::wide::{CollapseParams, UnsupportedSimd};
 use super::bvh::{self, BuildError, Bvh8, Subtree};

@@ -43,8 +43,29 @@ fn terms_below(blas: &Bvh8, c_trav: f64, c_isect: f64) -> Vec<DVec3> {
     below
 }
 
+/// Per instance, the weights of a box's three products of extents in its placed area:
+/// twice its cross-product lengths (|Tx × Ty|, |Ty × Tz|, |Tz × Tx|).
+pub(super) fn area_weights(instances: &[crate::scene::Instance]) -> Vec<DVec3> {
+    instances
+        .iter()
+        .map(|inst| {
+            let m = inst.transform.matrix3;
+            let (x, y, z) = (
+                m.x_axis.as_dvec3(),
+                m.y_axis.as_dvec3(),
+                m.z_axis.as_dvec3(),
+            );
+            2.0 * DVec3::new(
+                x.cross(y).length(),
+                y.cross(z).length(),
+                z.cross(x).length(),
+            )
+        })
+        .collect()
+}
+
 /// A box's products of extents (dx·dy, dy·dz, dz·dx); zero for an empty box.
-fn products(b: Aabb) -> DVec3 {
+pub(super) fn products(b: Aabb) -> DVec3 {
     if b.is_empty() {
         return DVec3::ZERO;
     }
@@ -69,24 +90,7 @@ impl TwoLevel {
             .iter()
             .map(|b| terms_below(b, c_trav, c_isect))
             .collect();
-        // The instances' cross-product lengths, as weights of the three products.
-        let weights: Vec<DVec3> = self
-            .instances
-            .iter()
-            .map(|inst| {
-                let m = inst.transform.matrix3;
-                let (x, y, z) = (
-                    m.x_axis.as_dvec3(),
-                    m.y_axis.as_dvec3(),
-                    m.z_axis.as_dvec3(),
-                );
-                2.0 * DVec3::new(
-                    x.cross(y).length(),
-                    y.cross(z).length(),
-                    z.cross(x).length(),
-                )
-            })
-            .collect();
+        let weights = area_weights(&self.instances);
         // The top level's nodes: the root and its interior lanes.
         let mut sum = c_trav * (root + LaneSums::of(&self.tlas.nodes).interior_area());
         for (r, reference) in self.references.iter().enumerate() {
@@ -197,6 +201,37 @@ pub(super) mod tests {
         sum / root
     }
 
+    /// Turned, unevenly scaled and mirrored instances of two meshes.
+    pub(in crate::accel::two_level) fn wild() -> [(usize, Affine3A); 4] {
+        [
+            (0, Affine3A::IDENTITY),
+            (
+                1,
+                Affine3A::from_scale_rotation_translation(
+                    Vec3::new(0.01, 0.03, 0.02),
+                    Quat::from_axis_angle(Vec3::new(1.0, 1.0, 1.0).normalize(), 0.5),
+                    Vec3::new(5.0, 0.0, 2.0),
+                ),
+            ),
+            (
+                0,
+                Affine3A::from_scale_rotation_translation(
+                    Vec3::new(-2.0, 1.0, 0.5),
+                    Quat::from_rotation_y(1.1),
+                    Vec3::new(-4.0, 3.0, 0.0),
+                ),
+            ),
+            (
+                1,
+                Affine3A::from_scale_rotation_translation(
+                    Vec3::new(0.02, 0.02, -0.05),
+                    Quat::from_rotation_x(2.0),
+                    Vec3::new(0.0, 6.0, -3.0),
+                ),
+            ),
+        ]
+    }
+
     fn close(a: f64, b: f64) -> bool {
         (a - b).abs() <= 1e-6 * a.abs().max(b.abs())
     }
@@ -233,33 +268,7 @@ pub(super) mod tests {
         // (Its top-level box is padded for the placement's rounding: 1e-5 of the cost.)
         let (g, a) = (grown.sah_cost(1.0, 2.0), alone.sah_cost(1.0, 2.0));
         assert!((g - a).abs() <= 1e-4 * a, "{g} {a}");
-        let wild = [
-            (0, Affine3A::IDENTITY),
-            (
-                1,
-                Affine3A::from_scale_rotation_translation(
-                    Vec3::new(0.01, 0.03, 0.02),
-                    Quat::from_axis_angle(Vec3::new(1.0, 1.0, 1.0).normalize(), 0.5),
-                    Vec3::new(5.0, 0.0, 2.0),
-                ),
-            ),
-            (
-                0,
-                Affine3A::from_scale_rotation_translation(
-                    Vec3::new(-2.0, 1.0, 0.5),
-                    Quat::from_rotation_y(1.1),
-                    Vec3::new(-4.0, 3.0, 0.0),
-                ),
-            ),
-            (
-                1,
-                Affine3A::from_scale_rotation_translation(
-                    Vec3::new(0.02, 0.02, -0.05),
-                    Quat::from_rotation_x(2.0),
-                    Vec3::new(0.0, 6.0, -3.0),
-                ),
-            ),
-        ];
+        let wild = wild();
         for rebraid in [0.0, 0.5, 4.0] {
             let t = two_levels(&[&sphere, &teapot], &wild, rebraid);
             for (c_trav, c_isect) in [(1.0, 1.0), (1.0, 3.0)] {
