@@ -105,6 +105,7 @@ fn bench_traces_with_the_chosen_intersector() {
             embree_robust: false,
             embree_quality: Default::default(),
             tinybvh: false,
+            epo: Default::default(),
         };
         let r = bench::run(&scene, &cfg).unwrap();
         assert_eq!(r.intersector, kind);

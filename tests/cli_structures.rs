@@ -1049,6 +1049,48 @@ fn stats_json_gives_the_sah_cost_and_epo_of_trees_and_null_for_the_others() {
     );
     assert!(se > 0.0 && se < 0.05 * epo, "{json}");
     assert_eq!(json["epo_end_points"], 1 << 20);
+    // A flat tree's EPO estimated from end points: within 4.5 standard errors of the
+    // clipped one; nonsense asked for is refused.
+    let stats = |extra: &[&str]| {
+        let mut args = vec!["stats", "--scene", "teapot-in-stadium", "--json"];
+        args.extend_from_slice(extra);
+        let out = bvhlab(&args);
+        assert!(out.status.success(), "{extra:?}");
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+    };
+    let exact = stats(&[])["epo"].as_f64().unwrap();
+    let est = stats(&["--epo", "estimate"]);
+    let (value, se) = (
+        est["epo"].as_f64().unwrap(),
+        est["epo_std_error"].as_f64().unwrap(),
+    );
+    assert!(
+        (value - exact).abs() <= 4.5 * se && se < 0.02 * exact,
+        "{est}"
+    );
+    assert_eq!(est["epo_end_points"], 1 << 16);
+    let fewer = stats(&["--epo", "estimate", "--end-points", "500"]);
+    assert_eq!(fewer["epo_end_points"], 500);
+    for (bad, says) in [
+        (
+            &["--epo", "guess"][..],
+            "invalid value 'guess' for '--epo <EPO>'",
+        ),
+        (
+            &["--epo", "estimate", "--end-points", "1"][..],
+            "1 is not in 2..=",
+        ),
+        (&["--end-points", "many"][..], "invalid value 'many'"),
+    ] {
+        let mut args = vec!["stats", "--scene", "cornell"];
+        args.extend_from_slice(bad);
+        let out = bvhlab(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && err.contains(says),
+            "{bad:?}: {err}"
+        );
+    }
 }
 
 #[test]

@@ -55,8 +55,13 @@ fn random_lines_hit_a_box_inside_with_the_chance_of_its_area_ratio() {
 }
 
 fn bench_json(accel: &str, scene: &str) -> serde_json::Value {
+    bench_json_with(accel, scene, &[])
+}
+
+fn bench_json_with(accel: &str, scene: &str, extra: &[&str]) -> serde_json::Value {
     let out = Command::new(env!("CARGO_BIN_EXE_bvhlab"))
         .args(["bench", "--scene", scene, "--accel", accel, "--json"])
+        .args(extra)
         .args([
             "--width", "64", "--height", "48", "--builds", "1", "--runs", "1",
         ])
@@ -111,6 +116,18 @@ fn bench_reports_the_sah_check_for_trees_only() {
         "{random} against {predicted}"
     );
     assert!(c["epo"].as_f64().expect("epo") > 0.0);
+    // The EPO estimated from end points instead: near the clipped one.
+    let exact = bench_json("bvh", "teapot-in-stadium")["sah_check"]["epo"]
+        .as_f64()
+        .unwrap();
+    let args = ["--epo", "estimate", "--end-points", "20000"];
+    let estimated = bench_json_with("bvh", "teapot-in-stadium", &args)["sah_check"]["epo"]
+        .as_f64()
+        .unwrap();
+    assert!(
+        (estimated / exact - 1.0).abs() < 0.05,
+        "{estimated} against {exact}"
+    );
     for accel in ["grid", "brute-force"] {
         assert!(
             bench_json(accel, "cornell")["sah_check"].is_null(),

@@ -11,7 +11,7 @@ use super::bvh::refit::{RefitError, RefitIndex, RefitReport};
 use super::bvh::wide::{CollapseParams, UnsupportedSimd};
 use super::bvh::wide::{Lanes, NodeWidth};
 use super::bvh::{self, BuildError, BuildReport, Bvh, Bvh4, Bvh8, WideBvh};
-use super::epo::Epo;
+use super::epo::{Epo, EpoWay};
 use super::grid::{self, Grid, GridError};
 use super::kdtree::{self, KdError, KdTree};
 use super::octree::{self, Octree, OctreeError};
@@ -431,13 +431,54 @@ impl Structure {
                     .map(Epo::exact)
             }
             Structure::TwoLevel(t) => {
-                let meshes = scene.instancing().meshes;
-                let built_over = |(m, b): (&&[Triangle], &Bvh8)| m.len() == b.triangle_count;
-                let same =
-                    meshes.len() == t.blases.len() && meshes.iter().zip(&t.blases).all(built_over);
-                same.then(|| t.epo_unless(&meshes, c_trav, c_isect, abandon))?
+                let meshes = meshes_built_over(t, scene)?;
+                t.epo_unless(&meshes, c_trav, c_isect, abandon)
             }
             _ => None,
+        }
+    }
+
+    /// The tree's EPO estimated from `end_points` end points drawn uniformly by area
+    /// (`epo::end_points`), with its standard error; `None` where `epo` is.
+    pub fn epo_estimate_unless(
+        &self,
+        params: &StructureParams,
+        scene: &Scene,
+        end_points: u64,
+        abandon: &(dyn Fn() -> bool + Sync),
+    ) -> Option<Epo> {
+        let (c_trav, c_isect) = params.sah_constants();
+        match self {
+            Structure::Bvh(_)
+            | Structure::Bvh4(_)
+            | Structure::Bvh8(_)
+            | Structure::KdTree(_)
+            | Structure::Octree(_) => {
+                let triangles = scene.flattened().ok()?;
+                let outline = self.outline();
+                super::epo::epo_estimate(&outline, &triangles, c_trav, c_isect, end_points, abandon)
+            }
+            Structure::TwoLevel(t) => {
+                let meshes = meshes_built_over(t, scene)?;
+                t.epo_estimate_unless(&meshes, c_trav, c_isect, end_points, abandon)
+            }
+            _ => None,
+        }
+    }
+
+    /// The tree's EPO found the `way` asked: `epo_unless` or `epo_estimate_unless`.
+    pub fn epo_by(
+        &self,
+        params: &StructureParams,
+        scene: &Scene,
+        way: EpoWay,
+        abandon: &(dyn Fn() -> bool + Sync),
+    ) -> Option<Epo> {
+        match way {
+            EpoWay::Exact => self.epo_unless(params, scene, abandon),
+            EpoWay::Estimate { end_points } => {
+                self.epo_estimate_unless(params, scene, end_points, abandon)
+            }
         }
     }
 
@@ -667,4 +708,12 @@ where
         report,
         bvh_report: None,
     })
+}
+
+/// `scene`'s meshes, if they are the ones `t`'s BLASes were built over.
+fn meshes_built_over<'s>(t: &TwoLevel, scene: &'s Scene) -> Option<Vec<&'s [Triangle]>> {
+    let meshes = scene.instancing().meshes;
+    let built_over = |(m, b): (&&[Triangle], &Bvh8)| m.len() == b.triangle_count;
+    let same = meshes.len() == t.blases.len() && meshes.iter().zip(&t.blases).all(built_over);
+    same.then_some(meshes)
 }

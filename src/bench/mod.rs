@@ -59,6 +59,8 @@ pub struct BenchConfig {
     pub embree_quality: EmbreeQuality,
     /// Also tinybvh's BVH8_CPU, from its default build and from its SBVH.
     pub tinybvh: bool,
+    /// How the SAH check finds the EPO.
+    pub epo: crate::accel::epo::EpoWay,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -369,7 +371,14 @@ fn measure(
         time_packets::<_, I>(accel, &sets.primary_tiles, cfg.runs)
     });
     let [p, d, s] = mean_work(accel, sets);
-    let sah_check = SahCheck::measure(accel, params, scene, [p, d, s], sah_check::EPO_DEADLINE);
+    let sah_check = SahCheck::measure(
+        accel,
+        params,
+        scene,
+        [p, d, s],
+        cfg.epo,
+        sah_check::EPO_DEADLINE,
+    );
     primary.mean = Some(p);
     diffuse.mean = Some(d);
     shadow.mean = Some(s);

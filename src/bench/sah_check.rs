@@ -4,6 +4,7 @@
 //! and the light are, and stop at the first or closest hit. The tree's EPO (`accel::epo`)
 //! stands beside the SAH cost as a second predictor.
 
+use crate::accel::epo::EpoWay;
 use crate::accel::sah_check::{MeanWork, RANDOM_RAYS, SahPrediction};
 use crate::accel::{Structure, StructureParams};
 use crate::scene::Scene;
@@ -39,12 +40,13 @@ impl SahCheck {
         params: &StructureParams,
         scene: &Scene,
         [primary, diffuse, shadow]: [MeanWork; 3],
+        epo: EpoWay,
         epo_deadline: Duration,
     ) -> Option<SahCheck> {
         let p = SahPrediction::of(accel, params, &scene.bounds(), RANDOM_RAYS)?;
         let start = Instant::now();
         let late = || start.elapsed() > epo_deadline;
-        let epo = accel.epo_unless(params, scene, &late).map(|e| e.value);
+        let epo = accel.epo_by(params, scene, epo, &late).map(|e| e.value);
         let cost = |m: MeanWork| m.cost(p.c_trav, p.c_isect);
         Some(SahCheck {
             c_trav: p.c_trav,
@@ -74,7 +76,15 @@ mod tests {
         let built = build(&scene.triangles, &params, &Default::default()).unwrap();
         let work = [MeanWork::default(); 3];
         let check = |deadline| {
-            SahCheck::measure(&built.structure, &params, &scene, work, deadline).unwrap()
+            SahCheck::measure(
+                &built.structure,
+                &params,
+                &scene,
+                work,
+                EpoWay::Exact,
+                deadline,
+            )
+            .unwrap()
         };
         let (on_time, late) = (check(EPO_DEADLINE), check(Duration::ZERO));
         assert!(on_time.epo.is_some_and(|e| e > 0.0), "{on_time:?}");

@@ -413,3 +413,36 @@ mod tests {
         assert!(parse_vec3("0,1e20,0").unwrap_err().contains("beyond"));
     }
 }
+
+/// How a command finds the tree's EPO (`stats`, and the SAH check of `bench`).
+#[derive(Args, Clone, Copy)]
+pub struct EpoArgs {
+    /// How the EPO is found: `exact` clips every triangle into every box it crosses (the
+    /// two levels past 2^21 placed triangles estimate instead); `estimate` averages
+    /// `--end-points` end points drawn uniformly by area, with a standard error, in a
+    /// fraction of the time.
+    #[arg(long, value_enum, default_value = "exact")]
+    pub epo: EpoMethod,
+    /// End points `--epo estimate` averages (2 to 2^30).
+    #[arg(long, default_value_t = bvhlab::accel::epo::end_points::DEFAULT_END_POINTS,
+          value_parser = clap::value_parser!(u64).range(2..=1 << 30))]
+    pub end_points: u64,
+}
+
+/// `--epo`'s values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum EpoMethod {
+    Exact,
+    Estimate,
+}
+
+impl EpoArgs {
+    pub fn way(&self) -> bvhlab::accel::epo::EpoWay {
+        match self.epo {
+            EpoMethod::Exact => bvhlab::accel::epo::EpoWay::Exact,
+            EpoMethod::Estimate => bvhlab::accel::epo::EpoWay::Estimate {
+                end_points: self.end_points,
+            },
+        }
+    }
+}

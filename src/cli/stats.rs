@@ -1,7 +1,7 @@
 //! `bvhlab stats`: the build report of a structure as a table, or as JSON (`--json`), with
 //! the tree's two predictors of trace cost, its SAH cost and its EPO.
 
-use super::{BuildArgs, load_scene};
+use super::{BuildArgs, EpoArgs, load_scene};
 use anyhow::Result;
 use bvhlab::accel::epo::Epo;
 use bvhlab::accel::report::Detail;
@@ -22,6 +22,8 @@ pub struct StatsArgs {
     /// The report as one JSON object (keys below) instead of a table.
     #[arg(long)]
     pub json: bool,
+    #[command(flatten)]
+    pub epo: EpoArgs,
 }
 
 /// The report's JSON: the measures every structure has, the tree's predictors (null for a
@@ -59,10 +61,17 @@ struct Predictors {
     epo: Option<(Epo, f64)>,
 }
 
-fn predictors(built: &Built, params: &StructureParams, scene: &Scene) -> Option<Predictors> {
+fn predictors(
+    built: &Built,
+    params: &StructureParams,
+    scene: &Scene,
+    args: &StatsArgs,
+) -> Option<Predictors> {
     let (sah_cost, c_trav, c_isect) = built.structure.sah_cost(params)?;
     let start = Instant::now();
-    let epo = built.structure.epo(params, scene);
+    let epo = built
+        .structure
+        .epo_by(params, scene, args.epo.way(), &|| false);
     Some(Predictors {
         c_trav,
         c_isect,
@@ -77,7 +86,7 @@ pub fn run(args: StatsArgs) -> Result<()> {
     let _held = scene.hold_budget();
     let built = args.build.build(&scene)?;
     let params = args.build.structure_params(&scene)?;
-    let predicted = predictors(&built, &params, &scene);
+    let predicted = predictors(&built, &params, &scene, &args);
     let report = &built.report;
     if args.json {
         let p = predicted.as_ref();
@@ -129,8 +138,11 @@ pub fn run(args: StatsArgs) -> Result<()> {
                 format!("{} ({share})", epo.label(3)),
             ),
             (None, false) => ("EPO, both levels", format!("{} ({share})", epo.label(3))),
-            (Some(e), _) => (
-                "EPO, both levels (estimated)",
+            (Some(e), flat) => (
+                match flat {
+                    true => "EPO (end-point overlap, estimated)",
+                    false => "EPO, both levels (estimated)",
+                },
                 format!(
                     "{} ({share}; {} end points drawn by area)",
                     epo.label(3),

@@ -39,7 +39,7 @@ pub(super) fn overlap(
 }
 
 /// Where each triangle is referenced: its leaves, as a compressed list per triangle.
-struct References {
+pub(super) struct References {
     /// `leaves[start[t]..start[t + 1]]` are the leaves referencing triangle t.
     start: Vec<u32>,
     leaves: Vec<u32>,
@@ -50,7 +50,7 @@ struct References {
 }
 
 impl References {
-    fn of(outline: &Outline, triangles: usize) -> Self {
+    pub(super) fn of(outline: &Outline, triangles: usize) -> Self {
         let mut start = vec![0u32; triangles + 1];
         // (A wide BVH pads its references between leaves: only the leaves' count.)
         let leaf_refs = || {
@@ -83,7 +83,7 @@ impl References {
         }
     }
 
-    fn leaves_of(&self, t: usize) -> &[u32] {
+    pub(super) fn leaves_of(&self, t: usize) -> &[u32] {
         &self.leaves[self.start[t] as usize..self.start[t + 1] as usize]
     }
 }
@@ -105,16 +105,7 @@ fn overlap_of(
     if whole.area <= 0.0 {
         return 0.0;
     }
-    let mark = |above: &mut [bool], on: bool| {
-        for &leaf in leaves {
-            let mut n = leaf;
-            while n != u32::MAX && above[n as usize] != on {
-                above[n as usize] = on;
-                n = tree.parent[n as usize];
-            }
-        }
-    };
-    mark(above, true);
+    mark(tree, leaves, above, true);
     let Scratch { parts, stack } = scratch;
     parts.clear();
     parts.push(whole);
@@ -142,8 +133,19 @@ fn overlap_of(
         let first = node.first_child;
         stack.extend((first..first + node.child_count).map(|c| (c, part)));
     }
-    mark(above, false);
+    mark(tree, leaves, above, false);
     sum
+}
+
+/// Sets (`on`) or clears in `above` the nodes above `leaves`, the leaves included.
+pub(super) fn mark(tree: &Tree, leaves: &[u32], above: &mut [bool], on: bool) {
+    for &leaf in leaves {
+        let mut n = leaf;
+        while n != u32::MAX && above[n as usize] != on {
+            above[n as usize] = on;
+            n = tree.parent[n as usize];
+        }
+    }
 }
 
 /// What one thread reuses from triangle to triangle.

@@ -16,10 +16,12 @@
 //! above any of them.
 
 mod by_triangle;
+pub mod end_points;
 pub(crate) mod part;
 
 use super::Outline;
 use crate::geometry::{Aabb, Triangle};
+pub use end_points::epo_estimate;
 use part::{Against, Part};
 
 /// A tree's EPO, in the units of its SAH cost: clipped exactly triangle by triangle, or,
@@ -30,6 +32,16 @@ pub struct Epo {
     pub value: f64,
     /// `None` when exact.
     pub estimate: Option<Estimate>,
+}
+
+/// How an EPO is found: clipped exactly, or estimated from end points drawn by area.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum EpoWay {
+    #[default]
+    Exact,
+    Estimate {
+        end_points: u64,
+    },
 }
 
 /// How good an estimated EPO is.

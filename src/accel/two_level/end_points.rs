@@ -11,55 +11,29 @@
 //! one draw in √3 is kept, ‖·‖ being the Frobenius norm).
 
 use super::epo::{Above, Probe, Walk};
-use crate::geometry::{Aabb, Triangle};
+use crate::accel::epo::Epo;
+use crate::accel::epo::end_points::{area_vector, estimate, pick, point_on, running_areas};
+use crate::geometry::Aabb;
 use crate::random::Rng;
 use glam::DVec3;
-use rayon::prelude::*;
 
-/// End points drawn by one generator: the estimate is the same on any number of threads.
-const CHUNK: u64 = 4096;
-const SEED: u64 = 0xE90;
-
-/// The mean charge of `n` end points and its standard error; (0, 0) for a scene without
-/// area; `None` once `abandon` says so.
-pub(super) fn mean_charge(
+/// Both levels' EPO estimated from `n` end points; 0 for a scene without area; `None` once
+/// `abandon` says so.
+pub(super) fn epo_estimate(
     walk: &Walk,
     n: u64,
     abandon: &(dyn Fn() -> bool + Sync),
-) -> Option<(f64, f64)> {
+) -> Option<Epo> {
     let sampler = Sampler::of(walk);
-    if sampler.total() <= 0.0 || n == 0 {
-        return Some((0.0, 0.0));
+    if sampler.total() <= 0.0 {
+        return Some(Epo::exact(0.0));
     }
-    let chunks = n.div_ceil(CHUNK);
-    let sums: Vec<(f64, f64)> = (0..chunks)
-        .into_par_iter()
-        .map_init(Above::default, |above, chunk| {
-            if abandon() {
-                return (0.0, 0.0);
-            }
-            let mut rng = Rng::for_case(SEED, chunk);
-            let (mut sum, mut squares) = (0.0, 0.0);
-            for _ in 0..CHUNK.min(n - chunk * CHUNK) {
-                let point = sampler.draw(walk, &mut rng);
-                walk.mark(above, point.own, point.triangle);
-                let x = walk.charge(&point, above);
-                sum += x;
-                squares += x * x;
-            }
-            (sum, squares)
-        })
-        .collect();
-    if abandon() {
-        return None;
-    }
-    let (sum, squares) = sums
-        .iter()
-        .fold((0.0, 0.0), |(s, q), &(ds, dq)| (s + ds, q + dq));
-    let count = n as f64;
-    let mean = sum / count;
-    let variance = ((squares - count * mean * mean) / (count - 1.0).max(1.0)).max(0.0);
-    Some((mean, (variance / count).sqrt()))
+    let charge = |above: &mut Above, rng: &mut Rng| {
+        let point = sampler.draw(walk, rng);
+        walk.mark(above, point.own, point.triangle);
+        walk.charge(&point, above)
+    };
+    estimate(n, Above::default, charge, abandon)
 }
 
 /// Draws placed triangles by world area (see the module).
@@ -77,13 +51,7 @@ impl Sampler {
         let meshes: Vec<Vec<f64>> = (0..walk.tl.blases.len())
             .map(|m| {
                 let tris = walk.meshes.get(m).copied().unwrap_or_default();
-                let mut run = 0.0;
-                tris.iter()
-                    .map(|t| {
-                        run += area_vector(t).length();
-                        run
-                    })
-                    .collect()
+                running_areas(tris.iter().map(|t| area_vector(t).length()))
             })
             .collect();
         let bound: Vec<f64> = (0..walk.tl.instances.len())
@@ -127,12 +95,7 @@ impl Sampler {
             if rng.unit() >= kept {
                 continue;
             }
-            // Uniform on the triangle: the square root spreads the first coordinate by area.
-            // From a vertex along the edges, so a coordinate all three share is kept to the
-            // bit: a triangle in a box's face plane stays in the box, as its clipped part does.
-            let (r, s) = (rng.unit().sqrt(), rng.unit());
-            let [a, b, c] = tri.v.map(|v| v.as_dvec3());
-            let q = a + (b - a) * (r * (1.0 - s)) + (c - a) * (r * s);
+            let q = point_on(tri, rng);
             return EndPoint {
                 at: walk.to_world[i].transform_point3(q),
                 world: walk.to_world[i].transform_point3(q),
@@ -142,20 +105,6 @@ impl Sampler {
             };
         }
     }
-}
-
-/// The entry a uniform `u` in [0, 1) falls in, by the running sums `runs` (an entry of no
-/// weight is never picked).
-fn pick(runs: &[f64], u: f64) -> usize {
-    let total = runs.last().copied().unwrap_or(0.0);
-    runs.partition_point(|&r| r <= u * total)
-        .min(runs.len().saturating_sub(1))
-}
-
-/// Twice a triangle's vector area, in f64.
-fn area_vector(t: &Triangle) -> DVec3 {
-    let [a, b, c] = t.v.map(|v| v.as_dvec3());
-    (b - a).cross(c - a)
 }
 
 /// An end point on triangle `triangle` of instance `own`, where the walk carries it.

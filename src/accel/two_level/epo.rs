@@ -17,8 +17,8 @@ use super::TwoLevel;
 use super::blas_index::BlasIndex;
 use crate::accel::bvh::wide::LaneKind;
 use crate::accel::bvh::{Bvh8, Subtree};
+use crate::accel::epo::Epo;
 use crate::accel::epo::part::{Against, Part};
-use crate::accel::epo::{Epo, Estimate};
 use crate::geometry::{Aabb, Triangle};
 use glam::{DAffine3, DMat3};
 use rayon::prelude::*;
@@ -69,9 +69,23 @@ impl TwoLevel {
         c_isect: f32,
         end_points: u64,
     ) -> Epo {
-        Walk::of(self, meshes, c_trav, c_isect)
-            .and_then(|w| w.estimate(end_points, &|| false))
+        self.epo_estimate_unless(meshes, c_trav, c_isect, end_points, &|| false)
             .unwrap_or(Epo::exact(0.0))
+    }
+
+    /// `epo_estimate`, given up (`None`) as soon as `abandon` says so.
+    pub fn epo_estimate_unless(
+        &self,
+        meshes: &[&[Triangle]],
+        c_trav: f32,
+        c_isect: f32,
+        end_points: u64,
+        abandon: &(dyn Fn() -> bool + Sync),
+    ) -> Option<Epo> {
+        match Walk::of(self, meshes, c_trav, c_isect) {
+            Some(w) => w.estimate(end_points, abandon),
+            None => Some(Epo::exact(0.0)),
+        }
     }
 }
 
@@ -386,14 +400,7 @@ impl<'a> Walk<'a> {
 
     /// The estimate from `n` end points (`end_points`).
     fn estimate(&self, n: u64, abandon: &(dyn Fn() -> bool + Sync)) -> Option<Epo> {
-        let (mean, std_error) = super::end_points::mean_charge(self, n, abandon)?;
-        Some(Epo {
-            value: mean,
-            estimate: Some(Estimate {
-                std_error,
-                end_points: n,
-            }),
-        })
+        super::end_points::epo_estimate(self, n, abandon)
     }
 }
 

@@ -49,6 +49,9 @@ pub struct BenchCommon {
     pub intersector: IntersectorKind,
     #[command(flatten)]
     pub build: BuildArgs,
+    /// The EPO of the SAH check (`sah-scatter`'s third predictor).
+    #[command(flatten)]
+    pub epo: crate::cli::EpoArgs,
 }
 
 /// Where a study writes its table and chart.
@@ -195,6 +198,7 @@ impl BenchCommand {
             embree_quality: self.embree_quality,
             tinybvh: self.tinybvh,
             intersector: common.intersector,
+            epo: common.epo.way(),
             accuracy: false,
             builders: false,
             tradeoff: false,
@@ -253,6 +257,7 @@ pub struct BenchArgs {
     pub embree_quality: bench::EmbreeQuality,
     pub tinybvh: bool,
     pub intersector: IntersectorKind,
+    pub epo: bvhlab::accel::epo::EpoWay,
     pub accuracy: bool,
     pub builders: bool,
     pub tradeoff: bool,
@@ -362,6 +367,7 @@ fn run_settings(args: BenchArgs) -> Result<()> {
         embree_robust: args.embree_robust,
         embree_quality: args.embree_quality,
         tinybvh: args.tinybvh,
+        epo: args.epo,
     };
     let all = args.build.accel == Some(super::AccelArg::All);
     // One structure timed (not every structure, not a study's own builders): a parameter

@@ -50,6 +50,7 @@ pub(super) fn run_rotation_sweep(args: &BenchArgs, width: u32, height: u32) -> R
         embree_robust: false,
         embree_quality: Default::default(),
         tinybvh: false,
+        epo: args.epo,
     };
     cfg.params.validate()?;
     let pool = thread_pool(args.threads)?;
