@@ -1068,7 +1068,7 @@ fn stats_json_gives_the_sah_cost_and_epo_of_trees_and_null_for_the_others() {
         (value - exact).abs() <= 4.5 * se && se < 0.02 * exact,
         "{est}"
     );
-    assert_eq!(est["epo_end_points"], 1 << 16);
+    assert_eq!(est["epo_end_points"], 1 << 14);
     let fewer = stats(&["--epo", "estimate", "--end-points", "500"]);
     assert_eq!(fewer["epo_end_points"], 500);
     for (bad, says) in [

@@ -46,7 +46,7 @@ pub(super) struct References {
     /// Every triangle once, in leaf order (the walks of one triangle after another then
     /// share the part of the tree they read; in scene order each would miss the cache),
     /// triangles no leaf references last.
-    order: Vec<u32>,
+    pub(super) order: Vec<u32>,
 }
 
 impl References {

@@ -14,11 +14,11 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 /// End points drawn by one generator: the estimate is the same on any number of threads.
-const CHUNK: u64 = 1024;
+const CHUNK: u64 = 8192;
 const SEED: u64 = 0xE90;
 
 /// The end points `stats --epo estimate` draws unless told.
-pub const DEFAULT_END_POINTS: u64 = 1 << 16;
+pub const DEFAULT_END_POINTS: u64 = 1 << 14;
 
 /// The EPO of `outline` over `scene` estimated from `n` end points (the same ones every
 /// time); `None` once `abandon` says so.
@@ -36,57 +36,67 @@ pub fn epo_estimate(
     }
     let tree = Tree::of(outline, c_trav, c_isect);
     let refs = References::of(outline, scene.len());
-    let init = || (vec![false; tree.nodes.len()], Vec::new());
-    let charge = |(above, stack): &mut (Vec<bool>, Vec<u32>), rng: &mut Rng| {
-        let t = pick(&runs, rng.unit());
-        let p = point_on(&scene[t], rng);
-        let leaves = refs.leaves_of(t);
-        mark(&tree, leaves, above, true);
-        let mut sum = 0.0;
-        stack.clear();
-        stack.push(0);
-        while let Some(n) = stack.pop() {
-            let node = &tree.nodes[n as usize];
-            let (min, max) = (
-                DVec3::from(node.min.map(f64::from)),
-                DVec3::from(node.max.map(f64::from)),
-            );
-            if p.cmplt(min).any() || p.cmpgt(max).any() {
-                continue;
+    // Each triangle's place in leaf order: a chunk's points walked in that order share the
+    // part of the tree they read, where points in drawing order would each miss the cache.
+    let mut rank = vec![0u32; scene.len()];
+    for (k, &t) in refs.order.iter().enumerate() {
+        rank[t as usize] = k as u32;
+    }
+    let init = || (vec![false; tree.nodes.len()], Vec::new(), Vec::new());
+    type State = (Vec<bool>, Vec<u32>, Vec<(u32, DVec3)>);
+    let chunk = |(above, stack, points): &mut State, rng: &mut Rng, count: u64| {
+        points.clear();
+        points.extend((0..count).map(|_| {
+            let t = pick(&runs, rng.unit());
+            (t as u32, point_on(&scene[t], rng))
+        }));
+        points.sort_unstable_by_key(|&(t, _)| rank[t as usize]);
+        let (mut sum, mut squares) = (0.0, 0.0);
+        for &(t, p) in points.iter() {
+            let leaves = refs.leaves_of(t as usize);
+            mark(&tree, leaves, above, true);
+            let mut x = 0.0;
+            stack.clear();
+            stack.push(0);
+            while let Some(n) = stack.pop() {
+                let node = &tree.nodes[n as usize];
+                let min = DVec3::from(node.min.map(f64::from));
+                let max = DVec3::from(node.max.map(f64::from));
+                if p.cmplt(min).any() || p.cmpgt(max).any() {
+                    continue;
+                }
+                if !above[n as usize] {
+                    x += tree.cost[n as usize];
+                }
+                stack.extend(node.first_child..node.first_child + node.child_count);
             }
-            if !above[n as usize] {
-                sum += tree.cost[n as usize];
-            }
-            stack.extend(node.first_child..node.first_child + node.child_count);
+            mark(&tree, leaves, above, false);
+            sum += x;
+            squares += x * x;
         }
-        mark(&tree, leaves, above, false);
-        sum
+        (sum, squares)
     };
-    estimate(n, init, charge, abandon)
+    estimate(n, init, chunk, abandon)
 }
 
-/// The mean of `n` charges drawn by `charge` (each chunk of them with its own generator
-/// and a state `init` makes), as an estimated EPO; `None` once `abandon` says so.
+/// The mean of `n` charges, as an estimated EPO: `chunk(state, generator, count)` draws
+/// and charges `count` end points and returns the sum of their charges and of their
+/// squares (each chunk with its own generator and a state `init` makes). `None` once
+/// `abandon` says so.
 pub(crate) fn estimate<S>(
     n: u64,
     init: impl Fn() -> S + Sync + Send,
-    charge: impl Fn(&mut S, &mut Rng) -> f64 + Sync + Send,
+    chunk: impl Fn(&mut S, &mut Rng, u64) -> (f64, f64) + Sync + Send,
     abandon: &(dyn Fn() -> bool + Sync),
 ) -> Option<Epo> {
     let sums: Vec<(f64, f64)> = (0..n.div_ceil(CHUNK))
         .into_par_iter()
-        .map_init(&init, |state, chunk| {
+        .map_init(&init, |state, k| {
             if abandon() {
                 return (0.0, 0.0);
             }
-            let mut rng = Rng::for_case(SEED, chunk);
-            let (mut sum, mut squares) = (0.0, 0.0);
-            for _ in 0..CHUNK.min(n - chunk * CHUNK) {
-                let x = charge(state, &mut rng);
-                sum += x;
-                squares += x * x;
-            }
-            (sum, squares)
+            let mut rng = Rng::for_case(SEED, k);
+            chunk(state, &mut rng, CHUNK.min(n - k * CHUNK))
         })
         .collect();
     if abandon() {

@@ -28,12 +28,18 @@ pub(super) fn epo_estimate(
     if sampler.total() <= 0.0 {
         return Some(Epo::exact(0.0));
     }
-    let charge = |above: &mut Above, rng: &mut Rng| {
-        let point = sampler.draw(walk, rng);
-        walk.mark(above, point.own, point.triangle);
-        walk.charge(&point, above)
+    let chunk = |above: &mut Above, rng: &mut Rng, count: u64| {
+        let (mut sum, mut squares) = (0.0, 0.0);
+        for _ in 0..count {
+            let point = sampler.draw(walk, rng);
+            walk.mark(above, point.own, point.triangle);
+            let x = walk.charge(&point, above);
+            sum += x;
+            squares += x * x;
+        }
+        (sum, squares)
     };
-    estimate(n, Above::default, charge, abandon)
+    estimate(n, Above::default, chunk, abandon)
 }
 
 /// Draws placed triangles by world area (see the module).
