@@ -409,7 +409,7 @@ impl Structure {
     /// too large to flatten. The two levels' is exact up to `two_level::epo::EXACT_MAX`
     /// placed triangles and estimated past it.
     pub fn epo(&self, params: &StructureParams, scene: &Scene) -> Option<Epo> {
-        self.epo_unless(params, scene, &|| false)
+        self.epo_by(params, scene, EpoWay::Exact, &|| false)
     }
 
     /// `epo`, given up (`None`) as soon as `abandon` says so.
@@ -419,54 +419,11 @@ impl Structure {
         scene: &Scene,
         abandon: &(dyn Fn() -> bool + Sync),
     ) -> Option<Epo> {
-        let (c_trav, c_isect) = params.sah_constants();
-        match self {
-            Structure::Bvh(_)
-            | Structure::Bvh4(_)
-            | Structure::Bvh8(_)
-            | Structure::KdTree(_)
-            | Structure::Octree(_) => {
-                let triangles = scene.flattened().ok()?;
-                super::epo::epo_unless(&self.outline(), &triangles, c_trav, c_isect, abandon)
-                    .map(Epo::exact)
-            }
-            Structure::TwoLevel(t) => {
-                let meshes = meshes_built_over(t, scene)?;
-                t.epo_unless(&meshes, c_trav, c_isect, abandon)
-            }
-            _ => None,
-        }
+        self.epo_by(params, scene, EpoWay::Exact, abandon)
     }
 
-    /// The tree's EPO estimated from `end_points` end points drawn uniformly by area
-    /// (`epo::end_points`), with its standard error; `None` where `epo` is.
-    pub fn epo_estimate_unless(
-        &self,
-        params: &StructureParams,
-        scene: &Scene,
-        end_points: u64,
-        abandon: &(dyn Fn() -> bool + Sync),
-    ) -> Option<Epo> {
-        let (c_trav, c_isect) = params.sah_constants();
-        match self {
-            Structure::Bvh(_)
-            | Structure::Bvh4(_)
-            | Structure::Bvh8(_)
-            | Structure::KdTree(_)
-            | Structure::Octree(_) => {
-                let triangles = scene.flattened().ok()?;
-                let outline = self.outline();
-                super::epo::epo_estimate(&outline, &triangles, c_trav, c_isect, end_points, abandon)
-            }
-            Structure::TwoLevel(t) => {
-                let meshes = meshes_built_over(t, scene)?;
-                t.epo_estimate_unless(&meshes, c_trav, c_isect, end_points, abandon)
-            }
-            _ => None,
-        }
-    }
-
-    /// The tree's EPO found the `way` asked: `epo_unless` or `epo_estimate_unless`.
+    /// The tree's EPO found the `way` asked: clipped (`epo`), or estimated from end points
+    /// drawn uniformly by area (`epo::end_points`), with its standard error.
     pub fn epo_by(
         &self,
         params: &StructureParams,
@@ -474,11 +431,29 @@ impl Structure {
         way: EpoWay,
         abandon: &(dyn Fn() -> bool + Sync),
     ) -> Option<Epo> {
-        match way {
-            EpoWay::Exact => self.epo_unless(params, scene, abandon),
-            EpoWay::Estimate { end_points } => {
-                self.epo_estimate_unless(params, scene, end_points, abandon)
+        let (c_trav, c_isect) = params.sah_constants();
+        match (self, way) {
+            (Structure::TwoLevel(t), EpoWay::Exact) => {
+                t.epo_unless(&meshes_built_over(t, scene)?, c_trav, c_isect, abandon)
             }
+            (Structure::TwoLevel(t), EpoWay::Estimate { end_points }) => {
+                let meshes = meshes_built_over(t, scene)?;
+                t.epo_estimate_unless(&meshes, c_trav, c_isect, end_points, abandon)
+            }
+            (_, way) if self.kind().has_sah_cost() => {
+                let triangles = scene.flattened().ok()?;
+                let outline = self.outline();
+                match way {
+                    EpoWay::Exact => {
+                        super::epo::epo_unless(&outline, &triangles, c_trav, c_isect, abandon)
+                            .map(Epo::exact)
+                    }
+                    EpoWay::Estimate { end_points } => super::epo::epo_estimate(
+                        &outline, &triangles, c_trav, c_isect, end_points, abandon,
+                    ),
+                }
+            }
+            _ => None,
         }
     }
 

@@ -163,21 +163,13 @@ impl PlacedCosts<'_> {
 /// lanes').
 fn top_shares(tl: &TwoLevel, c_trav: f64, root: f64) -> Vec<f64> {
     let nodes = &tl.tlas.nodes;
-    // The placed triangles under each node: children come after their parents.
-    let mut under = vec![0u64; nodes.len()];
-    for n in (0..nodes.len()).rev() {
-        let node = &nodes[n];
-        under[n] = (0..node.child_count())
-            .map(|lane| match node.lane_kind(lane) {
-                LaneKind::Interior(c) => under[c as usize],
-                LaneKind::Leaf { first, count } => (first..first + count)
-                    .filter_map(|k| tl.references.get(tl.tlas.prim_indices[k as usize] as usize))
-                    .map(|r| u64::from(r.triangles))
-                    .sum(),
-                LaneKind::Unused => 0,
-            })
-            .sum();
-    }
+    // The placed triangles under each node: its leaves' references' triangles.
+    let under = counts_under(&tl.tlas, |first, count| {
+        (first..first + count)
+            .filter_map(|k| tl.references.get(tl.tlas.prim_indices[k as usize] as usize))
+            .map(|r| u64::from(r.triangles))
+            .sum()
+    });
     let mut top = vec![0.0; nodes.len()];
     if nodes.is_empty() || root <= 0.0 {
         return top;
@@ -199,21 +191,29 @@ fn top_shares(tl: &TwoLevel, c_trav: f64, root: f64) -> Vec<f64> {
     top
 }
 
-/// Per BLAS node, Σ products(box)/N over the nodes strictly below the root down to it, N
-/// the triangle references under each.
-fn products_below(blas: &Bvh8) -> Vec<DVec3> {
-    let nodes = &blas.nodes;
+/// Per node of `tree`, the sum of `leaf(first slot, count)` over the leaves under it
+/// (children come after their parents: one backward pass).
+fn counts_under(tree: &Bvh8, leaf: impl Fn(u32, u32) -> u64) -> Vec<u64> {
+    let nodes = &tree.nodes;
     let mut under = vec![0u64; nodes.len()];
     for n in (0..nodes.len()).rev() {
         let node = &nodes[n];
         under[n] = (0..node.child_count())
             .map(|lane| match node.lane_kind(lane) {
                 LaneKind::Interior(c) => under[c as usize],
-                LaneKind::Leaf { count, .. } => u64::from(count),
+                LaneKind::Leaf { first, count } => leaf(first, count),
                 LaneKind::Unused => 0,
             })
             .sum();
     }
+    under
+}
+
+/// Per BLAS node, Σ products(box)/N over the nodes strictly below the root down to it, N
+/// the triangle references under each.
+fn products_below(blas: &Bvh8) -> Vec<DVec3> {
+    let nodes = &blas.nodes;
+    let under = counts_under(blas, |_, count| u64::from(count));
     let mut below = vec![DVec3::ZERO; nodes.len()];
     for n in 0..nodes.len() {
         let node = &nodes[n];
