@@ -122,6 +122,8 @@ pub(super) struct Above {
     /// Per TLAS node, whether a reference holding it lies below; `tlas_marked` lists them.
     tlas: Vec<bool>,
     tlas_marked: Vec<u32>,
+    /// The references holding it (reused from triangle to triangle).
+    references: Vec<u32>,
 }
 
 /// What a walk carries down the levels: a triangle's clipped part (exact) or an end point
@@ -229,7 +231,8 @@ impl<'a> Walk<'a> {
         let (Some(blas), Some(index)) = (self.tl.blases.get(mesh), self.blas.get(mesh)) else {
             return;
         };
-        let mut references: Vec<u32> = Vec::new();
+        let references = &mut above.references;
+        references.clear();
         for &(node, first) in index.lanes_of(t) {
             above.leaf_firsts.push(first);
             let count = leaf_count(blas, node, first);
@@ -242,7 +245,7 @@ impl<'a> Walk<'a> {
                 n = index.parent[n as usize];
             }
         }
-        for r in references {
+        for &r in references.iter() {
             let Some((node, _)) = self.tl.top_index.slot_of(r as usize) else {
                 continue;
             };

@@ -20,7 +20,9 @@ impl State {
         let Some(structure) = &self.structure else {
             return false;
         };
-        if structure.sah_cost(&self.params).is_none() {
+        // The trees the SAH describes (asked of the kind: this runs at every command).
+        let kind = structure.kind();
+        if !kind.has_sah_cost() && !kind.places_instances() {
             return false;
         }
         self.epo_version != Some(self.version) || self.blas_epo_waiting()
