@@ -14,7 +14,7 @@ pub(super) fn overlap(
     scene: &[Triangle],
     abandon: &(dyn Fn() -> bool + Sync),
 ) -> Option<f64> {
-    let refs = References::of(outline, scene.len());
+    let refs = references(outline, scene.len());
     // Chunks summed in a fixed order: the same tree always gives the same EPO.
     let parts: Vec<f64> = refs
         .order
@@ -29,7 +29,7 @@ pub(super) fn overlap(
                     .iter()
                     .map(|&t| {
                         let t = t as usize;
-                        overlap_of(tree, refs.leaves_of(t), &scene[t], above, scratch)
+                        overlap_of(tree, refs.of_triangle(t), &scene[t], above, scratch)
                     })
                     .sum::<f64>()
             },
@@ -38,54 +38,65 @@ pub(super) fn overlap(
     (!abandon()).then(|| parts.iter().sum::<f64>())
 }
 
-/// Where each triangle is referenced: its leaves, as a compressed list per triangle.
-pub(super) struct References {
-    /// `leaves[start[t]..start[t + 1]]` are the leaves referencing triangle t.
+/// Per triangle, the places holding it (leaves, leaf lanes), as one compressed list.
+pub(crate) struct ByTriangle<T> {
+    /// `places[start[t]..start[t + 1]]` hold triangle t.
     start: Vec<u32>,
-    leaves: Vec<u32>,
-    /// Every triangle once, in leaf order (the walks of one triangle after another then
-    /// share the part of the tree they read; in scene order each would miss the cache),
-    /// triangles no leaf references last.
-    pub(super) order: Vec<u32>,
+    places: Vec<T>,
+    /// Every triangle once, in the order the places were listed (leaf order: the walks of
+    /// one triangle after another then share the part of the tree they read; in scene
+    /// order each would miss the cache), triangles held nowhere last.
+    pub(crate) order: Vec<u32>,
 }
 
-impl References {
-    pub(super) fn of(outline: &Outline, triangles: usize) -> Self {
+impl<T: Copy + Default> ByTriangle<T> {
+    /// From the (triangle, place) pairs `pairs` lists (called twice: to count, to fill);
+    /// triangles from `triangles` on are left out.
+    pub(crate) fn of<I: Iterator<Item = (u32, T)>>(
+        triangles: usize,
+        pairs: impl Fn() -> I,
+    ) -> Self {
+        let held = || pairs().filter(|&(t, _)| (t as usize) < triangles);
         let mut start = vec![0u32; triangles + 1];
-        // (A wide BVH pads its references between leaves: only the leaves' count.)
-        let leaf_refs = || {
-            (0..outline.nodes.len())
-                .filter(|&n| outline.nodes[n].is_leaf())
-                .flat_map(|n| outline.leaf_refs(n).iter().map(move |&t| (n as u32, t)))
-        };
-        for (_, t) in leaf_refs() {
+        for (t, _) in held() {
             start[t as usize + 1] += 1;
         }
         for t in 0..triangles {
             start[t + 1] += start[t];
         }
         let mut next = start.clone();
-        let mut leaves = vec![0u32; start[triangles] as usize];
+        let mut places = vec![T::default(); start[triangles] as usize];
         let mut order = Vec::with_capacity(triangles);
-        for (leaf, t) in leaf_refs() {
+        for (t, place) in held() {
             let t = t as usize;
             if next[t] == start[t] {
                 order.push(t as u32);
             }
-            leaves[next[t] as usize] = leaf;
+            places[next[t] as usize] = place;
             next[t] += 1;
         }
         order.extend((0..triangles as u32).filter(|&t| start[t as usize] == start[t as usize + 1]));
-        References {
+        ByTriangle {
             start,
-            leaves,
+            places,
             order,
         }
     }
 
-    pub(super) fn leaves_of(&self, t: usize) -> &[u32] {
-        &self.leaves[self.start[t] as usize..self.start[t + 1] as usize]
+    /// The places holding triangle `t`.
+    pub(crate) fn of_triangle(&self, t: usize) -> &[T] {
+        &self.places[self.start[t] as usize..self.start[t + 1] as usize]
     }
+}
+
+/// Where each triangle is referenced: the outline's leaves holding it.
+pub(super) fn references(outline: &Outline, triangles: usize) -> ByTriangle<u32> {
+    // (A wide BVH pads its references between leaves: only the leaves' count.)
+    ByTriangle::of(triangles, || {
+        (0..outline.nodes.len())
+            .filter(|&n| outline.nodes[n].is_leaf())
+            .flat_map(|n| outline.leaf_refs(n).iter().map(move |&t| (t, n as u32)))
+    })
 }
 
 /// Σ C(n) · A(t ∩ n) over the nodes n not above triangle `t`. `above` is all false on entry

@@ -6,7 +6,7 @@
 //! every box the triangle crosses: a few thousand points give the EPO to a percent or two
 //! in a fraction of a fast build's time (`docs/measurements.md`).
 
-use super::by_triangle::{References, mark};
+use super::by_triangle::{mark, references};
 use super::{Epo, Estimate, Outline, Tree};
 use crate::geometry::Triangle;
 use crate::random::Rng;
@@ -35,7 +35,7 @@ pub fn epo_estimate(
         return Some(Epo::exact(0.0));
     }
     let tree = Tree::of(outline, c_trav, c_isect);
-    let refs = References::of(outline, scene.len());
+    let refs = references(outline, scene.len());
     // Each triangle's place in leaf order: a chunk's points walked in that order share the
     // part of the tree they read, where points in drawing order would each miss the cache.
     let mut rank = vec![0u32; scene.len()];
@@ -53,7 +53,7 @@ pub fn epo_estimate(
         points.sort_unstable_by_key(|&(t, _)| rank[t as usize]);
         let (mut sum, mut squares) = (0.0, 0.0);
         for &(t, p) in points.iter() {
-            let leaves = refs.leaves_of(t as usize);
+            let leaves = refs.of_triangle(t as usize);
             mark(&tree, leaves, above, true);
             let mut x = 0.0;
             stack.clear();

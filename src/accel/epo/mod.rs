@@ -15,7 +15,7 @@
 //! A triangle split into several references (SBVH, pre-splitting) is "under" every node
 //! above any of them.
 
-mod by_triangle;
+pub(crate) mod by_triangle;
 pub mod end_points;
 pub(crate) mod part;
 

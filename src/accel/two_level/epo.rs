@@ -367,7 +367,7 @@ impl<'a> Walk<'a> {
                 let len = self
                     .blas
                     .get(self.tl.instances[i].mesh)
-                    .map_or(0, |b| b.order.len());
+                    .map_or(0, |b| b.lanes.order.len());
                 (0..len).step_by(RUN).map(move |s| (i, s))
             })
             .collect();
@@ -378,7 +378,7 @@ impl<'a> Walk<'a> {
                     return (0.0, 0.0);
                 }
                 let mesh = self.tl.instances[i].mesh;
-                let order = &self.blas[mesh].order;
+                let order = &self.blas[mesh].lanes.order;
                 let (mut charged, mut area) = (0.0, 0.0);
                 for &t in &order[s..(s + RUN).min(order.len())] {
                     let part = Piece::world(self, i, t as usize);
