@@ -115,15 +115,50 @@ fn main() {
         };
         Embree::build(&scene.triangles, 1, mode).expect("Embree")
     };
+    // `WALK_THREADS=n`: the set traced by n threads in chunks of 256 rays, as the bench does.
+    let threads: usize = std::env::var("WALK_THREADS").map_or(1, |n| n.parse().expect("threads"));
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("pool");
+    let structure = std::env::var_os("WALK_STRUCTURE").map(|_| {
+        let params = bvhlab::accel::StructureParams::of_kind(bvhlab::accel::AccelKind::fastest());
+        pool.install(|| bvhlab::accel::structure::build_scene(&scene, &params, &Default::default()))
+            .expect("structure")
+            .structure
+    });
+    let trace_all = |rays: &[Ray]| -> u64 {
+        if let Some(st) = &structure {
+            use rayon::prelude::*;
+            return pool.install(|| {
+                rays.par_chunks(256)
+                    .map(|c| trace(st, any, packets, c))
+                    .reduce(|| 0, u64::wrapping_add)
+            });
+        }
+        if threads == 1 {
+            return match walk {
+                #[cfg(feature = "embree")]
+                "embree" => trace(&embree, any, packets, rays),
+                _ => trace(&bvh8, any, packets, rays),
+            };
+        }
+        use rayon::prelude::*;
+        pool.install(|| {
+            rays.par_chunks(256)
+                .map(|c| match walk {
+                    #[cfg(feature = "embree")]
+                    "embree" => trace(&embree, any, packets, c),
+                    _ => trace(&bvh8, any, packets, c),
+                })
+                .reduce(|| 0, u64::wrapping_add)
+        })
+    };
     let start = Instant::now();
     let cpu = thread_cpu_seconds();
     let mut sum = 0u64;
     for _ in 0..repeats {
-        sum = sum.wrapping_add(match walk {
-            #[cfg(feature = "embree")]
-            "embree" => trace(&embree, any, packets, rays),
-            _ => trace(&bvh8, any, packets, rays),
-        });
+        sum = sum.wrapping_add(trace_all(rays));
     }
     let (wall, cpu) = (start.elapsed().as_secs_f64(), thread_cpu_seconds() - cpu);
     let n = (rays.len() * repeats) as f64;

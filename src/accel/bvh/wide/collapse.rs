@@ -231,6 +231,7 @@ where
             prim_indices: Vec::new(),
             depth,
             parts: Vec::new(),
+            part_blocks: Vec::new(),
         };
         let mut cuts = Vec::new();
         let mut packer = BlockPacker::default();

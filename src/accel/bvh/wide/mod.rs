@@ -62,6 +62,10 @@ where
     /// last up to the end) is a whole subtree, its nodes' children all inside it; the nodes
     /// before `parts[0]` are the top of the tree. Empty for a tree laid out in one part.
     pub(crate) parts: Vec<u32>,
+    /// Where each part's blocks begin, as `parts` where its nodes do: a part's leaves hold
+    /// slots of its own blocks only, so a refit can fill a part's blocks and bound its
+    /// leaves while they are in the cache.
+    pub(crate) part_blocks: Vec<u32>,
 }
 
 /// The sums over a wide tree's lanes the SAH cost is made of, apart from the costs: the
@@ -238,6 +242,31 @@ where
                 self.nodes.len()
             ));
         }
+        // The slots of the part each node is in: its own blocks, which a refit fills just
+        // before it bounds the part's leaves.
+        if self.part_blocks.len() != self.parts.len()
+            || !self.part_blocks.is_sorted()
+            || self
+                .part_blocks
+                .last()
+                .is_some_and(|&b| b as usize > self.blocks.len())
+        {
+            return Err(format!(
+                "part blocks {:?} of {} blocks",
+                self.part_blocks,
+                self.blocks.len()
+            ));
+        }
+        let part_slots = |k: usize| {
+            let block = |k: usize| match k {
+                0 => 0,
+                k => self
+                    .part_blocks
+                    .get(k - 1)
+                    .map_or(self.blocks.len(), |&b| b as usize),
+            };
+            block(k) * BLOCK..block(k + 1) * BLOCK
+        };
         for (i, node) in self.nodes.iter().enumerate() {
             let used = node.child_count();
             if node.child[used..].iter().any(|&c| c != Subtree::UNUSED) {
@@ -264,6 +293,12 @@ where
                     let range = node.child[lane].slots();
                     if range.end > slots || !leaf.is_compact() {
                         return Err(format!("node {i} lane {lane}: leaf {range:?} of {slots}"));
+                    }
+                    let own = part_slots(part_of(i));
+                    if range.start < own.start || range.end > own.end {
+                        return Err(format!(
+                            "node {i} lane {lane}: leaf {range:?} outside its part's slots {own:?}"
+                        ));
                     }
                     let ids = &self.prim_indices[range.clone()];
                     if (1..ids.len()).any(|a| ids[..a].contains(&ids[a])) {

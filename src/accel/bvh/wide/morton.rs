@@ -135,12 +135,14 @@ where
             prim_indices: std::mem::take(&mut self.prim_indices),
             depth: 1,
             parts: std::mem::take(&mut self.parts),
+            part_blocks: std::mem::take(&mut self.part_blocks),
         };
         sorted.lay_out_tree_into(&mut scratch.top, &mut scratch.parts, &mut whole);
         self.nodes = whole.nodes;
         self.blocks = whole.blocks;
         self.prim_indices = whole.prim_indices;
         self.parts = whole.parts;
+        self.part_blocks = whole.part_blocks;
         self.depth = whole.depth;
         self.triangle_count = n;
         self.lanes = Default::default();
@@ -400,8 +402,8 @@ mod tests {
     /// Everything a tree holds, as text (padding lanes hold NaN, which `==` refuses).
     fn contents(t: &WideBvh<8>) -> String {
         format!(
-            "{:?} {:?} {:?} {} {} {:?}",
-            t.nodes, t.blocks, t.prim_indices, t.triangle_count, t.depth, t.parts
+            "{:?} {:?} {:?} {} {} {:?} {:?}",
+            t.nodes, t.blocks, t.prim_indices, t.triangle_count, t.depth, t.parts, t.part_blocks
         )
     }
 

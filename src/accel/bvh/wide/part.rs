@@ -7,7 +7,7 @@ use super::leaf::BlockPacker;
 use super::node::{LaneKind, Lanes, MAX_LEAF_COUNT, NodeWidth, Subtree, WideNode};
 use crate::accel::bvh::TraversalOrder;
 use crate::geometry::simd::SimdLevel;
-use crate::geometry::simd::TriangleBlock;
+use crate::geometry::simd::{BLOCK, TriangleBlock};
 use crate::geometry::{Aabb, Triangle};
 use rayon::prelude::*;
 use std::mem::MaybeUninit;
@@ -32,6 +32,8 @@ where
     pub depth: u32,
     /// Where the parts placed after it begin (`WideBvh::parts`).
     pub parts: Vec<u32>,
+    /// Where those parts' blocks begin (`WideBvh::part_blocks`).
+    pub part_blocks: Vec<u32>,
 }
 
 impl<const W: usize> Part<W>
@@ -51,6 +53,7 @@ where
             depth: self.depth,
             lanes: Default::default(),
             parts: self.parts,
+            part_blocks: self.part_blocks,
         }
     }
 
@@ -62,6 +65,7 @@ where
             prim_indices: Vec::new(),
             depth,
             parts: Vec::new(),
+            part_blocks: Vec::new(),
         }
     }
 
@@ -71,6 +75,7 @@ where
         self.blocks.clear();
         self.prim_indices.clear();
         self.parts.clear();
+        self.part_blocks.clear();
         self.depth = depth;
     }
 
@@ -85,17 +90,20 @@ where
     /// Writes this part (the top of the tree) and `parts` after it, in order, into `out`
     /// (its memory kept): each part's node indices and slots moved by the counts before
     /// it. Each piece is copied whole into its place, the pieces on every thread, and its
-    /// nodes' lanes moved there. Where each part's nodes begin is `out.parts`.
+    /// nodes' lanes moved there. Where each part's nodes begin is `out.parts`, where its
+    /// blocks begin `out.part_blocks`.
     pub fn place_into(&self, parts: &[Part<W>], out: &mut Part<W>) {
         let pieces: Vec<&Part<W>> = std::iter::once(self).chain(parts).collect();
         out.depth = pieces.iter().map(|p| p.depth).max().unwrap_or(1);
         out.parts.clear();
+        out.part_blocks.clear();
         let (mut nodes, mut slots) = (0u32, 0u32);
         let mut bases = Vec::with_capacity(pieces.len());
         for (k, p) in pieces.iter().enumerate() {
             debug_assert!(p.parts.is_empty(), "parts do not nest");
             if k > 0 {
                 out.parts.push(nodes);
+                out.part_blocks.push(slots / BLOCK as u32);
             }
             bases.push((nodes, slots));
             nodes += p.nodes.len() as u32;

@@ -11,6 +11,7 @@ use crate::geometry::simd::{BLOCK, TriangleBlock, prefetch};
 use crate::geometry::{Aabb, Triangle};
 use glam::{Mat4, Vec3, Vec4};
 use rayon::prelude::*;
+use std::ops::Range;
 
 /// Below this many triangles a refit runs on one thread (spawning costs more).
 const PARALLEL_REFIT: usize = 1 << 15;
@@ -44,15 +45,15 @@ where
     }
 
     /// Takes the moved triangles (`scene` in scene order, the count the tree was built over)
-    /// and updates every box, in two passes. First the blocks, in slot order: each block's
-    /// four triangles gathered (prefetched a few blocks ahead, since a leaf's triangles lie
-    /// anywhere in scene order) and written whole, so the pass streams and splits evenly
-    /// between threads. Then the nodes, children before parents: a leaf lane bounds its
-    /// triangles from the blocks (one or two lane by lane, more four lanes at a time), an
-    /// interior lane takes its child's box, and the SAH cost
+    /// and updates every box, in two passes over each part the tree was laid out in. First
+    /// the part's blocks, in slot order: each block's four triangles gathered (prefetched a
+    /// few blocks ahead, since a leaf's triangles lie anywhere in scene order) and written
+    /// whole. Then the part's nodes, children before parents: a leaf lane bounds its
+    /// triangles from the blocks just written, still in the cache (one or two lane by lane,
+    /// more four lanes at a time), an interior lane takes its child's box, and the SAH cost
     /// before and after is summed in the same pass (each lane's old box is read before it
     /// is overwritten). The nodes are swept from the last to the first (children come after
-    /// their parents), the parts the collapse laid out apart as parallel tasks, then the top.
+    /// their parents). The parts are parallel tasks; the top of the tree comes last.
     pub fn refit(
         &mut self,
         scene: &[Triangle],
@@ -65,7 +66,6 @@ where
                 given: scene.len(),
             });
         }
-        fill_blocks(&mut self.blocks, &self.prim_indices, scene);
         let root_before = self.nodes[0].bounds().surface_area() as f64;
         let costs = Costs {
             trav: c_trav as f64,
@@ -75,34 +75,39 @@ where
         let tree = SharedTree {
             nodes: self.nodes.as_mut_ptr(),
             done: done.as_mut_ptr(),
-            blocks: &self.blocks,
         };
-        // The parts the collapse laid out apart, each a whole subtree of its own nodes, in
-        // parallel; then the top of the tree, whose lanes reach the parts' roots.
-        let ends = self
-            .parts
-            .iter()
-            .skip(1)
-            .copied()
-            .chain([self.nodes.len() as u32]);
-        let parts: Vec<(u32, u32)> = self.parts.iter().copied().zip(ends).collect();
-        let top = self.parts.first().map_or(self.nodes.len(), |&p| p as usize);
-        // SAFETY: a part's nodes (and their `done` entries) are written by its task alone
-        // and its nodes' children lie inside it (`validate` checks it), so the tasks touch
-        // disjoint nodes; the top runs after them all. `self.nodes` and `done` stay borrowed
-        // for the whole pass.
-        unsafe {
-            if scene.len() >= PARALLEL_REFIT {
-                parts
-                    .par_iter()
-                    .for_each(|&(a, b)| tree.refit_range(a as usize..b as usize, costs));
+        let parallel = scene.len() >= PARALLEL_REFIT;
+        // A tree laid out in one part fills its blocks on every thread first.
+        let one_piece = self.parts.is_empty();
+        // The top of the tree and the parts the collapse laid out apart, each a whole
+        // subtree of its own nodes and blocks: a task fills a part's blocks and refits its
+        // nodes. The parts in parallel; then the top, whose lanes reach the parts' roots.
+        let mut pieces = pieces(
+            &self.parts,
+            &self.part_blocks,
+            self.nodes.len(),
+            &mut self.blocks,
+            &self.prim_indices,
+        );
+        let top = pieces.remove(0);
+        let refit_piece = |p: Piece<'_>| {
+            if parallel && one_piece {
+                fill_blocks_parallel(p.blocks, p.indices, scene);
             } else {
-                parts
-                    .iter()
-                    .for_each(|&(a, b)| tree.refit_range(a as usize..b as usize, costs));
+                fill_blocks(p.blocks, p.indices, scene);
             }
-            tree.refit_range(0..top, costs);
+            // SAFETY: a piece's nodes (and their `done` entries) are written by its task
+            // alone and its nodes' children lie inside it (`validate` checks it), so the
+            // tasks touch disjoint nodes; the top runs after them all. `self.nodes` and
+            // `done` stay borrowed for the whole pass.
+            unsafe { tree.refit_range(p.nodes, p.blocks, p.first_block, costs) };
+        };
+        if parallel {
+            pieces.into_par_iter().for_each(refit_piece);
+        } else {
+            pieces.into_iter().for_each(refit_piece);
         }
+        refit_piece(top);
         let sums = done[0].sums;
         let root_after = self.nodes[0].bounds().surface_area() as f64;
         let sah = |root: f64, lanes: f64| {
@@ -207,46 +212,81 @@ const FILL_AHEAD: usize = 32;
 /// The triangle of a padding lane: NaN, as the collapse leaves it.
 const PADDING_TRIANGLE: Triangle = Triangle { v: [Vec3::NAN; 3] };
 
-/// Writes every block from the scene, in parallel over runs of blocks: each block's four
-/// triangles gathered by their slots' indices (a padding lane stays NaN) and transposed
-/// into the block's rows, which are written whole.
+/// A piece of the tree a refit task takes whole: the top or one part, its nodes and the
+/// blocks its leaves hold (with their slots' triangle indices).
+struct Piece<'a> {
+    nodes: Range<usize>,
+    blocks: &'a mut [TriangleBlock],
+    indices: &'a [u32],
+    /// The index of `blocks[0]` in the tree's blocks.
+    first_block: usize,
+}
+
+/// The top of the tree (first) and each part, from where the parts' nodes and blocks begin.
+fn pieces<'a>(
+    parts: &[u32],
+    part_blocks: &[u32],
+    nodes: usize,
+    mut blocks: &'a mut [TriangleBlock],
+    indices: &'a [u32],
+) -> Vec<Piece<'a>> {
+    fn starts(s: &[u32]) -> impl Iterator<Item = usize> + '_ {
+        std::iter::once(0).chain(s.iter().map(|&p| p as usize))
+    }
+    let node_ends = starts(parts).skip(1).chain([nodes]);
+    let block_ends = starts(part_blocks).skip(1).chain([blocks.len()]);
+    let mut out = Vec::with_capacity(parts.len() + 1);
+    for ((node_start, node_end), (block_start, block_end)) in starts(parts)
+        .zip(node_ends)
+        .zip(starts(part_blocks).zip(block_ends))
+    {
+        let (mine, rest) = std::mem::take(&mut blocks).split_at_mut(block_end - block_start);
+        blocks = rest;
+        out.push(Piece {
+            nodes: node_start..node_end,
+            blocks: mine,
+            indices: &indices[block_start * BLOCK..block_end * BLOCK],
+            first_block: block_start,
+        });
+    }
+    out
+}
+
+/// Writes every block from the scene, in parallel over runs of blocks (`fill_blocks`).
+fn fill_blocks_parallel(blocks: &mut [TriangleBlock], indices: &[u32], scene: &[Triangle]) {
+    blocks
+        .par_chunks_mut(FILL_CHUNK)
+        .zip(indices.par_chunks(FILL_CHUNK * BLOCK))
+        .for_each(|(blocks, indices)| fill_blocks(blocks, indices, scene));
+}
+
+/// Writes the blocks from the scene: each block's four triangles gathered by their slots'
+/// indices (a padding lane stays NaN) and transposed into the block's rows, which are
+/// written whole.
 fn fill_blocks(blocks: &mut [TriangleBlock], indices: &[u32], scene: &[Triangle]) {
-    let fill = |(blocks, indices): (&mut [TriangleBlock], &[u32])| {
-        for (b, block) in blocks.iter_mut().enumerate() {
-            let ahead = (b + FILL_AHEAD) * BLOCK;
-            for &t in indices.get(ahead..ahead + BLOCK).unwrap_or_default() {
-                if t != PADDING {
-                    prefetch(scene.as_ptr().wrapping_add(t as usize));
-                }
+    for (b, block) in blocks.iter_mut().enumerate() {
+        let ahead = (b + FILL_AHEAD) * BLOCK;
+        for &t in indices.get(ahead..ahead + BLOCK).unwrap_or_default() {
+            if t != PADDING {
+                prefetch(scene.as_ptr().wrapping_add(t as usize));
             }
-            let tris: [&Triangle; BLOCK] =
-                std::array::from_fn(|lane| match indices[b * BLOCK + lane] {
-                    PADDING => &PADDING_TRIANGLE,
-                    t => &scene[t as usize],
-                });
-            // Vertex k of the four triangles, one per column, transposed: its x, y and z
-            // rows (shuffles move the floats' bits unchanged, NaN included).
-            let mut v = [[[0.0; BLOCK]; 3]; 3];
-            for (k, rows) in v.iter_mut().enumerate() {
-                let [t0, t1, t2, t3] = tris.map(|t| t.v[k].extend(0.0));
-                let m = Mat4::from_cols(t0, t1, t2, t3).transpose();
-                for (axis, row) in rows.iter_mut().enumerate() {
-                    *row = m.col(axis).to_array();
-                }
-            }
-            *block = TriangleBlock { v };
         }
-    };
-    if blocks.len() * BLOCK >= PARALLEL_REFIT {
-        blocks
-            .par_chunks_mut(FILL_CHUNK)
-            .zip(indices.par_chunks(FILL_CHUNK * BLOCK))
-            .for_each(fill);
-    } else {
-        blocks
-            .chunks_mut(FILL_CHUNK)
-            .zip(indices.chunks(FILL_CHUNK * BLOCK))
-            .for_each(fill);
+        let tris: [&Triangle; BLOCK] =
+            std::array::from_fn(|lane| match indices[b * BLOCK + lane] {
+                PADDING => &PADDING_TRIANGLE,
+                t => &scene[t as usize],
+            });
+        // Vertex k of the four triangles, one per column, transposed: its x, y and z
+        // rows (shuffles move the floats' bits unchanged, NaN included).
+        let mut v = [[[0.0; BLOCK]; 3]; 3];
+        for (k, rows) in v.iter_mut().enumerate() {
+            let [t0, t1, t2, t3] = tris.map(|t| t.v[k].extend(0.0));
+            let m = Mat4::from_cols(t0, t1, t2, t3).transpose();
+            for (axis, row) in rows.iter_mut().enumerate() {
+                *row = m.col(axis).to_array();
+            }
+        }
+        *block = TriangleBlock { v };
     }
 }
 
@@ -320,36 +360,41 @@ struct Refitted {
 }
 
 /// The tree as the refit's tasks share it: the nodes and what each hands its parent through
-/// raw pointers, because parallel tasks write different nodes of one array; the blocks,
-/// already filled, are read.
-struct SharedTree<'a, const W: usize>
+/// raw pointers, because parallel tasks write different nodes of one array.
+struct SharedTree<const W: usize>
 where
     Lanes<W>: NodeWidth,
 {
     nodes: *mut WideNode<W>,
     done: *mut Refitted,
-    blocks: &'a [TriangleBlock],
 }
 
 // SAFETY: the pointers are only written at nodes owned by one task (see `refit_range`).
-unsafe impl<const W: usize> Sync for SharedTree<'_, W> where Lanes<W>: NodeWidth {}
+unsafe impl<const W: usize> Sync for SharedTree<W> where Lanes<W>: NodeWidth {}
 
-impl<const W: usize> SharedTree<'_, W>
+impl<const W: usize> SharedTree<W>
 where
     Lanes<W>: NodeWidth,
 {
     /// Refits the nodes `range` from the last to the first: a node's interior children come
     /// after it, so each is refitted (and its sums known) before its parent reads it. One
     /// sweep down the array, with no recursion: the nodes stream in, and the reads of one
-    /// node's blocks overlap those of the next.
+    /// node's blocks overlap those of the next. Its leaves' slots lie in `blocks`, whose
+    /// first is block `first_block` of the tree.
     ///
     /// # Safety
     /// No other task may touch the nodes of `range`, and the children of its nodes must lie
     /// in it or be refitted already.
-    unsafe fn refit_range(&self, range: std::ops::Range<usize>, costs: Costs) {
+    unsafe fn refit_range(
+        &self,
+        range: Range<usize>,
+        blocks: &[TriangleBlock],
+        first_block: usize,
+        costs: Costs,
+    ) {
         for i in range.rev() {
             // SAFETY: the caller's contract.
-            unsafe { self.refit_node(i, costs) };
+            unsafe { self.refit_node(i, blocks, first_block, costs) };
         }
     }
 
@@ -360,7 +405,13 @@ where
     /// # Safety
     /// As `refit_range`.
     #[inline(always)]
-    unsafe fn refit_node(&self, i: usize, costs: Costs) {
+    unsafe fn refit_node(
+        &self,
+        i: usize,
+        blocks: &[TriangleBlock],
+        first_block: usize,
+        costs: Costs,
+    ) {
         // SAFETY: node `i` is this task's alone (the caller's contract).
         let node = unsafe { &mut *self.nodes.add(i) };
         let lanes = node.child_count();
@@ -378,17 +429,20 @@ where
             if word.is_leaf() {
                 let (mut lo, mut hi) = (Vec4::INFINITY, Vec4::NEG_INFINITY);
                 let slots = word.slots();
+                let slots = slots.start - first_block * BLOCK..slots.end - first_block * BLOCK;
                 if slots.len() <= 2 {
                     // Most leaves hold one or two triangles: cheaper one lane at a time.
                     for slot in slots {
-                        let (l2, h2) = lane_box(&self.blocks[slot / BLOCK], slot % BLOCK);
+                        let (l2, h2) = lane_box(&blocks[slot / BLOCK], slot % BLOCK);
                         (lo, hi) = (lo.min(l2), hi.max(h2));
                     }
                 } else {
-                    for b in slots.start / BLOCK..slots.end.div_ceil(BLOCK) {
+                    let first = slots.start / BLOCK;
+                    let under = &blocks[first..slots.end.div_ceil(BLOCK)];
+                    for (b, block) in (first..).zip(under) {
                         let start = slots.start.max(b * BLOCK) - b * BLOCK;
                         let end = slots.end.min(b * BLOCK + BLOCK) - b * BLOCK;
-                        let (l2, h2) = lanes_box(&self.blocks[b], start..end);
+                        let (l2, h2) = lanes_box(block, start..end);
                         (lo, hi) = (lo.min(l2), hi.max(h2));
                     }
                 }
@@ -586,5 +640,23 @@ mod tests {
         }
         check::<4>(3);
         check::<8>(4);
+    }
+
+    /// The refit fills a part's blocks and then bounds the part's leaves from them alone, so
+    /// a leaf must hold slots of its own part's blocks: `validate` checks it.
+    #[test]
+    fn each_part_holds_its_own_blocks() {
+        let built = grid_soup(PARALLEL_REFIT + 5000, 7);
+        let b2 = bvh::build(&built, &BuildParams::default()).unwrap().0;
+        let tree = WideBvh::<8>::collapse(&b2, &super::super::CollapseParams::default());
+        assert!(tree.parts.len() > 4);
+        assert_eq!(tree.part_blocks.len(), tree.parts.len());
+        tree.validate().unwrap();
+        for k in 0..tree.part_blocks.len() {
+            let mut moved = tree.clone();
+            moved.part_blocks[k] += 1;
+            let error = moved.validate().unwrap_err();
+            assert!(error.contains("outside its part's slots"), "{error}");
+        }
     }
 }
