@@ -15,7 +15,8 @@
 //! nodes, box tests and triangle tests per ray are counted after the timing. The BVH8 is
 //! collapsed from binned SAH's tree, or from the builder named in `WALK_BUILDER` (a label
 //! as `bench builders` prints it, e.g. `SBVH`) with `WALK_PRESPLIT` as its pre-split
-//! budget; with `--cache-sim=yes --LL=2097152,16,64` callgrind then counts each tree's
+//! budget; with `WALK_TILES` set, each 8 × 8 tile of primary rays is timed as a packet and
+//! ray by ray, and what the faster per tile would save is printed; with `--cache-sim=yes --LL=2097152,16,64` callgrind then counts each tree's
 //! misses in a 2 MiB L2 (docs/build-quality.md, "What a node and a test cost").
 
 use bvhlab::accel::bvh::packet::PACKET_SIZE;
@@ -168,6 +169,9 @@ fn main() {
         n / wall / 1e6,
         n / cpu / 1e6
     );
+    if std::env::var_os("WALK_TILES").is_some() {
+        tile_choice(&bvh8, &sets.primary_tiles);
+    }
     if std::env::var_os("WALK_COUNT").is_some() {
         let mut c = Counters::default();
         for r in rays {
@@ -185,4 +189,42 @@ fn main() {
             per_ray(c.triangle_tests)
         );
     }
+}
+
+/// `WALK_TILES` set: each 8 × 8 tile of primary rays timed as one packet and ray by ray (the
+/// fastest of 15 tries each, on this thread), to see what choosing the faster per tile
+/// would save over packets everywhere (issue #31, item 3).
+fn tile_choice(bvh8: &WideBvh<8>, tiles: &[Ray]) {
+    let time = |f: &mut dyn FnMut()| {
+        (0..15)
+            .map(|_| {
+                let start = Instant::now();
+                f();
+                start.elapsed().as_secs_f64()
+            })
+            .fold(f64::INFINITY, f64::min)
+    };
+    let (mut packets, mut singles, mut best, mut single_wins) = (0.0, 0.0, 0.0, 0);
+    let mut hits = [None; PACKET_SIZE];
+    for tile in tiles.chunks(PACKET_SIZE) {
+        let hits = &mut hits[..tile.len()];
+        let p = time(&mut || bvh8.closest_hits::<Watertight>(std::hint::black_box(tile), hits));
+        let s = time(&mut || {
+            for r in std::hint::black_box(tile) {
+                std::hint::black_box(bvh8.closest_hit::<Watertight, _>(r, &mut NoStats));
+            }
+        });
+        packets += p;
+        singles += s;
+        best += p.min(s);
+        single_wins += usize::from(s < p);
+    }
+    let n = tiles.len().div_ceil(PACKET_SIZE);
+    println!(
+        "tiles: {n}; ray by ray faster in {single_wins}; all packets {:.2} ms, all single rays {:.2} ms, the faster per tile {:.2} ms ({:.2} % below packets)",
+        packets * 1e3,
+        singles * 1e3,
+        best * 1e3,
+        100.0 * (1.0 - best / packets)
+    );
 }
