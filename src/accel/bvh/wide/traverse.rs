@@ -91,7 +91,8 @@ where
         let mut box_tmax = best.t * T_SCALE;
         let mut storage = MaybeUninit::uninit();
         let mut stack = Stack::new(&mut storage);
-        let mut entry = [0.0f32; W];
+        let mut row = EntryRow([0.0; W]);
+        let entry = &mut row.0;
         let mut cur = start;
         loop {
             stats.node_visit();
@@ -110,14 +111,13 @@ where
                 }
                 // SAFETY: a tree only selects a kernel its CPU supports (`set_simd`), and
                 // the entry points below are compiled for it.
-                let mut mask =
-                    unsafe { K::entries(&node.bounds, wray, ray.tmin, box_tmax, &mut entry) };
+                let mut mask = unsafe { K::entries(&node.bounds, wray, ray.tmin, box_tmax, entry) };
                 let order = if ORDERED {
                     Order::Nearest
                 } else {
                     Order::Fixed
                 };
-                record(stats, || self.children_step(cur.child, mask, &entry, order));
+                record(stats, || self.children_step(cur.child, mask, entry, order));
                 if mask != 0 {
                     // Lanes are below W, a power of two: `% W` spares the bounds checks.
                     let lane = |i: u32| Entry {
@@ -179,7 +179,7 @@ where
                             // stack never leaves this function and its length stays in a
                             // register (passed to a call, it lived in memory, and every
                             // pop waited for the store of the push before it).
-                            let sorted = nearest_first_many::<W>(mask, &entry);
+                            let sorted = nearest_first_many::<W>(mask, entry);
                             let n = (mask.count_ones() as usize).min(8);
                             for &k in sorted[1..n].iter().rev() {
                                 push(k);
@@ -257,7 +257,8 @@ where
         let mut tmax = ray.tmax * T_SCALE;
         let mut storage = MaybeUninit::uninit();
         let mut stack = Stack::new(&mut storage);
-        let mut entry = [0.0f32; W];
+        let mut row = EntryRow([0.0; W]);
+        let entry = &mut row.0;
         let mut cur = Entry {
             child: start,
             entry: ray.tmin,
@@ -272,10 +273,9 @@ where
                     stats.box_tests(node.child_count() as u32);
                 }
                 // SAFETY: as in `closest_with`.
-                let mut mask =
-                    unsafe { K::entries(&node.bounds, wray, ray.tmin, tmax, &mut entry) };
+                let mut mask = unsafe { K::entries(&node.bounds, wray, ray.tmin, tmax, entry) };
                 record(stats, || {
-                    self.children_step(cur.child, mask, &entry, Order::AnyHit)
+                    self.children_step(cur.child, mask, entry, Order::AnyHit)
                 });
                 let lane = |i: usize| Entry {
                     child: node.child[i % W],
@@ -353,6 +353,15 @@ where
         self.prefetch_child(e.child);
     }
 }
+
+/// The entry distances of a node's W children, which the slab kernel writes with one vector
+/// store and the walk then reads lane by lane. Aligned to the vector, so that the store never
+/// straddles two cache lines: a straddling store cannot be forwarded to the loads after it,
+/// and where a plain array fell in the walk's frame depended on its callers' frames. Two
+/// builds that differed only in a caller gave the bench's primary rays on two threads 20 %
+/// apart (docs/wide-bvh.md, "A measurement hazard").
+#[repr(C, align(32))]
+struct EntryRow<const W: usize>([f32; W]);
 
 /// Five to eight entered children (`mask`): their keys ordered nearest first by the network
 /// of eight, the missed lanes' `u64::MAX` after them. Out of line: the eight keys need more
