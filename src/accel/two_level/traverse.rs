@@ -17,7 +17,7 @@ use super::TwoLevel;
 use crate::accel::bvh::Bvh8;
 use crate::accel::bvh::traverse::T_SCALE;
 use crate::accel::bvh::wide::node::{Subtree, WideNode};
-use crate::accel::bvh::wide::stack::{Entry, Stack};
+use crate::accel::bvh::wide::stack::{Entry, EntryRow, Stack};
 use crate::accel::replay::{Level, Order, Step};
 use crate::accel::stats::{count_locally, record};
 use crate::accel::{Accel, BestHit, Hit, Stats, TraversalOrder};
@@ -179,7 +179,8 @@ impl TwoLevel {
         let mut box_tmax = best.t * T_SCALE;
         let mut storage = MaybeUninit::uninit();
         let mut stack = Stack::new(&mut storage);
-        let mut entry = [0.0f32; 8];
+        let mut row = EntryRow([0.0; 8]);
+        let entry = &mut row.0;
         let mut cur = start;
         loop {
             stats.top_node_visit();
@@ -196,14 +197,13 @@ impl TwoLevel {
                 }
                 // SAFETY: the TLAS only selects a kernel its CPU supports (`set_simd`), and
                 // the entry points below are compiled for it.
-                let mut mask =
-                    unsafe { K::entries(&node.bounds, wray, ray.tmin, box_tmax, &mut entry) };
+                let mut mask = unsafe { K::entries(&node.bounds, wray, ray.tmin, box_tmax, entry) };
                 let order = if ORDERED {
                     Order::Nearest
                 } else {
                     Order::Fixed
                 };
-                record(stats, || tlas.children_step(cur.child, mask, &entry, order));
+                record(stats, || tlas.children_step(cur.child, mask, entry, order));
                 let lane = |i: u32| Entry {
                     child: node.child[i as usize],
                     entry: entry[i as usize],
@@ -263,7 +263,8 @@ impl TwoLevel {
         let tmax = ray.tmax * T_SCALE;
         let mut storage = MaybeUninit::uninit();
         let mut stack = Stack::new(&mut storage);
-        let mut entry = [0.0f32; 8];
+        let mut row = EntryRow([0.0; 8]);
+        let entry = &mut row.0;
         let mut cur = Entry {
             child: Subtree::ROOT,
             entry: ray.tmin,
@@ -283,10 +284,9 @@ impl TwoLevel {
                     stats.top_box_tests(node.child_count() as u32);
                 }
                 // SAFETY: as in `closest_with`.
-                let mut mask =
-                    unsafe { K::entries(&node.bounds, &wray, ray.tmin, tmax, &mut entry) };
+                let mut mask = unsafe { K::entries(&node.bounds, &wray, ray.tmin, tmax, entry) };
                 record(stats, || {
-                    tlas.children_step(cur.child, mask, &entry, Order::AnyHit)
+                    tlas.children_step(cur.child, mask, entry, Order::AnyHit)
                 });
                 while mask != 0 {
                     let j = mask.trailing_zeros() as usize;

@@ -88,3 +88,15 @@ impl Stack<'_> {
         }
     }
 }
+
+/// The entry distances of a node's W children, which the slab kernel writes with one vector
+/// store and the walk then reads lane by lane. Aligned to the vector, so that the store never
+/// straddles two cache lines: a straddling store cannot be forwarded to the loads after it,
+/// and where a plain array fell in the walk's frame depended on its callers' frames. Two
+/// builds that differed only in a caller gave the bench's primary rays on two threads 20 %
+/// apart (docs/wide-bvh.md, "A measurement hazard, found").
+#[repr(C, align(32))]
+pub(crate) struct EntryRow<const W: usize>(pub(crate) [f32; W]);
+
+// The row must take one vector store without straddling a line: at least the widest (8 × f32).
+const _: () = assert!(std::mem::align_of::<EntryRow<8>>() >= 32);

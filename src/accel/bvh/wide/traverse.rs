@@ -12,7 +12,7 @@ use super::leaf::Leaf;
 use super::order::{
     key, key_of_ordered, lane_of, nearest_first3, nearest_first4, nearest_first8, ordered,
 };
-use super::stack::{Entry, Stack};
+use super::stack::{Entry, EntryRow, Stack};
 use super::{Lanes, NodeWidth, Subtree, WideBvh, WideNode};
 use crate::accel::bvh::packet::PACKET_SIZE;
 use crate::accel::bvh::traverse::T_SCALE;
@@ -353,15 +353,6 @@ where
         self.prefetch_child(e.child);
     }
 }
-
-/// The entry distances of a node's W children, which the slab kernel writes with one vector
-/// store and the walk then reads lane by lane. Aligned to the vector, so that the store never
-/// straddles two cache lines: a straddling store cannot be forwarded to the loads after it,
-/// and where a plain array fell in the walk's frame depended on its callers' frames. Two
-/// builds that differed only in a caller gave the bench's primary rays on two threads 20 %
-/// apart (docs/wide-bvh.md, "A measurement hazard").
-#[repr(C, align(32))]
-struct EntryRow<const W: usize>([f32; W]);
 
 /// Five to eight entered children (`mask`): their keys ordered nearest first by the network
 /// of eight, the missed lanes' `u64::MAX` after them. Out of line: the eight keys need more
