@@ -235,6 +235,8 @@ fn pieces<'a>(
     }
     let node_ends = starts(parts).skip(1).chain([nodes]);
     let block_ends = starts(part_blocks).skip(1).chain([blocks.len()]);
+    // Every layout records both (`Part::place_into`); a part left out would keep old boxes.
+    assert_eq!(parts.len(), part_blocks.len(), "parts and their blocks");
     let mut out = Vec::with_capacity(parts.len() + 1);
     for ((node_start, node_end), (block_start, block_end)) in starts(parts)
         .zip(node_ends)
