@@ -15,9 +15,15 @@
 //! nodes, box tests and triangle tests per ray are counted after the timing. The BVH8 is
 //! collapsed from binned SAH's tree, or from the builder named in `WALK_BUILDER` (a label
 //! as `bench builders` prints it, e.g. `SBVH`) with `WALK_PRESPLIT` as its pre-split
-//! budget; with `WALK_TILES` set, each 8 × 8 tile of primary rays is timed as a packet and
-//! ray by ray, and what the faster per tile would save is printed; with `--cache-sim=yes --LL=2097152,16,64` callgrind then counts each tree's
+//! budget; with `--cache-sim=yes --LL=2097152,16,64` callgrind then counts each tree's
 //! misses in a 2 MiB L2 (docs/build-quality.md, "What a node and a test cost").
+//!
+//! `WALK_THREADS=n` traces the set on n threads in chunks of 256 rays, as the bench does;
+//! with `WALK_STRUCTURE` set as well, through the structure the bench builds (its
+//! `Structure`, the fastest layout) rather than the BVH8 collapsed here. With `WALK_TILES`
+//! set, each 8 × 8 tile of primary rays is timed as a packet and ray by ray, and what taking
+//! the faster per tile would save is printed (docs/wide-bvh.md, "Packets or single rays,
+//! tile by tile").
 
 use bvhlab::accel::bvh::packet::PACKET_SIZE;
 use bvhlab::accel::bvh::wide::CollapseParams;
