@@ -216,6 +216,25 @@ where
     /// needs and holds a triangle once, every lane of no leaf is padding, every child box is
     /// exactly the union of its subtree's boxes or triangles (a leaf with split references:
     /// within it), and interior children come after their parent.
+    /// The pieces the tree was laid out in, the top first and then each part: the range of
+    /// its nodes and the range of its blocks. One piece (the whole tree) when it has no parts.
+    pub(crate) fn pieces(&self) -> Vec<(std::ops::Range<usize>, std::ops::Range<usize>)> {
+        // Every layout records both (`Part::place_into`); a part left out would be skipped.
+        assert_eq!(
+            self.parts.len(),
+            self.part_blocks.len(),
+            "parts and their blocks"
+        );
+        let ranges = |starts: &[u32], end: usize| {
+            let starts = std::iter::once(0).chain(starts.iter().map(|&s| s as usize));
+            let ends = starts.clone().skip(1).chain([end]);
+            starts.zip(ends).map(|(a, b)| a..b).collect::<Vec<_>>()
+        };
+        let nodes = ranges(&self.parts, self.nodes.len());
+        let blocks = ranges(&self.part_blocks, self.blocks.len());
+        nodes.into_iter().zip(blocks).collect()
+    }
+
     pub fn validate(&self) -> Result<(), String> {
         let slots = self.blocks.len() * BLOCK;
         if self.prim_indices.len() != slots {
@@ -257,15 +276,10 @@ where
                 self.blocks.len()
             ));
         }
+        let part_blocks: Vec<_> = self.pieces().into_iter().map(|(_, b)| b).collect();
         let part_slots = |k: usize| {
-            let block = |k: usize| match k {
-                0 => 0,
-                k => self
-                    .part_blocks
-                    .get(k - 1)
-                    .map_or(self.blocks.len(), |&b| b as usize),
-            };
-            block(k) * BLOCK..block(k + 1) * BLOCK
+            let b: &std::ops::Range<usize> = &part_blocks[k];
+            b.start * BLOCK..b.end * BLOCK
         };
         for (i, node) in self.nodes.iter().enumerate() {
             let used = node.child_count();

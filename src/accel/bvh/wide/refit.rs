@@ -82,13 +82,7 @@ where
         // The top of the tree and the parts the collapse laid out apart, each a whole
         // subtree of its own nodes and blocks: a task fills a part's blocks and refits its
         // nodes. The parts in parallel; then the top, whose lanes reach the parts' roots.
-        let mut pieces = pieces(
-            &self.parts,
-            &self.part_blocks,
-            self.nodes.len(),
-            &mut self.blocks,
-            &self.prim_indices,
-        );
+        let mut pieces = pieces(self.pieces(), &mut self.blocks, &self.prim_indices);
         let top = pieces.remove(0);
         let refit_piece = |p: Piece<'_>| {
             if parallel && one_piece {
@@ -222,36 +216,25 @@ struct Piece<'a> {
     first_block: usize,
 }
 
-/// The top of the tree (first) and each part, from where the parts' nodes and blocks begin.
+/// The pieces of the tree (`WideBvh::pieces`), each with its blocks and their slots' indices.
 fn pieces<'a>(
-    parts: &[u32],
-    part_blocks: &[u32],
-    nodes: usize,
+    ranges: Vec<(Range<usize>, Range<usize>)>,
     mut blocks: &'a mut [TriangleBlock],
     indices: &'a [u32],
 ) -> Vec<Piece<'a>> {
-    fn starts(s: &[u32]) -> impl Iterator<Item = usize> + '_ {
-        std::iter::once(0).chain(s.iter().map(|&p| p as usize))
-    }
-    let node_ends = starts(parts).skip(1).chain([nodes]);
-    let block_ends = starts(part_blocks).skip(1).chain([blocks.len()]);
-    // Every layout records both (`Part::place_into`); a part left out would keep old boxes.
-    assert_eq!(parts.len(), part_blocks.len(), "parts and their blocks");
-    let mut out = Vec::with_capacity(parts.len() + 1);
-    for ((node_start, node_end), (block_start, block_end)) in starts(parts)
-        .zip(node_ends)
-        .zip(starts(part_blocks).zip(block_ends))
-    {
-        let (mine, rest) = std::mem::take(&mut blocks).split_at_mut(block_end - block_start);
-        blocks = rest;
-        out.push(Piece {
-            nodes: node_start..node_end,
-            blocks: mine,
-            indices: &indices[block_start * BLOCK..block_end * BLOCK],
-            first_block: block_start,
-        });
-    }
-    out
+    ranges
+        .into_iter()
+        .map(|(nodes, b)| {
+            let (mine, rest) = std::mem::take(&mut blocks).split_at_mut(b.len());
+            blocks = rest;
+            Piece {
+                nodes,
+                blocks: mine,
+                indices: &indices[b.start * BLOCK..b.end * BLOCK],
+                first_block: b.start,
+            }
+        })
+        .collect()
 }
 
 /// Writes every block from the scene, in parallel over runs of blocks (`fill_blocks`).
