@@ -14,7 +14,6 @@
 //! so an instance opened into several references that the ray reaches counts once for each.
 
 use super::TwoLevel;
-use crate::accel::bvh::Bvh8;
 use crate::accel::bvh::traverse::T_SCALE;
 use crate::accel::bvh::wide::node::{Subtree, WideNode};
 use crate::accel::bvh::wide::stack::{Entry, EntryRow, Stack};
@@ -23,39 +22,9 @@ use crate::accel::stats::{count_locally, record};
 use crate::accel::{Accel, BestHit, Hit, Stats, TraversalOrder};
 use crate::geometry::intersect::TriangleHit;
 use crate::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab};
-use crate::geometry::simd::{
-    BLOCK, PACKET_RAYS, SimdLevel, TriangleBlock, TriangleKernel, WideRay, prefetch,
-};
+use crate::geometry::simd::{PACKET_RAYS, SimdLevel, TriangleKernel, WideRay};
 use crate::geometry::{Intersector, Ray};
 use std::mem::MaybeUninit;
-
-/// Starts loading the first node of a reference's subtree (its lines) or its leaf's
-/// first triangle block while the ray is carried into the instance's space: a BLAS walk
-/// begins with a cache miss, as the references a ray enters lie far apart.
-#[inline(always)]
-fn prefetch_subtree(blas: &Bvh8, start: Subtree) {
-    const LINE: usize = 64;
-    if start.is_leaf() {
-        let block = start.index() as usize / BLOCK;
-        let p = blas.blocks.as_ptr().wrapping_add(block).cast::<u8>();
-        prefetch(p);
-        prefetch(p.wrapping_add(LINE));
-        prefetch(p.wrapping_add(std::mem::size_of::<TriangleBlock>() - 1));
-    } else {
-        // A node's rows start anywhere in a line: its first byte's line, the next three,
-        // and its last byte's.
-        let size = std::mem::size_of::<WideNode<8>>();
-        let p = blas
-            .nodes
-            .as_ptr()
-            .wrapping_add(start.node_index())
-            .cast::<u8>();
-        for line in 0..size.div_ceil(LINE) {
-            prefetch(p.wrapping_add(line * LINE));
-        }
-        prefetch(p.wrapping_add(size - 1));
-    }
-}
 
 impl TwoLevel {
     /// Walks the subtree of the reference in TLAS leaf slot `k` with the world ray `ray`,
@@ -85,7 +54,9 @@ impl TwoLevel {
         record(stats, || Step::Instance { instance: i });
         let blas = &self.blases[leaf.blas as usize];
         let start = leaf.subtree;
-        prefetch_subtree(blas, start);
+        // A BLAS walk begins with a cache miss, as the references a ray enters lie
+        // far apart: the subtree's first node or block loads while the ray is carried over.
+        blas.prefetch_child(start);
         let local = Ray {
             tmax: best.limit,
             ..match leaf.is_identity() {
@@ -128,7 +99,9 @@ impl TwoLevel {
         record(stats, || Step::Instance { instance: i });
         let blas = &self.blases[leaf.blas as usize];
         let start = leaf.subtree;
-        prefetch_subtree(blas, start);
+        // A BLAS walk begins with a cache miss, as the references a ray enters lie
+        // far apart: the subtree's first node or block loads while the ray is carried over.
+        blas.prefetch_child(start);
         if leaf.is_identity() {
             return blas.occluded_prepared::<K, I, S>(start, ray, wray, data, stats);
         }

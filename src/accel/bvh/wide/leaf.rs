@@ -6,7 +6,7 @@
 //! against the best hit as it shrinks, lane by lane in leaf order, and a lane the block test
 //! hands back (`retest`) is tested by the scalar test with the best hit of that moment.
 
-use super::node::Subtree;
+use super::node::{Subtree, WideNode};
 use super::{Lanes, NodeWidth, WideBvh};
 use crate::accel::replay::Step;
 use crate::accel::stats::record;
@@ -477,11 +477,15 @@ where
         }
     }
 
-    /// Prefetches a leaf child's first block of triangles when its parent is tested, so the
-    /// block test does not wait for it. Interior children are not prefetched: a node's rows
-    /// are loaded together at its test, and the hardware fetches neighbouring lines.
+    /// Starts loading a child before it is visited: a leaf's first block of triangles, or an
+    /// interior node's lines. A walk calls it for the children it pushes, so their data
+    /// arrives while their siblings are visited; the two levels call it for the subtree a
+    /// ray enters, while the ray is carried into the instance's space. Prefetching interior
+    /// children gains nothing while a tree fits the L2 (sponza), but a ray through the
+    /// island's BLASes meets cold nodes all the way down (docs/two-level.md, "Interior
+    /// children prefetched").
     #[inline(always)]
-    pub(super) fn prefetch_child(&self, child: Subtree) {
+    pub(crate) fn prefetch_child(&self, child: Subtree) {
         const LINE: usize = 64;
         if child.is_leaf() {
             // A block (144 bytes, 16-byte aligned) touches at most three lines: those of its
@@ -494,6 +498,20 @@ where
             prefetch(p);
             prefetch(p.wrapping_add(LINE));
             prefetch(p.wrapping_add(std::mem::size_of::<TriangleBlock>() - 1));
+        } else {
+            // A node's rows start anywhere in a line: every line from its first byte's, and
+            // its last byte's.
+            let size = std::mem::size_of::<WideNode<W>>();
+            let p = self
+                .nodes
+                .as_ptr()
+                .cast::<[f32; W]>()
+                .wrapping_add(child.node_row())
+                .cast::<u8>();
+            for line in 0..size.div_ceil(LINE) {
+                prefetch(p.wrapping_add(line * LINE));
+            }
+            prefetch(p.wrapping_add(size - 1));
         }
     }
 }
