@@ -284,12 +284,12 @@ where
         let rays = &rays[..n];
         // SAFETY: a tree only selects a kernel its CPU supports (`set_simd`), and the entry
         // points are compiled for it.
-        let (mut soa, shear) = unsafe {
-            let soa = RayPacket::load::<K>(rays, T_SCALE);
-            // The watertight test has a form that tests one triangle against many rays.
-            let shear = I::PACKET_TEST.then(|| PacketShear::new::<K>(&soa));
-            (soa, shear)
-        };
+        // Bound where they are made: a packet is 3 KiB, and returning the pair from a block
+        // copied it.
+        let mut soa = unsafe { RayPacket::load::<K>(rays, T_SCALE) };
+        // The watertight test has a form that tests one triangle against many rays.
+        // SAFETY: as above.
+        let shear = I::PACKET_TEST.then(|| unsafe { PacketShear::new::<K>(&soa) });
         // Rays from one origin into one octant: the interval test culls children first.
         let interval = WideInterval::of_packet(&soa);
         let mut p = Packet {
