@@ -47,11 +47,7 @@ impl State {
         if o.level.is_some() && !self.moved.is_empty() {
             // What moved since the build, so the stretched boxes can be traced to it.
             let moved = &self.moved;
-            tint_triangles(frame, rgba, |t| {
-                u32::try_from(t)
-                    .is_ok_and(|t| moved.contains(&t))
-                    .then_some(MOVED_TINT)
-            });
+            tint_triangles(frame, rgba, |t| moved.contains(t).then_some(MOVED_TINT));
         }
         if let Some(sel) = &o.selected {
             let selection = self.selection_table(sel);

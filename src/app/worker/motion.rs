@@ -49,6 +49,47 @@ impl SelectionTable {
     }
 }
 
+/// The triangles moved since the last build, as a table by triangle index: a drag adds its
+/// whole selection (an object of 10^5 triangles) at every move, and the levels' tint asks
+/// about every pixel's triangle. A hash set took milliseconds of each drag step for both.
+#[derive(Default)]
+pub(in crate::app) struct MovedTriangles {
+    moved: Vec<bool>,
+    any: bool,
+}
+
+impl MovedTriangles {
+    /// Marks `triangles` of a scene of `triangle_count` as moved (a table kept for a scene
+    /// of another size is dropped first: its indices named other triangles).
+    pub(in crate::app) fn add(&mut self, triangles: &[u32], triangle_count: usize) {
+        if self.moved.len() != triangle_count {
+            self.moved = vec![false; triangle_count];
+            self.any = false;
+        }
+        for &t in triangles {
+            if let Some(m) = self.moved.get_mut(t as usize) {
+                *m = true;
+                self.any = true;
+            }
+        }
+    }
+
+    pub(in crate::app) fn is_empty(&self) -> bool {
+        !self.any
+    }
+
+    pub(in crate::app) fn clear(&mut self) {
+        if self.any {
+            self.moved.fill(false);
+            self.any = false;
+        }
+    }
+
+    pub(in crate::app) fn contains(&self, t: u64) -> bool {
+        usize::try_from(t).is_ok_and(|t| self.moved.get(t) == Some(&true))
+    }
+}
+
 pub(in crate::app) fn same_selection(a: &Arc<Vec<u32>>, b: &Arc<Vec<u32>>) -> bool {
     Arc::ptr_eq(a, b) || a == b
 }
@@ -152,7 +193,7 @@ impl State {
             None => scene.move_triangles(triangles, delta),
         }
         self.scene_version += 1;
-        self.moved.extend(triangles.iter().copied());
+        self.moved.add(triangles, scene.triangles.len());
         // The standard light from the scene's box in its two parts, the selection's moved;
         // back at the drag's origin, from the scene again, so it is the light it was.
         if origin.is_some() {
@@ -392,5 +433,31 @@ impl State {
         // Only the overlay changes: the UI asks for a frame with the new selection.
         self.instance = outlined.clone();
         self.reply(Reply::InstanceSelected(outlined));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::MovedTriangles;
+
+    /// Moves accumulate until cleared; an index outside the scene is ignored; a table made
+    /// for a scene of another size starts afresh (its indices named other triangles).
+    #[test]
+    fn moved_triangles_accumulate_until_cleared() {
+        let mut m = MovedTriangles::default();
+        assert!(m.is_empty() && !m.contains(0));
+        m.add(&[3, 5, 5], 10);
+        m.add(&[7, 99], 10);
+        assert!(!m.is_empty());
+        let moved: Vec<u64> = (0..12).filter(|&t| m.contains(t)).collect();
+        assert_eq!(moved, [3, 5, 7]);
+        assert!(!m.contains(u64::MAX));
+        m.clear();
+        assert!(m.is_empty() && !m.contains(3));
+        m.add(&[99], 10);
+        assert!(m.is_empty(), "no triangle of the scene moved");
+        m.add(&[4], 10);
+        m.add(&[6], 20);
+        assert!(!m.contains(4) && m.contains(6));
     }
 }

@@ -3,7 +3,7 @@
 //! skipped, and only the newest render request is rendered.
 
 use super::messages::*;
-use super::motion::{DragBounds, SelectionTable};
+use super::motion::{DragBounds, MovedTriangles, SelectionTable};
 use crate::accel::Outline;
 use crate::accel::bvh::Bvh;
 use crate::accel::bvh::refit::RefitIndex;
@@ -67,7 +67,7 @@ pub(in crate::app) struct State {
     /// a faint ghost of these, so a refit's stretching is seen.
     pub(in crate::app) built_outline: Arc<Outline>,
     /// The triangles moved since the last build (highlighted while levels are shown).
-    pub(in crate::app) moved: std::collections::HashSet<u32>,
+    pub(in crate::app) moved: MovedTriangles,
     /// Under the two levels: the selected instance's BLAS, and the instance each top-level
     /// leaf holds.
     pub(in crate::app) instance: Option<Arc<InstanceOutline>>,
