@@ -211,11 +211,6 @@ where
         )
     }
 
-    /// Checks that each triangle is in some leaf (exactly one unless its reference was split,
-    /// and then its references' boxes cover it), every leaf spans no more blocks than it
-    /// needs and holds a triangle once, every lane of no leaf is padding, every child box is
-    /// exactly the union of its subtree's boxes or triangles (a leaf with split references:
-    /// within it), and interior children come after their parent.
     /// The pieces the tree was laid out in, the top first and then each part: the range of
     /// its nodes and the range of its blocks. One piece (the whole tree) when it has no parts.
     pub(crate) fn pieces(&self) -> Vec<(std::ops::Range<usize>, std::ops::Range<usize>)> {
@@ -235,6 +230,11 @@ where
         nodes.into_iter().zip(blocks).collect()
     }
 
+    /// Checks that each triangle is in some leaf (exactly one unless its reference was split,
+    /// and then its references' boxes cover it), every leaf spans no more blocks than it
+    /// needs and holds a triangle once, every lane of no leaf is padding, every child box is
+    /// exactly the union of its subtree's boxes or triangles (a leaf with split references:
+    /// within it), and interior children come after their parent.
     pub fn validate(&self) -> Result<(), String> {
         let slots = self.blocks.len() * BLOCK;
         if self.prim_indices.len() != slots {
