@@ -60,36 +60,68 @@ impl Binning {
     }
 
     /// Adds `refs` to `bins`: `bins[3k + axis]` is bucket k on that axis, the three axes
-    /// side by side so the sweeps below advance them together.
-    fn fill(&self, refs: &[PrimRef], bins: &mut [Bin]) {
-        let bins = &mut bins[..3 * self.buckets];
-        let last = Vec3A::splat((self.buckets - 1) as f32);
-        for r in refs {
-            let (lo, hi) = (r.lo(), r.hi());
-            let c = (lo + hi - self.origin) * self.scale;
-            // NaN (a degenerate extent) and negatives go to the first bucket; past the
-            // last (rounding at the top of the range) to the last.
-            let k = Vec3A::select(c.cmpge(Vec3A::ZERO), c, Vec3A::ZERO).min(last);
-            for (axis, k) in truncate(k).into_iter().enumerate() {
-                // SAFETY: k ≤ buckets − 1 (clamped above), so 3k + axis < 3 · buckets, the
-                // length of `bins`. Unchecked: this is the build's innermost loop.
-                let bin = unsafe { bins.get_unchecked_mut(3 * k + axis) };
-                bin.count += 1;
-                bin.bounds.grow(lo, hi);
+    /// side by side so the sweeps below advance them together. A large node's references
+    /// go alternately to `bins` and to `spare` (as long, every bin empty; left so), merged
+    /// at the end: a mesh's neighbouring triangles, next to each other in the references
+    /// after a few partitions, fall into the same buckets, and with one set of bins each
+    /// update would wait for the one before to be stored. The unions and counts are exact,
+    /// so the bins are the same.
+    fn fill(&self, refs: &[PrimRef], bins: &mut [Bin], spare: &mut [Bin]) {
+        let n = 3 * self.buckets;
+        let bins = &mut bins[..n];
+        if refs.len() < TWO_SETS || spare.len() < n {
+            for r in refs {
+                self.add(r, bins);
             }
+            return;
+        }
+        let spare = &mut spare[..n];
+        let pairs = refs.chunks_exact(2);
+        if let [r] = pairs.remainder() {
+            self.add(r, bins);
+        }
+        for pair in pairs {
+            self.add(&pair[0], bins);
+            self.add(&pair[1], spare);
+        }
+        for (x, y) in bins.iter_mut().zip(spare.iter_mut()) {
+            x.count += y.count;
+            x.bounds = x.bounds.union(y.bounds);
+            *y = EMPTY_BIN;
         }
     }
 
-    fn fill_parallel(&self, refs: &[PrimRef], bins: &mut [Bin]) {
+    /// Adds one reference to its bucket on each axis.
+    #[inline(always)]
+    fn add(&self, r: &PrimRef, bins: &mut [Bin]) {
+        let last = Vec3A::splat((self.buckets - 1) as f32);
+        let (lo, hi) = (r.lo(), r.hi());
+        let c = (lo + hi - self.origin) * self.scale;
+        // NaN (a degenerate extent) and negatives go to the first bucket; past the
+        // last (rounding at the top of the range) to the last.
+        let k = Vec3A::select(c.cmpge(Vec3A::ZERO), c, Vec3A::ZERO).min(last);
+        debug_assert!(bins.len() == 3 * self.buckets);
+        for (axis, k) in truncate(k).into_iter().enumerate() {
+            // SAFETY: k ≤ buckets − 1 (clamped above), so 3k + axis < 3 · buckets, the
+            // length of `bins`. Unchecked: this is the build's innermost loop.
+            let bin = unsafe { bins.get_unchecked_mut(3 * k + axis) };
+            bin.count += 1;
+            bin.bounds.grow(lo, hi);
+        }
+    }
+
+    /// `fill` over `refs`, on every thread for a node large enough for its passes to pay.
+    fn fill_parallel(&self, refs: &[PrimRef], bins: &mut [Bin], spare: &mut [Bin]) {
         if refs.len() < PARALLEL_PASS {
-            return self.fill(refs, bins);
+            return self.fill(refs, bins, spare);
         }
         let partial = refs
             .par_chunks(PARALLEL_PASS / 4)
             .map(|chunk| {
-                let mut bins = vec![EMPTY_BIN; 3 * self.buckets];
-                self.fill(chunk, &mut bins);
-                bins
+                let mut bins = vec![EMPTY_BIN; 6 * self.buckets];
+                let (bins, spare) = bins.split_at_mut(3 * self.buckets);
+                self.fill(chunk, bins, spare);
+                bins.to_vec()
             })
             .collect::<Vec<_>>();
         for p in partial {
@@ -100,6 +132,9 @@ impl Binning {
         }
     }
 }
+
+/// Nodes of at least this many references are binned into two sets of bins (`fill`).
+const TWO_SETS: usize = 64;
 
 /// The three lanes of `k` (finite, in 0..=buckets − 1) truncated to bucket indices, by one
 /// vector conversion where there is one.
@@ -128,6 +163,8 @@ fn truncate(k: Vec3A) -> [usize; 3] {
 #[derive(Default)]
 struct Scratch {
     bins: Vec<Bin>,
+    /// `fill`'s second set of bins, every one empty between calls.
+    spare: Vec<Bin>,
     sweep: Sweep,
 }
 
@@ -240,9 +277,12 @@ fn candidates(
     with_scratch(|s| {
         s.bins.clear();
         s.bins.resize(3 * b, EMPTY_BIN);
+        if s.spare.len() < 3 * b {
+            s.spare.resize(3 * b, EMPTY_BIN);
+        }
         s.sweep.right_area.resize(3 * b, 0.0);
         s.sweep.right_count.resize(3 * b, 0);
-        binning.fill_parallel(refs, &mut s.bins);
+        binning.fill_parallel(refs, &mut s.bins, &mut s.spare);
         // Empty buckets change neither side: the sweeps skip their unions and areas.
         let (mut acc, mut count, mut area) = ([Box3A::EMPTY; 3], [0u32; 3], [0.0f32; 3]);
         for k in (1..b).rev() {
@@ -315,12 +355,13 @@ pub fn best(
         // few of the 3B near the leaves): only new ones need setting.
         if s.bins.len() < 3 * b {
             s.bins.resize(3 * b, EMPTY_BIN);
+            s.spare.resize(3 * b, EMPTY_BIN);
         }
         s.sweep.right_area.resize(b, 0.0);
         s.sweep.right_count.resize(b, 0);
         s.sweep.filled.resize(3 * b, 0);
         let bins = &mut s.bins[..3 * b];
-        binning.fill_parallel(refs, bins);
+        binning.fill_parallel(refs, bins, &mut s.spare);
         let Sweep {
             right_area,
             right_count,
@@ -528,7 +569,23 @@ mod tests {
         ] {
             let b = binning.buckets;
             let mut bins = vec![EMPTY_BIN; 3 * b];
-            binning.fill(refs, &mut bins);
+            let mut spare = vec![EMPTY_BIN; 3 * b];
+            binning.fill(refs, &mut bins, &mut spare);
+            // One set of bins gives the same bins (`refs` has two sets' length), and the
+            // spare set is left empty.
+            let mut one_set = vec![EMPTY_BIN; 3 * b];
+            binning.fill(refs, &mut one_set, &mut []);
+            let bits = |bins: &[Bin]| -> Vec<[u32; 7]> {
+                let b = |v: Vec3A| v.to_array().map(f32::to_bits);
+                bins.iter()
+                    .map(|x| {
+                        let (lo, hi) = (b(x.bounds.min), b(x.bounds.max));
+                        [x.count, lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]]
+                    })
+                    .collect()
+            };
+            assert_eq!(bits(&bins), bits(&one_set));
+            assert_eq!(bits(&spare), bits(&vec![EMPTY_BIN; 3 * b]));
             for axis in 0..3 {
                 let mut counts = vec![0u32; b];
                 for r in refs {
