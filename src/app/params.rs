@@ -43,22 +43,23 @@ pub fn structure_params(ui: &mut egui::Ui, p: &mut StructureParams) {
     }
     match p.kind {
         AccelKind::Bvh | AccelKind::TwoLevel => {
-            let scopes: &[&str] = if p.kind.places_instances() {
-                &["two-level", "wide"]
+            let (scopes, off): (&[&str], _) = if p.kind.places_instances() {
+                (&["two-level", "wide"], p.bvh.off_when_wide())
             } else {
-                &[]
+                (&[], &[][..])
             };
-            edit(ui, &mut p.bvh, scopes);
+            edit(ui, &mut p.bvh, scopes, off);
             traversal_order(ui, &mut p.order);
         }
         AccelKind::Bvh4 | AccelKind::Bvh8 => {
-            edit(ui, &mut p.bvh, &["wide"]);
+            let off = p.bvh.off_when_wide();
+            edit(ui, &mut p.bvh, &["wide"], off);
             traversal_order(ui, &mut p.order);
             simd_level(ui, &mut p.simd);
         }
-        AccelKind::KdTree => edit(ui, &mut p.kdtree, &[]),
-        AccelKind::Grid => edit(ui, &mut p.grid, &[]),
-        AccelKind::Octree => edit(ui, &mut p.octree, &[]),
+        AccelKind::KdTree => edit(ui, &mut p.kdtree, &[], &[]),
+        AccelKind::Grid => edit(ui, &mut p.grid, &[], &[]),
+        AccelKind::Octree => edit(ui, &mut p.octree, &[], &[]),
         AccelKind::BruteForce | AccelKind::BruteForceBbox => {}
     }
 }
@@ -70,11 +71,17 @@ pub fn structure_params(ui: &mut egui::Ui, p: &mut StructureParams) {
 struct Editor<'a> {
     ui: &'a mut egui::Ui,
     scopes: &'a [&'a str],
+    /// Controls switched off in these contexts by another setting (`off_when_wide`).
+    off: &'a [&'a str],
 }
 
 impl Editor<'_> {
     fn shown(&self, c: &Control) -> bool {
         c.scope.is_none_or(|scope| self.scopes.contains(&scope))
+    }
+
+    fn enabled(&self, c: &Control) -> bool {
+        c.enabled && !self.off.contains(&c.key)
     }
 
     fn hover(response: egui::Response, c: &Control) {
@@ -93,12 +100,13 @@ impl Editor<'_> {
         range: std::ops::RangeInclusive<N>,
     ) {
         if self.shown(c) {
+            let enabled = self.enabled(c);
             // The name beside the slider ends in "…" at the panel's edge, whole on hover (a
             // slider's own text would run past the edge and widen the panel's rows below).
             self.ui.horizontal(|ui| {
                 let slider = egui::Slider::new(value, range).logarithmic(c.log);
-                let slider = ui.add_enabled(c.enabled, slider);
-                let name = ui.add_enabled(c.enabled, egui::Label::new(c.label).truncate());
+                let slider = ui.add_enabled(enabled, slider);
+                let name = ui.add_enabled(enabled, egui::Label::new(c.label).truncate());
                 // The slider is still named by its label (screen readers, UI tests).
                 Self::hover(slider.labelled_by(name.id), c);
                 Self::hover(name, c);
@@ -121,16 +129,18 @@ impl ControlVisitor for Editor<'_> {
     fn flag(&mut self, c: &Control, value: &mut bool) {
         if self.shown(c) {
             let checkbox = egui::Checkbox::new(value, c.label);
-            Self::hover(self.ui.add_enabled(c.enabled, checkbox), c);
+            let enabled = self.enabled(c);
+            Self::hover(self.ui.add_enabled(enabled, checkbox), c);
         }
     }
 
     fn choice(&mut self, c: &Control, selected: &mut usize, options: &[&'static str]) {
         if self.shown(c) {
             self.ui.label(c.label);
+            let enabled = self.enabled(c);
             for (i, option) in options.iter().enumerate() {
                 let radio = egui::RadioButton::new(*selected == i, *option);
-                if self.ui.add_enabled(c.enabled, radio).clicked() {
+                if self.ui.add_enabled(enabled, radio).clicked() {
                     *selected = i;
                 }
             }
@@ -138,9 +148,10 @@ impl ControlVisitor for Editor<'_> {
     }
 }
 
-/// The controls of one parameter struct, in the contexts `scopes`.
-pub fn edit(ui: &mut egui::Ui, params: &mut impl Controls, scopes: &[&str]) {
-    params.visit_controls(&mut Editor { ui, scopes });
+/// The controls of one parameter struct, in the contexts `scopes`, those keyed in `off`
+/// greyed out.
+pub fn edit(ui: &mut egui::Ui, params: &mut impl Controls, scopes: &[&str], off: &[&str]) {
+    params.visit_controls(&mut Editor { ui, scopes, off });
 }
 
 /// Front-to-back or the naive order (a traversal setting: no rebuild).

@@ -251,3 +251,38 @@ fn the_in_view_controls_grow_in_the_presentation_layout() {
         "one row"
     );
 }
+
+/// Under BVH8, ticking "wide nodes straight from the splits" greys out the pre-split
+/// slider (that build splits no reference, and would refuse a budget); unticked, or for
+/// the BVH2, the slider is live again.
+#[test]
+fn wide_nodes_straight_from_the_splits_grey_out_the_presplit_slider() {
+    let mut h = launch(
+        Harness::builder().with_size(egui::vec2(1400.0, 1100.0)),
+        "soup:3000",
+        |_| {},
+    );
+    use egui_kittest::kittest::NodeT;
+    let presplit = |h: &Harness<'static, BvhLabApp>| {
+        h.get_by_role_and_label(egui::accesskit::Role::Slider, "pre-split budget × N")
+            .accesskit_node()
+            .is_disabled()
+    };
+    assert!(!presplit(&h), "the BVH2 takes a pre-split budget");
+    choose_structure(&mut h, bvhlab::accel::AccelKind::Bvh8.title());
+    assert!(!presplit(&h));
+    h.get_by_label("wide nodes straight from the splits (no BVH2)")
+        .click();
+    settle(&mut h);
+    assert!(h.state().settings.structure.bvh.direct_wide);
+    assert!(presplit(&h), "greyed out under a direct wide build");
+    h.get_by_label("wide nodes straight from the splits (no BVH2)")
+        .click();
+    settle(&mut h);
+    assert!(!presplit(&h), "live again");
+    h.get_by_label("wide nodes straight from the splits (no BVH2)")
+        .click();
+    settle(&mut h);
+    choose_structure(&mut h, bvhlab::accel::AccelKind::Bvh.title());
+    assert!(!presplit(&h), "the BVH2 ignores the wide trees' setting");
+}

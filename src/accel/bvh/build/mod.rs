@@ -246,6 +246,19 @@ impl BuildParams {
         }
     }
 
+    /// The keys of the controls that the wide trees' own setting switches off where it
+    /// applies (BVH4, BVH8, the two levels): the pre-split budget when the wide nodes come
+    /// straight from the splits, which split no reference (the build refuses it,
+    /// `BuildError::PresplitDirectWide`). `presplit`'s own rule cannot say so: a BVH2 of
+    /// the same parameters takes it.
+    pub fn off_when_wide(&self) -> &'static [&'static str] {
+        if self.builds_direct_wide() {
+            &["presplit"]
+        } else {
+            &[]
+        }
+    }
+
     /// Whether `presplit` applies (see `Strategy::takes_presplit`).
     pub fn takes_presplit(&self) -> bool {
         self.strategy.takes_presplit()
