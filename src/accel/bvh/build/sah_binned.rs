@@ -571,8 +571,8 @@ mod tests {
             let mut bins = vec![EMPTY_BIN; 3 * b];
             let mut spare = vec![EMPTY_BIN; 3 * b];
             binning.fill(refs, &mut bins, &mut spare);
-            // One set of bins gives the same bins (`refs` has two sets' length), and the
-            // spare set is left empty.
+            // One set of bins gives the same bins as two (the first two cases, of 502
+            // references, are binned into two), and the spare set is left empty.
             let mut one_set = vec![EMPTY_BIN; 3 * b];
             binning.fill(refs, &mut one_set, &mut []);
             let bits = |bins: &[Bin]| -> Vec<[u32; 7]> {
