@@ -7,7 +7,7 @@ use crate::accel::bvh;
 use crate::accel::bvh::refit::RefitIndex;
 use crate::accel::structure;
 use crate::accel::two_level::InstanceOutline;
-use crate::geometry::Aabb;
+use crate::geometry::{Aabb, Triangle};
 use crate::scene::Scene;
 use glam::Vec3;
 use std::sync::Arc;
@@ -49,44 +49,88 @@ impl SelectionTable {
     }
 }
 
-/// The triangles moved since the last build, as a table by triangle index: a drag adds its
-/// whole selection (an object of 10^5 triangles) at every move, and the levels' tint asks
-/// about every pixel's triangle. A hash set took milliseconds of each drag step for both.
+/// The triangles away from where the last build put them, as a table by triangle index: a
+/// drag moves its whole selection (an object of 10^5 triangles) at every move, and the
+/// levels' tint asks about every pixel's triangle (a hash set took milliseconds of each drag
+/// step for both). Each triangle's position as built is kept from its first move after the
+/// build, so a triangle an undo puts back is no longer tinted, and one an undo moves away
+/// from a tree built after the drag is.
 #[derive(Default)]
 pub(in crate::app) struct MovedTriangles {
-    moved: Vec<bool>,
-    any: bool,
+    /// Per triangle of the scene, its place in `as_built` once it has moved (else `NONE`).
+    slot: Vec<u32>,
+    /// The positions as built of the triangles moved since.
+    as_built: Vec<Triangle>,
+    /// Per triangle: away from its position as built.
+    away: Vec<bool>,
+    /// How many are away.
+    count: usize,
 }
 
+const NONE: u32 = u32::MAX;
+
 impl MovedTriangles {
-    /// Marks `triangles` of a scene of `triangle_count` as moved (a table kept for a scene
-    /// of another size is dropped first: its indices named other triangles).
-    pub(in crate::app) fn add(&mut self, triangles: &[u32], triangle_count: usize) {
-        if self.moved.len() != triangle_count {
-            self.moved = vec![false; triangle_count];
-            self.any = false;
+    /// Keeps the positions of `triangles` in `scene` (about to move) of those not moved
+    /// since the build. A table kept for a scene of another size is dropped first: its
+    /// indices named other triangles.
+    pub(in crate::app) fn remember(&mut self, triangles: &[u32], scene: &[Triangle]) {
+        if self.slot.len() != scene.len() {
+            *self = MovedTriangles {
+                slot: vec![NONE; scene.len()],
+                away: vec![false; scene.len()],
+                ..Default::default()
+            };
         }
         for &t in triangles {
-            if let Some(m) = self.moved.get_mut(t as usize) {
-                *m = true;
-                self.any = true;
+            if let (Some(slot), Some(position)) =
+                (self.slot.get_mut(t as usize), scene.get(t as usize))
+                && *slot == NONE
+            {
+                *slot = self.as_built.len() as u32;
+                self.as_built.push(*position);
+            }
+        }
+    }
+
+    /// Marks each of `triangles` (remembered before their move) as away from its position
+    /// as built or not, by where it is in `scene` now.
+    pub(in crate::app) fn update(&mut self, triangles: &[u32], scene: &[Triangle]) {
+        for &t in triangles {
+            let t = t as usize;
+            let (Some(&slot), Some(now)) = (self.slot.get(t), scene.get(t)) else {
+                continue;
+            };
+            let Some(built) = self.as_built.get(slot as usize) else {
+                continue;
+            };
+            let away = now.v != built.v;
+            if away != self.away[t] {
+                self.away[t] = away;
+                if away {
+                    self.count += 1;
+                } else {
+                    self.count -= 1;
+                }
             }
         }
     }
 
     pub(in crate::app) fn is_empty(&self) -> bool {
-        !self.any
+        self.count == 0
     }
 
+    /// A build: every triangle is where the tree has it.
     pub(in crate::app) fn clear(&mut self) {
-        if self.any {
-            self.moved.fill(false);
-            self.any = false;
+        if !self.as_built.is_empty() {
+            self.slot.fill(NONE);
+            self.away.fill(false);
+            self.as_built.clear();
+            self.count = 0;
         }
     }
 
     pub(in crate::app) fn contains(&self, t: u64) -> bool {
-        usize::try_from(t).is_ok_and(|t| self.moved.get(t) == Some(&true))
+        usize::try_from(t).is_ok_and(|t| self.away.get(t) == Some(&true))
     }
 }
 
@@ -188,12 +232,13 @@ impl State {
         let (Some(scene), Some(structure)) = (&mut self.scene, &mut self.structure) else {
             return;
         };
+        self.moved.remember(triangles, &scene.triangles);
         match origin {
             Some(o) => scene.restore_triangles(triangles, &o.triangles),
             None => scene.move_triangles(triangles, delta),
         }
         self.scene_version += 1;
-        self.moved.add(triangles, scene.triangles.len());
+        self.moved.update(triangles, &scene.triangles);
         // The standard light from the scene's box in its two parts, the selection's moved;
         // back at the drag's origin, from the scene again, so it is the light it was.
         if origin.is_some() {
@@ -439,25 +484,56 @@ impl State {
 #[cfg(test)]
 mod tests {
     use super::MovedTriangles;
+    use crate::geometry::Triangle;
+    use glam::Vec3;
 
-    /// Moves accumulate until cleared; an index outside the scene is ignored; a table made
-    /// for a scene of another size starts afresh (its indices named other triangles).
+    /// A triangle is marked while it is away from its position as built: moves mark it, a
+    /// move back to where it was built unmarks it, a build (`clear`) unmarks all; an index
+    /// outside the scene is ignored; a table made for a scene of another size starts afresh
+    /// (its indices named other triangles).
     #[test]
-    fn moved_triangles_accumulate_until_cleared() {
+    fn moved_triangles_are_those_away_from_the_build() {
+        let at = |x: f32| Triangle::new(Vec3::new(x, 0.0, 0.0), Vec3::Y, Vec3::Z);
+        let mut scene: Vec<Triangle> = (0..10).map(|i| at(i as f32)).collect();
+        let built = scene.clone();
         let mut m = MovedTriangles::default();
+        let step = |m: &mut MovedTriangles, scene: &mut Vec<Triangle>, ts: &[u32], x: f32| {
+            m.remember(ts, scene);
+            for &t in ts {
+                if let Some(tri) = scene.get_mut(t as usize) {
+                    tri.v[0].x += x;
+                }
+            }
+            m.update(ts, scene);
+        };
+        let marked =
+            |m: &MovedTriangles| -> Vec<u64> { (0..12).filter(|&t| m.contains(t)).collect() };
         assert!(m.is_empty() && !m.contains(0));
-        m.add(&[3, 5, 5], 10);
-        m.add(&[7, 99], 10);
-        assert!(!m.is_empty());
-        let moved: Vec<u64> = (0..12).filter(|&t| m.contains(t)).collect();
-        assert_eq!(moved, [3, 5, 7]);
+        step(&mut m, &mut scene, &[3, 5, 5], 1.0);
+        step(&mut m, &mut scene, &[7, 99], 1.0);
+        assert_eq!(marked(&m), [3, 5, 7]);
         assert!(!m.contains(u64::MAX));
+        // Triangle 5 moved twice (listed twice): one step back leaves it away.
+        step(&mut m, &mut scene, &[5, 7], -1.0);
+        assert_eq!(marked(&m), [3, 5]);
+        step(&mut m, &mut scene, &[3, 5], -1.0);
+        assert_eq!(scene, built);
+        assert!(
+            m.is_empty(),
+            "every triangle back where it was built: {:?}",
+            marked(&m)
+        );
+        // A build where they are; moving back to the old places is now a move away.
+        step(&mut m, &mut scene, &[2], 1.0);
         m.clear();
-        assert!(m.is_empty() && !m.contains(3));
-        m.add(&[99], 10);
-        assert!(m.is_empty(), "no triangle of the scene moved");
-        m.add(&[4], 10);
-        m.add(&[6], 20);
-        assert!(!m.contains(4) && m.contains(6));
+        assert!(m.is_empty() && !m.contains(2));
+        step(&mut m, &mut scene, &[2], -1.0);
+        assert_eq!(marked(&m), [2]);
+        step(&mut m, &mut scene, &[99], 1.0);
+        assert_eq!(marked(&m), [2], "no triangle of the scene moved");
+        // Another scene's size: the table starts afresh.
+        let mut other: Vec<Triangle> = (0..20).map(|i| at(i as f32)).collect();
+        step(&mut m, &mut other, &[6], 1.0);
+        assert_eq!(marked(&m), [6]);
     }
 }

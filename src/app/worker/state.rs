@@ -340,10 +340,6 @@ impl State {
                     }
                 }
                 self.undoing = false;
-                if self.undo.is_empty() {
-                    // Back to the tree as built: nothing stays highlighted as moved.
-                    self.moved.clear();
-                }
             }
         }
     }
