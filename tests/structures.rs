@@ -172,6 +172,25 @@ fn traversal_settings_change_no_hit_and_need_no_rebuild() {
     }
 }
 
+/// The octree's report weighs its cells with the k-d tree's C_trav and C_isect, so a change
+/// of those rebuilds it (and its report); the k-d tree's other settings do not.
+#[test]
+fn the_kd_constants_rebuild_the_octree_and_nothing_else_of_the_kd_tree_does() {
+    let octree = StructureParams::of_kind(AccelKind::Octree);
+    let with = |f: fn(&mut StructureParams)| {
+        let mut p = octree;
+        f(&mut p);
+        p
+    };
+    assert!(octree.needs_rebuild_for(&with(|p| p.kdtree.c_trav = 3.0)));
+    assert!(octree.needs_rebuild_for(&with(|p| p.kdtree.c_isect = 0.5)));
+    assert!(!octree.needs_rebuild_for(&with(|p| p.kdtree.empty_bonus = 0.5)));
+    let bvh = StructureParams::of_kind(AccelKind::Bvh);
+    let mut other = bvh;
+    other.kdtree.c_trav = 3.0;
+    assert!(!bvh.needs_rebuild_for(&other), "a BVH does not use them");
+}
+
 /// Every structure gives exactly the BVH2's primary, diffuse and shadow hit counts (and the
 /// same hits) on the standard view of each shared scene.
 #[test]

@@ -124,7 +124,8 @@ impl StructureParams {
                 }
                 AccelKind::KdTree => a.kdtree != b.kdtree,
                 AccelKind::Grid => a.grid != b.grid,
-                AccelKind::Octree => a.octree != b.octree,
+                // The octree's report weighs its cells with the k-d tree's constants.
+                AccelKind::Octree => a.octree != b.octree || a.sah_constants() != b.sah_constants(),
                 AccelKind::BruteForce | AccelKind::BruteForceBbox => false,
             }
     }

@@ -59,7 +59,12 @@ pub fn structure_params(ui: &mut egui::Ui, p: &mut StructureParams) {
         }
         AccelKind::KdTree => edit(ui, &mut p.kdtree, &[], &[]),
         AccelKind::Grid => edit(ui, &mut p.grid, &[], &[]),
-        AccelKind::Octree => edit(ui, &mut p.octree, &[], &[]),
+        AccelKind::Octree => {
+            edit(ui, &mut p.octree, &[], &[]);
+            // The octree's SAH cost is weighed with the k-d tree's constants (its cells are
+            // costed as the k-d tree's are): their two sliders, here too.
+            edit_only(ui, &mut p.kdtree, &["kd_c_trav", "kd_c_isect"]);
+        }
         AccelKind::BruteForce | AccelKind::BruteForceBbox => {}
     }
 }
@@ -73,11 +78,14 @@ struct Editor<'a> {
     scopes: &'a [&'a str],
     /// Controls switched off in these contexts by another setting (`off_when_wide`).
     off: &'a [&'a str],
+    /// The only controls drawn, by key (empty: all).
+    only: &'a [&'a str],
 }
 
 impl Editor<'_> {
     fn shown(&self, c: &Control) -> bool {
         c.scope.is_none_or(|scope| self.scopes.contains(&scope))
+            && (self.only.is_empty() || self.only.contains(&c.key))
     }
 
     fn enabled(&self, c: &Control) -> bool {
@@ -151,7 +159,22 @@ impl ControlVisitor for Editor<'_> {
 /// The controls of one parameter struct, in the contexts `scopes`, those keyed in `off`
 /// greyed out.
 pub fn edit(ui: &mut egui::Ui, params: &mut impl Controls, scopes: &[&str], off: &[&str]) {
-    params.visit_controls(&mut Editor { ui, scopes, off });
+    params.visit_controls(&mut Editor {
+        ui,
+        scopes,
+        off,
+        only: &[],
+    });
+}
+
+/// The controls keyed in `only` of one parameter struct.
+pub fn edit_only(ui: &mut egui::Ui, params: &mut impl Controls, only: &[&str]) {
+    params.visit_controls(&mut Editor {
+        ui,
+        scopes: &[],
+        off: &[],
+        only,
+    });
 }
 
 /// Front-to-back or the naive order (a traversal setting: no rebuild).

@@ -286,3 +286,28 @@ fn wide_nodes_straight_from_the_splits_grey_out_the_presplit_slider() {
     choose_structure(&mut h, bvhlab::accel::AccelKind::Bvh.title());
     assert!(!presplit(&h), "the BVH2 ignores the wide trees' setting");
 }
+
+/// Under the octree, whose report weighs its cells with the k-d tree's constants, those
+/// two sliders are drawn too, and moving one rebuilds the report with it.
+#[test]
+fn the_octree_panel_moves_the_constants_its_sah_cost_is_weighed_with() {
+    let mut h = launch(
+        Harness::builder().with_size(egui::vec2(1400.0, 1100.0)),
+        "soup:3000",
+        |_| {},
+    );
+    choose_structure(&mut h, bvhlab::accel::AccelKind::Octree.title());
+    let detail = |h: &Harness<'static, BvhLabApp>, name: &str| {
+        let report = h.state().report.clone().expect("built");
+        report.detail(name).expect(name).to_string()
+    };
+    let constants = "C_trav / C_isect (the k-d tree's)";
+    assert_eq!(detail(&h, constants), "1 / 2");
+    let before = detail(&h, "SAH cost");
+    h.get_by_role_and_label(egui::accesskit::Role::Slider, "C_trav")
+        .set_value_accesskit(3.0);
+    settle(&mut h);
+    assert_eq!(h.state().settings.structure.kdtree.c_trav, 3.0);
+    assert_eq!(detail(&h, constants), "3 / 2", "the report follows");
+    assert_ne!(detail(&h, "SAH cost"), before);
+}
