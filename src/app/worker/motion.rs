@@ -283,6 +283,8 @@ impl State {
         };
         let rebuild_time = start.elapsed();
         *structure = built.structure;
+        // Built where the triangles are now: none is away from its build.
+        self.moved.clear();
         self.outline = Arc::new(structure.outline());
         self.outline_stale = false;
         self.version += 1;
