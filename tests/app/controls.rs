@@ -257,11 +257,7 @@ fn the_in_view_controls_grow_in_the_presentation_layout() {
 /// the BVH2, the slider is live again.
 #[test]
 fn wide_nodes_straight_from_the_splits_grey_out_the_presplit_slider() {
-    let mut h = launch(
-        Harness::builder().with_size(egui::vec2(1400.0, 1100.0)),
-        "soup:3000",
-        |_| {},
-    );
+    let mut h = tall_app("soup:3000");
     use egui_kittest::kittest::NodeT;
     let presplit = |h: &Harness<'static, BvhLabApp>| {
         h.get_by_role_and_label(egui::accesskit::Role::Slider, "pre-split budget × N")
@@ -291,11 +287,7 @@ fn wide_nodes_straight_from_the_splits_grey_out_the_presplit_slider() {
 /// two sliders are drawn too, and moving one rebuilds the report with it.
 #[test]
 fn the_octree_panel_moves_the_constants_its_sah_cost_is_weighed_with() {
-    let mut h = launch(
-        Harness::builder().with_size(egui::vec2(1400.0, 1100.0)),
-        "soup:3000",
-        |_| {},
-    );
+    let mut h = tall_app("soup:3000");
     choose_structure(&mut h, bvhlab::accel::AccelKind::Octree.title());
     let detail = |h: &Harness<'static, BvhLabApp>, name: &str| {
         let report = h.state().report.clone().expect("built");

@@ -19,6 +19,16 @@ fn app(scene: &str) -> Harness<'static, BvhLabApp> {
     )
 }
 
+/// `app` in a taller window: the longer parameter lists' last controls in sight (a click
+/// does not scroll the controls to them).
+fn tall_app(scene: &str) -> Harness<'static, BvhLabApp> {
+    launch(
+        Harness::builder().with_size(egui::vec2(1400.0, 1100.0)),
+        scene,
+        |_| {},
+    )
+}
+
 /// Drags the whole object under the middle of the viewport (the back wall or a box of the
 /// Cornell box) up and to the right.
 fn drag_an_object(h: &mut Harness<'static, BvhLabApp>) {

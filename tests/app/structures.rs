@@ -8,11 +8,7 @@ use super::*;
 fn the_structure_selector_rebuilds_keeps_the_camera_and_each_structure_draws_its_levels() {
     // Tall enough that the two levels' longer parameter list leaves the levels checkbox in
     // sight (a click does not scroll the controls to it).
-    let mut h = launch(
-        Harness::builder().with_size(egui::vec2(1400.0, 1100.0)),
-        "soup:300",
-        |_| {},
-    );
+    let mut h = tall_app("soup:300");
     let camera = h.state().shown.clone().unwrap().job.camera;
     let expected_scene = bvhlab::scene::Scene::load("soup:300").unwrap();
     for kind in bvhlab::accel::AccelKind::ALL {
