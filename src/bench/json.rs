@@ -65,6 +65,19 @@ pub struct PeerJson {
     /// The peer's scene rebuilt after its vertices were marked changed, best of the builds.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rebuild_ms: Option<f64>,
+    /// bvhlab's ray sets timed in turns with this peer's (absent where bvhlab traced a
+    /// sample of the rays): the figures its ratios come from.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub bvhlab: Option<InTurnsJson>,
+}
+
+/// bvhlab's ray sets as timed in turns with a peer's.
+#[derive(Serialize)]
+pub struct InTurnsJson {
+    pub primary: RaySetJson,
+    pub primary_packets: RaySetJson,
+    pub diffuse: RaySetJson,
+    pub shadow: RaySetJson,
 }
 
 /// One benchmark run: the structure, its build, the ray sets, the SAH check and the peers.
@@ -164,7 +177,7 @@ fn ms(d: std::time::Duration) -> f64 {
 
 impl PeerJson {
     fn of(p: &PeerResult) -> PeerJson {
-        let set = |r, occlusion| RaySetJson::of(r, occlusion, false);
+        let set = |r: &RaySetResult, occlusion| RaySetJson::of(r, occlusion, false);
         PeerJson {
             name: p.name.clone(),
             build_ms: ms(p.build),
@@ -176,6 +189,12 @@ impl PeerJson {
             differing_primary_hits: p.differing_primary_hits,
             top_level_build_ms: p.top_level_build.map(ms),
             rebuild_ms: p.rebuild.map(ms),
+            bvhlab: p.bvhlab.as_ref().map(|t| InTurnsJson {
+                primary: set(&t.primary, false),
+                primary_packets: set(&t.primary_packets, false),
+                diffuse: set(&t.diffuse, false),
+                shadow: set(&t.shadow, true),
+            }),
         }
     }
 }

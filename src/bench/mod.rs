@@ -91,6 +91,14 @@ impl RaySetResult {
         }
     }
 
+    /// The faster of two timings of the same rays (the counted work of the first).
+    pub fn best_of(self, other: RaySetResult) -> RaySetResult {
+        RaySetResult {
+            best: self.best.min(other.best),
+            ..self
+        }
+    }
+
     /// Time per traversal step, from the timed run and the counted mean steps per ray:
     /// what one node visit costs, the measure a wider node trades against fewer steps.
     pub fn ns_per_step(&self, mean_nodes: f64) -> Option<f64> {
@@ -166,6 +174,20 @@ pub struct PeerResult {
     /// The peer's scene rebuilt after its vertices were marked changed, into the memory
     /// it kept (timed where bvhlab's `wide_rebuild` is): the best of the builds' count.
     pub rebuild: Option<Duration>,
+    /// bvhlab's ray sets timed in turns with the peer's (`None` where bvhlab traced a
+    /// sample of the rays: brute force over a large scene).
+    pub bvhlab: Option<InTurns>,
+}
+
+/// bvhlab's timings of the ray sets taken in turns with a peer's: bvhlab's set, the peer's,
+/// bvhlab's again, the runs' count of each, so that both see the machine in the same
+/// state; the best of each. The ratios are taken from these.
+#[derive(Clone, Copy, Debug)]
+pub struct InTurns {
+    pub primary: RaySetResult,
+    pub primary_packets: RaySetResult,
+    pub diffuse: RaySetResult,
+    pub shadow: RaySetResult,
 }
 
 /// Runs the benchmark of `cfg.params.kind` on the current rayon thread pool.
@@ -184,16 +206,22 @@ pub fn run(scene: &Scene, cfg: &BenchConfig) -> Result<BenchResult, BenchError> 
     let mut result = measure(scene, cfg, &cfg.params, &built, &sets);
     result.top_level_rebuild = top_level_rebuild;
     result.wide_rebuild = wide_rebuild;
+    // bvhlab is timed again in turns with each peer, unless it traced a sample of the rays.
+    let turns = result.sampled == 1;
     for (asked, robust) in [(cfg.embree, false), (cfg.embree_robust, true)] {
         if asked {
-            let peer = peers::run_embree(&built.structure, scene, cfg, &sets, robust)?;
+            let peer = peers::run_embree(&built.structure, scene, cfg, &sets, robust, turns)?;
             result.peers.push(peer);
         }
     }
     if cfg.tinybvh {
-        result
-            .peers
-            .extend(peers::run_tinybvh(&built.structure, scene, cfg, &sets)?);
+        result.peers.extend(peers::run_tinybvh(
+            &built.structure,
+            scene,
+            cfg,
+            &sets,
+            turns,
+        )?);
     }
     Ok(result)
 }

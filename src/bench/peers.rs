@@ -5,7 +5,7 @@
 
 use super::{BenchConfig, BenchError, PeerResult};
 #[cfg(any(feature = "embree", feature = "tinybvh"))]
-use super::{RaySets, time_packets, time_sets};
+use super::{InTurns, RaySetResult, RaySets, time_packets, time_set};
 use crate::accel::structure::Structure;
 #[cfg(any(feature = "embree", feature = "tinybvh"))]
 use crate::accel::{Accel, NoStats};
@@ -69,12 +69,14 @@ pub(super) fn run_embree(
     _: &BenchConfig,
     _: &super::RaySets,
     _: bool,
+    _: bool,
 ) -> Result<PeerResult, BenchError> {
     Err(BenchError::Peer(EMBREE_MISSING.into()))
 }
 
-/// Embree on the same ray sets, with as many build and trace threads as bvhlab had; with
-/// `robust`, built with its robust flag.
+/// Embree on the same ray sets, with as many build and trace threads as bvhlab had, and
+/// bvhlab's structure timed in turns with it if `in_turns`; with `robust`, built with its
+/// robust flag.
 #[cfg(feature = "embree")]
 pub(super) fn run_embree(
     ours: &Structure,
@@ -82,6 +84,7 @@ pub(super) fn run_embree(
     cfg: &BenchConfig,
     sets: &RaySets,
     robust: bool,
+    in_turns: bool,
 ) -> Result<PeerResult, BenchError> {
     use crate::accel::embree::{Embree, EmbreeMode};
     let threads = rayon::current_num_threads();
@@ -122,7 +125,7 @@ pub(super) fn run_embree(
     Ok(PeerResult {
         top_level_build: embree.top_level_time,
         rebuild,
-        ..measure(what, &embree, ours, sets, cfg)
+        ..measure(what, &embree, ours, sets, cfg, in_turns)
     })
 }
 
@@ -132,18 +135,21 @@ pub(super) fn run_tinybvh(
     _: &Scene,
     _: &BenchConfig,
     _: &super::RaySets,
+    _: bool,
 ) -> Result<Vec<PeerResult>, BenchError> {
     Err(BenchError::Peer(TINYBVH_MISSING.into()))
 }
 
 /// tinybvh's BVH8_CPU on the same ray sets and trace threads, from its default build and
-/// from its SBVH (its builds use their own threads).
+/// from its SBVH (its builds use their own threads), bvhlab's structure timed in turns with
+/// each if `in_turns`.
 #[cfg(feature = "tinybvh")]
 pub(super) fn run_tinybvh(
     ours: &Structure,
     scene: &Scene,
     cfg: &BenchConfig,
     sets: &RaySets,
+    in_turns: bool,
 ) -> Result<Vec<PeerResult>, BenchError> {
     use crate::accel::tinybvh::{TinyBuild, TinyBvh};
     [TinyBuild::Default, TinyBuild::Hq]
@@ -156,13 +162,14 @@ pub(super) fn run_tinybvh(
             )?;
             // One ray at a time: its CPU layout has no packet query.
             let what = (build.name().to_string(), tiny.build_time, false);
-            Ok(measure(what, &tiny, ours, sets, cfg))
+            Ok(measure(what, &tiny, ours, sets, cfg, in_turns))
         })
         .collect()
 }
 
 /// A peer (its name, build time and whether it has a packet query) timed on the ray sets,
-/// and its primary hits against bvhlab's.
+/// with bvhlab's structure timed in turns with it if `in_turns`, and its primary hits
+/// against bvhlab's.
 #[cfg(any(feature = "embree", feature = "tinybvh"))]
 fn measure<A: Accel>(
     (name, build, packets): (String, Duration, bool),
@@ -170,10 +177,60 @@ fn measure<A: Accel>(
     ours: &Structure,
     sets: &RaySets,
     cfg: &BenchConfig,
+    in_turns: bool,
 ) -> PeerResult {
-    let [primary, diffuse, shadow] = time_sets::<_, Watertight>(peer, sets, cfg.runs);
-    let primary_packets =
-        packets.then(|| time_packets::<_, Watertight>(peer, &sets.primary_tiles, cfg.runs));
+    // Each set traced by bvhlab and by the peer in turns.
+    // Where bvhlab traced a sample of the rays (brute force), the peer alone.
+    let turns = |ours: &dyn Fn() -> RaySetResult, theirs: &dyn Fn() -> RaySetResult| {
+        let mut a = in_turns.then(ours);
+        let mut b = theirs();
+        for _ in 1..cfg.runs.max(1) {
+            a = a.map(|a| a.best_of(ours()));
+            b = b.best_of(theirs());
+        }
+        (a, b)
+    };
+    let closest = |rays: &[crate::geometry::Ray]| {
+        crate::with_intersector!(cfg.intersector, I => time_set(rays, 1, |r| {
+            ours.closest_hit::<I, _>(r, &mut NoStats).is_some()
+        }))
+    };
+    let watertight = |rays: &[crate::geometry::Ray]| {
+        time_set(rays, 1, |r| {
+            peer.closest_hit::<Watertight, _>(r, &mut NoStats).is_some()
+        })
+    };
+    let (ours_primary, primary) = turns(&|| closest(&sets.primary), &|| watertight(&sets.primary));
+    let (ours_diffuse, diffuse) = turns(&|| closest(&sets.diffuse), &|| watertight(&sets.diffuse));
+    let (ours_shadow, shadow) = turns(
+        &|| {
+            crate::with_intersector!(cfg.intersector, I => time_set(&sets.shadow, 1, |r| {
+                ours.any_hit::<I, _>(r, &mut NoStats)
+            }))
+        },
+        &|| {
+            time_set(&sets.shadow, 1, |r| {
+                peer.any_hit::<Watertight, _>(r, &mut NoStats)
+            })
+        },
+    );
+    let ours_packets = || crate::with_intersector!(cfg.intersector, I => time_packets::<_, I>(ours, &sets.primary_tiles, 1));
+    let theirs_packets = || time_packets::<_, Watertight>(peer, &sets.primary_tiles, 1);
+    let (ours_in_packets, primary_packets) = match packets {
+        true => {
+            let (a, b) = turns(&ours_packets, &theirs_packets);
+            (a, Some(b))
+        }
+        false => (in_turns.then(ours_packets), None),
+    };
+    let bvhlab = (|| {
+        Some(InTurns {
+            primary: ours_primary?,
+            primary_packets: ours_in_packets?,
+            diffuse: ours_diffuse?,
+            shadow: ours_shadow?,
+        })
+    })();
     let (tied_primary_hits, differing_primary_hits) = sets
         .primary
         .par_iter()
@@ -199,6 +256,7 @@ fn measure<A: Accel>(
         differing_primary_hits,
         top_level_build: None,
         rebuild: None,
+        bvhlab,
     }
 }
 

@@ -272,6 +272,24 @@ fn island_size_is_bounded_by_its_instances() {
     assert!(err.contains("at most 2000000 instances"), "{err}");
 }
 
+/// Each peer's ratios come from bvhlab's ray sets timed again in turns with the peer's:
+/// the same rays, with the same hits as bvhlab's own timing.
+fn same_rays_in_turns(json: &serde_json::Value) {
+    for p in json["peers"].as_array().unwrap() {
+        for (set, count) in [
+            ("primary", "hits"),
+            ("primary_packets", "hits"),
+            ("diffuse", "hits"),
+            ("shadow", "occluded"),
+        ] {
+            let turns = &p["bvhlab"][set];
+            assert!(turns["mrays_per_s"].as_f64().unwrap() > 0.0, "{p}");
+            assert_eq!(turns["rays"], json[set]["rays"], "{set}");
+            assert_eq!(turns[count], json[set][count], "{set}");
+        }
+    }
+}
+
 /// The Embree peers: in a build without Embree, `bench --embree-robust` and `stress
 /// --embree` are a clear error; with it, `bench --embree --embree-robust` reports both peers,
 /// named, and `stress --embree` every tracer's leaks.
@@ -311,6 +329,7 @@ fn embree_peers_are_reported_or_refused_clearly() {
                     .collect();
                 assert_eq!(names, ["Embree 3", "Embree 3 robust"]);
                 assert_eq!(json["peer"], json["peers"][0]);
+                same_rays_in_turns(&json);
             } else {
                 assert_eq!(json["total"]["bvhlab"]["closest"], 0);
                 assert!(json["total"]["rays"].as_u64().unwrap() > 10_000);
@@ -346,6 +365,7 @@ fn the_tinybvh_peer_is_reported_or_refused_clearly() {
                 "tinybvh BVH8_CPU (BuildHQ: SBVH)"
             ]
         );
+        same_rays_in_turns(&json);
         for p in peers {
             assert!(p["primary_packets"].is_null());
             assert!(p["primary"]["mrays_per_s"].as_f64().unwrap() > 0.0);

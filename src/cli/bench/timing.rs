@@ -105,9 +105,14 @@ pub(super) fn run_all(
 pub(super) fn print_peer(r: &bench::BenchResult, p: &bench::PeerResult) -> Result<()> {
     let build_ms = |d: std::time::Duration| d.as_secs_f64() * 1e3;
     out!(
-        "  {} on the same rays and threads (primary hits on another triangle: {} ties within \
+        "  {} on the same rays and threads{} (primary hits on another triangle: {} ties within \
          rounding, {} at another depth or hit against miss):",
         p.name,
+        if p.bvhlab.is_some() {
+            ", each set traced by both in turns"
+        } else {
+            ""
+        },
         p.tied_primary_hits,
         p.differing_primary_hits
     );
@@ -137,15 +142,22 @@ pub(super) fn print_peer(r: &bench::BenchResult, p: &bench::PeerResult) -> Resul
     if let (Some(ours), Some(theirs)) = (r.wide_rebuild, p.rebuild) {
         times("rebuilt per frame", build_ms(ours), build_ms(theirs))?;
     }
+    // bvhlab's rays as timed in turns with the peer's (the ratios' own minutes), where it was.
+    let ours = p.bvhlab.unwrap_or(bench::InTurns {
+        primary: r.primary,
+        primary_packets: r.primary_packets,
+        diffuse: r.diffuse,
+        shadow: r.shadow,
+    });
     for (name, a, b) in [
-        ("primary", &r.primary, Some(&p.primary)),
+        ("primary", &ours.primary, Some(&p.primary)),
         (
             "primary in packets",
-            &r.primary_packets,
+            &ours.primary_packets,
             p.primary_packets.as_ref(),
         ),
-        ("diffuse", &r.diffuse, Some(&p.diffuse)),
-        ("shadow", &r.shadow, Some(&p.shadow)),
+        ("diffuse", &ours.diffuse, Some(&p.diffuse)),
+        ("shadow", &ours.shadow, Some(&p.shadow)),
     ] {
         let x = a.mrays_per_s();
         let Some(b) = b else {
