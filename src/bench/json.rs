@@ -74,6 +74,7 @@ pub struct PeerJson {
 /// bvhlab's ray sets as timed in turns with a peer's.
 #[derive(Serialize)]
 pub struct InTurnsJson {
+    pub build_ms: f64,
     pub primary: RaySetJson,
     pub primary_packets: RaySetJson,
     pub diffuse: RaySetJson,
@@ -190,6 +191,7 @@ impl PeerJson {
             top_level_build_ms: p.top_level_build.map(ms),
             rebuild_ms: p.rebuild.map(ms),
             bvhlab: p.bvhlab.as_ref().map(|t| InTurnsJson {
+                build_ms: ms(t.build),
                 primary: set(&t.primary, false),
                 primary_packets: set(&t.primary_packets, false),
                 diffuse: set(&t.diffuse, false),

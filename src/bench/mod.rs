@@ -179,11 +179,14 @@ pub struct PeerResult {
     pub bvhlab: Option<InTurns>,
 }
 
-/// bvhlab's timings of the ray sets taken in turns with a peer's: bvhlab's set, the peer's,
-/// bvhlab's again, the runs' count of each, so that both see the machine in the same
-/// state; the best of each. The ratios are taken from these.
+/// bvhlab's timings taken in turns with a peer's: bvhlab's build, the peer's, bvhlab's
+/// again, the builds' count of each, and likewise each ray set the runs' count of times, so
+/// that both see the machine in the same state; the best of each. The ratios are taken
+/// from these.
 #[derive(Clone, Copy, Debug)]
 pub struct InTurns {
+    /// bvhlab's best build, each built just before one of the peer's.
+    pub build: Duration,
     pub primary: RaySetResult,
     pub primary_packets: RaySetResult,
     pub diffuse: RaySetResult,

@@ -276,6 +276,7 @@ fn island_size_is_bounded_by_its_instances() {
 /// the same rays, with the same hits as bvhlab's own timing.
 fn same_rays_in_turns(json: &serde_json::Value) {
     for p in json["peers"].as_array().unwrap() {
+        assert!(p["bvhlab"]["build_ms"].as_f64().unwrap() > 0.0, "{p}");
         for (set, count) in [
             ("primary", "hits"),
             ("primary_packets", "hits"),

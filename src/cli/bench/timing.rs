@@ -109,7 +109,7 @@ pub(super) fn print_peer(r: &bench::BenchResult, p: &bench::PeerResult) -> Resul
          rounding, {} at another depth or hit against miss):",
         p.name,
         if p.bvhlab.is_some() {
-            ", each set traced by both in turns"
+            ", built and traced by both in turns"
         } else {
             ""
         },
@@ -135,7 +135,8 @@ pub(super) fn print_peer(r: &bench::BenchResult, p: &bench::PeerResult) -> Resul
         );
         Ok(())
     };
-    times("build", r.report.build_ms(), build_ms(p.build))?;
+    let ours_build = p.bvhlab.map_or(r.report.build_ms(), |t| build_ms(t.build));
+    times("build", ours_build, build_ms(p.build))?;
     if let (Some(ours), Some(theirs)) = (r.top_level_rebuild, p.top_level_build) {
         times("top level build", build_ms(ours), build_ms(theirs))?;
     }
@@ -144,6 +145,7 @@ pub(super) fn print_peer(r: &bench::BenchResult, p: &bench::PeerResult) -> Resul
     }
     // bvhlab's rays as timed in turns with the peer's (the ratios' own minutes), where it was.
     let ours = p.bvhlab.unwrap_or(bench::InTurns {
+        build: r.report.build_time,
         primary: r.primary,
         primary_packets: r.primary_packets,
         diffuse: r.diffuse,
