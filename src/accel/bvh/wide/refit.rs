@@ -206,6 +206,9 @@ const FILL_AHEAD: usize = 32;
 /// The triangle of a padding lane: NaN, as the collapse leaves it.
 const PADDING_TRIANGLE: Triangle = Triangle { v: [Vec3::NAN; 3] };
 
+// A padding lane's index lies past the scene of every tree a layout accepts (`fill_blocks`).
+const _: () = assert!(PADDING as usize >= super::collapse::MAX_REFERENCES);
+
 /// A piece of the tree a refit task takes whole: the top or one part, its nodes and the
 /// blocks its leaves hold (with their slots' triangle indices).
 struct Piece<'a> {
@@ -251,16 +254,17 @@ fn fill_blocks_parallel(blocks: &mut [TriangleBlock], indices: &[u32], scene: &[
 fn fill_blocks(blocks: &mut [TriangleBlock], indices: &[u32], scene: &[Triangle]) {
     for (b, block) in blocks.iter_mut().enumerate() {
         let ahead = (b + FILL_AHEAD) * BLOCK;
+        // A padding lane's index asks for an address past the scene, which a prefetch
+        // may (it never faults): no branch on the lanes.
         for &t in indices.get(ahead..ahead + BLOCK).unwrap_or_default() {
-            if t != PADDING {
-                prefetch(scene.as_ptr().wrapping_add(t as usize));
-            }
+            prefetch(scene.as_ptr().wrapping_add(t as usize));
         }
-        let tris: [&Triangle; BLOCK] =
-            std::array::from_fn(|lane| match indices[b * BLOCK + lane] {
-                PADDING => &PADDING_TRIANGLE,
-                t => &scene[t as usize],
-            });
+        // A padding lane's index (`PADDING`) lies past every scene: one compare per lane
+        // picks the scene's triangle or the padding's.
+        let tris: [&Triangle; BLOCK] = std::array::from_fn(|lane| {
+            let t = indices[b * BLOCK + lane];
+            scene.get(t as usize).unwrap_or(&PADDING_TRIANGLE)
+        });
         // Vertex k of the four triangles, one per column, transposed: its x, y and z
         // rows (shuffles move the floats' bits unchanged, NaN included).
         let mut v = [[[0.0; BLOCK]; 3]; 3];
@@ -402,7 +406,9 @@ where
         let lanes = node.child_count();
         let words = node.child;
         let old = lane_areas(&node.bounds);
-        let mut rows = node.bounds;
+        // The lanes are set in place (a copy of the rows out and back was two calls of
+        // `memcpy` a node).
+        let rows = &mut node.bounds;
         let mut set = |l: usize, lo: Vec4, hi: Vec4| {
             for axis in 0..3 {
                 rows[axis][l] = lo[axis];
@@ -441,8 +447,7 @@ where
                 child_sums[l] = child.sums;
             }
         }
-        node.bounds = rows;
-        let new = lane_areas(&rows);
+        let new = lane_areas(&node.bounds);
         let mut sums = RefitSums::default();
         for (l, child) in child_sums.iter().enumerate().take(lanes) {
             let weight = costs.of(!words[l].is_leaf(), words[l].count());
