@@ -323,18 +323,24 @@ fn lanes_box(block: &TriangleBlock, lanes: std::ops::Range<usize>) -> (Vec4, Vec
     )
 }
 
+/// The surface areas of a node's lanes, written four lanes at a time and read lane by lane:
+/// aligned, so that no vector store straddles two cache lines (which the loads after it
+/// cannot take forwarded: docs/wide-bvh.md, "A measurement hazard, found").
+#[repr(C, align(32))]
+struct LaneAreas<const W: usize>([f32; W]);
+
 /// The surface area of every lane's box, four lanes at a time, as `Aabb::surface_area`
 /// computes it (an empty box has area 0).
 #[inline(always)]
-fn lane_areas<const W: usize>(rows: &[[f32; W]; 6]) -> [f32; W] {
-    let mut areas = [0.0; W];
+fn lane_areas<const W: usize>(rows: &[[f32; W]; 6]) -> LaneAreas<W> {
+    let mut areas = LaneAreas([0.0; W]);
     for c in (0..W).step_by(4) {
         let row = |r: usize| Vec4::from_slice(&rows[r][c..c + 4]);
         let (lo, hi) = ([row(0), row(1), row(2)], [row(3), row(4), row(5)]);
         let empty = lo[0].cmpgt(hi[0]) | lo[1].cmpgt(hi[1]) | lo[2].cmpgt(hi[2]);
         let e = |axis: usize| Vec4::select(empty, Vec4::ZERO, hi[axis] - lo[axis]);
         let (x, y, z) = (e(0), e(1), e(2));
-        (2.0 * (x * y + y * z + z * x)).write_to_slice(&mut areas[c..c + 4]);
+        (2.0 * (x * y + y * z + z * x)).write_to_slice(&mut areas.0[c..c + 4]);
     }
     areas
 }
@@ -454,8 +460,8 @@ where
             sums = sums
                 + *child
                 + RefitSums {
-                    before: weight * old[l] as f64,
-                    after: weight * new[l] as f64,
+                    before: weight * old.0[l] as f64,
+                    after: weight * new.0[l] as f64,
                 };
         }
         let bounds = node.bounds();
