@@ -182,20 +182,20 @@ fn build_in_turns<P>(
     took: impl Fn(&P) -> Duration,
 ) -> Result<(P, Option<Duration>), BenchError> {
     let mut ours: Option<Duration> = None;
-    let mut best: Option<P> = None;
-    for _ in 0..cfg.builds.max(1) {
-        if in_turns {
-            let built =
-                crate::accel::structure::build_scene(scene, &cfg.params, &Default::default())?;
-            let t = built.report.build_time;
-            ours = Some(ours.map_or(t, |o| o.min(t)));
-        }
-        let next = build()?;
-        if best.as_ref().is_none_or(|b| took(&next) < took(b)) {
-            best = Some(next);
-        }
-    }
-    Ok((best.expect("at least one build"), ours))
+    let best = super::best_build(
+        cfg.builds,
+        || {
+            if in_turns {
+                let built =
+                    crate::accel::structure::build_scene(scene, &cfg.params, &Default::default())?;
+                let t = built.report.build_time;
+                ours = Some(ours.map_or(t, |o| o.min(t)));
+            }
+            build()
+        },
+        took,
+    )?;
+    Ok((best, ours))
 }
 
 /// A peer (its name, build time and whether it has a packet query) timed on the ray sets,
