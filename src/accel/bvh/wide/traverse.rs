@@ -20,7 +20,7 @@ use crate::accel::replay::{Child, Level, Order, Step, Visited};
 use crate::accel::stats::record;
 use crate::accel::{Accel, BestHit, Hit, Stats, TraversalOrder};
 use crate::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab};
-use crate::geometry::simd::{IntervalSlab, SimdLevel, TriangleKernel, WideRay};
+use crate::geometry::simd::{IntervalSlab, SimdLevel, TriangleKernel, WideRay, prefetch};
 use crate::geometry::{Intersector, Ray};
 use std::mem::MaybeUninit;
 
@@ -354,6 +354,17 @@ where
     }
 }
 
+/// Asks for the cache lines of the packet of rays at `rays` (which may lie past the slice:
+/// a prefetch never faults). Traced while the packet before it is, so that the packet's
+/// first loads do not wait on its 32 lines at once.
+#[inline(always)]
+fn prefetch_packet(rays: *const Ray) {
+    let bytes = rays.cast::<u8>();
+    for line in (0..PACKET_SIZE * size_of::<Ray>()).step_by(64) {
+        prefetch(bytes.wrapping_add(line));
+    }
+}
+
 /// Five to eight entered children (`mask`): their keys ordered nearest first by the network
 /// of eight, the missed lanes' `u64::MAX` after them. Out of line: the eight keys need more
 /// registers than the loop can spare, which it would otherwise spill at every node, and the
@@ -506,8 +517,10 @@ macro_rules! entry_points {
 
             #[target_feature(enable = $features)]
             fn $packets<I: Intersector>(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
-                for (rays, hits) in rays.chunks(PACKET_SIZE).zip(hits.chunks_mut(PACKET_SIZE)) {
-                    self.trace_packet::<$kernel, I>(rays, hits);
+                let packets = rays.chunks(PACKET_SIZE).zip(hits.chunks_mut(PACKET_SIZE));
+                for (k, (packet, hits)) in packets.enumerate() {
+                    prefetch_packet(rays.as_ptr().wrapping_add((k + 1) * PACKET_SIZE));
+                    self.trace_packet::<$kernel, I>(packet, hits);
                 }
             }
         }
