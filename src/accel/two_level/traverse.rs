@@ -22,7 +22,7 @@ use crate::accel::stats::{count_locally, record};
 use crate::accel::{Accel, BestHit, Hit, Stats, TraversalOrder};
 use crate::geometry::intersect::TriangleHit;
 use crate::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab};
-use crate::geometry::simd::{PACKET_RAYS, SimdLevel, TriangleKernel, WideRay};
+use crate::geometry::simd::{PACKET_RAYS, SimdLevel, TriangleKernel, WideRay, prefetch_packet};
 use crate::geometry::{Intersector, Ray};
 use std::mem::MaybeUninit;
 
@@ -285,8 +285,10 @@ macro_rules! entry_points {
         impl TwoLevel {
             #[target_feature(enable = $features)]
             fn $packets<I: Intersector>(&self, rays: &[Ray], hits: &mut [Option<Hit>]) {
-                for (rays, hits) in rays.chunks(PACKET_RAYS).zip(hits.chunks_mut(PACKET_RAYS)) {
-                    self.trace_packet::<$kernel, I>(rays, hits);
+                let packets = rays.chunks(PACKET_RAYS).zip(hits.chunks_mut(PACKET_RAYS));
+                for (k, (packet, hits)) in packets.enumerate() {
+                    prefetch_packet(rays.as_ptr().wrapping_add((k + 1) * PACKET_RAYS));
+                    self.trace_packet::<$kernel, I>(packet, hits);
                 }
             }
 

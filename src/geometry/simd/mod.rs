@@ -17,7 +17,7 @@ pub mod triangle;
 pub use interval::{IntervalSlab, WideInterval};
 pub use packet::PacketSlab;
 pub use packet_triangle::{PacketBest, PacketHits, PacketShear, PacketTriangleKernel};
-pub use ray_packet::{PACKET_RAYS, RayLoad, RayPacket};
+pub use ray_packet::{PACKET_RAYS, RayLoad, RayPacket, prefetch_packet};
 pub use slab::{WideRay, WideSlab};
 pub use triangle::{BLOCK, BlockHits, TriangleBlock, TriangleKernel};
 

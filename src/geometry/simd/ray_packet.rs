@@ -353,3 +353,14 @@ mod elsewhere {
     portable_as!(Avx2);
     portable_as!(Avx512);
 }
+
+/// Asks for the cache lines of the packet of rays at `rays` (which may lie past the slice:
+/// a prefetch never faults). Traced while the packet before it is, so that the packet's
+/// first loads do not wait on its 32 lines at once.
+#[inline(always)]
+pub fn prefetch_packet(rays: *const Ray) {
+    let bytes = rays.cast::<u8>();
+    for line in (0..PACKET_RAYS * size_of::<Ray>()).step_by(64) {
+        super::prefetch(bytes.wrapping_add(line));
+    }
+}

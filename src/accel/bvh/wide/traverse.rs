@@ -20,7 +20,7 @@ use crate::accel::replay::{Child, Level, Order, Step, Visited};
 use crate::accel::stats::record;
 use crate::accel::{Accel, BestHit, Hit, Stats, TraversalOrder};
 use crate::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab};
-use crate::geometry::simd::{IntervalSlab, SimdLevel, TriangleKernel, WideRay, prefetch};
+use crate::geometry::simd::{IntervalSlab, SimdLevel, TriangleKernel, WideRay, prefetch_packet};
 use crate::geometry::{Intersector, Ray};
 use std::mem::MaybeUninit;
 
@@ -351,17 +351,6 @@ where
     #[inline(always)]
     fn prefetch_entry(&self, e: Entry) {
         self.prefetch_child(e.child);
-    }
-}
-
-/// Asks for the cache lines of the packet of rays at `rays` (which may lie past the slice:
-/// a prefetch never faults). Traced while the packet before it is, so that the packet's
-/// first loads do not wait on its 32 lines at once.
-#[inline(always)]
-fn prefetch_packet(rays: *const Ray) {
-    let bytes = rays.cast::<u8>();
-    for line in (0..PACKET_SIZE * size_of::<Ray>()).step_by(64) {
-        prefetch(bytes.wrapping_add(line));
     }
 }
 
