@@ -7,6 +7,8 @@ use super::WideBvh;
 use super::leaf::PADDING;
 use super::node::{Lanes, NodeWidth, WideNode};
 use crate::accel::bvh::refit::{RefitError, RefitIndex, RefitReport, slots_of};
+#[cfg(target_arch = "x86_64")]
+use crate::geometry::simd::SimdLevel;
 use crate::geometry::simd::{BLOCK, TriangleBlock, prefetch};
 use crate::geometry::{Aabb, Triangle};
 use glam::{Mat4, Vec3, Vec4};
@@ -283,7 +285,7 @@ unsafe fn refit_piece<const W: usize>(
         unsafe { body(tree, p, scene, costs) }
     }
     #[cfg(target_arch = "x86_64")]
-    if is_x86_feature_detected!("avx2") {
+    if SimdLevel::Avx2.supported() {
         // SAFETY: the CPU has AVX2; the rest is the caller's contract.
         return unsafe { avx2(tree, p, scene, costs) };
     }
