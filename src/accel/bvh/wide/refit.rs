@@ -96,7 +96,7 @@ where
                 // task alone and its nodes' children lie inside it (`validate` checks it),
                 // so the tasks touch disjoint nodes; the top runs after them all.
                 // `self.nodes` and `done` stay borrowed for the whole pass.
-                unsafe { refit_piece(&tree, p, scene, costs) };
+                unsafe { tree.refit_piece(p, scene, costs) };
             }
         };
         if parallel {
@@ -243,56 +243,6 @@ fn pieces<'a>(
         .collect()
 }
 
-/// Fills a piece's blocks and refits its nodes, compiled for AVX2 where the CPU has it: the
-/// same operations (no fused multiply-add, so the same bits) in three-operand VEX forms,
-/// which spare the copies between registers that the SSE2 forms need (4–5 % of the refit's
-/// time, docs/wide-bvh.md).
-///
-/// # Safety
-/// As `SharedTree::refit_range`.
-unsafe fn refit_piece<const W: usize>(
-    tree: &SharedTree<W>,
-    p: Piece<'_>,
-    scene: &[Triangle],
-    costs: Costs,
-) where
-    Lanes<W>: NodeWidth,
-{
-    #[inline(always)]
-    unsafe fn body<const W: usize>(
-        tree: &SharedTree<W>,
-        p: Piece<'_>,
-        scene: &[Triangle],
-        costs: Costs,
-    ) where
-        Lanes<W>: NodeWidth,
-    {
-        fill_blocks(p.blocks, p.indices, scene);
-        // SAFETY: the caller's contract.
-        unsafe { tree.refit_range(p.nodes, p.blocks, p.first_block, costs) };
-    }
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    unsafe fn avx2<const W: usize>(
-        tree: &SharedTree<W>,
-        p: Piece<'_>,
-        scene: &[Triangle],
-        costs: Costs,
-    ) where
-        Lanes<W>: NodeWidth,
-    {
-        // SAFETY: the caller's contract.
-        unsafe { body(tree, p, scene, costs) }
-    }
-    #[cfg(target_arch = "x86_64")]
-    if SimdLevel::Avx2.supported() {
-        // SAFETY: the CPU has AVX2; the rest is the caller's contract.
-        return unsafe { avx2(tree, p, scene, costs) };
-    }
-    // SAFETY: the caller's contract.
-    unsafe { body(tree, p, scene, costs) }
-}
-
 /// Writes every block from the scene, in parallel over runs of blocks (`fill_blocks`).
 fn fill_blocks_parallel(blocks: &mut [TriangleBlock], indices: &[u32], scene: &[Triangle]) {
     blocks
@@ -425,6 +375,43 @@ impl<const W: usize> SharedTree<W>
 where
     Lanes<W>: NodeWidth,
 {
+    /// Fills a piece's blocks and refits its nodes, compiled for AVX2 where the CPU has it:
+    /// the same operations (no fused multiply-add, so the same bits) in three-operand VEX
+    /// forms, which spare the copies between registers that the SSE2 forms need (4–5 % of
+    /// the refit's time, docs/wide-bvh.md).
+    ///
+    /// # Safety
+    /// As `refit_range`.
+    unsafe fn refit_piece(&self, p: Piece<'_>, scene: &[Triangle], costs: Costs) {
+        #[cfg(target_arch = "x86_64")]
+        if SimdLevel::Avx2.supported() {
+            // SAFETY: the CPU has AVX2; the rest is the caller's contract.
+            return unsafe { self.refit_piece_avx2(p, scene, costs) };
+        }
+        // SAFETY: the caller's contract.
+        unsafe { self.fill_and_refit(p, scene, costs) }
+    }
+
+    /// `refit_piece` compiled for AVX2.
+    ///
+    /// # Safety
+    /// As `refit_range`; the CPU has AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn refit_piece_avx2(&self, p: Piece<'_>, scene: &[Triangle], costs: Costs) {
+        // SAFETY: the caller's contract.
+        unsafe { self.fill_and_refit(p, scene, costs) }
+    }
+
+    /// # Safety
+    /// As `refit_range`.
+    #[inline(always)]
+    unsafe fn fill_and_refit(&self, p: Piece<'_>, scene: &[Triangle], costs: Costs) {
+        fill_blocks(p.blocks, p.indices, scene);
+        // SAFETY: the caller's contract.
+        unsafe { self.refit_range(p.nodes, p.blocks, p.first_block, costs) };
+    }
+
     /// Refits the nodes `range` from the last to the first: a node's interior children come
     /// after it, so each is refitted (and its sums known) before its parent reads it. One
     /// sweep down the array, with no recursion: the nodes stream in, and the reads of one
