@@ -66,45 +66,74 @@ impl Binning {
     /// after a few partitions, fall into the same buckets, and with one set of bins each
     /// update would wait for the one before to be stored. The unions and counts are exact,
     /// so the bins are the same.
+    ///
+    /// The buckets of `KEYS_AHEAD` references are found before their bins are updated: an
+    /// update's load from a bin may not pass an earlier store to a bin whose address is
+    /// still being computed, and consecutive references so often share a bin that the
+    /// processor stops guessing. With the addresses a load away, the updates no longer
+    /// wait for the whole arithmetic of the reference before.
     fn fill(&self, refs: &[PrimRef], bins: &mut [Bin], spare: &mut [Bin]) {
         let n = 3 * self.buckets;
         let bins = &mut bins[..n];
-        if refs.len() < TWO_SETS || spare.len() < n {
-            for r in refs {
-                self.add(r, bins);
+        let two_sets = refs.len() >= TWO_SETS && spare.len() >= n;
+        let spare = &mut spare[..if two_sets { n } else { 0 }];
+        // With two sets an odd count's last reference goes first, to `bins`; then the
+        // even ones to `bins` and the odd ones to `spare`.
+        let refs = if two_sets && refs.len() % 2 == 1 {
+            let (last, rest) = refs.split_last().expect("at least TWO_SETS references");
+            Self::update(bins, last, self.keys(last));
+            rest
+        } else {
+            refs
+        };
+        let mut keys = [[0u32; 3]; KEYS_AHEAD];
+        for run in refs.chunks(KEYS_AHEAD) {
+            for (key, r) in keys.iter_mut().zip(run) {
+                *key = self.keys(r);
             }
-            return;
+            if two_sets {
+                // Runs are of an even length, so a reference's place in its run has the
+                // parity of its place in `refs`.
+                for (pair, key) in run.chunks_exact(2).zip(keys.chunks_exact(2)) {
+                    Self::update(bins, &pair[0], key[0]);
+                    Self::update(spare, &pair[1], key[1]);
+                }
+            } else {
+                for (r, &key) in run.iter().zip(&keys) {
+                    Self::update(bins, r, key);
+                }
+            }
         }
-        let spare = &mut spare[..n];
-        let pairs = refs.chunks_exact(2);
-        if let [r] = pairs.remainder() {
-            self.add(r, bins);
-        }
-        for pair in pairs {
-            self.add(&pair[0], bins);
-            self.add(&pair[1], spare);
-        }
-        for (x, y) in bins.iter_mut().zip(spare.iter_mut()) {
-            x.count += y.count;
-            x.bounds = x.bounds.union(y.bounds);
-            *y = EMPTY_BIN;
+        if two_sets {
+            for (x, y) in bins.iter_mut().zip(spare.iter_mut()) {
+                x.count += y.count;
+                x.bounds = x.bounds.union(y.bounds);
+                *y = EMPTY_BIN;
+            }
         }
     }
 
-    /// Adds one reference to its bucket on each axis.
+    /// The bins of one reference, `3k + axis` for its bucket k on each axis.
     #[inline(always)]
-    fn add(&self, r: &PrimRef, bins: &mut [Bin]) {
+    fn keys(&self, r: &PrimRef) -> [u32; 3] {
         let last = Vec3A::splat((self.buckets - 1) as f32);
-        let (lo, hi) = (r.lo(), r.hi());
-        let c = (lo + hi - self.origin) * self.scale;
+        let c = (r.lo() + r.hi() - self.origin) * self.scale;
         // NaN (a degenerate extent) and negatives go to the first bucket; past the
         // last (rounding at the top of the range) to the last.
         let k = Vec3A::select(c.cmpge(Vec3A::ZERO), c, Vec3A::ZERO).min(last);
-        debug_assert!(bins.len() == 3 * self.buckets);
-        for (axis, k) in truncate(k).into_iter().enumerate() {
-            // SAFETY: k ≤ buckets − 1 (clamped above), so 3k + axis < 3 · buckets, the
-            // length of `bins`. Unchecked: this is the build's innermost loop.
-            let bin = unsafe { bins.get_unchecked_mut(3 * k + axis) };
+        let [x, y, z] = truncate(k);
+        [3 * x as u32, 3 * y as u32 + 1, 3 * z as u32 + 2]
+    }
+
+    /// Adds one reference to its bins `keys` (from `keys`, so below `bins.len()`).
+    #[inline(always)]
+    fn update(bins: &mut [Bin], r: &PrimRef, keys: [u32; 3]) {
+        let (lo, hi) = (r.lo(), r.hi());
+        for key in keys {
+            debug_assert!((key as usize) < bins.len());
+            // SAFETY: k ≤ buckets − 1 (clamped in `keys`), so 3k + axis < 3 · buckets,
+            // the length of `bins`. Unchecked: this is the build's innermost loop.
+            let bin = unsafe { bins.get_unchecked_mut(key as usize) };
             bin.count += 1;
             bin.bounds.grow(lo, hi);
         }
@@ -135,6 +164,11 @@ impl Binning {
 
 /// Nodes of at least this many references are binned into two sets of bins (`fill`).
 const TWO_SETS: usize = 64;
+
+/// References whose buckets `fill` finds before it updates their bins: even, so that the
+/// two sets' alternation keeps its parity from one run to the next.
+const KEYS_AHEAD: usize = 32;
+const _: () = assert!(KEYS_AHEAD.is_multiple_of(2));
 
 /// The three lanes of `k` (finite, in 0..=buckets − 1) truncated to bucket indices, by one
 /// vector conversion where there is one.
@@ -565,14 +599,16 @@ mod tests {
         for (binning, refs) in [
             (Binning::new(&info.centroids, 16), &refs[..]),
             (Binning::new(&info.centroids, 3), &refs[..]),
+            // An odd count: the last reference is binned first, then the pairs.
+            (Binning::new(&info.centroids, 16), &refs[..501]),
             (Binning::new(&tiny.centroids, 16), &refs[500..]),
         ] {
             let b = binning.buckets;
             let mut bins = vec![EMPTY_BIN; 3 * b];
             let mut spare = vec![EMPTY_BIN; 3 * b];
             binning.fill(refs, &mut bins, &mut spare);
-            // One set of bins gives the same bins as two (the first two cases, of 502
-            // references, are binned into two), and the spare set is left empty.
+            // One set of bins gives the same bins as two (the first three cases, of 502 and
+            // 501 references, are binned into two), and the spare set is left empty.
             let mut one_set = vec![EMPTY_BIN; 3 * b];
             binning.fill(refs, &mut one_set, &mut []);
             let bits = |bins: &[Bin]| -> Vec<[u32; 7]> {
