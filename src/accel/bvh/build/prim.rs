@@ -12,7 +12,9 @@ pub struct PrimRef {
     pub min: Vec3,
     pub index: u32,
     pub max: Vec3,
-    _pad: u32,
+    /// The reference's bucket on each axis (a byte each, x lowest) in the last binning of
+    /// its node: the partition after it decides a side from a byte, not the arithmetic.
+    buckets: u32,
 }
 
 impl PrimRef {
@@ -21,7 +23,7 @@ impl PrimRef {
             min: bounds.min,
             index,
             max: bounds.max,
-            _pad: 0,
+            buckets: 0,
         }
     }
 
@@ -44,10 +46,24 @@ impl PrimRef {
     /// `max` in a SIMD register (its fourth lane the padding, ignored).
     #[inline(always)]
     pub fn hi(&self) -> Vec3A {
-        // SAFETY: `max` and `_pad` are the last 16 of the 32 initialised bytes of a
+        // SAFETY: `max` and `buckets` are the last 16 of the 32 initialised bytes of a
         // `repr(C)` `PrimRef`, read as four floats.
         let v = unsafe { std::ptr::read((self as *const Self).cast::<[f32; 4]>().add(1)) };
         Vec3A::from_vec4(Vec4::from_array(v))
+    }
+
+    /// Records the reference's buckets on the three axes (each below 256). Above them the
+    /// bits of 2.0: read as the fourth lane of `hi`, the word is a normal float, never a
+    /// denormal that could slow the lane's arithmetic.
+    #[inline(always)]
+    pub fn mark_buckets(&mut self, x: u32, y: u32, z: u32) {
+        self.buckets = 2.0f32.to_bits() | x | y << 8 | z << 16;
+    }
+
+    /// The bucket on `axis` that the last `mark_buckets` recorded.
+    #[inline(always)]
+    pub fn bucket(&self, axis: usize) -> u32 {
+        (self.buckets >> (8 * axis)) & 0xff
     }
 
     /// The reference's box in SIMD registers.

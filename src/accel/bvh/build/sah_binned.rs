@@ -72,7 +72,10 @@ impl Binning {
     /// still being computed, and consecutive references so often share a bin that the
     /// processor stops guessing. With the addresses a load away, the updates no longer
     /// wait for the whole arithmetic of the reference before.
-    fn fill(&self, refs: &[PrimRef], bins: &mut [Bin], spare: &mut [Bin]) {
+    ///
+    /// Each reference's buckets are recorded in it (`PrimRef::mark_buckets`) for the
+    /// partition that follows.
+    fn fill(&self, refs: &mut [PrimRef], bins: &mut [Bin], spare: &mut [Bin]) {
         let n = 3 * self.buckets;
         let bins = &mut bins[..n];
         let two_sets = refs.len() >= TWO_SETS && spare.len() >= n;
@@ -80,17 +83,19 @@ impl Binning {
         // With two sets an odd count's last reference goes first, to `bins`; then the
         // even ones to `bins` and the odd ones to `spare`.
         let refs = if two_sets && refs.len() % 2 == 1 {
-            let (last, rest) = refs.split_last().expect("at least TWO_SETS references");
-            Self::update(bins, last, self.keys(last));
+            let (last, rest) = refs.split_last_mut().expect("at least TWO_SETS references");
+            let key = self.keys(last);
+            Self::update(bins, last, key);
             rest
         } else {
             refs
         };
         let mut keys = [[0u32; 3]; KEYS_AHEAD];
-        for run in refs.chunks(KEYS_AHEAD) {
-            for (key, r) in keys.iter_mut().zip(run) {
+        for run in refs.chunks_mut(KEYS_AHEAD) {
+            for (key, r) in keys.iter_mut().zip(run.iter_mut()) {
                 *key = self.keys(r);
             }
+            let run = &*run;
             if two_sets {
                 // Runs are of an even length, so a reference's place in its run has the
                 // parity of its place in `refs`.
@@ -113,16 +118,18 @@ impl Binning {
         }
     }
 
-    /// The bins of one reference, `3k + axis` for its bucket k on each axis.
+    /// The bins of one reference, `3k + axis` for its bucket k on each axis; its buckets
+    /// are recorded in it.
     #[inline(always)]
-    fn keys(&self, r: &PrimRef) -> [u32; 3] {
+    fn keys(&self, r: &mut PrimRef) -> [u32; 3] {
         let last = Vec3A::splat((self.buckets - 1) as f32);
         let c = (r.lo() + r.hi() - self.origin) * self.scale;
         // NaN (a degenerate extent) and negatives go to the first bucket; past the
         // last (rounding at the top of the range) to the last.
         let k = Vec3A::select(c.cmpge(Vec3A::ZERO), c, Vec3A::ZERO).min(last);
-        let [x, y, z] = truncate(k);
-        [3 * x as u32, 3 * y as u32 + 1, 3 * z as u32 + 2]
+        let [x, y, z] = truncate(k).map(|k| k as u32);
+        r.mark_buckets(x, y, z);
+        [3 * x, 3 * y + 1, 3 * z + 2]
     }
 
     /// Adds one reference to its bins `keys` (from `keys`, so below `bins.len()`).
@@ -140,12 +147,12 @@ impl Binning {
     }
 
     /// `fill` over `refs`, on every thread for a node large enough for its passes to pay.
-    fn fill_parallel(&self, refs: &[PrimRef], bins: &mut [Bin], spare: &mut [Bin]) {
+    fn fill_parallel(&self, refs: &mut [PrimRef], bins: &mut [Bin], spare: &mut [Bin]) {
         if refs.len() < PARALLEL_PASS {
             return self.fill(refs, bins, spare);
         }
         let partial = refs
-            .par_chunks(PARALLEL_PASS / 4)
+            .par_chunks_mut(PARALLEL_PASS / 4)
             .map(|chunk| {
                 let mut bins = vec![EMPTY_BIN; 6 * self.buckets];
                 let (bins, spare) = bins.split_at_mut(3 * self.buckets);
@@ -254,6 +261,8 @@ pub struct ObjectSplit {
     /// The first bucket of the right side, in the split axis's lane; +∞ in the others
     /// (`is_left`).
     boundary: Vec3A,
+    /// The first bucket of the right side (`is_left_marked`).
+    bucket: u32,
     pub left: Box3A,
     pub right: Box3A,
 }
@@ -269,6 +278,16 @@ impl ObjectSplit {
         c.cmpge(self.boundary).bitmask() & (1 << self.axis) == 0
     }
 
+    /// `is_left` for a reference binned by this split's `best`, from the bucket binning
+    /// recorded in it: one byte compared, where `is_left` repeats binning's arithmetic.
+    /// The side is the same (`fill_and_partition_agree_on_every_bucket`); the partition's
+    /// branch on it waits for a load and a compare instead of the arithmetic's chain, which
+    /// is what a mispredicted side costs.
+    #[inline(always)]
+    pub fn is_left_marked(&self, r: &PrimRef) -> bool {
+        r.bucket(self.axis) < self.bucket
+    }
+
     fn new(binning: Binning, axis: usize, bucket: usize) -> Self {
         let mut boundary = Vec3A::INFINITY;
         boundary[axis] = bucket as f32;
@@ -277,6 +296,7 @@ impl ObjectSplit {
             axis,
             binning,
             boundary,
+            bucket: bucket as u32,
             left: Box3A::EMPTY,
             right: Box3A::EMPTY,
         }
@@ -301,7 +321,7 @@ pub(super) struct Candidate {
 /// before) included: what the bucket plot draws. `best` finds the same cheapest split
 /// without visiting the repeats.
 fn candidates(
-    refs: &[PrimRef],
+    refs: &mut [PrimRef],
     binning: &Binning,
     parent_area: f32,
     p: &BuildParams,
@@ -376,7 +396,7 @@ fn candidates(
 /// (the SBVH weighs their overlap); the binned SAH leaves them empty, since its partition
 /// computes the children's bounds anyway.
 pub fn best(
-    refs: &[PrimRef],
+    refs: &mut [PrimRef],
     info: &NodeInfo,
     p: &BuildParams,
     sides: bool,
@@ -539,7 +559,7 @@ pub fn split(
         return None;
     }
     let start = (n >= PARALLEL_PASS).then(Instant::now);
-    let split = partition(refs, |r| best.is_left(r));
+    let split = partition(refs, |r| best.is_left_marked(r));
     if let Some(start) = start {
         clock.add_partition(start.elapsed());
     }
@@ -567,9 +587,16 @@ pub(super) fn all_candidates(
 ) -> Vec<(Candidate, f32)> {
     let binning = Binning::new(&info.centroids, p.buckets as usize);
     let mut out = Vec::new();
-    candidates(refs, &binning, info.bounds.surface_area(), p, |c| {
-        out.push((c, binning.plane(c.axis, c.k)));
-    });
+    // Binning records each reference's buckets: in a copy, the caller's stay as they are.
+    candidates(
+        &mut refs.to_vec(),
+        &binning,
+        info.bounds.surface_area(),
+        p,
+        |c| {
+            out.push((c, binning.plane(c.axis, c.k)));
+        },
+    );
     out
 }
 
@@ -606,11 +633,12 @@ mod tests {
             let b = binning.buckets;
             let mut bins = vec![EMPTY_BIN; 3 * b];
             let mut spare = vec![EMPTY_BIN; 3 * b];
-            binning.fill(refs, &mut bins, &mut spare);
+            let mut marked = refs.to_vec();
+            binning.fill(&mut marked, &mut bins, &mut spare);
             // One set of bins gives the same bins as two (the first three cases, of 502 and
             // 501 references, are binned into two), and the spare set is left empty.
             let mut one_set = vec![EMPTY_BIN; 3 * b];
-            binning.fill(refs, &mut one_set, &mut []);
+            binning.fill(&mut refs.to_vec(), &mut one_set, &mut []);
             let bits = |bins: &[Bin]| -> Vec<[u32; 7]> {
                 let b = |v: Vec3A| v.to_array().map(f32::to_bits);
                 bins.iter()
@@ -631,8 +659,9 @@ mod tests {
                 assert_eq!(filled, counts, "axis {axis}, {b} buckets");
                 for k in 1..b {
                     let split = ObjectSplit::new(binning, axis, k);
-                    for r in refs {
+                    for (r, m) in refs.iter().zip(&marked) {
                         assert_eq!(split.is_left(r), binning.bucket(r, axis) < k);
+                        assert_eq!(split.is_left_marked(m), split.is_left(r));
                     }
                 }
             }
@@ -654,7 +683,7 @@ mod tests {
         for case in 0..3000 {
             let n = [2, 3, 5, 9, 17, 40, 300][case % 7];
             let spread = [1.0, 0.01, 100.0][case % 3];
-            let refs: Vec<PrimRef> = (0..n)
+            let mut refs: Vec<PrimRef> = (0..n)
                 .map(|i| {
                     let lo = Vec3::new(next(), next() * spread, (next() * 8.0).floor());
                     let size = Vec3::new(next(), next(), next()) * 0.3;
@@ -666,12 +695,12 @@ mod tests {
                 let p = BuildParams { buckets, ..p0 };
                 let binning = Binning::new(&info.centroids, buckets as usize);
                 let mut scan: Option<Candidate> = None;
-                candidates(&refs, &binning, info.bounds.surface_area(), &p, |c| {
+                candidates(&mut refs, &binning, info.bounds.surface_area(), &p, |c| {
                     if !c.repeats_previous && scan.is_none_or(|s| c.cost < s.cost) {
                         scan = Some(c);
                     }
                 });
-                let found = best(&refs, &info, &p, true);
+                let found = best(&mut refs, &info, &p, true);
                 assert_eq!(
                     found.map(|f| (f.axis, f.boundary[f.axis], f.cost.to_bits())),
                     scan.map(|c| (c.axis, c.k as f32, c.cost.to_bits())),
@@ -700,7 +729,7 @@ mod tests {
                 ..BuildParams::default()
             };
             // Pieces of a grid of quads, some flat, some touching, some far apart.
-            let refs: Vec<PrimRef> = (0..n)
+            let mut refs: Vec<PrimRef> = (0..n)
                 .map(|i| {
                     let lo = Vec3::new(
                         (next() * 4.0).floor(),
@@ -715,7 +744,7 @@ mod tests {
             if no_split_pays(&refs, &info, &p) {
                 decided += 1;
                 let area = info.bounds.surface_area();
-                if let Some(b) = best(&refs, &info, &p, false) {
+                if let Some(b) = best(&mut refs, &info, &p, false) {
                     assert!(!sah_worth_splitting(n, b.cost, area, &p), "case {case}");
                 }
             }

@@ -124,7 +124,7 @@ impl Builder<'_> {
         let n = refs.len();
         let bounds = info.bounds.to_aabb();
         let mut choice = if !self.progress.is_abandoned() {
-            self.choose(&refs, &info, budget, depth)
+            self.choose(&mut refs, &info, budget, depth)
         } else if n > self.params.max_leaf_size as usize {
             Choice::Median
         } else {
@@ -151,7 +151,7 @@ impl Builder<'_> {
                 );
             }
             // Unsplitting emptied one side: choose again among whole references.
-            choice = self.choose(&refs, &info, 0, depth);
+            choice = self.choose(&mut refs, &info, 0, depth);
         }
         let (m, li, ri): Split = match choice {
             Choice::Leaf => {
@@ -227,7 +227,7 @@ impl Builder<'_> {
     /// node's rays that enter the overlap, times the overlap penalty κ (0: the plain SAH, as
     /// Stich et al.; Popov et al. 2009 found that enforcing space subdivision pays).
     /// Whether to split at all is still the plain SAH's decision.
-    fn choose(&self, refs: &[PrimRef], info: &NodeInfo, budget: usize, depth: u32) -> Choice {
+    fn choose(&self, refs: &mut [PrimRef], info: &NodeInfo, budget: usize, depth: u32) -> Choice {
         let n = refs.len();
         let p = self.params;
         let must_split = n > p.max_leaf_size as usize;
