@@ -57,7 +57,13 @@ impl PrimRef {
     /// denormal that could slow the lane's arithmetic.
     #[inline(always)]
     pub fn mark_buckets(&mut self, x: u32, y: u32, z: u32) {
-        self.buckets = 2.0f32.to_bits() | x | y << 8 | z << 16;
+        self.mark_bucket_bytes(x | y << 8 | z << 16);
+    }
+
+    /// `mark_buckets` from the buckets as bytes, x lowest (the top byte is ignored).
+    #[inline(always)]
+    pub fn mark_bucket_bytes(&mut self, bytes: u32) {
+        self.buckets = 2.0f32.to_bits() | (bytes & 0x00ff_ffff);
     }
 
     /// The bucket on `axis` that the last `mark_buckets` recorded.

@@ -90,7 +90,7 @@ impl Binning {
         } else {
             refs
         };
-        let mut keys = [[0u32; 3]; KEYS_AHEAD];
+        let mut keys = [[0u32; 4]; KEYS_AHEAD];
         for run in refs.chunks_mut(KEYS_AHEAD) {
             for (key, r) in keys.iter_mut().zip(run.iter_mut()) {
                 *key = self.keys(r);
@@ -121,22 +121,23 @@ impl Binning {
     /// The bins of one reference, `3k + axis` for its bucket k on each axis; its buckets
     /// are recorded in it.
     #[inline(always)]
-    fn keys(&self, r: &mut PrimRef) -> [u32; 3] {
+    fn keys(&self, r: &mut PrimRef) -> [u32; 4] {
         let last = Vec3A::splat((self.buckets - 1) as f32);
         let c = (r.lo() + r.hi() - self.origin) * self.scale;
         // NaN (a degenerate extent) and negatives go to the first bucket; past the
-        // last (rounding at the top of the range) to the last.
+        // last (rounding at the top of the range) to the last. (The fourth lane, which
+        // holds no coordinate, ends in the same range and is ignored.)
         let k = Vec3A::select(c.cmpge(Vec3A::ZERO), c, Vec3A::ZERO).min(last);
-        let [x, y, z] = truncate(k).map(|k| k as u32);
-        r.mark_buckets(x, y, z);
-        [3 * x, 3 * y + 1, 3 * z + 2]
+        let (keys, bytes) = bins_and_bytes(k);
+        r.mark_bucket_bytes(bytes);
+        keys
     }
 
     /// Adds one reference to its bins `keys` (from `keys`, so below `bins.len()`).
     #[inline(always)]
-    fn update(bins: &mut [Bin], r: &PrimRef, keys: [u32; 3]) {
+    fn update(bins: &mut [Bin], r: &PrimRef, keys: [u32; 4]) {
         let (lo, hi) = (r.lo(), r.hi());
-        for key in keys {
+        for &key in &keys[..3] {
             debug_assert!((key as usize) < bins.len());
             // SAFETY: k ≤ buckets − 1 (clamped in `keys`), so 3k + axis < 3 · buckets,
             // the length of `bins`. Unchecked: this is the build's innermost loop.
@@ -177,26 +178,39 @@ const TWO_SETS: usize = 64;
 const KEYS_AHEAD: usize = 32;
 const _: () = assert!(KEYS_AHEAD.is_multiple_of(2));
 
-/// The three lanes of `k` (finite, in 0..=buckets − 1) truncated to bucket indices, by one
-/// vector conversion where there is one.
+/// The bins of the buckets `k` (finite, every lane in 0..=buckets − 1, truncated):
+/// `3k + axis` in the first three lanes; and the buckets as bytes, x lowest
+/// (`PrimRef::mark_bucket_bytes`). In vector registers where there are SSE2's integer
+/// operations: the bins' lanes stored whole, the bytes packed, no lane moved out one by
+/// one.
 #[inline(always)]
-fn truncate(k: Vec3A) -> [usize; 3] {
+fn bins_and_bytes(k: Vec3A) -> ([u32; 4], u32) {
     #[cfg(target_arch = "x86_64")]
     {
-        use std::arch::x86_64::_mm_cvttps_epi32;
-        // SAFETY: SSE2 is part of x86_64; the lanes are in range, so no lane saturates.
-        let k: [i32; 4] = unsafe { std::mem::transmute(_mm_cvttps_epi32(k.into())) };
-        [k[0] as usize, k[1] as usize, k[2] as usize]
+        use std::arch::x86_64::*;
+        // SAFETY: SSE2 is part of x86_64; the lanes are in range, so no lane saturates,
+        // and every bucket (below 256) fits a byte.
+        unsafe {
+            let i = _mm_cvttps_epi32(k.into());
+            let bins = _mm_add_epi32(_mm_add_epi32(i, i), i);
+            let bins = _mm_add_epi32(bins, _mm_setr_epi32(0, 1, 2, 3));
+            let words = _mm_packs_epi32(i, i);
+            let bytes = _mm_cvtsi128_si32(_mm_packus_epi16(words, words)) as u32;
+            (std::mem::transmute::<__m128i, [u32; 4]>(bins), bytes)
+        }
     }
     #[cfg(not(target_arch = "x86_64"))]
-    // SAFETY: every lane is finite and in 0..=buckets − 1, so its truncation is
-    // representable.
-    unsafe {
-        [
-            k.x.to_int_unchecked::<u32>() as usize,
-            k.y.to_int_unchecked::<u32>() as usize,
-            k.z.to_int_unchecked::<u32>() as usize,
-        ]
+    {
+        // SAFETY: every lane is finite and in 0..=buckets − 1, so its truncation is
+        // representable.
+        let [x, y, z] = unsafe {
+            [
+                k.x.to_int_unchecked::<u32>(),
+                k.y.to_int_unchecked::<u32>(),
+                k.z.to_int_unchecked::<u32>(),
+            ]
+        };
+        ([3 * x, 3 * y + 1, 3 * z + 2, 0], x | y << 8 | z << 16)
     }
 }
 
