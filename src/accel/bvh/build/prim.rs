@@ -52,21 +52,16 @@ impl PrimRef {
         Vec3A::from_vec4(Vec4::from_array(v))
     }
 
-    /// Records the reference's buckets on the three axes (each below 256). Above them the
-    /// bits of 2.0: read as the fourth lane of `hi`, the word is a normal float, never a
-    /// denormal that could slow the lane's arithmetic.
-    #[inline(always)]
-    pub fn mark_buckets(&mut self, x: u32, y: u32, z: u32) {
-        self.mark_bucket_bytes(x | y << 8 | z << 16);
-    }
-
-    /// `mark_buckets` from the buckets as bytes, x lowest (the top byte is ignored).
+    /// Records the reference's buckets on the three axes, a byte each, x lowest (the top
+    /// byte of `bytes` is ignored). Above them the bits of 2.0: read as the fourth lane of
+    /// `hi`, the word is a normal float, never a denormal that could slow the lane's
+    /// arithmetic.
     #[inline(always)]
     pub fn mark_bucket_bytes(&mut self, bytes: u32) {
         self.buckets = 2.0f32.to_bits() | (bytes & 0x00ff_ffff);
     }
 
-    /// The bucket on `axis` that the last `mark_buckets` recorded.
+    /// The bucket on `axis` that the last `mark_bucket_bytes` recorded.
     #[inline(always)]
     pub fn bucket(&self, axis: usize) -> u32 {
         (self.buckets >> (8 * axis)) & 0xff

@@ -73,7 +73,7 @@ impl Binning {
     /// processor stops guessing. With the addresses a load away, the updates no longer
     /// wait for the whole arithmetic of the reference before.
     ///
-    /// Each reference's buckets are recorded in it (`PrimRef::mark_buckets`) for the
+    /// Each reference's buckets are recorded in it (`PrimRef::mark_bucket_bytes`) for the
     /// partition that follows.
     fn fill(&self, refs: &mut [PrimRef], bins: &mut [Bin], spare: &mut [Bin]) {
         let n = 3 * self.buckets;
