@@ -160,8 +160,7 @@ impl<const W: usize> Table<'_, W> {
             return false;
         }
         let ok = {
-            let (_, rest) = self.split_at(s + 2);
-            let mut rest = rest;
+            let (_, mut rest) = self.split_at(s + 2);
             let (l, r) = rest.split_at(mid);
             let (a, b) = rayon::join(|| l.fill(bvh, p), || r.fill(bvh, p));
             a && b
