@@ -307,3 +307,68 @@ fn wide_packets_equal_single_rays() {
         check::<8>(&b2, &random, name);
     }
 }
+
+/// Packets from one origin (the case whose planes are offset from the origin once, and whose
+/// triangle groups stop after the edge functions when no ray is inside or on an edge) aimed
+/// exactly at the shared vertices and edges of grids in three orientations: rays through a
+/// vertex or along an edge are decided by the single-ray retest, and every ray gets its
+/// single-ray hit, bit for bit, with every kernel.
+#[test]
+fn one_origin_packets_through_vertices_and_edges_equal_single_rays() {
+    // A 9 × 9 grid of unit squares, two triangles each, in the plane `axis` = 0.
+    let grid = |axis: usize| -> Vec<Triangle> {
+        let at = |i: usize, j: usize| {
+            let mut p = [0.0f32; 3];
+            p[(axis + 1) % 3] = i as f32 - 4.5;
+            p[(axis + 2) % 3] = j as f32 - 4.5;
+            Vec3::from(p)
+        };
+        (0..81)
+            .flat_map(|k| {
+                let (i, j) = (k % 9, k / 9);
+                [
+                    Triangle::new(at(i, j), at(i + 1, j), at(i + 1, j + 1)),
+                    Triangle::new(at(i, j), at(i + 1, j + 1), at(i, j + 1)),
+                ]
+            })
+            .collect()
+    };
+    for axis in 0..3 {
+        let tris = grid(axis);
+        let mut origin = [0.25f32, 0.5, 0.75];
+        origin[axis] = 7.0;
+        let origin = Vec3::from(origin);
+        // Every vertex, every edge's midpoint and every triangle's centroid, 64 at a time
+        // from the same origin.
+        let mut targets: Vec<Vec3> = tris.iter().flat_map(|t| t.v).collect();
+        targets.extend(tris.iter().flat_map(|t| {
+            let [a, b, c] = t.v;
+            [(a + b) * 0.5, (b + c) * 0.5, (c + a) * 0.5]
+        }));
+        targets.extend(tris.iter().map(|t| (t.v[0] + t.v[1] + t.v[2]) / 3.0));
+        let rays: Vec<Ray> = targets
+            .iter()
+            .map(|&p| Ray::new(origin, p - origin))
+            .collect();
+        let b2 = bvh2(&tris, Strategy::SahBinned);
+        let mut wide = WideBvh::<8>::collapse(&b2, &CollapseParams::default());
+        for level in SimdLevel::available() {
+            wide.set_simd(level).unwrap();
+            let mut hits = vec![None; rays.len()];
+            wide.closest_hits::<Watertight>(&rays, &mut hits);
+            let mut hit = 0;
+            for (i, (ray, got)) in rays.iter().zip(&hits).enumerate() {
+                let single = wide.closest_hit::<Watertight, _>(ray, &mut NoStats);
+                assert_eq!(
+                    bits(*got),
+                    bits(single),
+                    "grid {axis} {}: ray {i}",
+                    level.label()
+                );
+                hit += usize::from(got.is_some());
+            }
+            // Watertight: no ray aimed inside the grid slips through it.
+            assert_eq!(hit, rays.len(), "grid {axis} {}", level.label());
+        }
+    }
+}

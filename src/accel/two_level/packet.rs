@@ -143,7 +143,9 @@ impl TwoLevel {
             }
             // The next child some ray still enters before its best hit.
             // SAFETY: as above.
-            match unsafe { next_pending::<K, 8>(&self.tlas.nodes, &soa, found, &mut stack) } {
+            match unsafe {
+                next_pending::<K, 8>(&self.tlas.nodes, &soa, interval.as_ref(), found, &mut stack)
+            } {
                 Some(next) => cur = next,
                 None => break 'walk,
             }

@@ -23,7 +23,7 @@ pub struct WideInterval {
 
 impl WideInterval {
     /// The interval ray of a packet (as `RayInterval::new` makes it), or `None` when the
-    /// test does not apply: the rays do not share one origin, a direction component changes
+    /// test does not apply: the rays do not share one origin (bit for bit), a direction component changes
     /// sign within the packet, or a reciprocal is zero or not finite.
     #[inline(always)]
     pub fn of_packet(p: &RayPacket) -> Option<WideInterval> {
@@ -44,7 +44,11 @@ impl WideInterval {
             let o = origin[0];
             let inv = &p.inv_dir[axis];
             // Fixed trip counts and `&` rather than `all`: the loops vectorise.
-            let same = (0..PACKET_RAYS).fold(true, |a, i| a & ((origin[i] == o) | (i >= n)));
+            // Bit for bit, so that a plane's offset from the origin is each ray's own
+            // (`PacketSlab::packet_entries_shared`).
+            let same = (0..PACKET_RAYS).fold(true, |a, i| {
+                a & ((origin[i].to_bits() == o.to_bits()) | (i >= n))
+            });
             let usable = (0..PACKET_RAYS).fold(true, |a, i| {
                 let x = inv[i];
                 a & ((x.is_finite() & (x != 0.0)) | (i >= n))

@@ -272,8 +272,8 @@ impl PacketTriangleKernel for Portable {
 /// (`$mand!`, `$eq!`, ...), so each width passes its own.
 #[cfg(target_arch = "x86_64")]
 macro_rules! watertight_rays {
-    ($tri:expr, $k:expr, $shear:expr, $p:expr, $limit:expr, $at:expr,
-     $load:ident, $set1:ident, $setzero:ident, $add:ident, $sub:ident, $mul:ident, $div:ident,
+    ($tri:expr, $k:expr, $shear:expr, $p:expr, $limit:expr, $at:expr, $bits:expr,
+     $lane_bits:ident, $load:ident, $set1:ident, $setzero:ident, $add:ident, $sub:ident, $mul:ident, $div:ident,
      $max:ident, $abs:ident, $mand:ident, $mor:ident, $mandnot:ident,
      $eq:ident, $neq:ident, $lt:ident, $gt:ident, $le:ident) => {{
         let (tri, shear, p, limit, at) = ($tri, $shear, $p, $limit, $at);
@@ -315,6 +315,12 @@ macro_rules! watertight_rays {
         let negative = $mor!($mor!($lt!(e0, zero), $lt!(e1, zero)), $lt!(e2, zero));
         let positive = $mor!($mor!($gt!(e0, zero), $gt!(e1, zero)), $gt!(e2, zero));
         let outside = $mand!(negative, positive);
+        // No ray of the group inside the edges or on one: none can hit or be retested, so
+        // nothing below would change a best hit or a ray handed back (the group's lanes of
+        // `PacketHits` are read only for those). Most groups of a packet end here.
+        if $bits & !($lane_bits!(outside) & !$lane_bits!(on_edge)) == 0 {
+            continue;
+        }
         let det = $add($add(e0, e1), e2);
         let (az, bz, cz) = ($mul(sz, aqz), $mul(sz, bqz), $mul(sz, cqz));
         let inv_det = $div($set1(1.0), det);
@@ -413,6 +419,12 @@ macro_rules! closest_vector {
             mor = $or;
             mandnot = $andnot;
         }
+        // A vector mask's lanes as bits.
+        macro_rules! vector_bits {
+            ($m:expr) => {
+                $movemask($m) as u64
+            };
+        }
         let index = $cast_f($set1_i($index as i32));
         for g in 0..PACKET_RAYS / LANES {
             let at = g * LANES;
@@ -427,6 +439,8 @@ macro_rules! closest_vector {
                 p,
                 &best.limit,
                 at,
+                bits,
+                vector_bits,
                 $load,
                 $set1,
                 $setzero,
@@ -672,6 +686,11 @@ mod x86 {
                     _mm512_abs_ps($x)
                 };
             }
+            macro_rules! mask_bits {
+                ($m:expr) => {
+                    $m
+                };
+            }
             op_macros! {
                 eq = _mm512_cmp_ps_mask::<_CMP_EQ_OQ>;
                 neq = _mm512_cmp_ps_mask::<_CMP_NEQ_UQ>;
@@ -696,6 +715,8 @@ mod x86 {
                         p,
                         &best.limit,
                         at,
+                        bits,
+                        mask_bits,
                         _mm512_loadu_ps,
                         _mm512_set1_ps,
                         _mm512_setzero_ps,

@@ -8,12 +8,14 @@
 //! - Each remaining child box is tested against all active rays at once, SIMD across the
 //!   rays (`PacketSlab`): 16 rays per instruction with AVX-512, 8 with AVX2. Each ray's answer
 //!   is its own scalar slab test, so a child gets the exact mask of the rays that enter it.
+//!   Rays from one origin into one octant find each plane's offset from the origin once.
 //! - The entered children are pushed with their masks, nearest first by the smallest entry
 //!   distance of their rays. A popped child whose rays may have found closer hits since it
 //!   was pushed is tested once more, which drops the rays that now stop before it.
 //! - In a leaf each triangle is tested against the mask's rays at once, SIMD across the rays
 //!   (`PacketTriangleKernel`, the watertight test), and each ray keeps its closest hit and
-//!   shrinks its box-test limit. An intersector without that form tests ray by ray with the
+//!   shrinks its box-test limit. A group of rays none of which is inside the triangle's
+//!   edges or on one stops after the edge functions. An intersector without that form tests ray by ray with the
 //!   single rays' block test.
 //! - Hybrid traversal (as Embree's): once at most `HYBRID_RAYS` rays are left in a subtree,
 //!   each of them finishes it with the single-ray traversal, which tests the W children of a
@@ -117,8 +119,15 @@ where
     while lanes != 0 {
         let lane = lanes.trailing_zeros() as usize;
         lanes &= lanes - 1;
+        let b = planes(node, lane);
         // SAFETY: as above.
-        let (hit, d) = unsafe { K::packet_entries(&planes(node, lane), soa, rays) };
+        let (hit, d) = unsafe {
+            match cull {
+                // One origin and octant: each plane's offset from the origin once.
+                Some((iv, _)) => K::packet_entries_shared(&b, iv, soa, rays),
+                None => K::packet_entries(&b, soa, rays),
+            }
+        };
         if hit != 0 {
             entered[k] = (d, hit, lane);
             k += 1;
@@ -163,6 +172,7 @@ where
 pub(crate) unsafe fn next_pending<K: PacketSlab, const W: usize>(
     nodes: &[WideNode<W>],
     soa: &RayPacket,
+    interval: Option<&WideInterval>,
     found: u32,
     stack: &mut Stack<Pending>,
 ) -> Option<Pending>
@@ -172,10 +182,15 @@ where
     loop {
         let mut next = stack.pop()?;
         if next.found != found {
-            let node = &nodes[next.node as usize];
+            let b = planes(&nodes[next.node as usize], next.lane as usize);
             // SAFETY: the caller guarantees K's instruction set.
-            next.rays =
-                unsafe { K::packet_entries(&planes(node, next.lane as usize), soa, next.rays) }.0;
+            next.rays = unsafe {
+                match interval {
+                    Some(iv) => K::packet_entries_shared(&b, iv, soa, next.rays),
+                    None => K::packet_entries(&b, soa, next.rays),
+                }
+            }
+            .0;
             if next.rays == 0 {
                 continue;
             }
@@ -435,7 +450,8 @@ where
             }
             // The next child some ray still enters before its best hit.
             // SAFETY: as above.
-            match unsafe { next_pending::<K, W>(&self.nodes, p.soa, p.found, &mut stack) } {
+            match unsafe { next_pending::<K, W>(&self.nodes, p.soa, interval, p.found, &mut stack) }
+            {
                 Some(next) => cur = next,
                 None => break 'walk,
             }
