@@ -3,6 +3,7 @@
 //! (any hit, tmax = distance to the light) and one cosine-distributed diffuse ray around the
 //! geometric normal facing the ray (closest hit).
 
+use crate::accel::bvh::packet::tile_pixels;
 use crate::accel::{Accel, NoStats};
 use crate::geometry::spawn::SurfacePoint;
 use crate::geometry::{Ray, Watertight};
@@ -55,11 +56,8 @@ impl RaySets {
         let primary_tiles = (0..h)
             .step_by(8)
             .flat_map(|y0| (0..w).step_by(8).map(move |x0| (x0, y0)))
-            .flat_map(|(x0, y0)| {
-                (y0..(y0 + 8).min(h))
-                    .flat_map(move |y| (x0..(x0 + 8).min(w)).map(move |x| y * w + x))
-            })
-            .map(|i| primary[i])
+            .flat_map(|(x0, y0)| tile_pixels(x0 as u32, y0 as u32, w as u32, h as u32))
+            .map(|(x, y)| primary[y as usize * w + x as usize])
             .collect();
         RaySets {
             primary_tiles,

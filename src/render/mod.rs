@@ -18,7 +18,7 @@ pub mod view_mode;
 pub use frame::{CounterSummary, Frame, FrameSummary, RayKind, Sample};
 pub use view_mode::ViewMode;
 
-use crate::accel::bvh::packet::PACKET_SIZE;
+use crate::accel::bvh::packet::{PACKET_SIZE, tile_pixels};
 use crate::accel::{Accel, Counter, Counters, Hit, NoStats, Stats, Structure};
 use crate::geometry::spawn::SurfacePoint;
 use crate::geometry::{Intersector, Ray, Triangle, Watertight};
@@ -293,11 +293,9 @@ fn trace_tile<A: Accel, I: Intersector>(
         for x0 in (0..w).step_by(PACKET_COLUMNS as usize) {
             packet.clear();
             pixels.clear();
-            for y in 0..rows {
-                for x in x0..(x0 + PACKET_COLUMNS).min(w) {
-                    packet.push(rays.pixel_center(x, y0 + y));
-                    pixels.push((y * w + x) as usize);
-                }
+            for (x, y) in tile_pixels(x0, 0, w, rows) {
+                packet.push(rays.pixel_center(x, y0 + y));
+                pixels.push((y * w + x) as usize);
             }
             let hits = &mut hits[..packet.len()];
             accel.closest_hits::<I>(&packet, hits);

@@ -2,6 +2,7 @@
 //! segments, leaves larger than a lane, degenerate inputs, packets.
 
 use super::*;
+use bvhlab::accel::bvh::packet::tile_pixels;
 
 #[test]
 fn wide_trees_equal_the_bvh2_on_random_soups() {
@@ -297,7 +298,7 @@ fn wide_packets_equal_single_rays() {
         let cam = scene.camera().rays(64, 48);
         let tiled: Vec<Ray> = (0..6)
             .flat_map(|ty| (0..8).map(move |tx| (tx, ty)))
-            .flat_map(|(tx, ty)| (0..64).map(move |k| (tx * 8 + k % 8, ty * 8 + k / 8)))
+            .flat_map(|(tx, ty)| tile_pixels(tx * 8, ty * 8, 64, 48))
             .map(|(x, y)| cam.pixel_center(x, y))
             .collect();
         check::<4>(&b2, &tiled, name);

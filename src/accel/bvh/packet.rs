@@ -27,6 +27,18 @@ use crate::geometry::{Intersector, Ray};
 /// Rays per packet: an 8 × 8 tile of pixels.
 pub const PACKET_SIZE: usize = crate::geometry::simd::PACKET_RAYS;
 
+/// The pixels of the 8 × 8 tile whose corner is (x0, y0), clipped to a `width` × `height`
+/// image, in the order a packet holds their rays: four quads of 4 × 4 pixels (the upper
+/// two, then the lower two), each row by row. A group of 16 rays that a SIMD kernel tests
+/// at once is then a square of pixels, whose rays enter more of the same boxes and
+/// triangles than two rows of eight do.
+pub fn tile_pixels(x0: u32, y0: u32, width: u32, height: u32) -> impl Iterator<Item = (u32, u32)> {
+    (0..4).flat_map(move |q| {
+        let (qx, qy) = (x0 + 4 * (q % 2), y0 + 4 * (q / 2));
+        (qy..(qy + 4).min(height)).flat_map(move |y| (qx..(qx + 4).min(width)).map(move |x| (x, y)))
+    })
+}
+
 /// The per-ray state of a packet.
 struct PacketRays<'a, I: Intersector> {
     rays: &'a [Ray],
@@ -148,5 +160,31 @@ impl Bvh {
         for (o, b) in out.iter_mut().zip(&p.best[..n]) {
             *o = b.hit();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_tile_holds_each_pixel_once_in_squares_of_sixteen() {
+        let full: Vec<(u32, u32)> = tile_pixels(8, 16, 64, 48).collect();
+        assert_eq!(full.len(), PACKET_SIZE);
+        let mut sorted = full.clone();
+        sorted.sort_unstable();
+        sorted.dedup();
+        assert_eq!(sorted.len(), PACKET_SIZE);
+        for (q, quad) in full.chunks(16).enumerate() {
+            let (qx, qy) = (8 + 4 * (q as u32 % 2), 16 + 4 * (q as u32 / 2));
+            assert!(
+                quad.iter()
+                    .all(|&(x, y)| (qx..qx + 4).contains(&x) && (qy..qy + 4).contains(&y))
+            );
+        }
+        // A tile at the image's corner keeps only the pixels inside it.
+        let corner: Vec<(u32, u32)> = tile_pixels(8, 8, 13, 10).collect();
+        assert_eq!(corner.len(), 5 * 2);
+        assert!(corner.iter().all(|&(x, y)| x < 13 && y < 10));
     }
 }
