@@ -191,63 +191,85 @@ mod x86 {
     use super::*;
     use std::arch::x86_64::*;
 
-    /// The SSE4.1 kernel's loop over groups of four rays: `$group` evaluates to the group's
-    /// `(enter, exit)` for the group starting at ray `$at`.
-    macro_rules! groups_128 {
-        ($p:expr, $active:expr, $at:ident => $group:expr) => {{
-            const LANES: usize = 4;
+    /// The loop over groups of rays of a kernel whose comparisons give vector masks (SSE4.1:
+    /// four rays a group, AVX2: eight): `$group` evaluates to the group's `(enter, exit)`
+    /// for the group starting at ray `$at`. `$lanes!(bits)` makes the vector mask of the
+    /// group's active rays, `$reduce!(v)` the smallest lane of a vector; then the width's
+    /// broadcast, min, blend, compare (≤) and movemask.
+    macro_rules! groups_vector {
+        ($lanes_per:expr, $lanes:ident, $reduce:ident, $set1:ident, $min:ident, $and:ident,
+         $blendv:ident, $cmple:expr, $movemask:ident,
+         $p:expr, $active:expr, $at:ident => $group:expr) => {{
+            const LANES: usize = $lanes_per;
             let active = $active & $p.rays;
             let mut hits = 0u64;
-            let mut nearest = _mm_set1_ps(f32::INFINITY);
-            let lane_bits = _mm_set_epi32(8, 4, 2, 1);
+            let mut nearest = $set1(f32::INFINITY);
             for g in 0..PACKET_RAYS / LANES {
                 let $at = g * LANES;
-                let bits = (active >> $at) as i32 & 0xf;
+                let bits = (active >> $at) as i32 & ((1 << LANES) - 1);
                 if bits == 0 {
                     continue;
                 }
                 let (enter, exit) = $group;
-                let on = _mm_castsi128_ps(_mm_cmpeq_epi32(
-                    _mm_and_si128(_mm_set1_epi32(bits), lane_bits),
-                    lane_bits,
-                ));
-                let hit = _mm_and_ps(_mm_cmple_ps(enter, exit), on);
-                nearest = _mm_blendv_ps(nearest, _mm_min_ps(enter, nearest), hit);
-                hits |= (_mm_movemask_ps(hit) as u64) << $at;
+                let hit = $and($cmple(enter, exit), $lanes!(bits));
+                nearest = $blendv(nearest, $min(enter, nearest), hit);
+                hits |= ($movemask(hit) as u64) << $at;
             }
-            (hits, min_lane_128(nearest))
+            (hits, $reduce!(nearest))
         }};
     }
 
-    /// The AVX2 kernel's loop over groups of eight rays (as `groups_128`).
-    macro_rules! groups_256 {
-        ($p:expr, $active:expr, $at:ident => $group:expr) => {{
-            const LANES: usize = 8;
-            let active = $active & $p.rays;
-            let mut hits = 0u64;
-            let mut nearest = _mm256_set1_ps(f32::INFINITY);
-            let lane_bits = _mm256_set_epi32(128, 64, 32, 16, 8, 4, 2, 1);
-            for g in 0..PACKET_RAYS / LANES {
-                let $at = g * LANES;
-                let bits = (active >> $at) as i32 & 0xff;
-                if bits == 0 {
-                    continue;
-                }
-                let (enter, exit) = $group;
-                let on = _mm256_castsi256_ps(_mm256_cmpeq_epi32(
-                    _mm256_and_si256(_mm256_set1_epi32(bits), lane_bits),
-                    lane_bits,
-                ));
-                let hit = _mm256_and_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(enter, exit), on);
-                nearest = _mm256_blendv_ps(nearest, _mm256_min_ps(enter, nearest), hit);
-                hits |= (_mm256_movemask_ps(hit) as u64) << $at;
-            }
-            let halves = _mm_min_ps(
-                _mm256_castps256_ps128(nearest),
-                _mm256_extractf128_ps::<1>(nearest),
-            );
-            (hits, min_lane_128(halves))
+    // The vector mask of the lanes set in `bits` (4 or 8 of them).
+    macro_rules! lanes128 {
+        ($bits:expr) => {{
+            let lane_bits = _mm_set_epi32(8, 4, 2, 1);
+            _mm_castsi128_ps(_mm_cmpeq_epi32(
+                _mm_and_si128(_mm_set1_epi32($bits), lane_bits),
+                lane_bits,
+            ))
         }};
+    }
+    macro_rules! lanes256 {
+        ($bits:expr) => {{
+            let lane_bits = _mm256_set_epi32(128, 64, 32, 16, 8, 4, 2, 1);
+            _mm256_castsi256_ps(_mm256_cmpeq_epi32(
+                _mm256_and_si256(_mm256_set1_epi32($bits), lane_bits),
+                lane_bits,
+            ))
+        }};
+    }
+
+    // The smallest lane of a vector (none NaN).
+    macro_rules! least128 {
+        ($v:expr) => {
+            min_lane_128($v)
+        };
+    }
+    macro_rules! least256 {
+        ($v:expr) => {{
+            let v = $v;
+            min_lane_128(_mm_min_ps(
+                _mm256_castps256_ps128(v),
+                _mm256_extractf128_ps::<1>(v),
+            ))
+        }};
+    }
+
+    macro_rules! groups_128 {
+        ($p:expr, $active:expr, $at:ident => $group:expr) => {
+            groups_vector!(4, lanes128, least128, _mm_set1_ps, _mm_min_ps,
+                _mm_and_ps, _mm_blendv_ps, _mm_cmple_ps, _mm_movemask_ps,
+                $p, $active, $at => $group)
+        };
+    }
+
+    macro_rules! groups_256 {
+        ($p:expr, $active:expr, $at:ident => $group:expr) => {
+            groups_vector!(8, lanes256, least256, _mm256_set1_ps,
+                _mm256_min_ps, _mm256_and_ps, _mm256_blendv_ps,
+                _mm256_cmp_ps::<_CMP_LE_OQ>, _mm256_movemask_ps,
+                $p, $active, $at => $group)
+        };
     }
 
     /// The AVX-512 kernel's loop over groups of sixteen rays (as `groups_128`).
