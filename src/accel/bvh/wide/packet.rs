@@ -15,8 +15,8 @@
 //! - In a leaf each triangle is tested against the mask's rays at once, SIMD across the rays
 //!   (`PacketTriangleKernel`, the watertight test), and each ray keeps its closest hit and
 //!   shrinks its box-test limit. A group of rays none of which is inside the triangle's
-//!   edges or on one stops after the edge functions. An intersector without that form tests ray by ray with the
-//!   single rays' block test.
+//!   edges or on one stops after the edge functions. An intersector without that form tests
+//!   ray by ray with the single rays' block test.
 //! - Hybrid traversal (as Embree's): once at most `HYBRID_RAYS` rays are left in a subtree,
 //!   each of them finishes it with the single-ray traversal, which tests the W children of a
 //!   node at once, SIMD across boxes.
