@@ -23,8 +23,8 @@ pub struct WideInterval {
 
 impl WideInterval {
     /// The interval ray of a packet (as `RayInterval::new` makes it), or `None` when the
-    /// test does not apply: the rays do not share one origin (bit for bit), a direction component changes
-    /// sign within the packet, or a reciprocal is zero or not finite.
+    /// test does not apply: the rays do not share one origin (bit for bit), a direction
+    /// component changes sign within the packet, or a reciprocal is zero or not finite.
     #[inline(always)]
     pub fn of_packet(p: &RayPacket) -> Option<WideInterval> {
         if p.is_empty() {

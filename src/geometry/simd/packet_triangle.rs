@@ -273,8 +273,8 @@ impl PacketTriangleKernel for Portable {
 #[cfg(target_arch = "x86_64")]
 macro_rules! watertight_rays {
     ($tri:expr, $k:expr, $shear:expr, $p:expr, $limit:expr, $at:expr, $bits:expr,
-     $lane_bits:ident, $load:ident, $set1:ident, $setzero:ident, $add:ident, $sub:ident, $mul:ident, $div:ident,
-     $max:ident, $abs:ident, $mand:ident, $mor:ident, $mandnot:ident,
+     $lane_bits:ident, $load:ident, $set1:ident, $setzero:ident, $add:ident, $sub:ident,
+     $mul:ident, $div:ident, $max:ident, $abs:ident, $mand:ident, $mor:ident, $mandnot:ident,
      $eq:ident, $neq:ident, $lt:ident, $gt:ident, $le:ident) => {{
         let (tri, shear, p, limit, at) = ($tri, $shear, $p, $limit, $at);
         let [kx, ky, kz] = $k;
