@@ -35,14 +35,21 @@ pub trait PacketSlab {
     /// chosen lane by lane. The same answers bit for bit, as each lane computes the same
     /// `(plane − origin) · 1/d` from the same values.
     ///
+    /// A kernel without such a form answers with `packet_entries`.
+    ///
     /// # Safety
     /// The CPU supports the kernel's instruction set (`SimdLevel::supported`).
+    #[inline(always)]
     unsafe fn packet_entries_shared(
         b: &BoxPlanes,
         iv: &WideInterval,
         p: &RayPacket,
         active: u64,
-    ) -> (u64, f32);
+    ) -> (u64, f32) {
+        let _ = iv;
+        // SAFETY: the caller's guarantee is `packet_entries`' too.
+        unsafe { Self::packet_entries(b, p, active) }
+    }
 }
 
 /// The planes of `b` nearer (`rows` = `iv.near`) or farther (`iv.far`) on each axis, less
@@ -98,17 +105,6 @@ impl PacketSlab for Portable {
             }
         }
         (hits, nearest)
-    }
-
-    #[inline(always)]
-    unsafe fn packet_entries_shared(
-        b: &BoxPlanes,
-        _: &WideInterval,
-        p: &RayPacket,
-        active: u64,
-    ) -> (u64, f32) {
-        // SAFETY: the portable kernel has no requirement.
-        unsafe { Self::packet_entries(b, p, active) }
     }
 }
 
@@ -426,17 +422,6 @@ mod elsewhere {
                 unsafe fn packet_entries(b: &BoxPlanes, p: &RayPacket, active: u64) -> (u64, f32) {
                     // SAFETY: the portable kernel has no requirement.
                     unsafe { Portable::packet_entries(b, p, active) }
-                }
-
-                #[inline(always)]
-                unsafe fn packet_entries_shared(
-                    b: &BoxPlanes,
-                    iv: &WideInterval,
-                    p: &RayPacket,
-                    active: u64,
-                ) -> (u64, f32) {
-                    // SAFETY: as above.
-                    unsafe { Portable::packet_entries_shared(b, iv, p, active) }
                 }
             }
         };
