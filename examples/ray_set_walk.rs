@@ -84,7 +84,11 @@ fn main() {
         std::process::exit(2);
     }
     let scene = Scene::load(&a[1]).expect("scene");
-    let camera = Camera::new(vec3(&a[2]), vec3(&a[3]));
+    // `view` for EYE, LOOK or LIGHT: the scene's own.
+    let view = scene.view.unwrap_or_else(|| Camera::new(Vec3::ONE, Vec3::ZERO));
+    let point = |arg: &str, own: Vec3| if arg == "view" { own } else { vec3(arg) };
+    let camera = Camera::new(point(&a[2], view.eye), point(&a[3], view.look_at));
+    let light = point(&a[4], scene.light.unwrap_or(view.eye));
     let (set, walk) = (a[5].as_str(), a[6].as_str());
     let repeats: usize = a[7].parse().expect("repeats");
     let (w, h) = match (a.get(8), a.get(9)) {
@@ -104,7 +108,30 @@ fn main() {
     };
     let (bvh, _) = bvhlab::accel::bvh::build(&scene.triangles, &params).expect("build");
     let bvh8 = WideBvh::<8>::collapse(&bvh, &CollapseParams::default());
-    let sets = RaySets::standard(&bvh8, &scene, &camera, vec3(&a[4]), w, h);
+    // `WALK_THREADS=n`: the set traced by n threads in chunks of 256 rays, as the bench does.
+    let threads: usize = std::env::var("WALK_THREADS").map_or(1, |n| n.parse().expect("threads"));
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("pool");
+    let structure = std::env::var_os("WALK_STRUCTURE").map(|_| {
+        use bvhlab::accel::AccelKind;
+        // A scene of instances gets its two levels, as `bench` gives it.
+        let kind = match scene.instances.is_empty() {
+            true => AccelKind::fastest(),
+            false => AccelKind::TwoLevel,
+        };
+        let params = bvhlab::accel::StructureParams::of_kind(kind);
+        pool.install(|| bvhlab::accel::structure::build_scene(&scene, &params, &Default::default()))
+            .expect("structure")
+            .structure
+    });
+    // The secondary rays start where the structure traced finds the primary hits (a
+    // scene of instances has them only there).
+    let sets = match &structure {
+        Some(st) => RaySets::standard(st, &scene, &camera, light, w, h),
+        None => RaySets::standard(&bvh8, &scene, &camera, light, w, h),
+    };
     let (rays, any) = match set {
         "primary" => (&sets.primary, false),
         "packets" => (&sets.primary_tiles, false),
@@ -122,18 +149,6 @@ fn main() {
         };
         Embree::build(&scene.triangles, 1, mode).expect("Embree")
     };
-    // `WALK_THREADS=n`: the set traced by n threads in chunks of 256 rays, as the bench does.
-    let threads: usize = std::env::var("WALK_THREADS").map_or(1, |n| n.parse().expect("threads"));
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .expect("pool");
-    let structure = std::env::var_os("WALK_STRUCTURE").map(|_| {
-        let params = bvhlab::accel::StructureParams::of_kind(bvhlab::accel::AccelKind::fastest());
-        pool.install(|| bvhlab::accel::structure::build_scene(&scene, &params, &Default::default()))
-            .expect("structure")
-            .structure
-    });
     let trace_all = |rays: &[Ray]| -> u64 {
         if let Some(st) = &structure {
             use rayon::prelude::*;
