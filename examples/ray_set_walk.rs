@@ -85,7 +85,9 @@ fn main() {
     }
     let scene = Scene::load(&a[1]).expect("scene");
     // `view` for EYE, LOOK or LIGHT: the scene's own.
-    let view = scene.view.unwrap_or_else(|| Camera::new(Vec3::ONE, Vec3::ZERO));
+    let view = scene
+        .view
+        .unwrap_or_else(|| Camera::new(Vec3::ONE, Vec3::ZERO));
     let point = |arg: &str, own: Vec3| if arg == "view" { own } else { vec3(arg) };
     let camera = Camera::new(point(&a[2], view.eye), point(&a[3], view.look_at));
     let light = point(&a[4], scene.light.unwrap_or(view.eye));

@@ -327,7 +327,7 @@ fn instances_in_the_same_place_tie_as_the_flattened_scene_does() {
 }
 
 #[test]
-fn every_slab_kernel_gives_the_same_hits_and_counts() {
+fn every_slab_kernel_gives_the_same_hits_and_each_form_the_same_counts() {
     use bvhlab::geometry::simd::SimdLevel;
     let scene = instanced_scene(40, 51);
     let params = two_level_params(TraversalOrder::FrontToBack);
@@ -348,9 +348,25 @@ fn every_slab_kernel_gives_the_same_hits_and_counts() {
     built.set_simd(SimdLevel::Portable).unwrap();
     let portable = trace(&built);
     assert!(portable.iter().any(|(h, ..)| h.is_some()));
+    // The kernels of one slab form count alike; AVX2 and AVX-512 test most rays in the
+    // fused form, whose boxes may differ from the plain form's by a rounding at the edge,
+    // so against the plain kernels only the hits must agree.
+    let mut fused = None;
     for level in SimdLevel::available() {
         built.set_simd(level).unwrap();
         assert_eq!(built.simd(), Some(level));
-        assert!(trace(&built) == portable, "{}", level.label());
+        let got = trace(&built);
+        let same_hits = got
+            .iter()
+            .zip(&portable)
+            .all(|(a, b)| a.0 == b.0 && a.2 == b.2);
+        assert!(same_hits, "{}", level.label());
+        match level {
+            SimdLevel::Avx2 | SimdLevel::Avx512 => match &fused {
+                None => fused = Some(got),
+                Some(f) => assert!(got == *f, "{}", level.label()),
+            },
+            _ => assert!(got == portable, "{}", level.label()),
+        }
     }
 }

@@ -4,7 +4,9 @@
 use super::*;
 
 /// Each kernel's lanes equal the scalar slab test on random boxes, flat boxes, boxes the
-/// ray starts in, and axis-parallel rays with ±0 components lying in a box's face plane.
+/// ray starts in, and axis-parallel rays with ±0 components lying in a box's face plane; the
+/// fused form of the AVX2 and AVX-512 kernels equals its scalar form (`fused_entry`, with
+/// `f32::mul_add`) on every ray it may test.
 #[test]
 fn every_slab_kernel_equals_the_scalar_slab_test() {
     fn check<const W: usize, K: WideSlab<W>>(level: SimdLevel, rng: &mut Rng)
@@ -15,6 +17,7 @@ fn every_slab_kernel_equals_the_scalar_slab_test() {
             return;
         }
         let unit = Aabb::new(Vec3::splat(-1.0), Vec3::ONE);
+        let mut fused = 0;
         for case in 0..20_000 {
             let mut boxes = [Aabb::EMPTY; W];
             for (i, b) in boxes.iter_mut().enumerate() {
@@ -49,6 +52,20 @@ fn every_slab_kernel_equals_the_scalar_slab_test() {
                 }
             }
             let wray = WideRay::new(&ray);
+            if K::FUSED && wray.fused_usable() {
+                // The fused form lane for lane against its scalar form.
+                let mut got = [0.0f32; W];
+                // SAFETY: `level.supported()` was checked above; the ray is usable.
+                let mask = unsafe { K::entries_fused(&rows, &wray, tmin, tmax, &mut got) };
+                for (i, got) in got.iter().enumerate() {
+                    let expected = fused_entry(&rows, i, &wray, tmin, tmax);
+                    assert_eq!(mask >> i & 1 == 1, expected != f32::INFINITY, "case {case}");
+                    if mask >> i & 1 == 1 {
+                        assert_eq!(got.to_bits(), expected.to_bits(), "case {case} {i}");
+                    }
+                }
+                fused += 1;
+            }
             let mut got = [0.0f32; W];
             // SAFETY: `level.supported()` was checked above.
             let mask = unsafe { K::entries(&rows, &wray, tmin, tmax, &mut got) };
@@ -72,6 +89,12 @@ fn every_slab_kernel_equals_the_scalar_slab_test() {
                 }
             }
         }
+        // Half the rays have a zero component (plain form only); the rest test the fused.
+        assert!(
+            !K::FUSED || fused > 5_000,
+            "{} W={W}: {fused} fused",
+            level.label()
+        );
     }
     let mut rng = Rng::new(11);
     check::<4, Portable>(SimdLevel::Portable, &mut rng);

@@ -12,7 +12,7 @@ use bvhlab::accel::bvh::{self, BuildParams, Bvh, Strategy, TraversalOrder, WideB
 use bvhlab::accel::progress::BuildProgress;
 use bvhlab::accel::{Accel, Counters, Hit, NoStats};
 use bvhlab::geometry::aabb::{SlabRay, slab_entry};
-use bvhlab::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab};
+use bvhlab::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab, fused_entry};
 use bvhlab::geometry::simd::{BLOCK, SimdLevel, TriangleBlock, TriangleKernel, WideRay};
 use bvhlab::geometry::{Aabb, Intersector, Ray, Triangle, Watertight};
 use bvhlab::scene::Scene;

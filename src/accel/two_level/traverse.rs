@@ -21,7 +21,7 @@ use crate::accel::replay::{Level, Order, Step};
 use crate::accel::stats::{count_locally, record};
 use crate::accel::{Accel, BestHit, Hit, Stats, TraversalOrder};
 use crate::geometry::intersect::TriangleHit;
-use crate::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab};
+use crate::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab, slab_test};
 use crate::geometry::simd::{PACKET_RAYS, SimdLevel, TriangleKernel, WideRay, prefetch_packet};
 use crate::geometry::{Intersector, Ray};
 use std::mem::MaybeUninit;
@@ -133,13 +133,37 @@ impl TwoLevel {
     }
 
     /// Walks the TLAS below `start` (the root, or a child a packet left to this ray alone)
-    /// with `ray`, keeping the closest hit in `best`.
+    /// with `ray`, keeping the closest hit in `best`; in the kernel's fused slab form where
+    /// the ray's fused constants are usable (as the BVH8's walk does).
     #[inline(always)]
     pub(super) fn closest_from<
         K: WideSlab<8> + TriangleKernel,
         I: Intersector,
         S: Stats,
         const ORDERED: bool,
+    >(
+        &self,
+        start: Entry,
+        ray: &Ray,
+        prepared: (&WideRay, &I::RayData),
+        best: &mut BestHit,
+        stats: &mut S,
+    ) {
+        match K::FUSED && prepared.0.fused_usable() {
+            true => self.closest_walk::<K, I, S, ORDERED, true>(start, ray, prepared, best, stats),
+            false => {
+                self.closest_walk::<K, I, S, ORDERED, false>(start, ray, prepared, best, stats)
+            }
+        }
+    }
+
+    #[inline(always)]
+    fn closest_walk<
+        K: WideSlab<8> + TriangleKernel,
+        I: Intersector,
+        S: Stats,
+        const ORDERED: bool,
+        const FUSED: bool,
     >(
         &self,
         start: Entry,
@@ -170,7 +194,9 @@ impl TwoLevel {
                 }
                 // SAFETY: the TLAS only selects a kernel its CPU supports (`set_simd`), and
                 // the entry points below are compiled for it.
-                let mut mask = unsafe { K::entries(&node.bounds, wray, ray.tmin, box_tmax, entry) };
+                let mut mask = unsafe {
+                    slab_test::<8, K, FUSED>(&node.bounds, wray, ray.tmin, box_tmax, entry)
+                };
                 let order = if ORDERED {
                     Order::Nearest
                 } else {
@@ -230,9 +256,27 @@ impl TwoLevel {
         ray: &Ray,
         stats: &mut S,
     ) -> bool {
-        let tlas = &self.tlas;
         let wray = WideRay::new(ray);
         let data = I::prepare(ray);
+        match K::FUSED && wray.fused_usable() {
+            true => self.occluded_walk::<K, I, S, true>(ray, (&wray, &data), stats),
+            false => self.occluded_walk::<K, I, S, false>(ray, (&wray, &data), stats),
+        }
+    }
+
+    #[inline(always)]
+    fn occluded_walk<
+        K: WideSlab<8> + TriangleKernel,
+        I: Intersector,
+        S: Stats,
+        const FUSED: bool,
+    >(
+        &self,
+        ray: &Ray,
+        (wray, data): (&WideRay, &I::RayData),
+        stats: &mut S,
+    ) -> bool {
+        let tlas = &self.tlas;
         let tmax = ray.tmax * T_SCALE;
         let mut storage = MaybeUninit::uninit();
         let mut stack = Stack::new(&mut storage);
@@ -247,7 +291,7 @@ impl TwoLevel {
             record(stats, || tlas.visit_step_at(cur.child, Level::Top));
             if cur.child.is_leaf() {
                 for k in cur.child.slots() {
-                    if self.enter_any::<K, I, S>(k, ray, (&wray, &data), stats) {
+                    if self.enter_any::<K, I, S>(k, ray, (wray, data), stats) {
                         return true;
                     }
                 }
@@ -257,7 +301,8 @@ impl TwoLevel {
                     stats.top_box_tests(node.child_count() as u32);
                 }
                 // SAFETY: as in `closest_with`.
-                let mut mask = unsafe { K::entries(&node.bounds, &wray, ray.tmin, tmax, entry) };
+                let mut mask =
+                    unsafe { slab_test::<8, K, FUSED>(&node.bounds, wray, ray.tmin, tmax, entry) };
                 record(stats, || {
                     tlas.children_step(cur.child, mask, entry, Order::AnyHit)
                 });
@@ -318,14 +363,14 @@ entry_points!(
     "sse4.1"
 );
 #[cfg(target_arch = "x86_64")]
-entry_points!(closest_avx2, occluded_avx2, packets_avx2, Avx2, "avx2");
+entry_points!(closest_avx2, occluded_avx2, packets_avx2, Avx2, "avx2,fma");
 #[cfg(target_arch = "x86_64")]
 entry_points!(
     closest_avx512,
     occluded_avx512,
     packets_avx512,
     Avx512,
-    "avx512f,avx512vl"
+    "avx512f,avx512vl,fma"
 );
 
 impl TwoLevel {

@@ -3,6 +3,8 @@
 //! (Ize 2013), exact on axis-parallel rays, and miss boxes missed by a clear margin.
 
 use crate::geometry::aabb::{SlabRay, slab_entry};
+use crate::geometry::simd::WideRay;
+use crate::geometry::simd::slab::fused_entry;
 use crate::geometry::{Aabb, Ray, gamma};
 use crate::random::Rng;
 use glam::Vec3;
@@ -104,9 +106,22 @@ pub fn exact_entry(b: &Aabb, ray: &Ray, tmin: f32, tmax: f32) -> Option<f64> {
     (lo.cmp(hi) != Ordering::Greater).then(|| lo.to_f64())
 }
 
-/// The f32 slab test under test.
+/// The f32 slab test under test, in its plain form (the BVH2's, and the SIMD kernels'
+/// without FMA).
 pub fn f32_entry(b: &Aabb, ray: &Ray, tmin: f32, tmax: f32) -> Option<f32> {
     let e = slab_entry(&[b.min, b.max], &SlabRay::new(ray), tmin, tmax);
+    (e != f32::INFINITY).then_some(e)
+}
+
+/// The f32 slab test as the AVX2 and AVX-512 walks take it: the fused form, or the plain
+/// one for a ray whose fused constants are not usable (`FusedPlanes`).
+pub fn fused_f32_entry(b: &Aabb, ray: &Ray, tmin: f32, tmax: f32) -> Option<f32> {
+    let mut rows = [[0.0f32; 1]; 6];
+    for a in 0..3 {
+        rows[a][0] = b.min[a];
+        rows[a + 3][0] = b.max[a];
+    }
+    let e = fused_entry(&rows, 0, &WideRay::new(ray), tmin, tmax);
     (e != f32::INFINITY).then_some(e)
 }
 
@@ -146,11 +161,37 @@ impl SlabReport {
         self.nan += o.nan;
     }
 
-    /// Checks one case and records it.
+    /// Checks one case in both forms and records it: a property broken by either counts.
     pub fn check(&mut self, b: &Aabb, ray: &Ray, tmin: f32, tmax: f32) {
+        let mut plain = SlabReport::default();
+        plain.check_form(f32_entry, b, ray, tmin, tmax);
+        let mut fused = SlabReport::default();
+        fused.check_form(fused_f32_entry, b, ray, tmin, tmax);
+        let (p, f) = (&plain, &fused);
+        self.add(&SlabReport {
+            cases: 1,
+            touching: p.touching,
+            missed: p.missed.max(f.missed),
+            late_entry: p.late_entry.max(f.late_entry),
+            axis_parallel: p.axis_parallel,
+            axis_parallel_wrong: p.axis_parallel_wrong.max(f.axis_parallel_wrong),
+            clear_misses: p.clear_misses,
+            clear_misses_hit: p.clear_misses_hit.max(f.clear_misses_hit),
+            nan: p.nan.max(f.nan),
+        });
+    }
+
+    fn check_form(
+        &mut self,
+        entry: fn(&Aabb, &Ray, f32, f32) -> Option<f32>,
+        b: &Aabb,
+        ray: &Ray,
+        tmin: f32,
+        tmax: f32,
+    ) {
         self.cases += 1;
         let exact = exact_entry(b, ray, tmin, tmax);
-        let got = f32_entry(b, ray, tmin, tmax);
+        let got = entry(b, ray, tmin, tmax);
         if got.is_some_and(f32::is_nan) {
             self.nan += 1;
         }

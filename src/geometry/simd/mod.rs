@@ -112,9 +112,14 @@ impl SimdLevel {
             match self {
                 SimdLevel::Portable => true,
                 SimdLevel::Sse41 => is_x86_feature_detected!("sse4.1"),
-                SimdLevel::Avx2 => is_x86_feature_detected!("avx2"),
+                // The slab kernels' fused form needs FMA, which every AVX2 CPU has.
+                SimdLevel::Avx2 => {
+                    is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")
+                }
                 SimdLevel::Avx512 => {
-                    is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx512vl")
+                    is_x86_feature_detected!("avx512f")
+                        && is_x86_feature_detected!("avx512vl")
+                        && is_x86_feature_detected!("fma")
                 }
             }
         }

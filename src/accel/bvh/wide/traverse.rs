@@ -19,7 +19,7 @@ use crate::accel::bvh::traverse::T_SCALE;
 use crate::accel::replay::{Child, Level, Order, Step, Visited};
 use crate::accel::stats::record;
 use crate::accel::{Accel, BestHit, Hit, Stats, TraversalOrder};
-use crate::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab};
+use crate::geometry::simd::slab::{Avx2, Avx512, Portable, Sse41, WideSlab, slab_test};
 use crate::geometry::simd::{IntervalSlab, SimdLevel, TriangleKernel, WideRay, prefetch_packet};
 use crate::geometry::{Intersector, Ray};
 use std::mem::MaybeUninit;
@@ -72,7 +72,8 @@ where
     }
 
     /// The closest hit in the subtree `start` (the root, or a child a packet hands over to
-    /// one of its rays), kept in `best`, which may already hold a hit.
+    /// one of its rays), kept in `best`, which may already hold a hit. A kernel with a fused
+    /// slab form walks with it when the ray's fused constants are usable (`FusedPlanes`).
     #[inline(always)]
     pub(super) fn closest_from<
         K: WideSlab<W> + TriangleKernel,
@@ -85,6 +86,26 @@ where
         wray: &WideRay,
         data: &I::RayData,
         ray: &Ray,
+        best: &mut BestHit,
+        stats: &mut S,
+    ) {
+        let args = (start, wray, data, ray);
+        match K::FUSED && wray.fused_usable() {
+            true => self.closest_walk::<K, I, S, ORDERED, true>(args, best, stats),
+            false => self.closest_walk::<K, I, S, ORDERED, false>(args, best, stats),
+        }
+    }
+
+    #[inline(always)]
+    fn closest_walk<
+        K: WideSlab<W> + TriangleKernel,
+        I: Intersector,
+        S: Stats,
+        const ORDERED: bool,
+        const FUSED: bool,
+    >(
+        &self,
+        (start, wray, data, ray): (Entry, &WideRay, &I::RayData, &Ray),
         best: &mut BestHit,
         stats: &mut S,
     ) {
@@ -111,7 +132,9 @@ where
                 }
                 // SAFETY: a tree only selects a kernel its CPU supports (`set_simd`), and
                 // the entry points below are compiled for it.
-                let mut mask = unsafe { K::entries(&node.bounds, wray, ray.tmin, box_tmax, entry) };
+                let mut mask = unsafe {
+                    slab_test::<W, K, FUSED>(&node.bounds, wray, ray.tmin, box_tmax, entry)
+                };
                 let order = if ORDERED {
                     Order::Nearest
                 } else {
@@ -254,6 +277,24 @@ where
         data: &I::RayData,
         stats: &mut S,
     ) -> bool {
+        let args = (start, ray, wray, data);
+        match K::FUSED && wray.fused_usable() {
+            true => self.occluded_walk::<K, I, S, true>(args, stats),
+            false => self.occluded_walk::<K, I, S, false>(args, stats),
+        }
+    }
+
+    #[inline(always)]
+    fn occluded_walk<
+        K: WideSlab<W> + TriangleKernel,
+        I: Intersector,
+        S: Stats,
+        const FUSED: bool,
+    >(
+        &self,
+        (start, ray, wray, data): (Subtree, &Ray, &WideRay, &I::RayData),
+        stats: &mut S,
+    ) -> bool {
         let mut tmax = ray.tmax * T_SCALE;
         let mut storage = MaybeUninit::uninit();
         let mut stack = Stack::new(&mut storage);
@@ -273,7 +314,8 @@ where
                     stats.box_tests(node.child_count() as u32);
                 }
                 // SAFETY: as in `closest_with`.
-                let mut mask = unsafe { K::entries(&node.bounds, wray, ray.tmin, tmax, entry) };
+                let mut mask =
+                    unsafe { slab_test::<W, K, FUSED>(&node.bounds, wray, ray.tmin, tmax, entry) };
                 record(stats, || {
                     self.children_step(cur.child, mask, entry, Order::AnyHit)
                 });
@@ -525,14 +567,14 @@ entry_points!(
     "sse4.1"
 );
 #[cfg(target_arch = "x86_64")]
-entry_points!(closest_avx2, occluded_avx2, packets_avx2, Avx2, "avx2");
+entry_points!(closest_avx2, occluded_avx2, packets_avx2, Avx2, "avx2,fma");
 #[cfg(target_arch = "x86_64")]
 entry_points!(
     closest_avx512,
     occluded_avx512,
     packets_avx512,
     Avx512,
-    "avx512f,avx512vl"
+    "avx512f,avx512vl,fma"
 );
 
 impl<const W: usize> WideBvh<W>
