@@ -348,10 +348,9 @@ fn every_slab_kernel_gives_the_same_hits_and_each_form_the_same_counts() {
     built.set_simd(SimdLevel::Portable).unwrap();
     let portable = trace(&built);
     assert!(portable.iter().any(|(h, ..)| h.is_some()));
-    // The kernels of one slab form count alike; AVX2 and AVX-512 test most rays in the
-    // fused form, whose boxes may differ from the plain form's by a rounding at the edge,
-    // so against the plain kernels only the hits must agree.
-    let mut fused = None;
+    // The plain kernels count alike; AVX-512 tests most rays in the fused form, whose
+    // boxes may differ from the plain form's by a rounding at the edge, so there only the
+    // hits must agree.
     for level in SimdLevel::available() {
         built.set_simd(level).unwrap();
         assert_eq!(built.simd(), Some(level));
@@ -361,12 +360,8 @@ fn every_slab_kernel_gives_the_same_hits_and_each_form_the_same_counts() {
             .zip(&portable)
             .all(|(a, b)| a.0 == b.0 && a.2 == b.2);
         assert!(same_hits, "{}", level.label());
-        match level {
-            SimdLevel::Avx2 | SimdLevel::Avx512 => match &fused {
-                None => fused = Some(got),
-                Some(f) => assert!(got == *f, "{}", level.label()),
-            },
-            _ => assert!(got == portable, "{}", level.label()),
+        if level != SimdLevel::Avx512 {
+            assert!(got == portable, "{}", level.label());
         }
     }
 }

@@ -5,7 +5,7 @@ use super::*;
 
 /// Each kernel's lanes equal the scalar slab test on random boxes, flat boxes, boxes the
 /// ray starts in, and axis-parallel rays with ±0 components lying in a box's face plane; the
-/// fused form of the AVX2 and AVX-512 kernels equals its scalar form (`fused_entry`, with
+/// fused form of the AVX-512 kernel equals its scalar form (`fused_entry`, with
 /// `f32::mul_add`) on every ray it may test.
 #[test]
 fn every_slab_kernel_equals_the_scalar_slab_test() {

@@ -113,7 +113,7 @@ pub fn f32_entry(b: &Aabb, ray: &Ray, tmin: f32, tmax: f32) -> Option<f32> {
     (e != f32::INFINITY).then_some(e)
 }
 
-/// The f32 slab test as the AVX2 and AVX-512 walks take it: the fused form, or the plain
+/// The f32 slab test as the AVX-512 walks take it: the fused form, or the plain
 /// one for a ray whose fused constants are not usable (`FusedPlanes`).
 pub fn fused_f32_entry(b: &Aabb, ray: &Ray, tmin: f32, tmax: f32) -> Option<f32> {
     let mut rows = [[0.0f32; 1]; 6];

@@ -112,10 +112,8 @@ impl SimdLevel {
             match self {
                 SimdLevel::Portable => true,
                 SimdLevel::Sse41 => is_x86_feature_detected!("sse4.1"),
-                // The slab kernels' fused form needs FMA, which every AVX2 CPU has.
-                SimdLevel::Avx2 => {
-                    is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")
-                }
+                SimdLevel::Avx2 => is_x86_feature_detected!("avx2"),
+                // The fused slab form needs FMA, which every AVX-512 CPU has.
                 SimdLevel::Avx512 => {
                     is_x86_feature_detected!("avx512f")
                         && is_x86_feature_detected!("avx512vl")

@@ -567,7 +567,7 @@ entry_points!(
     "sse4.1"
 );
 #[cfg(target_arch = "x86_64")]
-entry_points!(closest_avx2, occluded_avx2, packets_avx2, Avx2, "avx2,fma");
+entry_points!(closest_avx2, occluded_avx2, packets_avx2, Avx2, "avx2");
 #[cfg(target_arch = "x86_64")]
 entry_points!(
     closest_avx512,
