@@ -8,7 +8,7 @@
 //! target/release/examples/ray_set_walk ../shared/scenes/sponza.obj -14,3,0 10,5,0 0,14,0 shadow bvh8 5 [1024 768]
 //! ```
 //!
-//! Arguments: scene, eye, look-at, light, set (`primary`, `diffuse`, `shadow`, or `packets`:
+//! Arguments: scene, eye, look-at, light (each `view` for the scene's own), set (`primary`, `diffuse`, `shadow`, or `packets`:
 //! the primary rays 64 at a time through `closest_hits`, `rtcIntersect16` for Embree), walk
 //! (`bvh8` or `embree`; `WALK_EMBREE_ROBUST` set, Embree with its robust flag), repeats,
 //! and the image size. With `WALK_COUNT` set, the BVH8's
@@ -19,9 +19,11 @@
 //! misses in a 2 MiB L2 (docs/build-quality.md, "What a node and a test cost").
 //!
 //! `WALK_THREADS=n` traces the set on n threads in chunks of 256 rays, as the bench does;
-//! with `WALK_STRUCTURE` set as well, through the structure the bench builds (its
-//! `Structure`, the fastest layout) rather than the BVH8 collapsed here. With `WALK_TILES`
-//! set, each 8 × 8 tile of primary rays is timed as a packet and ray by ray, and what taking
+//! with `WALK_STRUCTURE` set, through the structure the bench builds (its `Structure`: the
+//! fastest layout, or two levels for a scene of instances) rather than the BVH8 collapsed
+//! here, which then also makes the secondary rays (the island:
+//! `WALK_STRUCTURE=1 ray_set_walk island view view view packets bvh8 5 640 360`).
+//! With `WALK_TILES` set, each 8 × 8 tile of primary rays is timed as a packet and ray by ray, and what taking
 //! the faster per tile would save is printed (docs/wide-bvh.md, "Packets or single rays,
 //! tile by tile").
 
