@@ -57,11 +57,11 @@ pub struct WideRay {
 /// infinities make it exact on axis-parallel rays.
 #[derive(Clone, Copy, Debug)]
 pub struct FusedPlanes {
-    pub inv_near: [f32; 3],
-    pub inv_far: [f32; 3],
-    pub near_offset: [f32; 3],
-    pub far_offset: [f32; 3],
-    pub usable: bool,
+    inv_near: [f32; 3],
+    inv_far: [f32; 3],
+    near_offset: [f32; 3],
+    far_offset: [f32; 3],
+    usable: bool,
 }
 
 impl FusedPlanes {
@@ -134,11 +134,6 @@ impl WideRay {
     #[inline(always)]
     fn far_row<'b, const W: usize>(&self, b: &'b [[f32; W]; 6], axis: usize) -> &'b [f32; W] {
         self.row(b, 3 + axis)
-    }
-
-    /// The fused form's constants.
-    pub fn fused(&self) -> &FusedPlanes {
-        &self.fused
     }
 
     /// Whether a kernel's fused form may test this ray.
