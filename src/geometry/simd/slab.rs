@@ -157,11 +157,11 @@ pub fn fused_entry<const W: usize>(
     let (enter, exit) = if f.usable {
         let near = |a: usize| r.near_row(b, a)[i].mul_add(f.inv_near[a], f.near_offset[a]);
         let far = |a: usize| r.far_row(b, a)[i].mul_add(f.inv_far[a], f.far_offset[a]);
-        let enter = max_keep(max_keep(max_keep(tmin, near(0)), near(1)), near(2));
-        (
-            enter,
-            min_keep(min_keep(min_keep(tmax, far(0)), far(1)), far(2)),
-        )
+        // The kernels' tree of maxima and minima, operand for operand (`max_ps(x, acc)` is
+        // `max_keep(acc, x)`).
+        let enter = max_keep(max_keep(near(0), near(1)), max_keep(tmin, near(2)));
+        let exit = min_keep(min_keep(far(0), far(1)), min_keep(tmax, far(2)));
+        (enter, exit)
     } else {
         plain_lane(b, i, r, tmin, tmax)
     };
@@ -344,8 +344,10 @@ macro_rules! slab_fused {
                 $set1(f.far_offset[axis]),
             )
         };
-        let enter = $max(near(2), $max(near(1), $max(near(0), $set1($tmin))));
-        let exit = $min(far(2), $min(far(1), $min(far(0), $set1($tmax))));
+        // Reduced as a tree, two levels deep rather than three in a chain: the planes'
+        // distances arrive together, so a node's test waits one max (or min) less.
+        let enter = $max($max(near(2), $set1($tmin)), $max(near(1), near(0)));
+        let exit = $min($min(far(2), $set1($tmax)), $min(far(1), far(0)));
         (enter, exit)
     }};
 }
