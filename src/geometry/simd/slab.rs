@@ -13,13 +13,14 @@
 //! instructions a node where the plain form takes 15, and the node's whole test 25
 //! instructions instead of 36 in the walk. It keeps 12 vectors of per-ray constants live
 //! where the plain form keeps 7: AVX-512 has the 32 registers for them, AVX2's 16 spill
-//! (measured under callgrind: from 1 % fewer to 4 % more instructions), so AVX2 stays plain. Its offsets are rounded outwards
-//! (`FusedPlanes`), so it is as conservative as the plain form. The two forms may disagree
-//! on a box the ray grazes, by a rounding; both never miss a box the ray meets, which the
-//! stress suite checks against exact arithmetic, so the hits are the same, and only the
-//! node counts near such edges may differ between kernels. The walks take the fused form
-//! for every ray whose fused constants are finite, and the plain form for the rest (a zero
-//! direction component), whose infinities keep axis-parallel rays exact.
+//! (measured under callgrind: from 3 % fewer to 4 % more instructions), so AVX2 stays
+//! plain. Its offsets are rounded outwards (`FusedPlanes`), so it is as conservative as the
+//! plain form. The two forms may disagree on a box the ray grazes, by a rounding; both
+//! never miss a box the ray meets, which the stress suite checks against exact arithmetic,
+//! so the hits are the same, and only the node counts near such edges may differ between
+//! kernels. The walks take the fused form for every ray whose fused constants are finite,
+//! and the plain form for the rest (a zero direction component), whose infinities keep
+//! axis-parallel rays exact.
 
 use crate::geometry::Ray;
 use crate::geometry::aabb::FAR_SCALE;
