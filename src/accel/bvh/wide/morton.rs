@@ -33,11 +33,17 @@ use std::time::Instant;
 /// Bits of the Morton codes the triangles are sorted by (10 per axis).
 const CODE_BITS: u32 = 30;
 
-/// The sorted triangles and their codes, and the leaf size.
+/// The triangles in Morton order, and the leaf size.
 struct Sorted<'a> {
-    codes: &'a [u64],
-    /// The triangles in Morton order, with their scene indices.
-    tris: &'a [(Triangle, u32)],
+    /// Each a code above the scene index of its triangle, sorted.
+    keys: &'a [u64],
+    /// The scene's triangles, read through the keys' indices as the leaves are placed.
+    triangles: &'a [Triangle],
+    /// The triangles of a part, gathered in sorted order before it is laid out (a tight
+    /// loop of loads, which keeps many cache misses in flight where the layout's own reads
+    /// would wait on each), from sorted position `first` on.
+    gathered: &'a [(Triangle, u32)],
+    first: usize,
     leaf_size: usize,
     /// Subtrees of at most this many triangles are left as parts of their own.
     cut: Option<usize>,
@@ -52,18 +58,14 @@ struct Cut {
 }
 
 /// What the direct build keeps from one build to the next, so that a tree rebuilt every
-/// frame writes over memory it already has: the codes and their sort's buffers, the
-/// triangles in Morton order, and the parts the tree is laid out in.
+/// frame writes over memory it already has: the sorted keys and their sort's buffer, and
+/// the parts the tree is laid out in.
 pub struct MortonScratch<const W: usize>
 where
     Lanes<W>: NodeWidth,
 {
-    boxes: Vec<Aabb>,
     keys: Vec<u64>,
     sort_buffer: Vec<u64>,
-    codes: Vec<u64>,
-    /// The triangles in Morton order, with their scene indices.
-    tris: Vec<(Triangle, u32)>,
     /// The top of the tree, down to the cuts.
     top: Part<W>,
     /// The parts below the cuts; as many as the most cuts seen.
@@ -76,11 +78,8 @@ where
 {
     fn default() -> Self {
         MortonScratch {
-            boxes: Vec::new(),
             keys: Vec::new(),
             sort_buffer: Vec::new(),
-            codes: Vec::new(),
-            tris: Vec::new(),
             top: Part::new(1),
             parts: Vec::new(),
         }
@@ -124,8 +123,10 @@ where
         let start = Instant::now();
         let n = triangles.len();
         let sorted = Sorted {
-            codes: &scratch.codes,
-            tris: &scratch.tris,
+            keys: &scratch.keys,
+            triangles,
+            gathered: &[],
+            first: 0,
             leaf_size,
             cut: part_size(n),
         };
@@ -151,11 +152,12 @@ where
     }
 }
 
-/// Sorts the triangles along the Morton curve through their boxes' centroids, into
-/// `s.tris` (with their scene indices) and `s.codes`. Sorted by the codes' top 30 bits (10
-/// per axis, as Embree's Morton builder): each key a code above its index, eight bytes
-/// sorted in four passes where the full code and an index take sixteen in eight. Equal
-/// codes are halved.
+/// Sorts the triangles along the Morton curve through their boxes' centroids: `s.keys`
+/// sorted, each the code's top 30 bits (10 per axis, as Embree's Morton builder) above the
+/// triangle's index, eight bytes sorted in four passes where the full code and an index take
+/// sixteen in eight. The triangles themselves are not copied into that order (400 MB of
+/// fresh pages for 10^7 of them, when built from nothing): the leaves read them through the
+/// keys, in the same order the copy would have.
 fn sort_along_the_curve<const W: usize>(
     triangles: &[Triangle],
     s: &mut MortonScratch<W>,
@@ -164,42 +166,62 @@ fn sort_along_the_curve<const W: usize>(
     Lanes<W>: NodeWidth,
 {
     let start = Instant::now();
-    triangle_codes_into(triangles, &mut s.boxes, &mut s.keys, |code, i| {
+    triangle_codes_into(triangles, &mut s.keys, |code, i| {
         (code >> (63 - CODE_BITS)) << 32 | u64::from(i)
     });
     phases.add("Morton codes", start.elapsed());
     let start = Instant::now();
     radix_sort_from_with(&mut s.keys, &mut s.sort_buffer, 32);
     phases.add("radix sort", start.elapsed());
-    let start = Instant::now();
-    s.codes.clear();
-    s.codes.par_extend(s.keys.par_iter().map(|k| k >> 32));
-    s.tris.clear();
-    s.tris.par_extend(
-        s.keys
-            .par_iter()
-            .map(|&k| (triangles[k as u32 as usize], k as u32)),
-    );
-    phases.add("sorted triangles", start.elapsed());
 }
 
-impl Sorted<'_> {
+impl<'a> Sorted<'a> {
     /// Where the radix tree splits `r` (of two triangles or more): the first position
     /// whose code differs from the first code in their highest differing bit; the middle
     /// where all codes are equal.
     fn split(&self, r: &Range<usize>) -> usize {
-        let (first, last) = (self.codes[r.start], self.codes[r.end - 1]);
+        let (first, last) = (self.code(r.start), self.code(r.end - 1));
         if first == last {
             return r.start + r.len() / 2;
         }
         let prefix = (first ^ last).leading_zeros();
-        r.start + self.codes[r.clone()].partition_point(|&c| (c ^ first).leading_zeros() > prefix)
+        r.start
+            + self.keys[r.clone()].partition_point(|&k| ((k >> 32) ^ first).leading_zeros() > prefix)
     }
 
     /// The length of the code prefix shared by the range: the shorter, the larger the
     /// Morton cell that holds its centroids.
     fn prefix(&self, r: &Range<usize>) -> u32 {
-        (self.codes[r.start] ^ self.codes[r.end - 1]).leading_zeros()
+        (self.code(r.start) ^ self.code(r.end - 1)).leading_zeros()
+    }
+
+    /// The code of the triangle at sorted position `i`.
+    fn code(&self, i: usize) -> u64 {
+        self.keys[i] >> 32
+    }
+
+    /// The triangles at the sorted positions `r` (a leaf's, at most `MAX_LEAF_COUNT`) with
+    /// their scene indices, gathered into `buffer`, and their box.
+    fn leaf<'b>(
+        &self,
+        r: Range<usize>,
+        buffer: &'b mut LeafBuffer,
+    ) -> (&'b [(Triangle, u32)], Aabb)
+    where
+        'a: 'b,
+    {
+        let local = r.start.checked_sub(self.first);
+        if let Some(tris) = local.and_then(|s| self.gathered.get(s..s + r.len())) {
+            let bounds = tris.iter().fold(Aabb::EMPTY, |b, t| b.union(t.0.bounds()));
+            return (tris, bounds);
+        }
+        let tris = &mut buffer[..r.len()];
+        let mut bounds = Aabb::EMPTY;
+        for (t, &k) in tris.iter_mut().zip(&self.keys[r]) {
+            *t = (self.triangles[k as u32 as usize], k as u32);
+            bounds = bounds.union(t.0.bounds());
+        }
+        (tris, bounds)
     }
 
     /// The ranges the node over `r` takes as children, in Morton order: `r` split, then
@@ -240,23 +262,24 @@ impl Sorted<'_> {
         Lanes<W>: NodeWidth,
     {
         top.reset(1);
-        let all = 0..self.tris.len();
+        let all = 0..self.keys.len();
         let mut packer = BlockPacker::default();
         let mut cuts = Vec::new();
         if all.len() <= self.leaf_size {
             // One lane: a leaf of every triangle (or none).
             let mut root = WideNode::<W>::default();
             if !all.is_empty() {
-                let (leaf, _) = top.place_leaf(&mut packer, self.tris, None, 2);
+                let mut buffer = EMPTY_LEAF;
+                let (tris, bounds) = self.leaf(all, &mut buffer);
+                let (leaf, _) = top.place_leaf(&mut packer, tris, None, 2);
                 root.child[0] = leaf;
-                root.set_child_bounds(0, bounds_of(self.tris));
+                root.set_child_bounds(0, bounds);
             }
             top.nodes.push(root);
             top.place_into(&[], whole);
             return;
         }
         self.node(top, &mut packer, all, 1, &mut cuts);
-        let solo = Sorted { cut: None, ..*self };
         if parts.len() < cuts.len() {
             parts.resize_with(cuts.len(), || Part::new(1));
         }
@@ -264,8 +287,20 @@ impl Sorted<'_> {
         let bounds: Vec<Aabb> = parts
             .par_iter_mut()
             .zip(&cuts)
-            .map(|(part, c)| {
+            .map_init(Vec::new, |gathered, (part, c)| {
                 part.reset(c.depth);
+                gathered.clear();
+                gathered.extend(
+                    self.keys[c.range.clone()]
+                        .iter()
+                        .map(|&k| (self.triangles[k as u32 as usize], k as u32)),
+                );
+                let solo = Sorted {
+                    cut: None,
+                    gathered,
+                    first: c.range.start,
+                    ..*self
+                };
                 solo.node(
                     part,
                     &mut BlockPacker::default(),
@@ -314,12 +349,13 @@ impl Sorted<'_> {
         part.nodes.push(WideNode::default());
         let (kids, count) = self.children::<W>(r);
         let mut node = WideNode::<W>::default();
+        let mut buffer = EMPTY_LEAF;
         for (lane, k) in kids[..count].iter().enumerate() {
             if k.len() <= self.leaf_size {
-                let tris = &self.tris[k.clone()];
+                let (tris, bounds) = self.leaf(k.clone(), &mut buffer);
                 let (leaf, _) = part.place_leaf(packer, tris, None, depth + 1);
                 node.child[lane] = leaf;
-                node.set_child_bounds(lane, bounds_of(tris));
+                node.set_child_bounds(lane, bounds);
             } else if self.cut.is_some_and(|c| k.len() <= c) {
                 // The part's first node, once the parts are placed.
                 node.child[lane] = Subtree::node(MAX_NODE);
@@ -341,9 +377,15 @@ impl Sorted<'_> {
     }
 }
 
-fn bounds_of(tris: &[(Triangle, u32)]) -> Aabb {
-    tris.iter().fold(Aabb::EMPTY, |b, t| b.union(t.0.bounds()))
-}
+/// Room for a leaf's triangles and their scene indices.
+type LeafBuffer = [(Triangle, u32); MAX_LEAF_COUNT as usize];
+
+const EMPTY_LEAF: LeafBuffer = [(
+    Triangle {
+        v: [glam::Vec3::ZERO; 3],
+    },
+    0,
+); MAX_LEAF_COUNT as usize];
 
 #[cfg(test)]
 mod tests {
@@ -357,8 +399,10 @@ mod tests {
         let mut scratch = MortonScratch::<8>::default();
         sort_along_the_curve(tris, &mut scratch, &mut BuildPhases::default());
         let s = Sorted {
-            codes: &scratch.codes,
-            tris: &scratch.tris,
+            keys: &scratch.keys,
+            triangles: tris,
+            gathered: &[],
+            first: 0,
             leaf_size: 4,
             cut,
         };
@@ -452,10 +496,13 @@ mod tests {
     /// from the range's first in their highest differing bit; equal codes are halved.
     #[test]
     fn ranges_split_at_the_radix_trees_split() {
-        let codes: Vec<u64> = vec![1, 2, 4, 5, 5, 5, 19, 24, 25, 30, 30];
+        let codes: [u64; 11] = [1, 2, 4, 5, 5, 5, 19, 24, 25, 30, 30];
+        let keys: Vec<u64> = codes.iter().zip(0..).map(|(c, i)| c << 32 | i).collect();
         let s = Sorted {
-            codes: &codes,
-            tris: &[],
+            keys: &keys,
+            triangles: &[],
+            gathered: &[],
+            first: 0,
             leaf_size: 1,
             cut: None,
         };
