@@ -87,11 +87,27 @@ impl BlockPacker {
         indices: &mut Vec<u32>,
         tris: &[(Triangle, u32)],
     ) -> u32 {
-        let n = tris.len();
+        let mut end = blocks.len();
+        let first = self.reserve(tris.len(), &mut end);
+        blocks.resize(end, TriangleBlock::EMPTY);
+        indices.resize(end * BLOCK, PADDING);
+        for (k, (tri, index)) in tris.iter().enumerate() {
+            let slot = first + k;
+            blocks[slot / BLOCK].set(slot % BLOCK, tri);
+            indices[slot] = *index;
+        }
+        first as u32
+    }
+
+    /// Where a leaf of `n` triangles goes, of blocks of which the first `end` are in use:
+    /// its first slot, with `end` moved past the blocks it opens (to be filled with
+    /// padding). What `place` does, without writing, so that a layout can be counted
+    /// before it is written.
+    pub fn reserve(&mut self, n: usize, end: &mut usize) -> usize {
         let fit = (n.max(1)..BLOCK)
             .filter(|_| n < BLOCK)
             .find_map(|f| self.open[f].pop().map(|b| (b, f)));
-        let first = match fit {
+        match fit {
             Some((b, free)) => {
                 if free > n {
                     self.open[free - n].push(b);
@@ -99,23 +115,16 @@ impl BlockPacker {
                 b * BLOCK + BLOCK - free
             }
             None => {
-                let b = blocks.len();
+                let b = *end;
                 let count = n.div_ceil(BLOCK);
-                blocks.extend(std::iter::repeat_n(TriangleBlock::EMPTY, count));
-                indices.extend(std::iter::repeat_n(PADDING, count * BLOCK));
+                *end += count;
                 let free = count * BLOCK - n;
                 if free > 0 {
                     self.open[free].push(b + count - 1);
                 }
                 b * BLOCK
             }
-        };
-        for (k, (tri, index)) in tris.iter().enumerate() {
-            let slot = first + k;
-            blocks[slot / BLOCK].set(slot % BLOCK, tri);
-            indices[slot] = *index;
         }
-        first as u32
     }
 }
 

@@ -9,6 +9,7 @@
 //! bit.
 
 pub mod collapse;
+mod in_place;
 pub mod leaf;
 pub mod morton;
 pub mod node;

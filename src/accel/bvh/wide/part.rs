@@ -151,7 +151,7 @@ where
 /// `v` emptied (its memory kept) and its capacity, as long as the sum of `lengths`, cut
 /// into consecutive pieces of those lengths, to be written before `v`'s length is set.
 /// Nothing is written twice: neither a fill nor the copy of a vector that grew.
-fn pieces_of<T: Copy>(
+pub(super) fn pieces_of<T: Copy>(
     v: &mut Vec<T>,
     lengths: impl Iterator<Item = usize> + Clone,
 ) -> Vec<&mut [MaybeUninit<T>]> {
