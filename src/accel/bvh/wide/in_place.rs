@@ -9,8 +9,10 @@
 //! which writes every node and block twice, the second time into fresh memory: for a build
 //! of 10^7 triangles from nothing that copy's 700 MB of new pages cost more than the layout
 //! itself. The Morton tree's shape follows from the sorted codes alone, so each part is
-//! counted first (the same recursion, without the triangles), the parts are placed one
-//! after another from the counts, and each is then written straight into its place.
+//! counted first (the same recursion, without the triangles, recording each node's
+//! children as it finds them), the parts are placed one after another from the counts, and
+//! each is then written straight into its place, its nodes' children replayed from the
+//! record rather than found again (finding them is most of the count's time).
 
 use super::leaf::{BlockPacker, PADDING};
 use super::node::{Lanes, NodeWidth, Subtree, WideNode};
@@ -18,6 +20,18 @@ use super::part::Part;
 use crate::geometry::Triangle;
 use crate::geometry::simd::{BLOCK, TriangleBlock};
 use std::mem::MaybeUninit;
+use std::ops::Range;
+
+/// A node's children as ranges of sorted positions, in order, and how many there are.
+pub(super) type Children<const W: usize> = ([Range<usize>; W], usize);
+
+/// A node's children as a count recorded them: where each ends (the first begins where the
+/// node's range does).
+#[derive(Clone, Copy)]
+pub(super) struct Shape<const W: usize> {
+    ends: [u32; W],
+    count: u32,
+}
 
 /// A sink for a layout: nodes are opened (their index taken) before their children are laid
 /// out and closed with their lanes after; a leaf's triangles are placed by a block packer.
@@ -29,6 +43,9 @@ where
     const WRITES: bool;
     /// Notes a node at depth `depth` of the whole tree.
     fn deepen(&mut self, depth: u32);
+    /// The children of the node over `r` opened last: found by `find` (and recorded, by a
+    /// counter), or replayed from the record.
+    fn children(&mut self, r: &Range<usize>, find: impl FnOnce() -> Children<W>) -> Children<W>;
     /// The index (within the sink) the next node opened takes.
     fn next_node(&self) -> u32;
     /// Takes the next node's index.
@@ -51,6 +68,10 @@ where
 
     fn deepen(&mut self, depth: u32) {
         self.depth = self.depth.max(depth);
+    }
+
+    fn children(&mut self, _: &Range<usize>, find: impl FnOnce() -> Children<W>) -> Children<W> {
+        find()
     }
 
     fn next_node(&self) -> u32 {
@@ -76,20 +97,42 @@ where
     }
 }
 
-/// Counts the nodes and blocks of a layout, writing nothing.
-#[derive(Default)]
-pub(super) struct Counter {
+/// Counts the nodes and blocks of a layout, writing nothing but each node's children, in
+/// the order the nodes are opened.
+pub(super) struct Counter<const W: usize> {
     pub nodes: usize,
     pub blocks: usize,
+    pub shapes: Vec<Shape<W>>,
 }
 
-impl<const W: usize> Layout<W> for Counter
+impl<const W: usize> Counter<W> {
+    /// A count that records into `shapes` (emptied; its memory kept).
+    pub fn new(mut shapes: Vec<Shape<W>>) -> Self {
+        shapes.clear();
+        Counter {
+            nodes: 0,
+            blocks: 0,
+            shapes,
+        }
+    }
+}
+
+impl<const W: usize> Layout<W> for Counter<W>
 where
     Lanes<W>: NodeWidth,
 {
     const WRITES: bool = false;
 
     fn deepen(&mut self, _: u32) {}
+
+    fn children(&mut self, _: &Range<usize>, find: impl FnOnce() -> Children<W>) -> Children<W> {
+        let (kids, count) = find();
+        self.shapes.push(Shape {
+            ends: std::array::from_fn(|k| kids[k].end as u32),
+            count: count as u32,
+        });
+        (kids, count)
+    }
 
     fn next_node(&self) -> u32 {
         self.nodes as u32
@@ -114,7 +157,8 @@ where
 
 /// A part written straight into its stretch of the whole tree's arrays: its nodes from
 /// `node_base` on, its blocks from `block_base` on (and their slots from `BLOCK` times
-/// that), each piece exactly as long as the part's count.
+/// that), each piece exactly as long as the part's count, its nodes' children replayed
+/// from `shapes`.
 pub(super) struct InPlace<'s, const W: usize>
 where
     Lanes<W>: NodeWidth,
@@ -122,6 +166,7 @@ where
     nodes: &'s mut [MaybeUninit<WideNode<W>>],
     blocks: &'s mut [MaybeUninit<TriangleBlock>],
     slots: &'s mut [MaybeUninit<u32>],
+    shapes: &'s [Shape<W>],
     node_base: u32,
     block_base: u32,
     /// Nodes opened and blocks begun so far (blocks below this are written).
@@ -142,6 +187,7 @@ where
             &'s mut [MaybeUninit<TriangleBlock>],
             &'s mut [MaybeUninit<u32>],
         ),
+        shapes: &'s [Shape<W>],
         (node_base, block_base): (u32, u32),
         depth: u32,
     ) -> Self {
@@ -149,6 +195,7 @@ where
             nodes,
             blocks,
             slots,
+            shapes,
             node_base,
             block_base,
             opened: 0,
@@ -165,7 +212,8 @@ where
             self.opened == self.nodes.len()
                 && self.closed == self.opened
                 && self.begun == self.blocks.len()
-                && self.slots.len() == self.blocks.len() * BLOCK,
+                && self.slots.len() == self.blocks.len() * BLOCK
+                && self.shapes.len() == self.opened,
             "a part laid out in place differs from its count"
         );
     }
@@ -179,6 +227,18 @@ where
 
     fn deepen(&mut self, depth: u32) {
         self.depth = self.depth.max(depth);
+    }
+
+    fn children(&mut self, r: &Range<usize>, _: impl FnOnce() -> Children<W>) -> Children<W> {
+        let shape = self.shapes[self.opened - 1];
+        let mut start = r.start;
+        let kids = std::array::from_fn(|k| {
+            let end = (k < shape.count as usize).then_some(shape.ends[k] as usize);
+            let kid = start..end.unwrap_or(start);
+            start = kid.end;
+            kid
+        });
+        (kids, shape.count as usize)
     }
 
     fn next_node(&self) -> u32 {

@@ -30,7 +30,7 @@ use super::WideBvh;
 use super::collapse::MAX_REFERENCES;
 use super::leaf::BlockPacker;
 use super::node::{LaneKind, Lanes, MAX_LEAF_COUNT, MAX_NODE, NodeWidth, Subtree, WideNode};
-use super::in_place::{Counter, InPlace, Layout};
+use super::in_place::{Counter, InPlace, Layout, Shape};
 use super::part::{Part, part_size, pieces_of};
 use crate::geometry::simd::BLOCK;
 use crate::accel::bvh::TraversalOrder;
@@ -79,6 +79,8 @@ where
     sort_buffer: Vec<u64>,
     /// The top of the tree, down to the cuts.
     top: Part<W>,
+    /// Each part's nodes' children, as its count found them.
+    shapes: Vec<Vec<Shape<W>>>,
 }
 
 impl<const W: usize> Default for MortonScratch<W>
@@ -90,6 +92,7 @@ where
             keys: Vec::new(),
             sort_buffer: Vec::new(),
             top: Part::new(1),
+            shapes: Vec::new(),
         }
     }
 }
@@ -146,7 +149,7 @@ where
             parts: std::mem::take(&mut self.parts),
             part_blocks: std::mem::take(&mut self.part_blocks),
         };
-        sorted.lay_out_tree_into(&mut scratch.top, &mut whole);
+        sorted.lay_out_tree_into(&mut scratch.top, &mut scratch.shapes, &mut whole);
         self.nodes = whole.nodes;
         self.blocks = whole.blocks;
         self.prim_indices = whole.prim_indices;
@@ -261,8 +264,12 @@ impl<'a> Sorted<'a> {
     /// then the parts below the cuts in parallel, each counted first and then written
     /// straight into its place after the top, in the order of their cuts (`in_place`); the
     /// top's boxes are completed from theirs.
-    fn lay_out_tree_into<const W: usize>(&self, top: &mut Part<W>, whole: &mut Part<W>)
-    where
+    fn lay_out_tree_into<const W: usize>(
+        &self,
+        top: &mut Part<W>,
+        shapes: &mut Vec<Vec<Shape<W>>>,
+        whole: &mut Part<W>,
+    ) where
         Lanes<W>: NodeWidth,
     {
         top.reset(1);
@@ -285,10 +292,14 @@ impl<'a> Sorted<'a> {
         }
         self.node(top, &mut packer, all, 1, &mut cuts);
         let solo = Sorted { cut: None, ..*self };
-        let counts: Vec<Counter> = cuts
+        if shapes.len() < cuts.len() {
+            shapes.resize_with(cuts.len(), Vec::new);
+        }
+        let counts: Vec<Counter<W>> = cuts
             .par_iter()
-            .map(|c| {
-                let mut count = Counter::default();
+            .zip(&mut shapes[..])
+            .map(|(c, shapes)| {
+                let mut count = Counter::new(std::mem::take(shapes));
                 let (r, depth) = (c.range.clone(), c.depth);
                 solo.node::<W, _>(&mut count, &mut BlockPacker::default(), r, depth, &mut vec![]);
                 count
@@ -321,9 +332,9 @@ impl<'a> Sorted<'a> {
         let laid: Vec<(Aabb, u32)> = pieces
             .collect::<Vec<_>>()
             .into_par_iter()
-            .zip(&cuts)
+            .zip(cuts.par_iter().zip(&counts))
             .zip(whole.parts.par_iter().zip(&whole.part_blocks))
-            .map_init(Vec::new, |gathered, ((((n, b), s), c), (&nb, &bb))| {
+            .map_init(Vec::new, |gathered, ((((n, b), s), (c, count)), (&nb, &bb))| {
                 gathered.clear();
                 gathered.extend(
                     self.keys[c.range.clone()]
@@ -335,7 +346,7 @@ impl<'a> Sorted<'a> {
                     first: c.range.start,
                     ..solo
                 };
-                let mut out = InPlace::new((n, b, s), (nb, bb), c.depth);
+                let mut out = InPlace::new((n, b, s), &count.shapes, (nb, bb), c.depth);
                 let (r, depth) = (c.range.clone(), c.depth);
                 let bounds = solo.node(&mut out, &mut BlockPacker::default(), r, depth, &mut vec![]);
                 let depth = out.depth;
@@ -356,6 +367,9 @@ impl<'a> Sorted<'a> {
             whole.nodes.set_len(node_count);
             whole.blocks.set_len(block_count);
             whole.prim_indices.set_len(block_count * BLOCK);
+        }
+        for (kept, count) in shapes.iter_mut().zip(counts) {
+            *kept = count.shapes;
         }
         whole.depth = laid.iter().map(|l| l.1).fold(top.depth, u32::max);
         let top = top.nodes.len();
@@ -394,7 +408,7 @@ impl<'a> Sorted<'a> {
     {
         out.deepen(depth);
         let index = out.open_node();
-        let (kids, count) = self.children::<W>(r);
+        let (kids, count) = out.children(&r, || self.children::<W>(r.clone()));
         let mut node = WideNode::<W>::default();
         let mut buffer = EMPTY_LEAF;
         for (lane, k) in kids[..count].iter().enumerate() {
@@ -460,7 +474,7 @@ mod tests {
             cut,
         };
         let mut whole = Part::new(1);
-        s.lay_out_tree_into(&mut Part::new(1), &mut whole);
+        s.lay_out_tree_into(&mut Part::new(1), &mut Vec::new(), &mut whole);
         whole.into_tree(tris.len(), TraversalOrder::default())
     }
 
