@@ -56,8 +56,7 @@ where
     fn node_word(&self, index: u32) -> Subtree;
     /// Places a leaf of `n` triangles (`tris`, with their scene indices, where `WRITES`)
     /// and returns its lane word.
-    fn leaf(&mut self, packer: &mut BlockPacker, n: usize, tris: &[(Triangle, u32)])
-    -> Subtree;
+    fn leaf(&mut self, packer: &mut BlockPacker, n: usize, tris: &[(Triangle, u32)]) -> Subtree;
 }
 
 impl<const W: usize> Layout<W> for Part<W>
@@ -155,6 +154,13 @@ where
     }
 }
 
+/// A part's stretches of the tree's nodes, blocks and slots, not yet written.
+pub(super) type Pieces<'s, const W: usize> = (
+    &'s mut [MaybeUninit<WideNode<W>>],
+    &'s mut [MaybeUninit<TriangleBlock>],
+    &'s mut [MaybeUninit<u32>],
+);
+
 /// A part written straight into its stretch of the whole tree's arrays: its nodes from
 /// `node_base` on, its blocks from `block_base` on (and their slots from `BLOCK` times
 /// that), each piece exactly as long as the part's count, its nodes' children replayed
@@ -182,11 +188,7 @@ where
     Lanes<W>: NodeWidth,
 {
     pub fn new(
-        (nodes, blocks, slots): (
-            &'s mut [MaybeUninit<WideNode<W>>],
-            &'s mut [MaybeUninit<TriangleBlock>],
-            &'s mut [MaybeUninit<u32>],
-        ),
+        (nodes, blocks, slots): Pieces<'s, W>,
         shapes: &'s [Shape<W>],
         (node_base, block_base): (u32, u32),
         depth: u32,

@@ -28,14 +28,14 @@
 
 use super::WideBvh;
 use super::collapse::MAX_REFERENCES;
+use super::in_place::{Counter, InPlace, Layout, Shape};
 use super::leaf::BlockPacker;
 use super::node::{LaneKind, Lanes, MAX_LEAF_COUNT, MAX_NODE, NodeWidth, Subtree, WideNode};
-use super::in_place::{Counter, InPlace, Layout, Shape};
 use super::part::{Part, part_size, pieces_of};
-use crate::geometry::simd::BLOCK;
 use crate::accel::bvh::TraversalOrder;
 use crate::accel::bvh::build::{BuildError, radix_sort_from_with, triangle_codes_into};
 use crate::accel::bvh::report::BuildPhases;
+use crate::geometry::simd::BLOCK;
 use crate::geometry::{Aabb, Triangle};
 use rayon::prelude::*;
 use std::ops::Range;
@@ -197,7 +197,8 @@ impl<'a> Sorted<'a> {
         }
         let prefix = (first ^ last).leading_zeros();
         r.start
-            + self.keys[r.clone()].partition_point(|&k| ((k >> 32) ^ first).leading_zeros() > prefix)
+            + self.keys[r.clone()]
+                .partition_point(|&k| ((k >> 32) ^ first).leading_zeros() > prefix)
     }
 
     /// The length of the code prefix shared by the range: the shorter, the larger the
@@ -213,11 +214,7 @@ impl<'a> Sorted<'a> {
 
     /// The triangles at the sorted positions `r` (a leaf's, at most `MAX_LEAF_COUNT`) with
     /// their scene indices, gathered into `buffer`, and their box.
-    fn leaf<'b>(
-        &self,
-        r: Range<usize>,
-        buffer: &'b mut LeafBuffer,
-    ) -> (&'b [(Triangle, u32)], Aabb)
+    fn leaf<'b>(&self, r: Range<usize>, buffer: &'b mut LeafBuffer) -> (&'b [(Triangle, u32)], Aabb)
     where
         'a: 'b,
     {
@@ -301,7 +298,13 @@ impl<'a> Sorted<'a> {
             .map(|(c, shapes)| {
                 let mut count = Counter::new(std::mem::take(shapes));
                 let (r, depth) = (c.range.clone(), c.depth);
-                solo.node::<W, _>(&mut count, &mut BlockPacker::default(), r, depth, &mut vec![]);
+                solo.node::<W, _>(
+                    &mut count,
+                    &mut BlockPacker::default(),
+                    r,
+                    depth,
+                    &mut vec![],
+                );
                 count
             })
             .collect();
@@ -334,34 +337,46 @@ impl<'a> Sorted<'a> {
             .into_par_iter()
             .zip(cuts.par_iter().zip(&counts))
             .zip(whole.parts.par_iter().zip(&whole.part_blocks))
-            .map_init(Vec::new, |gathered, ((((n, b), s), (c, count)), (&nb, &bb))| {
-                gathered.clear();
-                gathered.extend(
-                    self.keys[c.range.clone()]
-                        .iter()
-                        .map(|&k| (self.triangles[k as u32 as usize], k as u32)),
-                );
-                let solo = Sorted {
-                    gathered,
-                    first: c.range.start,
-                    ..solo
-                };
-                let mut out = InPlace::new((n, b, s), &count.shapes, (nb, bb), c.depth);
-                let (r, depth) = (c.range.clone(), c.depth);
-                let bounds = solo.node(&mut out, &mut BlockPacker::default(), r, depth, &mut vec![]);
-                let depth = out.depth;
-                out.finish();
-                (bounds, depth)
-            })
+            .map_init(
+                Vec::new,
+                |gathered, ((((n, b), s), (c, count)), (&nb, &bb))| {
+                    gathered.clear();
+                    gathered.extend(
+                        self.keys[c.range.clone()]
+                            .iter()
+                            .map(|&k| (self.triangles[k as u32 as usize], k as u32)),
+                    );
+                    let solo = Sorted {
+                        gathered,
+                        first: c.range.start,
+                        ..solo
+                    };
+                    let mut out = InPlace::new((n, b, s), &count.shapes, (nb, bb), c.depth);
+                    let (r, depth) = (c.range.clone(), c.depth);
+                    let bounds =
+                        solo.node(&mut out, &mut BlockPacker::default(), r, depth, &mut vec![]);
+                    let depth = out.depth;
+                    out.finish();
+                    (bounds, depth)
+                },
+            )
             .collect();
         // SAFETY: the pieces cover the first elements of each vector's capacity up to the
         // lengths below, and every piece was written whole (the top's copied, each part's
         // checked by `finish`); a panic above leaves the vectors empty.
         unsafe {
             let (node_count, block_count) = (
-                whole.parts.last().copied().unwrap_or(top.nodes.len() as u32) as usize
+                whole
+                    .parts
+                    .last()
+                    .copied()
+                    .unwrap_or(top.nodes.len() as u32) as usize
                     + counts.last().map_or(0, |c| c.nodes),
-                whole.part_blocks.last().copied().unwrap_or(top.blocks.len() as u32) as usize
+                whole
+                    .part_blocks
+                    .last()
+                    .copied()
+                    .unwrap_or(top.blocks.len() as u32) as usize
                     + counts.last().map_or(0, |c| c.blocks),
             );
             whole.nodes.set_len(node_count);
