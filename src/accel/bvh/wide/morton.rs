@@ -308,25 +308,31 @@ impl<'a> Sorted<'a> {
                 count
             })
             .collect();
-        // Where each piece begins: the top's, then the parts'.
-        let node_lengths = std::iter::once(top.nodes.len()).chain(counts.iter().map(|c| c.nodes));
-        let block_lengths =
-            std::iter::once(top.blocks.len()).chain(counts.iter().map(|c| c.blocks));
-        let starts = |lengths: &mut dyn Iterator<Item = usize>| -> Vec<u32> {
-            lengths
-                .scan(0, |sum, n| {
+        // The pieces' lengths, the top's first, and where the parts begin.
+        let node_lengths: Vec<usize> = std::iter::once(top.nodes.len())
+            .chain(counts.iter().map(|c| c.nodes))
+            .collect();
+        let block_lengths: Vec<usize> = std::iter::once(top.blocks.len())
+            .chain(counts.iter().map(|c| c.blocks))
+            .collect();
+        let part_starts = |lengths: &[usize]| -> Vec<u32> {
+            (lengths[..lengths.len() - 1].iter())
+                .scan(0, |sum, &n| {
                     *sum += n as u32;
                     Some(*sum)
                 })
                 .collect()
         };
-        whole.parts = starts(&mut node_lengths.clone());
-        whole.part_blocks = starts(&mut block_lengths.clone());
-        whole.parts.pop();
-        whole.part_blocks.pop();
-        let nodes = pieces_of(&mut whole.nodes, node_lengths);
-        let blocks = pieces_of(&mut whole.blocks, block_lengths.clone());
-        let slots = pieces_of(&mut whole.prim_indices, block_lengths.map(|b| b * BLOCK));
+        whole.parts = part_starts(&node_lengths);
+        whole.part_blocks = part_starts(&block_lengths);
+        let node_count: usize = node_lengths.iter().sum();
+        let block_count: usize = block_lengths.iter().sum();
+        let nodes = pieces_of(&mut whole.nodes, node_lengths.into_iter());
+        let blocks = pieces_of(&mut whole.blocks, block_lengths.iter().copied());
+        let slots = pieces_of(
+            &mut whole.prim_indices,
+            block_lengths.iter().map(|b| b * BLOCK),
+        );
         let mut pieces = nodes.into_iter().zip(blocks).zip(slots);
         let ((top_nodes, top_blocks), top_slots) = pieces.next().expect("the top's piece");
         top_nodes.write_copy_of_slice(&top.nodes);
@@ -365,20 +371,6 @@ impl<'a> Sorted<'a> {
         // lengths below, and every piece was written whole (the top's copied, each part's
         // checked by `finish`); a panic above leaves the vectors empty.
         unsafe {
-            let (node_count, block_count) = (
-                whole
-                    .parts
-                    .last()
-                    .copied()
-                    .unwrap_or(top.nodes.len() as u32) as usize
-                    + counts.last().map_or(0, |c| c.nodes),
-                whole
-                    .part_blocks
-                    .last()
-                    .copied()
-                    .unwrap_or(top.blocks.len() as u32) as usize
-                    + counts.last().map_or(0, |c| c.blocks),
-            );
             whole.nodes.set_len(node_count);
             whole.blocks.set_len(block_count);
             whole.prim_indices.set_len(block_count * BLOCK);
