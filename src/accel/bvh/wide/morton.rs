@@ -69,8 +69,8 @@ struct Cut {
 }
 
 /// What the direct build keeps from one build to the next, so that a tree rebuilt every
-/// frame writes over memory it already has: the sorted keys and their sort's buffer, and
-/// the parts the tree is laid out in.
+/// frame writes over memory it already has: the sorted keys and their sort's buffer, the
+/// top of the tree, and each part's record of its nodes' children.
 pub struct MortonScratch<const W: usize>
 where
     Lanes<W>: NodeWidth,
