@@ -598,7 +598,8 @@ where
                 .collect::<Vec<_>>(),
         )
     } else {
-        let (bvh2, bvh_report) = bvh::build_with_progress(triangles, &params.bvh, progress)?;
+        let (bvh2, bvh_phases, bvh_time) =
+            bvh::build_shape_with_progress(triangles, &params.bvh, progress)?;
         if progress.is_abandoned() {
             return Err(StructureError::Abandoned);
         }
@@ -608,15 +609,15 @@ where
             c_isect: params.bvh.c_isect,
             max_leaf_size: params.bvh.max_leaf_size,
         };
-        let (wide, collapse_phases) = WideBvh::<W>::collapse_timed(&bvh2, &collapse)?;
+        let (wide, collapse_phases) = WideBvh::<W>::collapse_over(&bvh2, triangles, &collapse)?;
         let collapse_time = start.elapsed();
         let rows = [
             ("builder".into(), params.bvh.wide_builder_label().into()),
-            ("BVH2 build".into(), Detail::Time(bvh_report.build_time)),
+            ("BVH2 build".into(), Detail::Time(bvh_time)),
             ("collapse".into(), Detail::Time(collapse_time)),
         ]
         .into_iter()
-        .chain(bvh_report.phases.time_rows())
+        .chain(bvh_phases.time_rows())
         .chain([
             (
                 "time: collapse table".into(),
@@ -628,7 +629,7 @@ where
             ),
         ])
         .collect::<Vec<_>>();
-        (wide, bvh_report.build_time + collapse_time, rows)
+        (wide, bvh_time + collapse_time, rows)
     };
     wide.order = params.order;
     let leaves = wide.leaf_count();

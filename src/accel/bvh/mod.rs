@@ -11,6 +11,7 @@ pub mod traverse;
 pub mod validate;
 pub mod wide;
 
+pub(crate) use build::build_shape_with_progress;
 pub use build::{BuildError, BuildParams, Strategy, build, build_with_progress, split_costs};
 pub use node::{Node, Nodes};
 pub use report::{BuildReport, TreeStats};

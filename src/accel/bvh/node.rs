@@ -94,6 +94,20 @@ impl Nodes {
         }
     }
 
+    /// A tree of `root` alone, with room for `pairs` sibling pairs to be pushed below it.
+    pub fn with_capacity(root: Node, pairs: usize) -> Self {
+        Nodes {
+            root,
+            pairs: Vec::with_capacity(pairs),
+        }
+    }
+
+    /// Appends a sibling pair; returns the index of its first node.
+    pub fn push_pair(&mut self, pair: [Node; 2]) -> usize {
+        self.pairs.push(NodePair(pair));
+        2 * self.pairs.len() - 1
+    }
+
     pub fn len(&self) -> usize {
         1 + 2 * self.pairs.len()
     }
