@@ -2,6 +2,7 @@
 //! or the range of a leaf's triangles. Two nodes fill one 64-byte cache line.
 
 use crate::geometry::Aabb;
+use crate::geometry::simd::prefetch;
 use glam::Vec3;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -94,8 +95,35 @@ impl Nodes {
         }
     }
 
+    /// The reachable nodes of `slots` (a tree numbered as `Nodes` is, with unused slots
+    /// between), copied into depth-first order with each pair of children adjacent,
+    /// dropping the unused slots. Parents keep coming before their children. The pairs go
+    /// straight into the tree's `Nodes` (copied there from a flat array once more, they took a
+    /// third as long again), and a pair's children's pair is asked for as it is copied: the
+    /// slots are read in their order, but with gaps the hardware does not follow.
+    pub fn compact(slots: &[Node]) -> Nodes {
+        let mut out = Nodes::with_capacity(slots[0], slots.len() / 2);
+        let mut stack = vec![0usize];
+        while let Some(i) = stack.pop() {
+            let node = out[i];
+            if node.is_leaf() {
+                continue;
+            }
+            let old = node.left_first as usize;
+            let pair = [slots[old], slots[old + 1]];
+            for child in pair.iter().filter(|c| !c.is_leaf()) {
+                prefetch(slots.as_ptr().wrapping_add(child.left_first as usize));
+            }
+            let new = out.push_pair(pair);
+            out[i].left_first = new as u32;
+            stack.push(new + 1);
+            stack.push(new);
+        }
+        out
+    }
+
     /// A tree of `root` alone, with room for `pairs` sibling pairs to be pushed below it.
-    pub fn with_capacity(root: Node, pairs: usize) -> Self {
+    fn with_capacity(root: Node, pairs: usize) -> Self {
         Nodes {
             root,
             pairs: Vec::with_capacity(pairs),
@@ -103,7 +131,7 @@ impl Nodes {
     }
 
     /// Appends a sibling pair; returns the index of its first node.
-    pub fn push_pair(&mut self, pair: [Node; 2]) -> usize {
+    fn push_pair(&mut self, pair: [Node; 2]) -> usize {
         self.pairs.push(NodePair(pair));
         2 * self.pairs.len() - 1
     }

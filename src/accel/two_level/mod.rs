@@ -175,9 +175,9 @@ fn build_blas(
     if params.builds_direct_wide() {
         return Ok(Bvh8::direct(triangles, params, progress)?.0);
     }
-    let (bvh2, _) = bvh::build_with_progress(triangles, params, progress)?;
+    let (bvh2, _, _) = bvh::build_shape_with_progress(triangles, params, progress)?;
     let collapse = collapse_params(params, params.max_leaf_size);
-    Ok(Bvh8::collapse_timed(&bvh2, &collapse)?.0)
+    Ok(Bvh8::collapse_over(&bvh2, triangles, &collapse)?.0)
 }
 
 /// The collapse of a BVH2 built with `params` into a BVH8 with leaves of at most

@@ -41,7 +41,6 @@ use super::node::{Node, Nodes};
 use super::report::{BuildPhases, BuildReport};
 use super::{Bvh, TraversalOrder};
 use crate::accel::progress::BuildProgress;
-use crate::geometry::simd::prefetch;
 use crate::geometry::{Aabb, Triangle};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -654,7 +653,7 @@ fn build_tree(
         if n < PARALLEL_SUBTREE {
             progress.add(n);
         }
-        compact(&slots)
+        Nodes::compact(&slots)
     };
     let recursion = start.elapsed();
     if params.strategy == Strategy::SahBinned {
@@ -792,30 +791,4 @@ fn sah_split_cost(
     p: &BuildParams,
 ) -> f32 {
     p.c_trav * parent_area + p.c_isect * (area_a * n_a as f32 + area_b * n_b as f32)
-}
-
-/// Copies the reachable nodes into depth-first order with each pair of children adjacent,
-/// dropping the unused slots. Parents keep coming before their children. The pairs go
-/// straight into the tree's `Nodes` (copied there from a flat array once more, they took a
-/// third as long again), and a pair's children's pair is asked for as it is copied: the
-/// slots are read in their order, but with gaps the hardware does not follow.
-fn compact(slots: &[Node]) -> Nodes {
-    let mut out = Nodes::with_capacity(slots[0], slots.len() / 2);
-    let mut stack = vec![0usize];
-    while let Some(i) = stack.pop() {
-        let node = out[i];
-        if node.is_leaf() {
-            continue;
-        }
-        let old = node.left_first as usize;
-        let pair = [slots[old], slots[old + 1]];
-        for child in pair.iter().filter(|c| !c.is_leaf()) {
-            prefetch(slots.as_ptr().wrapping_add(child.left_first as usize));
-        }
-        let new = out.push_pair(pair);
-        out[i].left_first = new as u32;
-        stack.push(new + 1);
-        stack.push(new);
-    }
-    out
 }

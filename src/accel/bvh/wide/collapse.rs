@@ -24,6 +24,7 @@ use super::WideBvh;
 use super::leaf::BlockPacker;
 use super::node::{Lanes, MAX_INDEX, MAX_NODE, NodeWidth, ROWS, Subtree, WideNode};
 use super::part::{Part, part_size};
+use super::source::Source;
 use crate::accel::bvh::{BuildError, Bvh};
 use crate::geometry::Triangle;
 use crate::geometry::simd::prefetch;
@@ -321,87 +322,6 @@ struct Cut {
     depth: u32,
 }
 
-/// Where the layout reads a leaf's triangles: in leaf order from slot `first` on (the
-/// BVH2's own copy, or a part's triangles gathered from the scene), or from the scene
-/// through the BVH2's `prim_indices`.
-#[derive(Clone, Copy)]
-enum Source<'a> {
-    InOrder { tris: &'a [Triangle], first: usize },
-    Scene(&'a [Triangle]),
-}
-
-impl<'a> Source<'a> {
-    /// The BVH2's copy of its triangles in leaf order.
-    fn leaf_order(bvh: &'a Bvh) -> Self {
-        Source::InOrder {
-            tris: &bvh.triangles,
-            first: 0,
-        }
-    }
-
-    /// The triangle at leaf-order slot `t` of `bvh`.
-    #[inline(always)]
-    fn get(self, bvh: &Bvh, t: usize) -> Triangle {
-        match self {
-            Source::InOrder { tris, first } => tris[t - first],
-            Source::Scene(tris) => tris[bvh.prim_indices[t] as usize],
-        }
-    }
-
-    /// Starts loading the triangles of slots `first..first + count` of `bvh`.
-    fn prefetch(self, bvh: &Bvh, slot: usize, count: usize) {
-        match self {
-            Source::InOrder { tris, first } => {
-                let start = tris.as_ptr().wrapping_add(slot.wrapping_sub(first)) as usize;
-                let end = start + count * size_of::<Triangle>();
-                for line in (start & !63..end).step_by(64) {
-                    prefetch(line as *const u8);
-                }
-            }
-            Source::Scene(tris) => {
-                for &i in bvh.prim_indices.get(slot..slot + count).unwrap_or(&[]) {
-                    prefetch(tris.as_ptr().wrapping_add(i as usize));
-                }
-            }
-        }
-    }
-
-    /// The triangles of the BVH2 subtree under `node`, for its part's layout: a scene's
-    /// gathered into `buffer` in leaf order first, in one loop whose loads do not wait on
-    /// each other. (Read leaf by leaf as the layout asks for them, the scene's triangles
-    /// were a fifth of the layout's time, one cache miss after another.)
-    fn for_part<'b, const W: usize>(
-        self,
-        bvh: &Bvh,
-        costs: &Costs<W>,
-        node: usize,
-        buffer: &'b mut Vec<Triangle>,
-    ) -> Source<'b>
-    where
-        'a: 'b,
-    {
-        let Source::Scene(scene) = self else {
-            return self;
-        };
-        let mut leftmost = node;
-        while !bvh.nodes[leftmost].is_leaf() {
-            leftmost = bvh.nodes[leftmost].left_first as usize;
-        }
-        let first = bvh.nodes[leftmost].left_first as usize;
-        let count = costs.tris[node] as usize;
-        buffer.clear();
-        buffer.extend(
-            bvh.prim_indices[first..first + count]
-                .iter()
-                .map(|&i| scene[i as usize]),
-        );
-        Source::InOrder {
-            tris: buffer,
-            first,
-        }
-    }
-}
-
 /// What laying out a part needs: the BVH2 and its triangles, the collapse's choices, and
 /// where to cut.
 #[derive(Clone, Copy)]
@@ -449,7 +369,7 @@ where
                 let mut slots = Vec::with_capacity(W);
                 open(bvh, costs, c.slot, W, &mut slots);
                 let part = Layout {
-                    source: source.for_part(bvh, costs, c.slot, buffer),
+                    source: source.for_part(bvh, c.slot, costs.tris[c.slot] as usize, buffer),
                     ..layout
                 };
                 part.lay_out(slots, c.depth).0
@@ -748,6 +668,63 @@ pub(super) mod tests {
         // The largest slot and node such a tree could need still fits a lane.
         assert!(4 * MAX_REFERENCES - 1 <= MAX_INDEX as usize);
         assert!(MAX_REFERENCES - 1 <= MAX_NODE as usize);
+    }
+
+    /// A BVH2 built without its copy of the triangles in leaf order, collapsed over the
+    /// scene's triangles, gives the tree the full BVH2's collapse gives, to the last bit of
+    /// every box, block and slot: in one piece and in parts (40 000 triangles are cut into
+    /// parts whose triangles are gathered from the scene), with references split by the
+    /// SBVH and by pre-splitting.
+    #[test]
+    fn a_tree_collapsed_over_the_scene_is_the_tree_collapsed_from_the_copy() {
+        use crate::accel::bvh::build::Strategy;
+        use crate::accel::progress::BuildProgress;
+        let bits = |t: &WideBvh<8>| {
+            let blocks: Vec<u32> = t
+                .blocks
+                .iter()
+                .flat_map(|b| {
+                    b.v.as_flattened()
+                        .as_flattened()
+                        .iter()
+                        .map(|x| x.to_bits())
+                })
+                .collect();
+            let nodes: Vec<[u32; 8]> = t.nodes.iter().map(|n| n.child.map(|c| c.word())).collect();
+            let boxes: Vec<Vec<u32>> = (0..t.nodes.len())
+                .flat_map(|n| (0..8).map(move |l| (n, l)))
+                .map(|(n, l)| t.nodes[n].child_bounds(l).bits().to_vec())
+                .collect();
+            (blocks, nodes, boxes, t.prim_indices.clone(), t.depth)
+        };
+        let params = [
+            BuildParams::default(),
+            BuildParams {
+                strategy: Strategy::Sbvh,
+                ..BuildParams::default()
+            },
+            BuildParams {
+                presplit: 0.3,
+                ..BuildParams::default()
+            },
+        ];
+        for spec in ["sphere:40000", "teapot-in-stadium", "walls-rotated"] {
+            let scene = builtin::by_name(spec).unwrap().unwrap();
+            let tris = &scene.triangles;
+            for p in &params {
+                let (full, _) = bvh::build(tris, p).unwrap();
+                let (shape, _, _) =
+                    bvh::build_shape_with_progress(tris, p, &BuildProgress::default()).unwrap();
+                assert!(shape.triangles.is_empty());
+                assert_eq!(shape.nodes, full.nodes, "{spec}, {:?}", p.strategy);
+                assert_eq!(shape.prim_indices, full.prim_indices, "{spec}");
+                let c = CollapseParams::default();
+                let want = WideBvh::<8>::collapse(&full, &c);
+                let (got, _) = WideBvh::<8>::collapse_over(&shape, tris, &c).unwrap();
+                got.validate().unwrap();
+                assert!(bits(&got) == bits(&want), "{spec}, {:?}", p.strategy);
+            }
+        }
     }
 
     /// Laying the tree out in parts, at any cut, gives the tree laid out in one piece: the

@@ -18,6 +18,7 @@ pub mod packet;
 mod part;
 pub mod refit;
 pub mod sah;
+mod source;
 pub(crate) mod stack;
 pub mod traverse;
 
