@@ -365,14 +365,10 @@ where
         layout.cut = None;
         let parts: Vec<Part<W>> = cuts
             .par_iter()
-            .map_init(Vec::new, |buffer, c| {
+            .map(|c| {
                 let mut slots = Vec::with_capacity(W);
                 open(bvh, costs, c.slot, W, &mut slots);
-                let part = Layout {
-                    source: source.for_part(bvh, c.slot, costs.tris[c.slot] as usize, buffer),
-                    ..layout
-                };
-                part.lay_out(slots, c.depth).0
+                layout.lay_out(slots, c.depth).0
             })
             .collect();
         let mut tree = tree.concat(parts);
@@ -673,7 +669,7 @@ pub(super) mod tests {
     /// A BVH2 built without its copy of the triangles in leaf order, collapsed over the
     /// scene's triangles, gives the tree the full BVH2's collapse gives, to the last bit of
     /// every box, block and slot: in one piece and in parts (40 000 triangles are cut into
-    /// parts whose triangles are gathered from the scene), with references split by the
+    /// parts), with references split by the
     /// SBVH and by pre-splitting.
     #[test]
     fn a_tree_collapsed_over_the_scene_is_the_tree_collapsed_from_the_copy() {
