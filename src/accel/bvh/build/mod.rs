@@ -480,7 +480,8 @@ pub fn build_with_progress(
 /// triangles are not copied into leaf order (`Bvh::triangles` is left empty, and
 /// `WideBvh::collapse_over` reads the scene's through `prim_indices` as it packs its
 /// blocks), and no report is made of it; its phases and time are returned instead. The
-/// copy was 3–4 % of a BVH8 build (conference: 2 of 62 ms) and 12 MB of fresh memory.
+/// copy was a 2.2 ms phase of conference's 62 ms BVH8 build and 12 MB of fresh memory;
+/// without it the build takes about 2 % less (docs/wide-bvh.md).
 pub(crate) fn build_shape_with_progress(
     triangles: &[Triangle],
     params: &BuildParams,
@@ -541,7 +542,9 @@ fn build_tree_of(
             phases.spatial_splits = Some((tree.spatial_splits, tree.unsplit));
             let leaf_order = Instant::now();
             let bvh = in_leaf_order(triangles, Nodes::from_flat(&tree.nodes), tree.prims, copy);
-            phases.add("leaf order", leaf_order.elapsed());
+            if copy == LeafCopy::Made {
+                phases.add("leaf order", leaf_order.elapsed());
+            }
             bvh
         }
         _ => build_tree(triangles, refs, params, progress, &mut phases, copy),
