@@ -27,7 +27,7 @@ use super::part::{Part, part_size};
 use super::source::Source;
 use crate::accel::bvh::{BuildError, Bvh};
 use crate::geometry::Triangle;
-use crate::geometry::simd::prefetch;
+use crate::geometry::simd::{BLOCK, prefetch};
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
@@ -397,7 +397,7 @@ where
         let mut part = Part {
             nodes,
             blocks: Vec::with_capacity(refs / 2),
-            prim_indices: Vec::with_capacity(refs / 2 * 4),
+            prim_indices: Vec::with_capacity(refs / 2 * BLOCK),
             depth,
             parts: Vec::new(),
             part_blocks: Vec::new(),
@@ -680,8 +680,7 @@ pub(super) mod tests {
     /// A BVH2 built without its copy of the triangles in leaf order, collapsed over the
     /// scene's triangles, gives the tree the full BVH2's collapse gives, to the last bit of
     /// every box, block and slot: in one piece and in parts (40 000 triangles are cut into
-    /// parts), with references split by the
-    /// SBVH and by pre-splitting.
+    /// parts), with references split by the SBVH and by pre-splitting.
     #[test]
     fn a_tree_collapsed_over_the_scene_is_the_tree_collapsed_from_the_copy() {
         use crate::accel::bvh::build::Strategy;
