@@ -697,6 +697,9 @@ impl Builder<'_> {
     ) -> Node {
         let n = refs.len();
         let parallel = n >= PARALLEL_SUBTREE;
+        if !parallel {
+            return self.sequential(refs, first, depth, info, slots, slot_base, &mut 0);
+        }
         let Some((m, left_info, right_info)) = self.split(refs, &info, depth) else {
             if parallel {
                 self.progress.add(n);
@@ -742,6 +745,38 @@ impl Builder<'_> {
         pair[0] = l;
         pair[1] = r;
         Node::interior(info.bounds.to_aabb(), slot_base as u32)
+    }
+
+    /// `subtree` on one thread: each interior node's pair goes to the next free slots of
+    /// `slots` (`used` of them taken), so the subtree's pairs lie one after another in
+    /// depth-first order, the order `Nodes::compact` reads them in. Fixed slices per child,
+    /// as the parallel part needs, left gaps wherever a child used fewer than its slice;
+    /// the compaction then jumped over them, and waited on memory at each jump.
+    #[allow(clippy::too_many_arguments)]
+    fn sequential(
+        &self,
+        refs: &mut [PrimRef],
+        first: usize,
+        depth: u32,
+        info: NodeInfo,
+        slots: &mut [Node],
+        slot_base: usize,
+        used: &mut usize,
+    ) -> Node {
+        let n = refs.len();
+        let Some((m, left_info, right_info)) = self.split(refs, &info, depth) else {
+            return Node::leaf(info.bounds.to_aabb(), first as u32, n as u32);
+        };
+        debug_assert!(0 < m && m < n);
+        let at = *used;
+        *used += 2;
+        let (left_refs, right_refs) = refs.split_at_mut(m);
+        let d = depth + 1;
+        let l = self.sequential(left_refs, first, d, left_info, slots, slot_base, used);
+        let r = self.sequential(right_refs, first + m, d, right_info, slots, slot_base, used);
+        slots[at] = l;
+        slots[at + 1] = r;
+        Node::interior(info.bounds.to_aabb(), (slot_base + at) as u32)
     }
 
     /// Where to split `refs` (partitioning them so that `refs[..m]` is the left child), or
