@@ -209,22 +209,35 @@ pub fn partition(refs: &mut [PrimRef], left: impl Fn(&PrimRef) -> bool) -> Split
     let (mut li, mut ri) = (NodeInfo::EMPTY, NodeInfo::EMPTY);
     let mut i = 0;
     let mut j = refs.len();
+    // Unchecked: this loop moves every reference at every level of the build. Every index
+    // read is in `i..j`, within `refs`: i < j ≤ refs.len() wherever one is read.
+    let at = |refs: &[PrimRef], k: usize| {
+        debug_assert!(k < refs.len());
+        // SAFETY: k < j ≤ refs.len() at every call (above).
+        unsafe { *refs.get_unchecked(k) }
+    };
     loop {
-        while i < j && left(&refs[i]) {
-            li.add(&refs[i]);
+        while i < j && left(&at(refs, i)) {
+            li.add(&at(refs, i));
             i += 1;
         }
-        while i < j && !left(&refs[j - 1]) {
-            ri.add(&refs[j - 1]);
+        while i < j && !left(&at(refs, j - 1)) {
+            ri.add(&at(refs, j - 1));
             j -= 1;
         }
         if i >= j {
             return (i, li, ri);
         }
-        // refs[i] belongs right and refs[j − 1] left: swap them into place.
-        refs.swap(i, j - 1);
-        li.add(&refs[i]);
-        ri.add(&refs[j - 1]);
+        // refs[i] belongs right and refs[j − 1] left: swap them into place, each added to
+        // the side it now lies on.
+        let (a, b) = (at(refs, i), at(refs, j - 1));
+        li.add(&b);
+        ri.add(&a);
+        // SAFETY: i < j ≤ refs.len(), so both i and j − 1 are within `refs`.
+        unsafe {
+            *refs.get_unchecked_mut(i) = b;
+            *refs.get_unchecked_mut(j - 1) = a;
+        }
         i += 1;
         j -= 1;
     }
