@@ -43,6 +43,7 @@ use super::{Bvh, TraversalOrder};
 use crate::accel::progress::BuildProgress;
 use crate::geometry::{Aabb, Triangle};
 use rayon::prelude::*;
+use sah_binned::Scratch;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
@@ -698,7 +699,10 @@ impl Builder<'_> {
         let n = refs.len();
         let parallel = n >= PARALLEL_SUBTREE;
         if !parallel {
-            return self.sequential(refs, first, depth, info, slots, slot_base, &mut 0);
+            return sah_binned::with_scratch(|scratch| {
+                let at = (slot_base, &mut 0, scratch);
+                self.sequential(refs, first, depth, info, slots, at)
+            });
         }
         let Some((m, left_info, right_info)) = self.split(refs, &info, depth) else {
             if parallel {
@@ -748,11 +752,12 @@ impl Builder<'_> {
     }
 
     /// `subtree` on one thread: each interior node's pair goes to the next free slots of
-    /// `slots` (`used` of them taken), so the subtree's pairs lie one after another in
-    /// depth-first order, the order `Nodes::compact` reads them in. Fixed slices per child,
-    /// as the parallel part needs, left gaps wherever a child used fewer than its slice;
-    /// the compaction then jumped over them, and waited on memory at each jump.
-    #[allow(clippy::too_many_arguments)]
+    /// `slots` (`used` of them taken; `slots[0]` is array index `slot_base`), so the
+    /// subtree's pairs lie one after another in depth-first order, the order
+    /// `Nodes::compact` reads them in. Fixed slices per child, as the parallel part needs,
+    /// left gaps wherever a child used fewer than its slice; the compaction then jumped
+    /// over them, and waited on memory at each jump. The subtree's searches share one
+    /// scratch, where each took its thread's out of a slot and put it back.
     fn sequential(
         &self,
         refs: &mut [PrimRef],
@@ -760,11 +765,11 @@ impl Builder<'_> {
         depth: u32,
         info: NodeInfo,
         slots: &mut [Node],
-        slot_base: usize,
-        used: &mut usize,
+        (slot_base, used, scratch): (usize, &mut usize, &mut Scratch),
     ) -> Node {
         let n = refs.len();
-        let Some((m, left_info, right_info)) = self.split(refs, &info, depth) else {
+        let Some((m, left_info, right_info)) = self.split_with(refs, &info, depth, Some(scratch))
+        else {
             return Node::leaf(info.bounds.to_aabb(), first as u32, n as u32);
         };
         debug_assert!(0 < m && m < n);
@@ -772,8 +777,22 @@ impl Builder<'_> {
         *used += 2;
         let (left_refs, right_refs) = refs.split_at_mut(m);
         let d = depth + 1;
-        let l = self.sequential(left_refs, first, d, left_info, slots, slot_base, used);
-        let r = self.sequential(right_refs, first + m, d, right_info, slots, slot_base, used);
+        let l = self.sequential(
+            left_refs,
+            first,
+            d,
+            left_info,
+            slots,
+            (slot_base, used, scratch),
+        );
+        let r = self.sequential(
+            right_refs,
+            first + m,
+            d,
+            right_info,
+            slots,
+            (slot_base, used, scratch),
+        );
         slots[at] = l;
         slots[at + 1] = r;
         Node::interior(info.bounds.to_aabb(), (slot_base + at) as u32)
@@ -782,6 +801,17 @@ impl Builder<'_> {
     /// Where to split `refs` (partitioning them so that `refs[..m]` is the left child), or
     /// `None` to make a leaf.
     pub(crate) fn split(&self, refs: &mut [PrimRef], info: &NodeInfo, depth: u32) -> Option<Split> {
+        self.split_with(refs, info, depth, None)
+    }
+
+    /// `split`, binned SAH's search with `scratch` if given (else its thread's).
+    fn split_with(
+        &self,
+        refs: &mut [PrimRef],
+        info: &NodeInfo,
+        depth: u32,
+        scratch: Option<&mut Scratch>,
+    ) -> Option<Split> {
         let n = refs.len();
         let p = self.params;
         let must_split = n > p.max_leaf_size as usize;
@@ -805,7 +835,7 @@ impl Builder<'_> {
             Strategy::ObjectMedian => must_split.then(|| median::object_median(refs, info)),
             Strategy::SpatialMedian => must_split.then(|| median::spatial_median(refs, info)),
             Strategy::SahSweep => sah_sweep::split(refs, info, p),
-            Strategy::SahBinned => sah_binned::split(refs, info, p, self.clock),
+            Strategy::SahBinned => sah_binned::split(refs, info, p, self.clock, scratch),
             // An empty input reaches no split; non-empty ones are built by `lbvh` or `sbvh`.
             Strategy::Lbvh | Strategy::LbvhTreelet | Strategy::Sbvh => None,
         }

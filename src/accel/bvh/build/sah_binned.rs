@@ -214,9 +214,11 @@ fn bins_and_bytes(k: Vec3A) -> ([u32; 4], u32) {
     }
 }
 
-/// Per-thread buffers, so the many small nodes near the leaves allocate nothing.
+/// Per-thread buffers, so the many small nodes near the leaves allocate nothing. A subtree
+/// built on one thread holds one for all its nodes (`Builder::sequential`); elsewhere each
+/// search takes its thread's out of a slot and puts it back (`with_scratch`).
 #[derive(Default)]
-struct Scratch {
+pub(crate) struct Scratch {
     bins: Vec<Bin>,
     /// `fill`'s second set of bins, every one empty between calls.
     spare: Vec<Bin>,
@@ -259,7 +261,7 @@ thread_local! {
 /// another node's search (work stealing), which then finds the slot empty and starts a
 /// scratch of its own. (Borrowed across the loop, the slot made that second search panic
 /// with "already borrowed".)
-fn with_scratch<R>(f: impl FnOnce(&mut Scratch) -> R) -> R {
+pub(crate) fn with_scratch<R>(f: impl FnOnce(&mut Scratch) -> R) -> R {
     let mut scratch = SCRATCH.take();
     let result = f(&mut scratch);
     SCRATCH.set(scratch);
@@ -416,10 +418,21 @@ pub fn best(
     p: &BuildParams,
     sides: bool,
 ) -> Option<ObjectSplit> {
+    with_scratch(|s| best_in(s, refs, info, p, sides))
+}
+
+/// `best` with the scratch `s`.
+fn best_in(
+    s: &mut Scratch,
+    refs: &mut [PrimRef],
+    info: &NodeInfo,
+    p: &BuildParams,
+    sides: bool,
+) -> Option<ObjectSplit> {
     let b = p.buckets as usize;
     let binning = Binning::new(&info.centroids, b);
     let parent_area = info.bounds.surface_area();
-    with_scratch(|s| {
+    {
         // Every bin is empty between calls (only the filled ones are emptied after use, a
         // few of the 3B near the leaves): only new ones need setting.
         if s.bins.len() < 3 * b {
@@ -468,7 +481,7 @@ pub fn best(
             }
         }
         split
-    })
+    }
 }
 
 /// One axis's share of `best`: its first boundary with primitives on both sides, and its
@@ -565,12 +578,14 @@ fn pick(per_axis: &[AxisBest; 3]) -> Option<(f32, usize, usize)> {
 }
 
 /// Splits a node at its cheapest bucket boundary; a node large enough for its passes to
-/// run on all threads adds their times to `clock`.
+/// run on all threads adds their times to `clock`. The search uses `scratch` if given (a
+/// subtree built on one thread holds one), else its thread's.
 pub fn split(
     refs: &mut [PrimRef],
     info: &NodeInfo,
     p: &BuildParams,
     clock: &TopSplitClock,
+    scratch: Option<&mut Scratch>,
 ) -> Option<Split> {
     let n = refs.len();
     if n <= p.max_leaf_size as usize && no_split_pays(refs, info, p) {
@@ -579,7 +594,10 @@ pub fn split(
     // Only the nodes near the root are timed: reading the clock at each of the ~10^5
     // small nodes took a few per cent of the build.
     let start = (n >= PARALLEL_PASS).then(Instant::now);
-    let best = best(refs, info, p, false);
+    let best = match scratch {
+        Some(s) => best_in(s, refs, info, p, false),
+        None => best(refs, info, p, false),
+    };
     if let Some(start) = start {
         clock.add_binning(start.elapsed());
     }
