@@ -686,7 +686,9 @@ pub(crate) struct Builder<'a> {
 impl Builder<'_> {
     /// Builds the subtree over `refs` (which start at leaf-order index `first`) and returns
     /// its root. Its descendants go into `slots`, whose first entry is array index
-    /// `slot_base`.
+    /// `slot_base`: a fixed slice for each child, whose halves are built in parallel, down
+    /// to subtrees of fewer than `PARALLEL_SUBTREE` references, built on one thread
+    /// (`sequential`).
     fn subtree(
         &self,
         refs: &mut [PrimRef],
@@ -697,24 +699,21 @@ impl Builder<'_> {
         slot_base: usize,
     ) -> Node {
         let n = refs.len();
-        let parallel = n >= PARALLEL_SUBTREE;
-        if !parallel {
+        if n < PARALLEL_SUBTREE {
             return sah_binned::with_scratch(|scratch| {
                 let at = (slot_base, &mut 0, scratch);
                 self.sequential(refs, first, depth, info, slots, at)
             });
         }
         let Some((m, left_info, right_info)) = self.split(refs, &info, depth) else {
-            if parallel {
-                self.progress.add(n);
-            }
+            self.progress.add(n);
             return Node::leaf(info.bounds.to_aabb(), first as u32, n as u32);
         };
         debug_assert!(0 < m && m < n);
         let (pair, rest) = slots.split_at_mut(2);
         let (left_slots, right_slots) = rest.split_at_mut(2 * m - 2);
         let (left_refs, right_refs) = refs.split_at_mut(m);
-        let mut left = move || {
+        let left = move || {
             self.subtree(
                 left_refs,
                 first,
@@ -724,7 +723,7 @@ impl Builder<'_> {
                 slot_base + 2,
             )
         };
-        let mut right = move || {
+        let right = move || {
             let base = slot_base + 2 * m;
             self.subtree(
                 right_refs,
@@ -735,17 +734,13 @@ impl Builder<'_> {
                 base,
             )
         };
-        let (l, r) = if parallel {
-            let lr = rayon::join(left, right);
-            for size in [m, n - m] {
-                if size < PARALLEL_SUBTREE {
-                    self.progress.add(size);
-                }
+        let (l, r) = rayon::join(left, right);
+        // A subtree built on one thread is counted here, once (its leaves add nothing).
+        for size in [m, n - m] {
+            if size < PARALLEL_SUBTREE {
+                self.progress.add(size);
             }
-            lr
-        } else {
-            (left(), right())
-        };
+        }
         pair[0] = l;
         pair[1] = r;
         Node::interior(info.bounds.to_aabb(), slot_base as u32)

@@ -432,56 +432,53 @@ fn best_in(
     let b = p.buckets as usize;
     let binning = Binning::new(&info.centroids, b);
     let parent_area = info.bounds.surface_area();
-    {
-        // Every bin is empty between calls (only the filled ones are emptied after use, a
-        // few of the 3B near the leaves): only new ones need setting.
-        if s.bins.len() < 3 * b {
-            s.bins.resize(3 * b, EMPTY_BIN);
-            s.spare.resize(3 * b, EMPTY_BIN);
-        }
-        s.sweep.right_area.resize(b, 0.0);
-        s.sweep.right_count.resize(b, 0);
-        s.sweep.filled.resize(3 * b, 0);
-        let bins = &mut s.bins[..3 * b];
-        binning.fill_parallel(refs, bins, &mut s.spare);
-        let Sweep {
-            right_area,
-            right_count,
-            filled,
-        } = &mut s.sweep;
-        let m = filled_buckets(bins, b, filled);
-        let mut per_axis = [AxisBest::default(); 3];
-        for (axis, result) in per_axis.iter_mut().enumerate() {
-            let filled = &filled[axis * b..axis * b + m[axis]];
-            // SAFETY: `filled_buckets` lists buckets below b, and `bins` holds 3b.
-            *result = unsafe {
-                best_on_axis(bins, axis, filled, parent_area, p, right_area, right_count)
-            };
-        }
-        let split = pick(&per_axis).map(|(cost, axis, bucket)| {
-            let side = |range: std::ops::Range<usize>| {
-                range.fold(Box3A::EMPTY, |a, k| a.union(bins[3 * k + axis].bounds))
-            };
-            let (left, right) = if sides {
-                (side(0..bucket), side(bucket..b))
-            } else {
-                (Box3A::EMPTY, Box3A::EMPTY)
-            };
-            ObjectSplit {
-                cost,
-                left,
-                right,
-                ..ObjectSplit::new(binning, axis, bucket)
-            }
-        });
-        for axis in 0..3 {
-            for &k in &filled[axis * b..axis * b + m[axis]] {
-                // SAFETY: `filled_buckets` lists buckets below b, and `bins` holds 3b.
-                unsafe { *bins.get_unchecked_mut(3 * k as usize + axis) = EMPTY_BIN };
-            }
-        }
-        split
+    // Every bin is empty between calls (only the filled ones are emptied after use, a
+    // few of the 3B near the leaves): only new ones need setting.
+    if s.bins.len() < 3 * b {
+        s.bins.resize(3 * b, EMPTY_BIN);
+        s.spare.resize(3 * b, EMPTY_BIN);
     }
+    s.sweep.right_area.resize(b, 0.0);
+    s.sweep.right_count.resize(b, 0);
+    s.sweep.filled.resize(3 * b, 0);
+    let bins = &mut s.bins[..3 * b];
+    binning.fill_parallel(refs, bins, &mut s.spare);
+    let Sweep {
+        right_area,
+        right_count,
+        filled,
+    } = &mut s.sweep;
+    let m = filled_buckets(bins, b, filled);
+    let mut per_axis = [AxisBest::default(); 3];
+    for (axis, result) in per_axis.iter_mut().enumerate() {
+        let filled = &filled[axis * b..axis * b + m[axis]];
+        // SAFETY: `filled_buckets` lists buckets below b, and `bins` holds 3b.
+        *result =
+            unsafe { best_on_axis(bins, axis, filled, parent_area, p, right_area, right_count) };
+    }
+    let split = pick(&per_axis).map(|(cost, axis, bucket)| {
+        let side = |range: std::ops::Range<usize>| {
+            range.fold(Box3A::EMPTY, |a, k| a.union(bins[3 * k + axis].bounds))
+        };
+        let (left, right) = if sides {
+            (side(0..bucket), side(bucket..b))
+        } else {
+            (Box3A::EMPTY, Box3A::EMPTY)
+        };
+        ObjectSplit {
+            cost,
+            left,
+            right,
+            ..ObjectSplit::new(binning, axis, bucket)
+        }
+    });
+    for axis in 0..3 {
+        for &k in &filled[axis * b..axis * b + m[axis]] {
+            // SAFETY: `filled_buckets` lists buckets below b, and `bins` holds 3b.
+            unsafe { *bins.get_unchecked_mut(3 * k as usize + axis) = EMPTY_BIN };
+        }
+    }
+    split
 }
 
 /// One axis's share of `best`: its first boundary with primitives on both sides, and its
