@@ -52,27 +52,61 @@ where
     /// few blocks ahead, since a leaf's triangles lie anywhere in scene order) and written
     /// whole. Then the part's nodes, children before parents: a leaf lane bounds its
     /// triangles from the blocks just written, still in the cache (one or two lane by lane,
-    /// more four lanes at a time), an interior lane takes its child's box, and the SAH cost
-    /// before and after is summed in the same pass (each lane's old box is read before it
-    /// is overwritten). The nodes are swept from the last to the first (children come after
-    /// their parents). The parts are parallel tasks; the top of the tree comes last.
+    /// more four lanes at a time), and an interior lane takes its child's box. The nodes are
+    /// swept from the last to the first (children come after their parents). The parts are
+    /// parallel tasks; the top of the tree comes last.
+    ///
+    /// The SAH cost before and after is summed in the same pass (each lane's old box is
+    /// read before it is overwritten); `refit_boxes` is the same refit without it.
     pub fn refit(
         &mut self,
         scene: &[Triangle],
         c_trav: f32,
         c_isect: f32,
     ) -> Result<RefitReport, RefitError> {
+        let costs = Costs {
+            trav: c_trav as f64,
+            isect: c_isect as f64,
+        };
+        let root_before = self.nodes[0].bounds().surface_area() as f64;
+        let sums = self.refit_with::<true>(scene, costs)?;
+        let root_after = self.nodes[0].bounds().surface_area() as f64;
+        let sah = |root: f64, lanes: f64| {
+            if root <= 0.0 {
+                costs.isect * self.triangle_count as f64
+            } else {
+                (costs.trav * root + lanes) / root
+            }
+        };
+        Ok(RefitReport {
+            sah_before: sah(root_before, sums.before),
+            sah_after: sah(root_after, sums.after),
+        })
+    }
+
+    /// `refit` without the SAH report: the same boxes and blocks, bit for bit, for a scene
+    /// refitted every frame, which has no use for the cost (its two areas per lane and the
+    /// sums are about a tenth of the refit's time, docs/wide-bvh.md).
+    pub fn refit_boxes(&mut self, scene: &[Triangle]) -> Result<(), RefitError> {
+        let costs = Costs {
+            trav: 0.0,
+            isect: 0.0,
+        };
+        self.refit_with::<false>(scene, costs).map(|_| ())
+    }
+
+    /// The refit of `refit` and `refit_boxes`; the sums of the whole tree when `REPORT`.
+    fn refit_with<const REPORT: bool>(
+        &mut self,
+        scene: &[Triangle],
+        costs: Costs,
+    ) -> Result<RefitSums, RefitError> {
         if scene.len() != self.triangle_count {
             return Err(RefitError {
                 built: self.triangle_count,
                 given: scene.len(),
             });
         }
-        let root_before = self.nodes[0].bounds().surface_area() as f64;
-        let costs = Costs {
-            trav: c_trav as f64,
-            isect: c_isect as f64,
-        };
         let mut done = vec![Refitted::default(); self.nodes.len()];
         let tree = SharedTree {
             nodes: self.nodes.as_mut_ptr(),
@@ -90,13 +124,13 @@ where
             if parallel && one_piece {
                 fill_blocks_parallel(p.blocks, p.indices, scene);
                 // SAFETY: as in `refit_piece`.
-                unsafe { tree.refit_range(p.nodes, p.blocks, p.first_block, costs) };
+                unsafe { tree.refit_range::<REPORT>(p.nodes, p.blocks, p.first_block, costs) };
             } else {
                 // SAFETY: a piece's nodes (and their `done` entries) are written by its
                 // task alone and its nodes' children lie inside it (`validate` checks it),
                 // so the tasks touch disjoint nodes; the top runs after them all.
                 // `self.nodes` and `done` stay borrowed for the whole pass.
-                unsafe { tree.refit_piece(p, scene, costs) };
+                unsafe { tree.refit_piece::<REPORT>(p, scene, costs) };
             }
         };
         if parallel {
@@ -105,19 +139,7 @@ where
             pieces.into_iter().for_each(refit_piece);
         }
         refit_piece(top);
-        let sums = done[0].sums;
-        let root_after = self.nodes[0].bounds().surface_area() as f64;
-        let sah = |root: f64, lanes: f64| {
-            if root <= 0.0 {
-                costs.isect * self.triangle_count as f64
-            } else {
-                (costs.trav * root + lanes) / root
-            }
-        };
-        Ok(RefitReport {
-            sah_before: sah(root_before, sums.before),
-            sah_after: sah(root_after, sums.after),
-        })
+        Ok(done[0].sums)
     }
 
     /// Refit after only the scene triangles `moved` changed: the wide nodes holding their
@@ -382,14 +404,19 @@ where
     ///
     /// # Safety
     /// As `refit_range`.
-    unsafe fn refit_piece(&self, p: Piece<'_>, scene: &[Triangle], costs: Costs) {
+    unsafe fn refit_piece<const REPORT: bool>(
+        &self,
+        p: Piece<'_>,
+        scene: &[Triangle],
+        costs: Costs,
+    ) {
         #[cfg(target_arch = "x86_64")]
         if SimdLevel::Avx2.supported() {
             // SAFETY: the CPU has AVX2; the rest is the caller's contract.
-            return unsafe { self.refit_piece_avx2(p, scene, costs) };
+            return unsafe { self.refit_piece_avx2::<REPORT>(p, scene, costs) };
         }
         // SAFETY: the caller's contract.
-        unsafe { self.fill_and_refit(p, scene, costs) }
+        unsafe { self.fill_and_refit::<REPORT>(p, scene, costs) }
     }
 
     /// `refit_piece` compiled for AVX2.
@@ -398,18 +425,28 @@ where
     /// As `refit_range`; the CPU has AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn refit_piece_avx2(&self, p: Piece<'_>, scene: &[Triangle], costs: Costs) {
+    unsafe fn refit_piece_avx2<const REPORT: bool>(
+        &self,
+        p: Piece<'_>,
+        scene: &[Triangle],
+        costs: Costs,
+    ) {
         // SAFETY: the caller's contract.
-        unsafe { self.fill_and_refit(p, scene, costs) }
+        unsafe { self.fill_and_refit::<REPORT>(p, scene, costs) }
     }
 
     /// # Safety
     /// As `refit_range`.
     #[inline(always)]
-    unsafe fn fill_and_refit(&self, p: Piece<'_>, scene: &[Triangle], costs: Costs) {
+    unsafe fn fill_and_refit<const REPORT: bool>(
+        &self,
+        p: Piece<'_>,
+        scene: &[Triangle],
+        costs: Costs,
+    ) {
         fill_blocks(p.blocks, p.indices, scene);
         // SAFETY: the caller's contract.
-        unsafe { self.refit_range(p.nodes, p.blocks, p.first_block, costs) };
+        unsafe { self.refit_range::<REPORT>(p.nodes, p.blocks, p.first_block, costs) };
     }
 
     /// Refits the nodes `range` from the last to the first: a node's interior children come
@@ -422,7 +459,7 @@ where
     /// No other task may touch the nodes of `range`, and the children of its nodes must lie
     /// in it or be refitted already.
     #[inline(always)]
-    unsafe fn refit_range(
+    unsafe fn refit_range<const REPORT: bool>(
         &self,
         range: Range<usize>,
         blocks: &[TriangleBlock],
@@ -431,7 +468,7 @@ where
     ) {
         for i in range.rev() {
             // SAFETY: the caller's contract.
-            unsafe { self.refit_node(i, blocks, first_block, costs) };
+            unsafe { self.refit_node::<REPORT>(i, blocks, first_block, costs) };
         }
     }
 
@@ -442,7 +479,7 @@ where
     /// # Safety
     /// As `refit_range`.
     #[inline(always)]
-    unsafe fn refit_node(
+    unsafe fn refit_node<const REPORT: bool>(
         &self,
         i: usize,
         blocks: &[TriangleBlock],
@@ -453,7 +490,11 @@ where
         let node = unsafe { &mut *self.nodes.add(i) };
         let lanes = node.child_count();
         let words = node.child;
-        let old = lane_areas(&node.bounds);
+        // The old areas are read before the lanes are overwritten (none without a report).
+        let old = match REPORT {
+            true => lane_areas(&node.bounds),
+            false => LaneAreas([0.0; W]),
+        };
         // The lanes are set in place (a copy of the rows out and back was two calls of
         // `memcpy` a node).
         let rows = &mut node.bounds;
@@ -495,16 +536,18 @@ where
                 child_sums[l] = child.sums;
             }
         }
-        let new = lane_areas(&node.bounds);
         let mut sums = RefitSums::default();
-        for (l, child) in child_sums.iter().enumerate().take(lanes) {
-            let weight = costs.of(!words[l].is_leaf(), words[l].count());
-            sums = sums
-                + *child
-                + RefitSums {
-                    before: weight * old.0[l] as f64,
-                    after: weight * new.0[l] as f64,
-                };
+        if REPORT {
+            let new = lane_areas(&node.bounds);
+            for (l, child) in child_sums.iter().enumerate().take(lanes) {
+                let weight = costs.of(!words[l].is_leaf(), words[l].count());
+                sums = sums
+                    + *child
+                    + RefitSums {
+                        before: weight * old.0[l] as f64,
+                        after: weight * new.0[l] as f64,
+                    };
+            }
         }
         let bounds = node.bounds();
         // SAFETY: node `i`'s entry is this task's alone.
@@ -626,7 +669,8 @@ mod tests {
 
     /// The full refit (parallel, blocks written whole, leaves bounded four lanes at a time)
     /// gives the one-by-one refit's boxes, blocks (padding lanes' NaN included) and SAH
-    /// costs bit for bit, signs of zero included.
+    /// costs bit for bit, signs of zero included; without the report, the same boxes and
+    /// blocks.
     #[test]
     fn full_refit_equals_the_lane_by_lane_refit_bit_for_bit() {
         fn check<const W: usize>(seed: u64)
@@ -638,6 +682,7 @@ mod tests {
             let b2 = bvh::build(&built, &BuildParams::default()).unwrap().0;
             let mut fast = WideBvh::<W>::collapse(&b2, &super::super::CollapseParams::default());
             let mut slow = fast.clone();
+            let mut boxes_only = fast.clone();
             assert!(fast.parts.len() > 4, "the parts refitted in parallel");
             let moved = grid_soup(n, seed + 1);
             let costs = Costs {
@@ -645,6 +690,7 @@ mod tests {
                 isect: 2.0,
             };
             let report = fast.refit(&moved, 1.0, 2.0).unwrap();
+            boxes_only.refit_boxes(&moved).unwrap();
             let (before, after) = reference(&mut slow, &moved, costs);
             let bits = |t: &WideBvh<W>| {
                 let nodes = t.nodes.iter().flat_map(|n| {
@@ -661,6 +707,10 @@ mod tests {
             assert!(
                 bits(&fast) == bits(&slow),
                 "BVH{W}: the refits' bits differ"
+            );
+            assert!(
+                bits(&boxes_only) == bits(&slow),
+                "BVH{W}: the refit without a report differs"
             );
             assert_eq!(
                 (report.sah_before.to_bits(), report.sah_after.to_bits()),
