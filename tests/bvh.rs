@@ -703,7 +703,8 @@ fn a_frame_traced_without_counting_has_the_hits_of_a_counted_frame() {
 }
 
 /// The build report names its phases: binned SAH's splits near the root (binning and
-/// partition) on a tree large enough to have them, and the wide trees' collapse phases.
+/// partition) on a tree large enough to have them (and not on one without), and the wide
+/// trees' collapse phases.
 #[test]
 fn the_report_gives_the_build_phases_and_threads() {
     use bvhlab::accel::structure::{self, AccelKind, StructureParams};
@@ -747,4 +748,12 @@ fn the_report_gives_the_build_phases_and_threads() {
             built.report.details
         );
     }
+    // A tree with no node of 32 768 primitives has no splits near the root to time, and
+    // its report shows no such phase (rather than 0.00 ms).
+    let (_, small) = build(&soup(20_000, 5), &BuildParams::default()).unwrap();
+    let names: Vec<&str> = small.phases.times.iter().map(|(p, _)| p.as_str()).collect();
+    assert_eq!(
+        names,
+        ["references", "splits (whole recursion)", "leaf order"]
+    );
 }

@@ -434,12 +434,15 @@ pub(crate) const PARALLEL_PASS: usize = 32 * 1024;
 pub struct TopSplitClock {
     binning_ns: AtomicU64,
     partition_ns: AtomicU64,
+    /// Nodes whose binning was timed.
+    nodes: AtomicU64,
 }
 
 impl TopSplitClock {
     pub fn add_binning(&self, t: Duration) {
         self.binning_ns
             .fetch_add(t.as_nanos() as u64, Ordering::Relaxed);
+        self.nodes.fetch_add(1, Ordering::Relaxed);
     }
 
     pub fn add_partition(&self, t: Duration) {
@@ -447,8 +450,12 @@ impl TopSplitClock {
             .fetch_add(t.as_nanos() as u64, Ordering::Relaxed);
     }
 
-    /// Both times, as the build report's phases.
+    /// Both times, as the build report's phases; none for a tree with no node that large
+    /// (a phase of 0.00 ms would read as a broken timer).
     pub fn add_phases(&self, phases: &mut BuildPhases) {
+        if self.nodes.load(Ordering::Relaxed) == 0 {
+            return;
+        }
         let read = |a: &AtomicU64| Duration::from_nanos(a.load(Ordering::Relaxed));
         phases.add("binning near the root", read(&self.binning_ns));
         phases.add("partition near the root", read(&self.partition_ns));
