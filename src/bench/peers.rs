@@ -246,8 +246,9 @@ fn measure<A: Accel>(
             })
         },
     );
-    let ours_packets = || crate::with_intersector!(cfg.intersector, I => time_packets::<_, I>(ours, &sets.primary_tiles, 1));
-    let theirs_packets = || time_packets::<_, Watertight>(peer, &sets.primary_tiles, 1);
+    let ours_packets =
+        || crate::with_intersector!(cfg.intersector, I => time_packets::<_, I>(ours, sets, 1));
+    let theirs_packets = || time_packets::<_, Watertight>(peer, sets, 1);
     let (ours_in_packets, primary_packets) = match packets {
         true => {
             let (a, b) = turns(&ours_packets, &theirs_packets);
