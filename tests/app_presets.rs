@@ -20,12 +20,6 @@ fn app(scene: &str) -> Harness<'static, BvhLabApp> {
     )
 }
 
-fn temp_file(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("bvhlab-app-presets-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
-}
-
 #[test]
 fn digit_keys_open_presets_and_page_keys_step_through_them() {
     let mut h = app("cornell");
@@ -231,7 +225,8 @@ fn the_cracks_step_marks_the_fast_tests_leaks_and_none_of_the_watertight_tests()
 #[test]
 fn a_saved_preset_loads_back_to_the_same_state() {
     let mut h = app("cornell");
-    let file = temp_file("camera.toml");
+    let dir = common::TempDir::new("app-presets");
+    let file = dir.join("camera.toml");
     std::fs::write(
         &file,
         "title = \"Close\"\nscene = \"walls\"\ntool = \"replay\"\nwalk = 2\ncamera = { eye = [3.0, 4.0, 9.0], look = [0.5, 0.5, 0.0], fov = 40 }\n[settings]\naccel = \"Octree\"\nmode = \"Boxes\"\nshow_levels = true\nlevel = 2\n",
@@ -255,7 +250,7 @@ fn a_saved_preset_loads_back_to_the_same_state() {
     let loaded = h.state().preset_here("Close");
     assert_eq!(loaded.pinned.as_ref().unwrap().kind, AccelKind::Octree);
     // Save it, go elsewhere, load the saved file: the same state again.
-    let saved = temp_file("saved.toml");
+    let saved = dir.join("saved.toml");
     h.state_mut().save_preset(&saved).unwrap();
     h.state_mut().open_lecture();
     settle(&mut h);
@@ -287,7 +282,8 @@ fn a_bad_preset_file_is_an_error_and_the_state_stays() {
     settle(&mut h);
     let before = h.state().settings.clone();
     let sequence = h.state().lecture.sequence.clone();
-    let bad = temp_file("bad.toml");
+    let dir = common::TempDir::new("app-presets");
+    let bad = dir.join("bad.toml");
     std::fs::write(
         &bad,
         "[[preset]]\ntitle = \"A\"\nscene = \"cornell\"\n[[preset]]\ntitle = \"B\"\nscene = \"no-such-scene\"\n",

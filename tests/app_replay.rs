@@ -149,8 +149,7 @@ fn export_writes_the_view_as_png_and_the_counters_as_csv() {
     let mut h = app("cornell");
     assert!(h.query_by_label("Save view as PNG…").is_some());
     assert!(h.query_by_label("Save counters as CSV…").is_some());
-    let dir = std::env::temp_dir().join(format!("bvhlab-export-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::TempDir::new("export");
     let shown = h.state().shown.clone().expect("a frame");
     let (w, hgt) = (shown.job.width, shown.job.height);
 
@@ -208,7 +207,6 @@ fn export_writes_the_view_as_png_and_the_counters_as_csv() {
     h.run_steps(2);
     assert!(h.query_by_label_contains("cannot write").is_some());
     assert!(h.state().shown.is_some());
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 /// The hierarchy diagram under the view: shown by its toggle, and a click on a cell walks

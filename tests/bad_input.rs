@@ -4,8 +4,9 @@
 
 use bvhlab::accel::rayfile;
 use bvhlab::geometry::Ray;
+use bvhlab_testkit::TempDir;
 use glam::Vec3;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
 fn bvhlab(dir: &Path, args: &[&str]) -> Output {
@@ -15,13 +16,6 @@ fn bvhlab(dir: &Path, args: &[&str]) -> Output {
         .env("RUST_BACKTRACE", "0")
         .output()
         .expect("the binary runs")
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("bvhlab-bad-{}-{name}", std::process::id()));
-    std::fs::remove_dir_all(&dir).ok();
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
 }
 
 fn files_in(dir: &Path) -> Vec<String> {
@@ -37,7 +31,7 @@ const SMALL: [&str; 4] = ["--width", "16", "--height", "12"];
 
 #[test]
 fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
-    let dir = temp_dir("table");
+    let dir = TempDir::new("bad-table");
     // A ray file whose second ray starts its interval below zero.
     let rays = [
         Ray::new(Vec3::new(0.0, 1.0, 3.0), -Vec3::Z),
@@ -88,7 +82,7 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
         "title = \"t\"\nscene = \"island:99999999\"\n",
     )
     .unwrap();
-    let before = files_in(&dir);
+    let before = files_in(dir.path());
     let cases: &[(&[&str], &str)] = &[
         (
             &["bench", "--scene", "cornell", "--threads", "0"],
@@ -565,7 +559,7 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
         if matches!(args[0], "render" | "bench") && !args.contains(&"--width") {
             all.extend(SMALL);
         }
-        let out = bvhlab(&dir, &all);
+        let out = bvhlab(dir.path(), &all);
         let err = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success(), "{args:?} succeeded");
         assert!(
@@ -580,11 +574,11 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
             1,
             "{args:?} repeats itself:\n{err}"
         );
-        assert_eq!(files_in(&dir), before, "{args:?} left a file behind");
+        assert_eq!(files_in(dir.path()), before, "{args:?} left a file behind");
     }
     // The same commands with their outputs fixed write whole files.
     let out = bvhlab(
-        &dir,
+        dir.path(),
         &[
             "render", "--scene", "cornell", "-o", "ok.png", "--width", "16", "--height", "12",
         ],
@@ -597,7 +591,7 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
     assert!(image::open(dir.join("ok.png")).is_ok());
     // A negative coordinate is a value, and a sphere rounded up says so.
     let out = bvhlab(
-        &dir,
+        dir.path(),
         &[
             "render", "--scene", "sphere:1", "--eye", "-1,0.5,3", "-o", "ok2.png", "--width", "16",
             "--height", "12",
@@ -612,7 +606,7 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
         "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2\n",
     )
     .unwrap();
-    let out = bvhlab(&dir, &["stats", "--scene", "line.obj"]);
+    let out = bvhlab(dir.path(), &["stats", "--scene", "line.obj"]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{err}");
     assert!(
@@ -621,13 +615,13 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
     );
     // A scene of zero-area triangles loads, and says nothing can hit it.
     std::fs::write(dir.join("flat.obj"), "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n").unwrap();
-    let out = bvhlab(&dir, &["stats", "--scene", "flat.obj"]);
+    let out = bvhlab(dir.path(), &["stats", "--scene", "flat.obj"]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{err}");
     assert!(err.contains("all 1 triangles have zero area"), "{err}");
     std::fs::write(dir.join("good.bin"), rayfile::encode_rays(&rays[..1])).unwrap();
     let out = bvhlab(
-        &dir,
+        dir.path(),
         &[
             "trace", "--scene", "cornell", "--rays", "good.bin", "--out", "h.bin",
         ],
@@ -640,7 +634,7 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
     assert_eq!(std::fs::read(dir.join("h.bin")).unwrap().len(), 8);
     // A study may follow bench's options.
     let out = bvhlab(
-        &dir,
+        dir.path(),
         &[
             "bench", "--scene", "cornell", "--builds", "1", "--runs", "1", "builders", "--width",
             "8", "--height", "6", "--json",
@@ -653,5 +647,4 @@ fn bad_parameters_and_outputs_fail_first_with_one_clear_message_and_no_file() {
     );
     let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(json["scene"], "cornell");
-    std::fs::remove_dir_all(&dir).ok();
 }

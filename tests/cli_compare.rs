@@ -2,6 +2,7 @@
 //! them B; one PNG (A | B or B − A) and a summary, and clear errors for what cannot be
 //! compared.
 
+use bvhlab_testkit::TempDir;
 use std::process::Command;
 
 fn bvhlab(args: &[&str]) -> std::process::Output {
@@ -12,11 +13,9 @@ fn bvhlab(args: &[&str]) -> std::process::Output {
         .expect("bvhlab runs")
 }
 
-/// A directory of its own for each test.
-fn scratch(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("bvhlab-compare-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// A directory of its own for each test, removed when it ends.
+fn scratch(name: &str) -> TempDir {
+    TempDir::new(&format!("compare-{name}"))
 }
 
 fn render_compare(out: &std::path::Path, extra: &[&str]) -> std::process::Output {
@@ -173,7 +172,8 @@ fn bad_comparisons_are_clear_errors() {
 
 #[test]
 fn screenshot_compare_errors_come_before_the_window_opens() {
-    let png = scratch("shot").join("shot.png");
+    let dir = scratch("shot");
+    let png = dir.join("shot.png");
     let shot = |extra: &[&str]| {
         let mut args = vec!["screenshot", "--out", png.to_str().unwrap()];
         args.extend(extra);

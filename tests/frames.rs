@@ -277,7 +277,8 @@ fn a_dragged_selection_is_lit_and_tinted_as_the_scene_it_moved() {
         }
         first_vertex += (n + 1) * (n + 1);
     }
-    let path = std::env::temp_dir().join(format!("bvhlab-drag-{}.obj", std::process::id()));
+    let dir = common::TempDir::new("drag");
+    let path = dir.join("drag.obj");
     std::fs::write(&path, obj).unwrap();
     let wait = Duration::from_secs(120);
     let scene = load(&mut worker, &path.display().to_string());
@@ -347,7 +348,6 @@ fn a_dragged_selection_is_lit_and_tinted_as_the_scene_it_moved() {
     // The moves moved the light, and the undo put it back exactly.
     assert!(lights[1] != lights[0] && lights[2] != lights[1] && lights[3] != lights[2]);
     assert_eq!(lights[4], lights[0]);
-    let _ = std::fs::remove_file(&path);
 }
 
 /// A slow frame (the uniform grid's triangle tests over the teapot in a stadium, at

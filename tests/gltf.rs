@@ -8,7 +8,8 @@ use bvhlab_testkit as common;
 use bvhlab::geometry::Triangle;
 use bvhlab::scene::gltf::AccessorProblem;
 use bvhlab::scene::{GltfError, Scene, load_gltf};
-use common::gltf::{GltfBuilder, UNSIGNED_BYTE, UNSIGNED_INT, UNSIGNED_SHORT, temp_dir};
+use common::TempDir;
+use common::gltf::{GltfBuilder, UNSIGNED_BYTE, UNSIGNED_INT, UNSIGNED_SHORT};
 use glam::{Affine3A, Mat4, Quat, Vec3};
 use serde_json::json;
 
@@ -71,7 +72,7 @@ fn assert_triangles_close(got: &[Triangle], want: &[Triangle]) {
 
 #[test]
 fn indexed_and_non_indexed_primitives_load_in_order() {
-    let dir = temp_dir("primitives");
+    let dir = TempDir::new("gltf-primitives");
     for (k, component) in [UNSIGNED_BYTE, UNSIGNED_SHORT, UNSIGNED_INT]
         .into_iter()
         .enumerate()
@@ -80,7 +81,7 @@ fn indexed_and_non_indexed_primitives_load_in_order() {
         let mesh = two_primitive_mesh(&mut b, component);
         let node = b.node(json!({"mesh": mesh, "name": "thing"}));
         b.roots.push(node);
-        let path = b.write_external(&dir, &format!("primitives{k}"));
+        let path = b.write_external(dir.path(), &format!("primitives{k}"));
         let scene = load_gltf(&path).unwrap();
         assert_eq!(scene.triangles, mesh_triangles());
         assert_eq!(scene.meshes.len(), 1);
@@ -121,7 +122,8 @@ fn matrices_and_trs_compose_down_the_tree() {
         "children": [child],
     }));
     b.roots.push(parent);
-    let scene = load_gltf(&b.write_glb(&temp_dir("tree"), "tree")).unwrap();
+    let dir = TempDir::new("gltf-tree");
+    let scene = load_gltf(&b.write_glb(dir.path(), "tree")).unwrap();
     let child_world = parent_trs * Affine3A::from_mat4(child_matrix);
     let grandchild_world = child_world * grandchild_trs;
     let mut want = placed(child_world, &mesh_triangles());
@@ -149,7 +151,8 @@ fn a_mesh_used_by_several_nodes_is_stored_once() {
         let n = b.node(json!({"mesh": m, "translation": [k as f32 * 2.0, 0.0, 0.0]}));
         b.roots.push(n);
     }
-    let scene = load_gltf(&b.write_embedded(&temp_dir("shared"), "shared")).unwrap();
+    let dir = TempDir::new("gltf-shared");
+    let scene = load_gltf(&b.write_embedded(dir.path(), "shared")).unwrap();
     assert_eq!(scene.meshes.len(), 2);
     assert_eq!(scene.instances.len(), 4);
     assert_eq!(
@@ -170,17 +173,17 @@ fn a_mesh_used_by_several_nodes_is_stored_once() {
 
 #[test]
 fn external_embedded_and_binary_files_load_the_same_scene() {
-    let dir = temp_dir("forms");
+    let dir = TempDir::new("gltf-forms");
     let mut b = GltfBuilder::default();
     let mesh = two_primitive_mesh(&mut b, UNSIGNED_SHORT);
     let child = b.node(json!({"mesh": mesh, "scale": [1.0, 2.0, 3.0]}));
     let root = b.node(json!({"mesh": mesh, "children": [child], "rotation": [0.0, 0.0, 0.6, 0.8]}));
     b.roots.push(root);
-    let external = b.write_external(&dir, "forms");
+    let external = b.write_external(dir.path(), "forms");
     let reference = load_gltf(&external).unwrap();
     assert_eq!(reference.triangles.len(), 6);
-    let embedded = b.write_embedded(&dir, "forms-embedded");
-    let glb = b.write_glb(&dir, "FORMS");
+    let embedded = b.write_embedded(dir.path(), "forms-embedded");
+    let glb = b.write_glb(dir.path(), "FORMS");
     let upper = dir.join("forms-upper.GLB");
     std::fs::copy(&glb, &upper).unwrap();
     for path in [external, embedded, glb, upper] {
@@ -197,14 +200,14 @@ fn load_doc(
     b: &GltfBuilder,
     edit: impl FnOnce(&mut serde_json::Value),
 ) -> (String, GltfError) {
-    let dir = temp_dir("bad");
+    let dir = TempDir::new("gltf-bad");
     let uri = format!(
         "data:application/octet-stream;base64,{}",
         common::gltf::base64(&b.bin)
     );
     let mut doc = b.document(Some(uri));
     edit(&mut doc);
-    let path = common::gltf::write_json(&dir, name, &doc);
+    let path = common::gltf::write_json(dir.path(), name, &doc);
     let error = load_gltf(&path)
         .err()
         .unwrap_or_else(|| panic!("{name} loads"));
@@ -225,12 +228,12 @@ fn valid() -> GltfBuilder {
 #[test]
 fn broken_files_are_each_rejected_with_their_own_error() {
     let b = valid();
-    let dir = temp_dir("bad");
+    let dir = TempDir::new("gltf-bad");
 
     // The buffer file is not there.
     let mut doc = b.document(Some("nowhere.bin".into()));
     doc["buffers"][0]["uri"] = json!("nowhere.bin");
-    let path = common::gltf::write_json(&dir, "missing", &doc);
+    let path = common::gltf::write_json(dir.path(), "missing", &doc);
     let e = load_gltf(&path).unwrap_err();
     assert!(
         matches!(e, GltfError::MissingBuffer { buffer: 0, .. }),
@@ -406,12 +409,12 @@ fn broken_files_are_each_rejected_with_their_own_error() {
 fn a_large_uniform_scale_places_the_mesh() {
     let mut b = valid();
     b.nodes[0]["scale"] = json!([1e13, 1e13, 1e13]);
-    let dir = temp_dir("large-scale");
+    let dir = TempDir::new("gltf-large-scale");
     let doc = b.document(Some(format!(
         "data:application/octet-stream;base64,{}",
         common::gltf::base64(&b.bin)
     )));
-    let path = common::gltf::write_json(&dir, "large-scale", &doc);
+    let path = common::gltf::write_json(dir.path(), "large-scale", &doc);
     let scene = load_gltf(&path).unwrap();
     let placed = scene.flattened().unwrap();
     let want = mesh_triangles();
@@ -429,7 +432,7 @@ fn a_large_uniform_scale_places_the_mesh() {
 #[test]
 fn a_gltf_without_a_scene_places_its_root_nodes() {
     let b = valid();
-    let dir = temp_dir("sceneless");
+    let dir = TempDir::new("gltf-sceneless");
     let mut doc = b.document(Some(format!(
         "data:application/octet-stream;base64,{}",
         common::gltf::base64(&b.bin)
@@ -437,18 +440,18 @@ fn a_gltf_without_a_scene_places_its_root_nodes() {
     let obj = doc.as_object_mut().unwrap();
     obj.remove("scene");
     obj.remove("scenes");
-    let path = common::gltf::write_json(&dir, "sceneless", &doc);
+    let path = common::gltf::write_json(dir.path(), "sceneless", &doc);
     let scene = load_gltf(&path).unwrap();
     assert_eq!(scene.triangles, mesh_triangles());
 }
 
 #[test]
 fn the_command_line_takes_gltf_scenes_and_names_what_is_wrong() {
-    let dir = temp_dir("cli");
+    let dir = TempDir::new("gltf-cli");
     let mut b = valid();
     let child = b.node(json!({"mesh": 0, "translation": [0.0, 0.0, 2.0]}));
     b.nodes[0]["children"] = json!([child]);
-    let good = b.write_glb(&dir, "good");
+    let good = b.write_glb(dir.path(), "good");
     let run = |args: &[&str]| {
         std::process::Command::new(env!("CARGO_BIN_EXE_bvhlab"))
             .args(args)
@@ -498,7 +501,7 @@ fn the_command_line_takes_gltf_scenes_and_names_what_is_wrong() {
     assert!(text.contains("scene instanced triangles  6"), "{text}");
 
     b.nodes[1]["scale"] = json!([0.0, 1.0, 1.0]);
-    let bad = b.write_embedded(&dir, "bad").display().to_string();
+    let bad = b.write_embedded(dir.path(), "bad").display().to_string();
     let out = run(&["stats", "--scene", &bad]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
@@ -514,7 +517,7 @@ fn the_command_line_takes_gltf_scenes_and_names_what_is_wrong() {
 /// or below it, and a data URI, are read.
 #[test]
 fn buffers_stay_in_the_gltf_files_folder() {
-    let root = temp_dir("confined");
+    let root = TempDir::new("gltf-confined");
     let dir = root.join("model");
     std::fs::create_dir_all(dir.join("sub")).unwrap();
     let mut b = GltfBuilder::default();
@@ -551,5 +554,4 @@ fn buffers_stay_in_the_gltf_files_folder() {
         load_gltf(&path).unwrap().triangles.len(),
         mesh_triangles().len()
     );
-    std::fs::remove_dir_all(&root).ok();
 }

@@ -6,8 +6,8 @@
 use bvhlab_testkit as common;
 
 use bvhlab::scene::{GltfError, Scene, load_gltf};
-use common::Rng;
-use common::gltf::{GltfBuilder, UNSIGNED_BYTE, UNSIGNED_SHORT, temp_dir};
+use common::gltf::{GltfBuilder, UNSIGNED_BYTE, UNSIGNED_SHORT};
+use common::{Rng, TempDir};
 use glam::Vec3;
 use serde_json::json;
 use std::path::Path;
@@ -170,12 +170,12 @@ fn check(path: &Path, bytes: &[u8], what: &str) -> bool {
 
 #[test]
 fn corrupted_files_never_panic() {
-    let dir = temp_dir("fuzz");
+    let dir = TempDir::new("gltf-fuzz");
     let b = features();
-    let embedded = std::fs::read(b.write_embedded(&dir, "base-embedded")).unwrap();
-    b.write_external(&dir, "base-external");
+    let embedded = std::fs::read(b.write_embedded(dir.path(), "base-embedded")).unwrap();
+    b.write_external(dir.path(), "base-external");
     let external = std::fs::read(dir.join("base-external.gltf")).unwrap();
-    let glb = std::fs::read(b.write_glb(&dir, "base")).unwrap();
+    let glb = std::fs::read(b.write_glb(dir.path(), "base")).unwrap();
     let mut rng = Rng::new(0x61_7f);
     for (name, base, json_text, rounds) in [
         ("embedded.gltf", &embedded, true, 3000),
@@ -197,7 +197,7 @@ fn corrupted_files_never_panic() {
 
 #[test]
 fn random_bytes_never_panic() {
-    let dir = temp_dir("fuzz-random");
+    let dir = TempDir::new("gltf-fuzz-random");
     let mut rng = Rng::new(0x0b1f);
     for round in 0..3000 {
         let len = rng.below(300);

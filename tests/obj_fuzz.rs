@@ -6,7 +6,7 @@
 use bvhlab_testkit as common;
 
 use bvhlab::scene::{ObjError, Scene, load_obj};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::mpsc;
 use std::time::Duration;
 
@@ -167,15 +167,10 @@ fn check(path: &Path, bytes: &[u8], what: &str) {
     }
 }
 
-fn temp_path(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("bvhlab-fuzz-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
-}
-
 #[test]
 fn random_bytes_never_panic() {
-    let path = temp_path("random.obj");
+    let dir = common::TempDir::new("fuzz");
+    let path = dir.join("random.obj");
     let mut rng = Rng(0x00b1_f022);
     for round in 0..6000 {
         let len = rng.below(400);
@@ -196,7 +191,8 @@ fn random_bytes_never_panic() {
 
 #[test]
 fn mutated_feature_file_never_panics() {
-    let path = temp_path("features.obj");
+    let dir = common::TempDir::new("fuzz");
+    let path = dir.join("features.obj");
     let scene = load_obj(&{
         std::fs::write(&path, FEATURES).unwrap();
         path.clone()
@@ -218,7 +214,8 @@ fn mutated_real_meshes_never_panic() {
     if let Some(dir) = common::shared_scenes() {
         bases.push(std::fs::read(dir.join("cornell-box.obj")).unwrap());
     }
-    let path = temp_path("real.obj");
+    let dir = common::TempDir::new("fuzz");
+    let path = dir.join("real.obj");
     let mut rng = Rng(0x07ea_9071);
     for (b, base) in bases.iter().enumerate() {
         for round in 0..400 {

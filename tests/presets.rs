@@ -7,14 +7,9 @@ use bvhlab::app::preset::{Preset, Sequence, View, parse};
 use bvhlab::app::settings::{Bookmark, Settings};
 use bvhlab::render::ViewMode;
 use bvhlab::scene::Scene;
+use bvhlab_testkit::TempDir;
 use std::path::PathBuf;
 use std::process::Command;
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("bvhlab-presets-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 #[test]
 fn the_lecture_follows_the_slides_in_order() {
@@ -143,7 +138,7 @@ fn a_saved_preset_loads_back_the_same() {
     // Saving what was loaded gives the same file.
     assert_eq!(back.presets[0].to_toml(), text);
     // Through a file on disk too, and as a sequence.
-    let dir = temp_dir("roundtrip");
+    let dir = TempDir::new("presets-roundtrip");
     let path = dir.join("one.toml");
     std::fs::write(&path, &text).unwrap();
     assert_eq!(Sequence::load(&path).unwrap().presets, vec![p]);
@@ -179,7 +174,7 @@ fn a_file_holds_one_preset_or_a_sequence() {
 
 #[test]
 fn a_scene_file_is_found_beside_the_preset() {
-    let dir = temp_dir("beside");
+    let dir = TempDir::new("presets-beside");
     std::fs::write(dir.join("tri.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
     let path = dir.join("p.toml");
     std::fs::write(&path, "title = \"T\"\nscene = \"tri.obj\"\n").unwrap();
@@ -295,7 +290,7 @@ fn bookmarks_are_kept_with_the_settings() {
 
 #[test]
 fn a_bad_preset_on_the_command_line_opens_no_window() {
-    let dir = temp_dir("cli");
+    let dir = TempDir::new("presets-cli");
     let path = dir.join("bad.toml");
     std::fs::write(
         &path,

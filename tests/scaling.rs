@@ -6,6 +6,7 @@ use bvhlab::accel::{AccelKind, StructureParams};
 use bvhlab::bench::plot;
 use bvhlab::bench::scaling::{self, CSV_HEADER, ScalingConfig, ScalingError};
 use bvhlab::geometry::IntersectorKind;
+use bvhlab_testkit::TempDir;
 
 fn config(scene: &str, sizes: &[usize]) -> ScalingConfig {
     ScalingConfig {
@@ -61,8 +62,7 @@ fn a_tiny_run_has_a_row_per_structure_and_size() {
     let columns = CSV_HEADER.split(',').count();
     assert!(lines.iter().all(|l| l.split(',').count() == columns));
 
-    let dir = std::env::temp_dir().join(format!("bvhlab-scaling-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = TempDir::new("scaling");
     let png = dir.join("scaling-soup.png");
     let svg = plot::save(&scaling::figure(&rows), &png).unwrap();
     assert_eq!(svg, dir.join("scaling-soup.svg"));
@@ -85,7 +85,6 @@ fn a_tiny_run_has_a_row_per_structure_and_size() {
     ] {
         assert!(texts.contains(&label), "{label}: {texts:?}");
     }
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]

@@ -3,10 +3,10 @@
 
 use bvhlab::scene::obj::DEFAULT_COLOR;
 use bvhlab::scene::{ObjError, Scene, SceneError, builtin, load_obj};
+use bvhlab_testkit::TempDir;
 use glam::Vec3;
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 // ---------------------------------------------------------------------------------------
 // Built-in scenes
@@ -270,32 +270,20 @@ fn unknown_names_are_not_builtins() {
 // ---------------------------------------------------------------------------------------
 // OBJ files
 
-/// A file in the temporary directory, removed when dropped.
-struct TempFile(PathBuf);
+/// A file in a temporary directory of its own, removed with it when dropped.
+struct TempFile(PathBuf, TempDir);
 
 impl TempFile {
     fn new(name: &str, contents: &[u8]) -> Self {
-        static COUNTER: AtomicUsize = AtomicUsize::new(0);
-        let unique = COUNTER.fetch_add(1, Ordering::Relaxed);
-        let dir =
-            std::env::temp_dir().join(format!("bvhlab-scenes-{}-{unique}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = TempDir::new("scenes");
         let path = dir.join(name);
         std::fs::write(&path, contents).unwrap();
-        TempFile(path)
+        TempFile(path, dir)
     }
 
     /// Another file in the same directory (for .mtl files).
     fn sibling(&self, name: &str, contents: &[u8]) {
-        std::fs::write(self.0.with_file_name(name), contents).unwrap();
-    }
-}
-
-impl Drop for TempFile {
-    fn drop(&mut self) {
-        if let Some(dir) = self.0.parent() {
-            let _ = std::fs::remove_dir_all(dir);
-        }
+        std::fs::write(self.1.join(name), contents).unwrap();
     }
 }
 

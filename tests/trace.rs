@@ -8,15 +8,10 @@ use bvhlab::accel::rayfile::{self, HitFormat, RayFileError};
 use bvhlab::accel::{Accel, NoStats};
 use bvhlab::geometry::{Ray, Watertight};
 use bvhlab::scene::Scene;
+use common::TempDir;
 use glam::Vec3;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
-
-fn temp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("bvhlab-trace-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
-}
 
 fn bvhlab(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_bvhlab"))
@@ -98,13 +93,14 @@ fn ray_files_round_trip_and_reject_bad_rays() {
 
 #[test]
 fn trace_writes_closest_hits_and_occlusion_in_input_order() {
+    let dir = TempDir::new("trace");
     let scene = Scene::load("teapot-in-stadium").unwrap();
     let rays = common::rays(&scene.bounds(), 5000, 31);
-    let rays_path = temp("rays.bin");
+    let rays_path = dir.join("rays.bin");
     std::fs::write(&rays_path, rayfile::encode_rays(&rays)).unwrap();
     let (bvh, _) = build(&scene.triangles, &BuildParams::default()).unwrap();
     for accel in ["bvh", "brute-force"] {
-        let hits_path = temp(&format!("hits-{accel}.bin"));
+        let hits_path = dir.join(format!("hits-{accel}.bin"));
         trace_ok(
             "teapot-in-stadium",
             &rays_path,
@@ -132,7 +128,7 @@ fn trace_writes_closest_hits_and_occlusion_in_input_order() {
             }
         }
     }
-    let any_path = temp("any.bin");
+    let any_path = dir.join("any.bin");
     trace_ok(
         "teapot-in-stadium",
         &rays_path,
@@ -150,8 +146,9 @@ fn trace_writes_closest_hits_and_occlusion_in_input_order() {
 
 #[test]
 fn trace_counts_triangles_in_obj_file_order() {
+    let dir = TempDir::new("trace");
     // Two objects, the first a quad (two triangles after triangulation).
-    let obj = temp("order.obj");
+    let obj = dir.join("order.obj");
     std::fs::write(
         &obj,
         "o a\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\no b\nv 0 0 2\nv 1 0 2\nv 0 1 2\nf 5 6 7\n",
@@ -164,9 +161,9 @@ fn trace_counts_triangles_in_obj_file_order() {
         Ray::new(Vec3::new(0.2, 0.2, 3.0), Vec3::NEG_Z),
         Ray::new(Vec3::new(5.0, 5.0, 5.0), Vec3::X),
     ];
-    let rays_path = temp("order-rays.bin");
+    let rays_path = dir.join("order-rays.bin");
     std::fs::write(&rays_path, rayfile::encode_rays(&rays)).unwrap();
-    let hits_path = temp("order-hits.bin");
+    let hits_path = dir.join("order-hits.bin");
     trace_ok(obj.to_str().unwrap(), &rays_path, &hits_path, &[]);
     let hits = rayfile::decode_hits(&std::fs::read(&hits_path).unwrap(), HitFormat::U32);
     assert_eq!(
@@ -181,7 +178,8 @@ fn trace_counts_triangles_in_obj_file_order() {
 
 #[test]
 fn trace_rejects_truncated_and_invalid_ray_files() {
-    let path = temp("bad.bin");
+    let dir = TempDir::new("trace");
+    let path = dir.join("bad.bin");
     std::fs::write(&path, [0u8; 40]).unwrap();
     let out = bvhlab(&[
         "trace",
@@ -190,7 +188,7 @@ fn trace_rejects_truncated_and_invalid_ray_files() {
         "--rays",
         path.to_str().unwrap(),
         "--out",
-        temp("x.bin").to_str().unwrap(),
+        dir.join("x.bin").to_str().unwrap(),
     ]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("not a multiple of 32"));
@@ -206,7 +204,7 @@ fn trace_rejects_truncated_and_invalid_ray_files() {
         "--rays",
         path.to_str().unwrap(),
         "--out",
-        temp("x.bin").to_str().unwrap(),
+        dir.join("x.bin").to_str().unwrap(),
     ]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
@@ -215,6 +213,7 @@ fn trace_rejects_truncated_and_invalid_ray_files() {
 
 #[test]
 fn hit_files_number_triangles_in_64_bits_when_32_do_not_reach() {
+    let dir = TempDir::new("trace");
     // The default island places 1.76 × 10^10 triangles: its hits need 64-bit numbers.
     let scene = bvhlab::scene::builtin::by_name("island").unwrap().unwrap();
     assert!(scene.placed_triangles() as u64 > u64::from(u32::MAX));
@@ -227,9 +226,9 @@ fn hit_files_number_triangles_in_64_bits_when_32_do_not_reach() {
             Ray::new(p + Vec3::Y, Vec3::NEG_Y)
         })
         .collect();
-    let rays_path = temp("island-rays.bin");
+    let rays_path = dir.join("island-rays.bin");
     std::fs::write(&rays_path, rayfile::encode_rays(&rays)).unwrap();
-    let hits_path = temp("island-hits.bin");
+    let hits_path = dir.join("island-hits.bin");
     let out = trace_ok("island", &rays_path, &hits_path, &["--threads", "2"]);
     assert!(String::from_utf8_lossy(&out.stdout).contains("64-bit triangle numbers"));
     let bytes = std::fs::read(&hits_path).unwrap();
@@ -282,14 +281,15 @@ fn hit_files_number_triangles_in_64_bits_when_32_do_not_reach() {
 
 #[test]
 fn a_64_bit_hit_file_holds_the_32_bit_files_hits() {
+    let dir = TempDir::new("trace");
     let rays: Vec<Ray> = (0..64)
         .map(|i| Ray::new(Vec3::new(i as f32 * 0.1 - 3.0, 1.0, -10.0), Vec3::Z))
         .collect();
-    let rays_path = temp("wide-rays.bin");
+    let rays_path = dir.join("wide-rays.bin");
     std::fs::write(&rays_path, rayfile::encode_rays(&rays)).unwrap();
     let mut files = Vec::new();
     for bits in ["32", "64"] {
-        let hits_path = temp(&format!("wide-hits-{bits}.bin"));
+        let hits_path = dir.join(format!("wide-hits-{bits}.bin"));
         trace_ok("cornell", &rays_path, &hits_path, &["--hit-bits", bits]);
         files.push(std::fs::read(&hits_path).unwrap());
     }
@@ -316,7 +316,7 @@ fn a_64_bit_hit_file_holds_the_32_bit_files_hits() {
         "--rays",
         rays_path.to_str().unwrap(),
         "--out",
-        temp("wide-any.bin").to_str().unwrap(),
+        dir.join("wide-any.bin").to_str().unwrap(),
         "--any",
         "--hit-bits",
         "64",

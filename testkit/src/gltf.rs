@@ -186,10 +186,3 @@ pub fn base64(bytes: &[u8]) -> String {
     }
     out
 }
-
-/// A fresh directory for one test's files.
-pub fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("bvhlab-gltf-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}

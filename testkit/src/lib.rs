@@ -1,10 +1,14 @@
 //! Shared helpers for bvhlab's integration tests: a seeded generator, random scenes and rays,
-//! and the hit comparison used against brute force.
+//! the hit comparison used against brute force, and temporary directories that go with the
+//! test.
 
 pub mod app;
 pub mod gltf;
 pub mod instanced;
 pub mod lattice;
+mod temp;
+
+pub use temp::TempDir;
 
 use bvhlab::accel::{Accel, Counters, Hit, NoStats};
 use bvhlab::geometry::{Aabb, Ray, Triangle, Watertight};

@@ -6,7 +6,8 @@ use super::*;
 #[test]
 fn loading_a_bad_obj_shows_the_error_and_keeps_the_scene() {
     let mut h = app("cornell");
-    let path = std::env::temp_dir().join(format!("bvhlab-bad-{}.obj", std::process::id()));
+    let dir = common::TempDir::new("app-bad");
+    let path = dir.join("bad.obj");
     std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 0 1 nan\nf 1 2 3\n").unwrap();
     h.state_mut().load(path.display().to_string());
     settle(&mut h);
@@ -15,7 +16,6 @@ fn loading_a_bad_obj_shows_the_error_and_keeps_the_scene() {
     assert!(error.contains(":3"), "names the line: {error}");
     assert_eq!(app.scene.as_ref().unwrap().name, "cornell");
     assert!(h.query_by_label_contains("Load failed").is_some());
-    std::fs::remove_file(&path).ok();
 }
 
 /// What the loader skipped is said in the window too, not only on the command line, until
@@ -23,7 +23,8 @@ fn loading_a_bad_obj_shows_the_error_and_keeps_the_scene() {
 #[test]
 fn an_obj_loaded_with_warnings_says_so_in_the_window() {
     let mut h = app("cornell");
-    let path = std::env::temp_dir().join(format!("bvhlab-warn-{}.obj", std::process::id()));
+    let dir = common::TempDir::new("app-warn");
+    let path = dir.join("warn.obj");
     std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2\n").unwrap();
     h.state_mut().load(path.display().to_string());
     settle(&mut h);
@@ -35,13 +36,13 @@ fn an_obj_loaded_with_warnings_says_so_in_the_window() {
     h.get_by_label("Dismiss").click();
     settle(&mut h);
     assert!(h.query_by_label("Loaded with warnings:").is_none());
-    std::fs::remove_file(&path).ok();
 }
 
 #[test]
 fn dropping_an_obj_on_the_window_loads_it_and_remembers_it() {
     let mut h = app("cornell");
-    let path = std::env::temp_dir().join(format!("bvhlab-drop-{}.obj", std::process::id()));
+    let dir = common::TempDir::new("app-drop");
+    let path = dir.join("drop.obj");
     std::fs::write(
         &path,
         "o quad\nv -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3 4\n",
@@ -71,14 +72,13 @@ fn dropping_an_obj_on_the_window_loads_it_and_remembers_it() {
             .as_ref()
             .is_some_and(|s| s.frame.summary.primary_hits > 0)
     );
-    std::fs::remove_file(&path).ok();
 }
 
 /// A .glb dropped on the window loads as the scene, its mesh placed by two nodes, and a
 /// dropped broken .gltf shows its error naming the node, keeping the scene.
 #[test]
 fn dropping_a_gltf_on_the_window_loads_its_instances() {
-    use common::gltf::{GltfBuilder, UNSIGNED_SHORT, temp_dir, write_json};
+    use common::gltf::{GltfBuilder, UNSIGNED_SHORT, write_json};
     let mut h = app("cornell");
     let mut b = GltfBuilder::default();
     let p = b.positions(&[
@@ -94,8 +94,8 @@ fn dropping_a_gltf_on_the_window_loads_its_instances() {
     let right =
         b.node(serde_json::json!({"mesh": mesh, "name": "right", "scale": [1.0, 2.0, 1.0]}));
     b.roots.extend([left, right]);
-    let dir = temp_dir("app-drop");
-    let glb = b.write_glb(&dir, "quads");
+    let dir = common::TempDir::new("gltf-app-drop");
+    let glb = b.write_glb(dir.path(), "quads");
     let drop = |h: &mut Harness<'static, BvhLabApp>, path: &std::path::Path| {
         h.input_mut()
             .dropped_files
@@ -124,7 +124,7 @@ fn dropping_a_gltf_on_the_window_loads_its_instances() {
         common::gltf::base64(&b.bin)
     )));
     doc["nodes"][right]["scale"] = serde_json::json!([1.0, 0.0, 1.0]);
-    let bad = write_json(&dir, "singular", &doc);
+    let bad = write_json(dir.path(), "singular", &doc);
     drop(&mut h, &bad);
     let app = h.state();
     let error = app.load_error.clone().expect("an error is shown");
@@ -137,14 +137,14 @@ fn dropping_a_gltf_on_the_window_loads_its_instances() {
         4,
         "the quads stay"
     );
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// A first scene that cannot be loaded leaves the window without a scene: it says so and
 /// offers the built-in scenes, and one click loads one.
 #[test]
 fn a_failed_first_load_offers_the_built_in_scenes() {
-    let missing = std::env::temp_dir().join(format!("bvhlab-missing-{}.obj", std::process::id()));
+    let dir = common::TempDir::new("missing");
+    let missing = dir.join("missing.obj");
     let mut h = Harness::builder()
         .with_size(egui::vec2(1400.0, 900.0))
         .with_max_steps(16)

@@ -153,7 +153,8 @@ fn shortcuts_answer_while_a_widget_has_the_focus() {
 fn a_screenshot_of_a_node_or_visit_that_does_not_exist_fails() {
     use bvhlab::app::Launch;
     use bvhlab::app::screenshot::{ReplayShot, ScreenshotPlan, Shot};
-    let out = std::env::temp_dir().join(format!("bvhlab-never-{}.png", std::process::id()));
+    let dir = common::TempDir::new("never");
+    let out = dir.join("never.png");
     let mut walk = ScreenshotPlan::new(out.clone(), Shot::Levels, 800, 500);
     walk.walk = Some(99_999_999);
     let mut replay = ScreenshotPlan::new(out.clone(), Shot::Shaded, 800, 500);

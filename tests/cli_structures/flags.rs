@@ -70,8 +70,7 @@ fn rebraid_sets_the_two_levels_references_and_bad_budgets_are_errors() {
 
 #[test]
 fn every_building_subcommand_takes_accel_and_all_is_for_bench_only() {
-    let dir = std::env::temp_dir().join(format!("bvhlab-cli-structures-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = TempDir::new("cli-structures");
     for kind in AccelKind::ALL {
         let out = bvhlab(&["stats", "--scene", "soup:300", "--accel", kind.label()]);
         assert!(out.status.success());

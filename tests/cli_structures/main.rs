@@ -3,6 +3,7 @@
 //! errors for what a subcommand cannot do.
 
 use bvhlab::accel::AccelKind;
+use bvhlab_testkit::TempDir;
 use std::process::Command;
 
 fn bvhlab(args: &[&str]) -> std::process::Output {

@@ -5,8 +5,7 @@ use super::*;
 
 #[test]
 fn tradeoff_and_rotation_sweep_write_their_csv_and_plot() {
-    let dir = std::env::temp_dir().join(format!("bvhlab-tradeoff-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = TempDir::new("tradeoff");
     let (csv, png) = (dir.join("t.csv"), dir.join("t.png"));
     let mut args = vec![
         "bench",
@@ -60,14 +59,14 @@ fn tradeoff_and_rotation_sweep_write_their_csv_and_plot() {
     let err = bvhlab(&["bench", "rotation-sweep", "--scene", "cornell"]);
     assert!(!err.status.success());
     assert!(String::from_utf8_lossy(&err.stderr).contains("--scene walls"));
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// `screenshot --instance` names an instance of the two levels: under another structure it
 /// is refused before a window opens, with the flag to use.
 #[test]
 fn screenshot_instance_needs_the_two_levels() {
-    let never = std::env::temp_dir().join(format!("bvhlab-never-{}.png", std::process::id()));
+    let dir = TempDir::new("never");
+    let never = dir.join("never.png");
     let out = bvhlab(&[
         "screenshot",
         "--out",
@@ -127,8 +126,7 @@ fn stress_through_the_two_levels_places_closed_meshes_as_instances() {
 /// the SAH check table, and refuses a CSV it did not write without touching it.
 #[test]
 fn sah_scatter_gathers_scenes_in_one_csv() {
-    let dir = std::env::temp_dir().join(format!("bvhlab-sah-scatter-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = TempDir::new("sah-scatter");
     let (csv, png) = (dir.join("s.csv"), dir.join("s.png"));
     let run = |scene: &str| {
         let mut args = vec![
@@ -168,15 +166,13 @@ fn sah_scatter_gathers_scenes_in_one_csv() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("is not a SAH scatter CSV"), "{stderr}");
     assert_eq!(std::fs::read_to_string(&csv).unwrap(), "not a scatter\n");
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// The two levels' heatmaps count the two levels' work: asked of a flat structure they are
 /// an error, not a black image; with the two levels they are drawn.
 #[test]
 fn two_level_heatmaps_need_the_two_levels() {
-    let dir = std::env::temp_dir().join(format!("bvhlab-heat-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = TempDir::new("heat");
     for mode in ["top-nodes", "bottom-nodes", "instances"] {
         let out_png = dir.join(format!("{mode}.png")).display().to_string();
         let small = ["--width", "16", "--height", "12", "--out", &out_png];
@@ -203,7 +199,6 @@ fn two_level_heatmaps_need_the_two_levels() {
         );
         assert!(std::path::Path::new(&out_png).exists());
     }
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// `frames --preset lecture:N --json`: the step as the app shows it, its first image no

@@ -5,8 +5,7 @@ use super::*;
 
 #[test]
 fn render_tree_draws_the_hierarchy_of_every_tree_and_refuses_the_rest() {
-    let dir = std::env::temp_dir().join(format!("bvhlab-tree-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = TempDir::new("tree");
     for accel in ["bvh", "bvh8", "kdtree", "octree", "two-level"] {
         let png = dir.join(format!("{accel}.png"));
         let out = bvhlab(&[
@@ -39,20 +38,18 @@ fn render_tree_draws_the_hierarchy_of_every_tree_and_refuses_the_rest() {
         assert!(png.with_extension("svg").exists());
     }
     assert_refused(
-        &dir,
+        dir.path(),
         &[
             (&["--accel", "grid", "--tree"][..], "has no hierarchy"),
             (&["--tree-width", "sah"][..], "--tree"),
             (&["--tree", "--mode", "nodes"][..], "cannot be used with"),
         ],
     );
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]
 fn render_cracks_marks_the_leaks_and_refuses_bad_offsets_and_other_views() {
-    let dir = std::env::temp_dir().join(format!("bvhlab-cracks-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = TempDir::new("cracks");
     let png = dir.join("cracks.png");
     let out = bvhlab(&[
         "render",
@@ -103,7 +100,7 @@ fn render_cracks_marks_the_leaks_and_refuses_bad_offsets_and_other_views() {
     let image = image::open(&png).unwrap();
     assert_eq!((image.width(), image.height()), (320, 240));
     assert_refused(
-        &dir,
+        dir.path(),
         &[
             (&["--cracks", "--offset", "nan"][..], "not a finite number"),
             (&["--cracks", "--offset", "inf"][..], "not a finite number"),
@@ -120,7 +117,6 @@ fn render_cracks_marks_the_leaks_and_refuses_bad_offsets_and_other_views() {
             ),
         ],
     );
-    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 /// The views that colour each triangle: the SAH cost per triangle on every tree (summing
@@ -128,8 +124,7 @@ fn render_cracks_marks_the_leaks_and_refuses_bad_offsets_and_other_views() {
 /// (summing to the frame's triangle tests); the cost refused where there is no SAH cost.
 #[test]
 fn render_colours_triangles_by_their_cost_and_their_tests() {
-    let dir = std::env::temp_dir().join(format!("bvhlab-tricost-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = TempDir::new("tricost");
     let render = |accel: &str, mode: &str, extra: &[&str]| {
         let png = dir.join(format!("{accel}-{mode}.png"));
         let mut args = vec![
@@ -183,7 +178,7 @@ fn render_colours_triangles_by_their_cost_and_their_tests() {
     }
     render("bvh", "tests-received", &["--shadow", "--heat-max", "5"]);
     assert_refused(
-        &dir,
+        dir.path(),
         &[
             (
                 &["--mode", "triangle-cost", "--accel", "grid"][..],
@@ -200,5 +195,4 @@ fn render_colours_triangles_by_their_cost_and_their_tests() {
             (&["--mode", "triangle-costs"][..], "invalid value"),
         ],
     );
-    std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -165,7 +165,7 @@ fn the_flattened_scene_numbers_triangles_instance_by_instance() {
 
 #[test]
 fn nested_gltf_nodes_hit_what_their_flattened_scene_hits() {
-    use common::gltf::{GltfBuilder, UNSIGNED_INT, temp_dir};
+    use common::gltf::{GltfBuilder, UNSIGNED_INT};
     use serde_json::json;
     let mut b = GltfBuilder::default();
     let mesh_of = |b: &mut GltfBuilder, triangles: &[Triangle]| {
@@ -213,7 +213,8 @@ fn nested_gltf_nodes_hit_what_their_flattened_scene_hits() {
         roots.push(node);
     }
     b.roots = roots;
-    let path = b.write_glb(&temp_dir("nested"), "nested");
+    let dir = common::TempDir::new("gltf-nested");
+    let path = b.write_glb(dir.path(), "nested");
     let scene = Scene::load(&path.display().to_string()).unwrap();
     assert_eq!(scene.meshes.len(), 2);
     assert_eq!(scene.instances.len(), 3 * 3 * 3);
@@ -293,7 +294,7 @@ fn instances_in_the_same_place_tie_as_the_flattened_scene_does() {
     // A glTF whose nodes do not move their meshes, one mesh placed three times in the same
     // place: every hit is a tie between three instances, which the lowest number wins,
     // bit for bit as brute force over the flattened scene.
-    use common::gltf::{GltfBuilder, UNSIGNED_INT, temp_dir};
+    use common::gltf::{GltfBuilder, UNSIGNED_INT};
     use serde_json::json;
     let mut b = GltfBuilder::default();
     let points: Vec<Vec3> = sphere().iter().flat_map(|t| t.v).collect();
@@ -304,7 +305,8 @@ fn instances_in_the_same_place_tie_as_the_flattened_scene_does() {
         let n = b.node(json!({ "mesh": mesh }));
         b.roots.push(n);
     }
-    let scene = Scene::load(&b.write_glb(&temp_dir("ties"), "ties").display().to_string()).unwrap();
+    let dir = common::TempDir::new("gltf-ties");
+    let scene = Scene::load(&b.write_glb(dir.path(), "ties").display().to_string()).unwrap();
     assert_eq!(scene.instances.len(), 3);
     let flat = BruteForce::new(&scene.triangles, false);
     for order in TraversalOrder::ALL {
