@@ -19,9 +19,15 @@ const BYTES_PER_INSTANCE: u64 = 800;
 /// brute force 78, BVH2 229 (SBVH 369), BVH4 309, BVH8 337, k-d tree 174, grid 347 at
 /// λ = 2 and 1,270 at λ = 64, octree 128, two levels 337. The k-d tree's worst case is
 /// long thin triangles that reach its reference cap (3 × triangles): 264 on `grass:500000`.
+/// Re-measured in December 2026 without the EPO that `stats` now adds (`bvhlab render
+/// --scene soup:1000000 --accel … --width 16 --height 16`): brute force 87, BVH2 195, BVH4
+/// 285, BVH8 317, two levels 316; the SBVH 370–457 over six runs (its peak depends on how
+/// the threads take its subtrees, each holding its references while its children are
+/// built), 576 collapsed to a BVH8, pre-splitting 425: the references' share is planned at
+/// 272, above the worst of those.
 pub fn bytes_per_triangle(params: &StructureParams) -> u64 {
     let split = params.bvh.strategy == Strategy::Sbvh || params.bvh.presplit > 0.0;
-    let splits = if split { 160 } else { 0 };
+    let splits = if split { 272 } else { 0 };
     match params.kind {
         AccelKind::BruteForce | AccelKind::BruteForceBbox => 96,
         AccelKind::Bvh => 256 + splits,
