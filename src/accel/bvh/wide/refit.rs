@@ -107,7 +107,15 @@ where
                 given: scene.len(),
             });
         }
-        let mut done = vec![Refitted::default(); self.nodes.len()];
+        // What each node hands its parent, in this thread's array, kept from refit to refit:
+        // a fresh one of 40 bytes a node, filled, then freed, cost each refit its page
+        // faults (the array is large enough to be mapped and unmapped each time). Every
+        // entry is written before it is read (a node after its children), so its old
+        // contents never matter.
+        let mut done = DONE.take();
+        if done.len() < self.nodes.len() {
+            done.resize(self.nodes.len(), Refitted::default());
+        }
         let tree = SharedTree {
             nodes: self.nodes.as_mut_ptr(),
             done: done.as_mut_ptr(),
@@ -139,7 +147,9 @@ where
             pieces.into_iter().for_each(refit_piece);
         }
         refit_piece(top);
-        Ok(done[0].sums)
+        let sums = done[0].sums;
+        DONE.set(done);
+        Ok(sums)
     }
 
     /// Refit after only the scene triangles `moved` changed: the wide nodes holding their
@@ -378,6 +388,11 @@ fn lane_areas<const W: usize>(rows: &[[f32; W]; 6]) -> LaneAreas<W> {
 struct Refitted {
     bounds: Aabb,
     sums: RefitSums,
+}
+
+thread_local! {
+    /// The `Refitted` array of this thread's last full refit (`refit_with`), reused.
+    static DONE: std::cell::Cell<Vec<Refitted>> = const { std::cell::Cell::new(Vec::new()) };
 }
 
 /// The tree as the refit's tasks share it: the nodes and what each hands its parent through
