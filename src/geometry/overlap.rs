@@ -75,31 +75,46 @@ impl TriangleSat {
 /// A triangle prepared for many boxes of one size, such as a grid's cells or an octree
 /// cell's octants: the box's extent along each of the 13 axes is then the same for every
 /// box, so each axis reduces to an interval the box centre's projection must fall in.
+///
+/// Stored as structures of arrays over the axes, padded to `AXIS_LANES` with zero axes
+/// (whose interval [0, 0] every centre's projection, ±0, falls in): the loops over the axes
+/// then run in vectors, with the scalar test's operations in its order, so the same bits.
 #[derive(Clone, Copy, Debug)]
 pub struct TriangleSlabs {
-    axes: [DVec3; 13],
-    lo: [f64; 13],
-    hi: [f64; 13],
+    /// The axes' x, y and z components.
+    axes: [[f64; AXIS_LANES]; 3],
+    lo: [f64; AXIS_LANES],
+    hi: [f64; AXIS_LANES],
 }
+
+/// The 13 separating axes, padded to a multiple of the widest vector (8 × f64).
+const AXIS_LANES: usize = 16;
 
 impl TriangleSat {
     /// The 13 separating axes as intervals for boxes of half extents `h`.
+    #[inline(always)]
     pub fn slabs(&self, h: DVec3) -> TriangleSlabs {
-        let mut axes = [DVec3::ZERO; 13];
-        axes[0] = DVec3::X;
-        axes[1] = DVec3::Y;
-        axes[2] = DVec3::Z;
-        axes[3] = self.n;
+        let mut axes = [[0.0; AXIS_LANES]; 3];
+        let mut set = |j: usize, a: DVec3| {
+            (axes[0][j], axes[1][j], axes[2][j]) = (a.x, a.y, a.z);
+        };
+        set(0, DVec3::X);
+        set(1, DVec3::Y);
+        set(2, DVec3::Z);
+        set(3, self.n);
         for (i, e) in self.e.iter().enumerate() {
-            axes[4 + 3 * i] = DVec3::new(0.0, -e.z, e.y);
-            axes[5 + 3 * i] = DVec3::new(e.z, 0.0, -e.x);
-            axes[6 + 3 * i] = DVec3::new(-e.y, e.x, 0.0);
+            set(4 + 3 * i, DVec3::new(0.0, -e.z, e.y));
+            set(5 + 3 * i, DVec3::new(e.z, 0.0, -e.x));
+            set(6 + 3 * i, DVec3::new(-e.y, e.x, 0.0));
         }
-        let mut lo = [0.0; 13];
-        let mut hi = [0.0; 13];
-        for (j, a) in axes.iter().enumerate() {
-            let p = [a.dot(self.v[0]), a.dot(self.v[1]), a.dot(self.v[2])];
-            let r = h.dot(a.abs());
+        let [ax, ay, az] = &axes;
+        let mut lo = [0.0; AXIS_LANES];
+        let mut hi = [0.0; AXIS_LANES];
+        // `DVec3::dot`'s operations, lane by lane: (x·x + y·y) + z·z.
+        let dot = |j: usize, p: DVec3| (ax[j] * p.x + ay[j] * p.y) + az[j] * p.z;
+        for j in 0..AXIS_LANES {
+            let p = [dot(j, self.v[0]), dot(j, self.v[1]), dot(j, self.v[2])];
+            let r = (h.x * ax[j].abs() + h.y * ay[j].abs()) + h.z * az[j].abs();
             lo[j] = p[0].min(p[1]).min(p[2]) - r;
             hi[j] = p[0].max(p[1]).max(p[2]) + r;
         }
@@ -111,12 +126,14 @@ impl TriangleSlabs {
     /// Whether the triangle overlaps the closed box with centre `c` (and the half extents
     /// these slabs were made for): on every axis, the centre's projection lies within the
     /// triangle's projection widened by the box's radius.
-    #[inline]
+    #[inline(always)]
     pub fn overlaps_centered(&self, c: DVec3) -> bool {
+        let [ax, ay, az] = &self.axes;
         let mut inside = true;
-        for j in 0..13 {
-            let p = self.axes[j].dot(c);
-            inside &= p >= self.lo[j] && p <= self.hi[j];
+        for j in 0..AXIS_LANES {
+            let p = (ax[j] * c.x + ay[j] * c.y) + az[j] * c.z;
+            // `&`, not `&&`: both compares in every lane, no branch to vectorise around.
+            inside &= (p >= self.lo[j]) & (p <= self.hi[j]);
         }
         inside
     }
@@ -431,6 +448,60 @@ mod tests {
             }
         }
         assert!(counts[0] > 10_000 && counts[1] > 10_000, "{counts:?}");
+    }
+
+    /// The slabs in lanes are the per-axis form's bit for bit: the axes as `DVec3`s, each
+    /// projected by `DVec3::dot` (the octree's and grid's cells must not move with the
+    /// layout), and every centre gets the same answer.
+    #[test]
+    fn slabs_in_lanes_equal_the_axis_by_axis_slabs() {
+        let mut s = 0x5eed_0fa1_1a7e_5123_u64;
+        let mut rnd = move || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            (s >> 11) as f64 / (1u64 << 53) as f64 * 4.0 - 2.0
+        };
+        let (mut inside, mut outside) = (0, 0);
+        for i in 0..20_000 {
+            let mut v = || vec3(rnd() as f32, rnd() as f32, rnd() as f32);
+            let mut tri = Triangle::new(v(), v(), v());
+            if i % 9 == 0 {
+                tri.v[2] = tri.v[1]; // a segment
+            }
+            let sat = TriangleSat::new(&tri);
+            let h = DVec3::new(rnd().abs(), rnd().abs(), rnd().abs()) * 0.5;
+            let slabs = sat.slabs(h);
+            let mut axes = vec![DVec3::X, DVec3::Y, DVec3::Z, sat.n];
+            for e in &sat.e {
+                axes.push(DVec3::new(0.0, -e.z, e.y));
+                axes.push(DVec3::new(e.z, 0.0, -e.x));
+                axes.push(DVec3::new(-e.y, e.x, 0.0));
+            }
+            let interval = |a: DVec3| {
+                let p = sat.v.map(|v| a.dot(v));
+                let r = h.dot(a.abs());
+                (p[0].min(p[1]).min(p[2]) - r, p[0].max(p[1]).max(p[2]) + r)
+            };
+            for (j, &a) in axes.iter().enumerate() {
+                let (lo, hi) = interval(a);
+                assert_eq!(slabs.lo[j].to_bits(), lo.to_bits(), "{tri:?} axis {j}");
+                assert_eq!(slabs.hi[j].to_bits(), hi.to_bits(), "{tri:?} axis {j}");
+            }
+            for _ in 0..4 {
+                let c = DVec3::new(rnd(), rnd(), rnd());
+                let expected = axes.iter().all(|&a| {
+                    let (lo, hi) = interval(a);
+                    lo <= a.dot(c) && a.dot(c) <= hi
+                });
+                assert_eq!(slabs.overlaps_centered(c), expected, "{tri:?} {c}");
+                match expected {
+                    true => inside += 1,
+                    false => outside += 1,
+                }
+            }
+        }
+        assert!(inside > 5_000 && outside > 5_000, "{inside} {outside}");
     }
 
     #[test]

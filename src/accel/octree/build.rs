@@ -9,6 +9,7 @@ use crate::accel::grid::{PAD, mark_shared};
 use crate::accel::progress::BuildProgress;
 use crate::accel::report::Detail;
 use crate::geometry::overlap::TriangleSat;
+use crate::geometry::simd::SimdLevel;
 use crate::geometry::{Aabb, Triangle};
 use glam::DVec3;
 use rayon::prelude::*;
@@ -199,8 +200,28 @@ impl Builder<'_> {
         self.refs.extend_from_slice(&tris);
     }
 
-    /// The triangles of each octant of the cube at `min` with side 2·`half`.
+    /// The triangles of each octant of the cube at `min` with side 2·`half`: compiled for
+    /// AVX2 where the CPU has it, so that the separating axes' loops (`TriangleSlabs`) run
+    /// four f64 lanes at a time instead of SSE2's two (nothing fused, the same bits).
     fn split(&self, tris: &[u32], min: DVec3, half: f64) -> [Vec<u32>; 8] {
+        #[cfg(target_arch = "x86_64")]
+        if SimdLevel::Avx2.supported() {
+            // SAFETY: the CPU has AVX2.
+            return unsafe { self.split_avx2(tris, min, half) };
+        }
+        self.split_with(tris, min, half)
+    }
+
+    /// # Safety
+    /// The CPU has AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn split_avx2(&self, tris: &[u32], min: DVec3, half: f64) -> [Vec<u32>; 8] {
+        self.split_with(tris, min, half)
+    }
+
+    #[inline(always)]
+    fn split_with(&self, tris: &[u32], min: DVec3, half: f64) -> [Vec<u32>; 8] {
         let mid = min + half;
         let mut out: [Vec<u32>; 8] = Default::default();
         let pad = self.pad;
