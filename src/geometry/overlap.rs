@@ -21,6 +21,7 @@ pub struct TriangleSat {
 }
 
 impl TriangleSat {
+    #[inline]
     pub fn new(tri: &Triangle) -> Self {
         let v = tri.v.map(|p| p.as_dvec3());
         let e = [v[1] - v[0], v[2] - v[1], v[0] - v[2]];
