@@ -27,8 +27,9 @@ pub struct Split {
     pub above: usize,
 }
 
-/// Sorting the events of nodes at least this large is split across threads.
-const PARALLEL_SORT: usize = 1 << 16;
+/// Nodes with at least this many events sort them by radix (`sort_events`), smaller ones by
+/// comparisons.
+const RADIX_SORT: usize = 1 << 9;
 /// Nodes with at least this many references search their three axes in parallel.
 const PARALLEL_AXES: usize = 1 << 14;
 
@@ -176,6 +177,8 @@ pub fn all_splits(refs: &[KdRef], cell: &Aabb, params: &KdParams) -> Vec<Split> 
 const END: u64 = 0;
 const PLANAR: u64 = 1;
 const START: u64 = 2;
+/// An event's bits: the position's order key (32) above the event's type (2).
+const EVENT_BITS: u32 = 34;
 
 /// An f32 as a u32 that sorts in the same order (for non-NaN values).
 fn order_key(x: f32) -> u64 {
@@ -207,11 +210,7 @@ fn sweep(
             events.push(order_key(hi) << 2 | END);
         }
     }
-    if events.len() >= PARALLEL_SORT {
-        events.par_sort_unstable();
-    } else {
-        events.sort_unstable();
-    }
+    sort_events(events);
     // Below: references starting before the plane (or lying in an earlier one); above:
     // references ending after it.
     let (mut below, mut above) = (0, refs.len());
@@ -233,6 +232,48 @@ fn sweep(
         sah.offer(sink, axis, from_order_key(key), c);
         below += starting + planar;
     }
+}
+
+/// Sorts a node's events: by their key's digits, least significant first, for a large node
+/// (a few passes over the events instead of a comparison sort's log n), else by
+/// comparisons. An event's key fills `EVENT_BITS` bits; a digit every event shares (the high
+/// bits of a node's positions mostly) costs no pass.
+fn sort_events(events: &mut Vec<u64>) {
+    const DIGIT: u32 = 9;
+    const PASSES: usize = EVENT_BITS.div_ceil(DIGIT) as usize;
+    const BUCKETS: usize = 1 << DIGIT;
+    if events.len() < RADIX_SORT {
+        events.sort_unstable();
+        return;
+    }
+    let digit = |e: u64, pass: usize| (e >> (pass as u32 * DIGIT)) as usize & (BUCKETS - 1);
+    let mut counts = [[0u32; BUCKETS]; PASSES];
+    for &e in events.iter() {
+        for (pass, c) in counts.iter_mut().enumerate() {
+            c[digit(e, pass)] += 1;
+        }
+    }
+    let n = events.len() as u32;
+    let mut from = std::mem::take(events);
+    let mut to = vec![0u64; from.len()];
+    for (pass, c) in counts.iter().enumerate() {
+        if c.contains(&n) {
+            continue;
+        }
+        let mut start = [0u32; BUCKETS];
+        let mut sum = 0;
+        for (s, &k) in start.iter_mut().zip(c) {
+            *s = sum;
+            sum += k;
+        }
+        for &e in &from {
+            let d = digit(e, pass);
+            to[start[d] as usize] = e;
+            start[d] += 1;
+        }
+        std::mem::swap(&mut from, &mut to);
+    }
+    *events = from;
 }
 
 /// The binned search along `axis`: references counted into the bins their clipped bounds
@@ -324,5 +365,36 @@ mod tests {
         let refs = vec![r(0.0, 1.0, 0), r(0.0, 1.0, 1)];
         let cell = Aabb::new(Vec3::ZERO, Vec3::ONE);
         assert_eq!(best_split(&refs, &cell, &KdParams::default()), None);
+    }
+
+    /// The radix sort orders events as a comparison sort does, at sizes below, at and above
+    /// its threshold, with positions of both signs, ±0, repeats and all three event types.
+    #[test]
+    fn events_sort_by_radix_as_by_comparison() {
+        let mut x = 0x2545_f491_4f6c_dd1du64;
+        let mut rnd = move || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            x
+        };
+        for n in [0, 1, 7, RADIX_SORT - 1, RADIX_SORT, 5000, 70_000] {
+            let events: Vec<u64> = (0..n)
+                .map(|_| {
+                    let r = rnd();
+                    let pos = match r % 4 {
+                        0 => [0.0, -0.0, 1.0, -2.5][(r >> 8) as usize % 4],
+                        1 => f32::from_bits((r >> 16) as u32 & 0x807f_ffff | 0x3f00_0000),
+                        _ => ((r >> 32) as u32 as f32 / 1e6) - 2000.0,
+                    };
+                    order_key(pos) << 2 | [END, PLANAR, START][(r >> 40) as usize % 3]
+                })
+                .collect();
+            let mut by_radix = events.clone();
+            sort_events(&mut by_radix);
+            let mut expected = events;
+            expected.sort_unstable();
+            assert_eq!(by_radix, expected, "{n} events");
+        }
     }
 }
