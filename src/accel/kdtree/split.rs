@@ -237,7 +237,9 @@ fn sweep(
 /// Sorts a node's events: by their key's digits, least significant first, for a large node
 /// (a few passes over the events instead of a comparison sort's log n), else by
 /// comparisons. An event's key fills `EVENT_BITS` bits; a digit every event shares (the high
-/// bits of a node's positions mostly) costs no pass.
+/// bits of a node's positions mostly) costs no pass. Not the LBVH's `radix_sort`: built for
+/// millions of keys (parallel chunks, a histogram pass per digit, eight-bit digits over all
+/// 64 bits), it made conference's k-d tree 18 % slower than this one (825 against 700 ms).
 fn sort_events(events: &mut Vec<u64>) {
     const DIGIT: u32 = 9;
     const PASSES: usize = EVENT_BITS.div_ceil(DIGIT) as usize;
