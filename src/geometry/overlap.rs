@@ -456,13 +456,8 @@ mod tests {
     /// layout), and every centre gets the same answer.
     #[test]
     fn slabs_in_lanes_equal_the_axis_by_axis_slabs() {
-        let mut s = 0x5eed_0fa1_1a7e_5123_u64;
-        let mut rnd = move || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 11) as f64 / (1u64 << 53) as f64 * 4.0 - 2.0
-        };
+        let mut rng = crate::random::Rng(0x5eed_0fa1_1a7e_5123);
+        let mut rnd = move || rng.unit() * 4.0 - 2.0;
         let (mut inside, mut outside) = (0, 0);
         for i in 0..20_000 {
             let mut v = || vec3(rnd() as f32, rnd() as f32, rnd() as f32);

@@ -373,13 +373,8 @@ mod tests {
     /// its threshold, with positions of both signs, ±0, repeats and all three event types.
     #[test]
     fn events_sort_by_radix_as_by_comparison() {
-        let mut x = 0x2545_f491_4f6c_dd1du64;
-        let mut rnd = move || {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            x
-        };
+        let mut rng = crate::random::Rng(0x2545_f491_4f6c_dd1d);
+        let mut rnd = move || rng.next_u64();
         for n in [0, 1, 7, RADIX_SORT - 1, RADIX_SORT, 5000, 70_000] {
             let events: Vec<u64> = (0..n)
                 .map(|_| {
