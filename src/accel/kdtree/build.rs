@@ -7,9 +7,10 @@
 //! (≤ 64, so the recursion and the traversal stack stay small) and a cap on the total
 //! number of references stop it on any input.
 
+use super::events::{self, Events, Side};
 use super::node::KdNode;
 use super::split::{KdRef, Split, best_split};
-use super::{KdError, KdParams, KdTree, MAX_TRIANGLES};
+use super::{KdError, KdParams, KdSplit, KdTree, MAX_TRIANGLES};
 use crate::accel::StructureReport;
 use crate::accel::progress::BuildProgress;
 use crate::geometry::clip::clipped_bounds;
@@ -36,6 +37,17 @@ pub fn build_with_progress(
     triangles: &[Triangle],
     params: &KdParams,
     progress: &BuildProgress,
+) -> Result<(KdTree, StructureReport), KdError> {
+    build_keeping_events(triangles, params, progress, true)
+}
+
+/// `build_with_progress`; the exact sweep carries its sorted events from the root down
+/// (`events`) if `keep_events`, else sorts them afresh at every node (the tests' reference).
+fn build_keeping_events(
+    triangles: &[Triangle],
+    params: &KdParams,
+    progress: &BuildProgress,
+    keep_events: bool,
 ) -> Result<(KdTree, StructureReport), KdError> {
     params.validate()?;
     if triangles.len() > MAX_TRIANGLES {
@@ -67,7 +79,9 @@ pub fn build_with_progress(
     let budget = ((params.max_references_factor as f64 * n as f64) as usize)
         .min(u32::MAX as usize)
         .max(n);
-    let (tree, _) = builder.subtree(refs, bounds, 0, 0, budget);
+    // The exact sweep keeps its events sorted from the root down (`events`).
+    let events = (keep_events && params.split == KdSplit::Sweep).then(|| Events::of(&refs));
+    let (tree, _) = builder.subtree(refs, events, bounds, 0, 0, budget);
     let (nodes, leaf_refs) = flatten(&tree);
     drop_in_background(tree);
     let kd = KdTree {
@@ -130,6 +144,7 @@ impl Builder<'_> {
     fn subtree(
         &self,
         refs: Vec<KdRef>,
+        events: Option<Events>,
         cell: Aabb,
         depth: u32,
         bad_refines: u32,
@@ -140,7 +155,12 @@ impl Builder<'_> {
         if n <= p.max_leaf_size as usize || self.progress.is_abandoned() {
             return leaf(refs);
         }
-        let Some(split) = best_split(&refs, &cell, p) else {
+        let events = events.filter(|_| n >= events::KEPT_FROM);
+        let split = match &events {
+            Some(events) => events.best_split(n, &cell, p),
+            None => best_split(&refs, &cell, p),
+        };
+        let Some(split) = split else {
             return leaf(refs);
         };
         let leaf_cost = p.c_isect as f64 * n as f64;
@@ -158,7 +178,17 @@ impl Builder<'_> {
         let (mut below_cell, mut above_cell) = (cell, cell);
         below_cell.max[split.axis] = split.pos;
         above_cell.min[split.axis] = split.pos;
-        let (below, above) = classify(self.triangles, &refs, &split, &below_cell, &above_cell);
+        let cells = (&below_cell, &above_cell);
+        let ((below, below_events), (above, above_events)) = match events {
+            Some(events) => {
+                let ((b, be), (a, ae)) = events.split(self.triangles, &refs, &split, cells);
+                ((b, Some(be)), (a, Some(ae)))
+            }
+            None => {
+                let (b, a) = classify(self.triangles, &refs, &split, &below_cell, &above_cell);
+                ((b, None), (a, None))
+            }
+        };
         let total = below.len() + above.len();
         if total > budget {
             self.refs_cap_hit.store(true, Ordering::Relaxed);
@@ -171,16 +201,34 @@ impl Builder<'_> {
         let ((b, used_below), (a, used_above)) = if n >= PARALLEL_SUBTREE {
             let above_budget = budget - below_budget;
             rayon::join(
-                move || self.subtree(below, below_cell, next, bad_refines, below_budget),
-                move || self.subtree(above, above_cell, next, bad_refines, above_budget),
+                move || {
+                    let b = (below, below_events);
+                    self.subtree(b.0, b.1, below_cell, next, bad_refines, below_budget)
+                },
+                move || {
+                    let a = (above, above_events);
+                    self.subtree(a.0, a.1, above_cell, next, bad_refines, above_budget)
+                },
             )
         } else {
-            let b = self.subtree(below, below_cell, next, bad_refines, below_budget);
+            let b = self.subtree(
+                below,
+                below_events,
+                below_cell,
+                next,
+                bad_refines,
+                below_budget,
+            );
             let above_budget = budget - b.1;
-            (
-                b,
-                self.subtree(above, above_cell, next, bad_refines, above_budget),
-            )
+            let a = self.subtree(
+                above,
+                above_events,
+                above_cell,
+                next,
+                bad_refines,
+                above_budget,
+            );
+            (b, a)
         };
         let tree = Tmp::Interior {
             axis: split.axis,
@@ -201,41 +249,65 @@ pub(super) fn classify(
     below_cell: &Aabb,
     above_cell: &Aabb,
 ) -> (Vec<KdRef>, Vec<KdRef>) {
+    classify_into(
+        triangles,
+        refs,
+        split,
+        (below_cell, above_cell),
+        &mut |_, _| {},
+    )
+}
+
+/// `classify`, telling `note` where each reference `i` went: `Side::Below(k)` or
+/// `Side::Above(k)` for its place in a child's list, and `Side::Cut` first for one the
+/// plane cuts (clipped into one child or both).
+pub(super) fn classify_into(
+    triangles: &[Triangle],
+    refs: &[KdRef],
+    split: &Split,
+    (below_cell, above_cell): (&Aabb, &Aabb),
+    note: &mut impl FnMut(usize, Side),
+) -> (Vec<KdRef>, Vec<KdRef>) {
     let (axis, pos) = (split.axis, split.pos);
     let mut below = Vec::with_capacity(refs.len());
     let mut above = Vec::with_capacity(refs.len());
-    for r in refs {
+    for (i, r) in refs.iter().enumerate() {
         let (lo, hi) = (r.bounds.min[axis], r.bounds.max[axis]);
-        if lo == pos && hi == pos {
-            if split.planar_below {
-                below.push(*r);
-            } else {
-                above.push(*r);
+        let (b, a) = if lo == pos && hi == pos {
+            match split.planar_below {
+                true => (Some(*r), None),
+                false => (None, Some(*r)),
             }
         } else if hi <= pos {
-            below.push(*r);
+            (Some(*r), None)
         } else if lo >= pos {
-            above.push(*r);
+            (None, Some(*r))
         } else {
+            note(i, Side::Cut);
             let tri = &triangles[r.tri as usize];
-            let b = clipped_bounds(tri, below_cell);
-            let a = clipped_bounds(tri, above_cell);
-            match (b, a) {
-                (None, None) => {
-                    // The clip found the triangle in neither cell though its bounds
-                    // straddle the plane; keep it on both sides rather than lose it.
-                    below.push(clamp_ref(r, below_cell));
-                    above.push(clamp_ref(r, above_cell));
-                }
-                _ => {
-                    if let Some(bounds) = b {
-                        below.push(KdRef { bounds, tri: r.tri });
-                    }
-                    if let Some(bounds) = a {
-                        above.push(KdRef { bounds, tri: r.tri });
-                    }
-                }
+            match (
+                clipped_bounds(tri, below_cell),
+                clipped_bounds(tri, above_cell),
+            ) {
+                // The clip found the triangle in neither cell though its bounds straddle
+                // the plane; keep it on both sides rather than lose it.
+                (None, None) => (
+                    Some(clamp_ref(r, below_cell)),
+                    Some(clamp_ref(r, above_cell)),
+                ),
+                (b, a) => (
+                    b.map(|bounds| KdRef { bounds, tri: r.tri }),
+                    a.map(|bounds| KdRef { bounds, tri: r.tri }),
+                ),
             }
+        };
+        if let Some(b) = b {
+            note(i, Side::Below(below.len() as u32));
+            below.push(b);
+        }
+        if let Some(a) = a {
+            note(i, Side::Above(above.len() as u32));
+            above.push(a);
         }
     }
     (below, above)
@@ -289,4 +361,40 @@ fn flatten(root: &Tmp) -> (Vec<KdNode>, Vec<u32>) {
         }
     }
     (nodes, refs)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::builtin::by_name;
+
+    /// Events carried from the root down give the tree that sorting them afresh at every
+    /// node gives: the same planes and the same references in the same leaves. The scenes
+    /// have planar triangles (the Cornell box, the walls), many cut by planes (the soup) and
+    /// a small object in a large cell (the teapot in a stadium).
+    #[test]
+    fn events_kept_sorted_give_the_tree_of_events_sorted_at_every_node() {
+        let progress = BuildProgress::default();
+        for spec in [
+            "cornell",
+            "walls",
+            "walls-rotated",
+            "soup:3000",
+            "teapot-in-stadium",
+        ] {
+            let scene = by_name(spec).unwrap().unwrap();
+            let triangles = scene.flattened().unwrap();
+            for max_leaf_size in [1, 4] {
+                let params = KdParams {
+                    max_leaf_size,
+                    ..KdParams::default()
+                };
+                let kept = build_keeping_events(&triangles, &params, &progress, true).unwrap();
+                let sorted = build_keeping_events(&triangles, &params, &progress, false).unwrap();
+                assert!(kept.0.nodes.len() > 1, "{spec}: no split at all");
+                assert_eq!(kept.0.nodes, sorted.0.nodes, "{spec}: the planes differ");
+                assert_eq!(kept.0.refs, sorted.0.refs, "{spec}: the leaves differ");
+            }
+        }
+    }
 }

@@ -4,6 +4,7 @@
 //! for the triangles that several cells reference.
 
 mod build;
+mod events;
 mod node;
 mod outline;
 mod split;

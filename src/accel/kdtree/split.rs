@@ -120,16 +120,45 @@ struct Counts {
 /// area or no candidate lies strictly inside it.
 pub fn best_split(refs: &[KdRef], cell: &Aabb, params: &KdParams) -> Option<Split> {
     let sah = Sah::new(params, cell)?;
-    let search = |axis: usize, events: &mut Vec<u64>, best: &mut Option<Split>| {
+    cheapest_of_axes(refs.len(), |axis, events, best| {
         let sink = &mut keep_cheapest(best);
         match params.split {
             KdSplit::Sweep => sweep(refs, axis, &sah, events, sink),
             KdSplit::Binned(bins) => binned(refs, axis, bins as usize, &sah, sink),
         }
-    };
-    if refs.len() >= PARALLEL_AXES {
-        // The axes on separate threads; the same choice as one after the other (the first
-        // axis wins a tie).
+    })
+}
+
+/// `best_split` by the sweep over a node's events already sorted on each axis (`axes`, each
+/// event's position and type above `shift` bits; `refs` references).
+pub(super) fn best_split_in(
+    axes: &[Vec<u64>; 3],
+    shift: u32,
+    refs: usize,
+    cell: &Aabb,
+    params: &KdParams,
+) -> Option<Split> {
+    let sah = Sah::new(params, cell)?;
+    cheapest_of_axes(refs, |axis, _, best| {
+        sweep_sorted(
+            &axes[axis],
+            shift,
+            refs,
+            axis,
+            &sah,
+            &mut keep_cheapest(best),
+        )
+    })
+}
+
+/// The cheapest of the splits `search` offers on each axis (with a scratch list of events),
+/// the first axis winning a tie; a node of many references searches its axes in parallel,
+/// with the same choice.
+fn cheapest_of_axes(
+    refs: usize,
+    search: impl Fn(usize, &mut Vec<u64>, &mut Option<Split>) + Sync,
+) -> Option<Split> {
+    if refs >= PARALLEL_AXES {
         let per_axis: Vec<Option<Split>> = (0..3)
             .into_par_iter()
             .map(|axis| {
@@ -178,7 +207,19 @@ const END: u64 = 0;
 const PLANAR: u64 = 1;
 const START: u64 = 2;
 /// An event's bits: the position's order key (32) above the event's type (2).
-const EVENT_BITS: u32 = 34;
+pub(super) const EVENT_BITS: u32 = 34;
+
+/// The events of a reference whose clipped bounds span `lo..=hi` on an axis: one lying in
+/// the plane at `lo`, or a start and an end.
+#[inline(always)]
+pub(super) fn event(lo: f32, hi: f32) -> impl Iterator<Item = u64> {
+    let (first, second) = if lo == hi {
+        (order_key(lo) << 2 | PLANAR, None)
+    } else {
+        (order_key(lo) << 2 | START, Some(order_key(hi) << 2 | END))
+    };
+    std::iter::once(first).chain(second)
+}
 
 /// An f32 as a u32 that sorts in the same order (for non-NaN values).
 fn order_key(x: f32) -> u64 {
@@ -202,24 +243,31 @@ fn sweep(
 ) {
     events.clear();
     for r in refs {
-        let (lo, hi) = (r.bounds.min[axis], r.bounds.max[axis]);
-        if lo == hi {
-            events.push(order_key(lo) << 2 | PLANAR);
-        } else {
-            events.push(order_key(lo) << 2 | START);
-            events.push(order_key(hi) << 2 | END);
-        }
+        events.extend(event(r.bounds.min[axis], r.bounds.max[axis]));
     }
     sort_events(events);
+    sweep_sorted(events, 0, refs.len(), axis, sah, sink);
+}
+
+/// The sweep over a node's events on `axis`, sorted, each event's position and type above
+/// `shift` bits, for a node of `refs` references.
+fn sweep_sorted(
+    events: &[u64],
+    shift: u32,
+    refs: usize,
+    axis: usize,
+    sah: &Sah,
+    sink: &mut impl FnMut(Split),
+) {
     // Below: references starting before the plane (or lying in an earlier one); above:
     // references ending after it.
-    let (mut below, mut above) = (0, refs.len());
+    let (mut below, mut above) = (0, refs);
     let mut i = 0;
     while i < events.len() {
-        let key = events[i] >> 2;
+        let key = events[i] >> (shift + 2);
         let mut count = [0usize; 3];
-        while i < events.len() && events[i] >> 2 == key {
-            count[(events[i] & 3) as usize] += 1;
+        while i < events.len() && events[i] >> (shift + 2) == key {
+            count[(events[i] >> shift & 3) as usize] += 1;
             i += 1;
         }
         let [ending, planar, starting] = count;
@@ -241,6 +289,13 @@ fn sweep(
 /// millions of keys (parallel chunks, a histogram pass per digit, eight-bit digits over all
 /// 64 bits), it made conference's k-d tree 18 % slower than this one (825 against 700 ms).
 fn sort_events(events: &mut Vec<u64>) {
+    sort_events_by(events, 0);
+}
+
+/// `sort_events` for events whose position and type lie above `shift` bits: ordered by
+/// those, and of equal ones kept in their order (the radix sort is stable; the comparison
+/// sort orders them by the bits below, which for the k-d tree's lists are in that order).
+pub(super) fn sort_events_by(events: &mut Vec<u64>, shift: u32) {
     const DIGIT: u32 = 9;
     const PASSES: usize = EVENT_BITS.div_ceil(DIGIT) as usize;
     const BUCKETS: usize = 1 << DIGIT;
@@ -248,7 +303,7 @@ fn sort_events(events: &mut Vec<u64>) {
         events.sort_unstable();
         return;
     }
-    let digit = |e: u64, pass: usize| (e >> (pass as u32 * DIGIT)) as usize & (BUCKETS - 1);
+    let digit = |e: u64, pass: usize| (e >> (shift + pass as u32 * DIGIT)) as usize & (BUCKETS - 1);
     let mut counts = [[0u32; BUCKETS]; PASSES];
     for &e in events.iter() {
         for (pass, c) in counts.iter_mut().enumerate() {
