@@ -10,7 +10,14 @@ use bvhlab::scene::Scene;
 use clap::Args;
 use serde::Serialize;
 use std::collections::BTreeMap;
-use std::time::Instant;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+/// How long the EPO may take before `stats` says it is still at work.
+const SLOW_EPO: Duration = Duration::from_secs(3);
+const SLOW_EPO_NOTE: &str = "still computing the EPO: the exact EPO clips every triangle \
+    into every box it crosses, which takes long where the boxes overlap much; \
+    `--epo estimate` gives it in a fraction of the time, with a standard error";
 
 #[derive(Args)]
 pub struct StatsArgs {
@@ -69,9 +76,18 @@ fn predictors(
 ) -> Option<Predictors> {
     let (sah_cost, c_trav, c_isect) = built.structure.sah_cost(params)?;
     let start = Instant::now();
+    // The exact EPO of a tree whose boxes overlap heavily (a soup of a million triangles:
+    // 40 s) can take long; say so once, with the faster way, rather than seem to hang.
+    let told = AtomicBool::new(false);
+    let tell_if_slow = || {
+        if start.elapsed() > SLOW_EPO && !told.swap(true, Ordering::Relaxed) {
+            eprintln!("{SLOW_EPO_NOTE}");
+        }
+        false
+    };
     let epo = built
         .structure
-        .epo_by(params, scene, args.epo.way(), &|| false);
+        .epo_by(params, scene, args.epo.way(), &tell_if_slow);
     Some(Predictors {
         c_trav,
         c_isect,
