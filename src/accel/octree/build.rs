@@ -19,6 +19,11 @@ use std::time::Instant;
 /// not help: the triangles are larger than the octants, and splitting further only copies
 /// them.
 const DUPLICATION: usize = 4;
+/// Cells over at least this many triangles build their octants' subtrees on other threads,
+/// and split their triangles in chunks on other threads.
+const PARALLEL_CELL: usize = 4096;
+/// The chunk of a parallel split.
+const SPLIT_CHUNK: usize = 2048;
 
 /// Builds the octree over `triangles`.
 pub fn build(
@@ -33,6 +38,16 @@ pub fn build_with_progress(
     triangles: &[Triangle],
     params: &OctreeParams,
     progress: &BuildProgress,
+) -> Result<(Octree, StructureReport), OctreeError> {
+    build_from(triangles, params, progress, PARALLEL_CELL)
+}
+
+/// `build_with_progress`, cells of at least `parallel_cell` triangles built in parallel.
+fn build_from(
+    triangles: &[Triangle],
+    params: &OctreeParams,
+    progress: &BuildProgress,
+    parallel_cell: usize,
 ) -> Result<(Octree, StructureReport), OctreeError> {
     params.validate()?;
     if triangles.len() >= (u32::MAX / 2) as usize {
@@ -59,6 +74,7 @@ pub fn build_with_progress(
         params,
         progress,
         pad: root_size * PAD,
+        parallel_cell,
         nodes: vec![Node {
             first: 0,
             count: 0,
@@ -103,7 +119,7 @@ pub fn build_with_progress(
     Ok((octree, report))
 }
 
-#[derive(Default)]
+#[derive(Default, Clone, Copy)]
 struct Caps {
     /// Leaves at the depth bound still above the leaf size.
     depth: usize,
@@ -118,11 +134,24 @@ struct Caps {
     max_depth: u32,
 }
 
+impl Caps {
+    /// Adds a subtree's caps built apart.
+    fn add(&mut self, part: &Caps) {
+        self.depth += part.depth;
+        self.unsplittable += part.unsplittable;
+        self.budget += part.budget;
+        self.empty_octants += part.empty_octants;
+        self.max_depth = self.max_depth.max(part.max_depth);
+    }
+}
+
 struct Builder<'a> {
     triangles: &'a [Triangle],
     params: &'a OctreeParams,
     progress: &'a BuildProgress<'a>,
     pad: f64,
+    /// `PARALLEL_CELL`, or `usize::MAX` for the tests' build on one thread.
+    parallel_cell: usize,
     nodes: Vec<Node>,
     refs: Vec<u32>,
     caps: Caps,
@@ -176,17 +205,68 @@ impl Builder<'_> {
             mask,
         };
         self.nodes.resize(first + non_empty, self.nodes[index]);
-        let mut child = first;
-        for (o, list) in octants.into_iter().enumerate() {
-            if list.is_empty() {
-                continue;
-            }
+        let child_of = |o: usize, list: &Vec<u32>| {
             let corner = DVec3::new((o & 1) as f64, (o >> 1 & 1) as f64, (o >> 2 & 1) as f64);
             // Each child may grow in proportion to its share of the references, so the
             // budget is not spent on whichever dense region the build reaches first.
             let share = (budget as u128 * list.len() as u128 / total as u128) as usize;
-            self.node(child, min + corner * half, half, list, depth + 1, share);
-            child += 1;
+            (min + corner * half, share)
+        };
+        if n < self.parallel_cell {
+            let mut child = first;
+            for (o, list) in octants.into_iter().enumerate() {
+                if list.is_empty() {
+                    continue;
+                }
+                let (child_min, share) = child_of(o, &list);
+                self.node(child, child_min, half, list, depth + 1, share);
+                child += 1;
+            }
+            return;
+        }
+        // Each octant's subtree built apart, on other threads, then laid out as the loop
+        // above lays it out: after its siblings' subtrees, its leaves' references after
+        // theirs. The octree is the same on any number of threads.
+        let parts: Vec<Builder> = octants
+            .into_par_iter()
+            .enumerate()
+            .filter(|(_, list)| !list.is_empty())
+            .map(|(o, list)| {
+                let (child_min, share) = child_of(o, &list);
+                let mut part = self.part();
+                part.node(0, child_min, half, list, depth + 1, share);
+                part
+            })
+            .collect();
+        for (k, part) in parts.into_iter().enumerate() {
+            // The part's node 0 is the child itself; its others follow the nodes so far.
+            let (nodes, refs) = (self.nodes.len() as u32 - 1, self.refs.len() as u32);
+            let placed = |n: &Node| Node {
+                first: n.first + if n.is_leaf() { refs } else { nodes },
+                ..*n
+            };
+            let mut placed_nodes = part.nodes.iter().map(placed);
+            if let Some(root) = placed_nodes.next() {
+                self.nodes[first + k] = root;
+            }
+            self.nodes.extend(placed_nodes);
+            self.refs.extend_from_slice(&part.refs);
+            self.caps.add(&part.caps);
+        }
+    }
+
+    /// A builder for a subtree built apart: the same scene and parameters, its own nodes
+    /// (node 0 its root), references and caps.
+    fn part(&self) -> Self {
+        Builder {
+            nodes: vec![Node {
+                first: 0,
+                count: 0,
+                mask: 0,
+            }],
+            refs: Vec::new(),
+            caps: Caps::default(),
+            ..*self
         }
     }
 
@@ -204,6 +284,27 @@ impl Builder<'_> {
     /// AVX2 where the CPU has it, so that the separating axes' loops (`TriangleSlabs`) run
     /// four f64 lanes at a time instead of SSE2's two (nothing fused, the same bits).
     fn split(&self, tris: &[u32], min: DVec3, half: f64) -> [Vec<u32>; 8] {
+        if tris.len() >= self.parallel_cell {
+            // In chunks on other threads, each chunk's lists appended in order: the same
+            // lists as one pass.
+            let chunks: Vec<[Vec<u32>; 8]> = tris
+                .par_chunks(SPLIT_CHUNK)
+                .map(|chunk| self.split_serial(chunk, min, half))
+                .collect();
+            let mut out: [Vec<u32>; 8] = Default::default();
+            for (o, list) in out.iter_mut().enumerate() {
+                list.reserve(chunks.iter().map(|c| c[o].len()).sum());
+                for c in &chunks {
+                    list.extend_from_slice(&c[o]);
+                }
+            }
+            return out;
+        }
+        self.split_serial(tris, min, half)
+    }
+
+    /// `split` on this thread.
+    fn split_serial(&self, tris: &[u32], min: DVec3, half: f64) -> [Vec<u32>; 8] {
         #[cfg(target_arch = "x86_64")]
         if SimdLevel::Avx2.supported() {
             // SAFETY: the CPU has AVX2.
@@ -309,5 +410,36 @@ fn report(
             ),
         ],
         caps_hit,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::builtin::by_name;
+
+    /// Cells built in parallel, their subtrees laid out after each other, give the octree of
+    /// the build on one thread: the same nodes in the same places, the same references.
+    #[test]
+    fn the_parallel_build_lays_out_the_octree_of_the_serial_one() {
+        let progress = BuildProgress::default();
+        for spec in [
+            "teapot-in-stadium",
+            "soup:20000",
+            "grass:3000",
+            "walls-rotated",
+        ] {
+            let scene = by_name(spec).unwrap().unwrap();
+            let triangles = scene.flattened().unwrap();
+            let params = OctreeParams::default();
+            // Small cells in parallel too, so that many parts are laid out.
+            let parallel = build_from(&triangles, &params, &progress, 64).unwrap().0;
+            let serial = build_from(&triangles, &params, &progress, usize::MAX)
+                .unwrap()
+                .0;
+            assert!(parallel.nodes.len() > 8, "{spec}: too few cells to tell");
+            assert_eq!(parallel.nodes, serial.nodes, "{spec}: the cells differ");
+            assert_eq!(parallel.refs, serial.refs, "{spec}: the references differ");
+        }
     }
 }
