@@ -69,20 +69,7 @@ fn build_from(
             bounds.extent().as_dvec3().max_element(),
         )
     };
-    let mut b = Builder {
-        triangles,
-        params,
-        progress,
-        pad: root_size * PAD,
-        parallel_cell,
-        nodes: vec![Node {
-            first: 0,
-            count: 0,
-            mask: 0,
-        }],
-        refs: Vec::new(),
-        caps: Caps::default(),
-    };
+    let mut b = Builder::new(triangles, params, progress, root_size * PAD, parallel_cell);
     let budget = MAX_REFERENCES_PER_TRIANGLE * triangles.len() + 4096;
     b.node(
         0,
@@ -157,7 +144,31 @@ struct Builder<'a> {
     caps: Caps,
 }
 
-impl Builder<'_> {
+impl<'a> Builder<'a> {
+    /// A builder with only its root (node 0, to be built) and no references yet.
+    fn new(
+        triangles: &'a [Triangle],
+        params: &'a OctreeParams,
+        progress: &'a BuildProgress<'a>,
+        pad: f64,
+        parallel_cell: usize,
+    ) -> Self {
+        Builder {
+            triangles,
+            params,
+            progress,
+            pad,
+            parallel_cell,
+            nodes: vec![Node {
+                first: 0,
+                count: 0,
+                mask: 0,
+            }],
+            refs: Vec::new(),
+            caps: Caps::default(),
+        }
+    }
+
     /// Builds node `index`, the cube at `min` with side `size`, over `tris`, with at most
     /// `budget` references in its leaves. The recursion is at most `MAX_DEPTH` + 1 deep.
     fn node(
@@ -258,16 +269,13 @@ impl Builder<'_> {
     /// A builder for a subtree built apart: the same scene and parameters, its own nodes
     /// (node 0 its root), references and caps.
     fn part(&self) -> Self {
-        Builder {
-            nodes: vec![Node {
-                first: 0,
-                count: 0,
-                mask: 0,
-            }],
-            refs: Vec::new(),
-            caps: Caps::default(),
-            ..*self
-        }
+        Builder::new(
+            self.triangles,
+            self.params,
+            self.progress,
+            self.pad,
+            self.parallel_cell,
+        )
     }
 
     fn leaf(&mut self, index: usize, tris: Vec<u32>, depth: u32) {
