@@ -34,13 +34,7 @@ impl Events {
     /// The events of `refs`, sorted: what the root starts from.
     pub(super) fn of(refs: &[KdRef]) -> Self {
         Events(std::array::from_fn(|axis| {
-            let mut events = Vec::with_capacity(2 * refs.len());
-            for (k, r) in refs.iter().enumerate() {
-                let e = event(r.bounds.min[axis], r.bounds.max[axis]);
-                events.extend(e.map(|e| e << REF_BITS | k as u64));
-            }
-            sort_events_by(&mut events, REF_BITS);
-            events
+            sorted_events(refs.len(), (0..).zip(refs), axis)
         }))
     }
 
@@ -107,14 +101,22 @@ pub(super) enum Side {
 /// The events on `axis` of the cut references at places `at` of a child's list `child`,
 /// sorted.
 fn cut_events(at: &[u32], child: &[KdRef], axis: usize) -> Vec<u64> {
-    let mut new = Vec::with_capacity(2 * at.len());
-    for &k in at {
-        let r = &child[k as usize];
+    sorted_events(at.len(), at.iter().map(|&k| (k, &child[k as usize])), axis)
+}
+
+/// The events on `axis` of `n` references, each with its place in the node's list, sorted.
+fn sorted_events<'r>(
+    n: usize,
+    refs: impl Iterator<Item = (u32, &'r KdRef)>,
+    axis: usize,
+) -> Vec<u64> {
+    let mut events = Vec::with_capacity(2 * n);
+    for (k, r) in refs {
         let e = event(r.bounds.min[axis], r.bounds.max[axis]);
-        new.extend(e.map(|e| e << REF_BITS | u64::from(k)));
+        events.extend(e.map(|e| e << REF_BITS | u64::from(k)));
     }
-    sort_events_by(&mut new, REF_BITS);
-    new
+    sort_events_by(&mut events, REF_BITS);
+    events
 }
 
 /// A child's events as they are filtered from its parent's, in order, with the cut
