@@ -312,3 +312,42 @@ fn the_block_test_stops_early_only_when_no_lane_can_hit() {
     check::<Avx2>(SimdLevel::Avx2, &cases);
     check::<Avx512>(SimdLevel::Avx512, &cases);
 }
+
+/// Every function of bvhlab that uses SIMD intrinsics is compiled with their instruction
+/// set, so that the intrinsics are single instructions. A closure is compiled with the
+/// instruction set of the function that defines it, not of the entry point it is inlined
+/// into: a walk passed as a closure from code outside the entry points called each
+/// intrinsic out of line (the two levels' packet walk did, 312 calls in one closure). Read
+/// from the release binary's disassembly; skipped in debug builds, where nothing is inlined,
+/// and where `objdump` is missing.
+#[test]
+fn no_function_of_bvhlab_calls_an_intrinsic_out_of_line() {
+    if cfg!(debug_assertions) {
+        eprintln!("skipped: a debug build inlines nothing");
+        return;
+    }
+    let exe = env!("CARGO_BIN_EXE_bvhlab");
+    let Ok(out) = std::process::Command::new("objdump")
+        .args(["-d", "--no-show-raw-insn", exe])
+        .output()
+    else {
+        eprintln!("skipped: objdump is not installed");
+        return;
+    };
+    assert!(out.status.success(), "objdump failed on {exe}");
+    let text = String::from_utf8_lossy(&out.stdout);
+    let mut function = "";
+    let mut offenders = std::collections::BTreeSet::new();
+    for line in text.lines() {
+        if line.ends_with(">:") {
+            function = line;
+        } else if line.contains("call") && line.contains("core_arch") && function.contains("bvhlab")
+        {
+            offenders.insert(function.to_string());
+        }
+    }
+    assert!(
+        offenders.is_empty(),
+        "functions calling intrinsics out of line: {offenders:#?}"
+    );
+}

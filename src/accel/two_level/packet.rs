@@ -67,18 +67,22 @@ impl TwoLevel {
                 // A leaf's references (an identity instance's walked by the packet), or a
                 // child few rays entered: each ray on its own.
                 let mut improved = 0u64;
+                // The rays' walks are written out here rather than passed as closures: a
+                // closure is compiled with its defining function's instruction set, the
+                // baseline's, and would call every intrinsic of the walk out of line.
                 if !cur.child.child.is_leaf() {
-                    improved |=
-                        each_ray_alone(cur.rays, rays, &mut best, &mut soa, &|ray, best| {
-                            let prepared = (&WideRay::new(ray), &I::prepare(ray));
-                            self.closest_from::<K, I, NoStats, true>(
-                                cur.child,
-                                ray,
-                                prepared,
-                                best,
-                                &mut NoStats,
-                            );
-                        });
+                    for i in each_ray(cur.rays) {
+                        let (ray, before) = (&rays[i], best[i].t);
+                        let prepared = (&WideRay::new(ray), &I::prepare(ray));
+                        self.closest_from::<K, I, NoStats, true>(
+                            cur.child,
+                            ray,
+                            prepared,
+                            &mut best[i],
+                            &mut NoStats,
+                        );
+                        improved |= follow_closer_hit(i, before, &best, &mut soa);
+                    }
                 } else {
                     for k in cur.child.child.slots() {
                         if self.leaves[k].is_identity() && cur.rays.count_ones() > HYBRID_RAYS {
@@ -101,21 +105,17 @@ impl TwoLevel {
                         } else {
                             // The world ray's data only serve an identity instance, and
                             // are made there.
-                            improved |= each_ray_alone(
-                                cur.rays,
-                                rays,
-                                &mut best,
-                                &mut soa,
-                                &|ray, best| {
-                                    self.enter_closest::<K, I, NoStats, true>(
-                                        k,
-                                        ray,
-                                        None,
-                                        best,
-                                        &mut NoStats,
-                                    );
-                                },
-                            );
+                            for i in each_ray(cur.rays) {
+                                let before = best[i].t;
+                                self.enter_closest::<K, I, NoStats, true>(
+                                    k,
+                                    &rays[i],
+                                    None,
+                                    &mut best[i],
+                                    &mut NoStats,
+                                );
+                                improved |= follow_closer_hit(i, before, &best, &mut soa);
+                            }
                         }
                     }
                 }
@@ -192,24 +192,18 @@ impl TwoLevel {
     }
 }
 
-/// Each ray of `mask` on its own (`walk`), from its best hit so far; its box-test limit
-/// follows a closer hit. Returns the rays that found one.
+/// After ray `i` walked on its own from its best hit `before`: whether it found a closer
+/// one (the ray's bit), in which case its box-test limit follows.
 #[inline(always)]
-fn each_ray_alone(
-    mask: u64,
-    rays: &[Ray],
-    best: &mut [BestHit; PACKET_RAYS],
+fn follow_closer_hit(
+    i: usize,
+    before: f32,
+    best: &[BestHit; PACKET_RAYS],
     soa: &mut RayPacket,
-    walk: &impl Fn(&Ray, &mut BestHit),
 ) -> u64 {
-    let mut improved = 0;
-    for i in each_ray(mask) {
-        let before = best[i].t;
-        walk(&rays[i], &mut best[i]);
-        if best[i].t != before {
-            soa.tmax[i] = best[i].t * T_SCALE;
-            improved |= 1 << i;
-        }
+    if best[i].t == before {
+        return 0;
     }
-    improved
+    soa.tmax[i] = best[i].t * T_SCALE;
+    1 << i
 }
