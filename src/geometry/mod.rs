@@ -4,6 +4,7 @@
 pub mod aabb;
 pub mod clip;
 pub mod frustum;
+pub mod hull;
 pub mod intersect;
 pub mod overlap;
 pub mod ray;

@@ -126,6 +126,23 @@ impl Instance {
         Aabb::new(w.min - pad, w.max + pad)
     }
 
+    /// The world box of the placed mesh whose convex hull has the vertices `hull`, each
+    /// mesh point lying at most `tolerance` beyond the hull (`geometry::hull`): the box of
+    /// the placed vertices, the tightest a placed mesh has, widened by what the tolerance
+    /// can move a placed point and then padded as `world_bounds` pads.
+    pub fn world_bounds_of_hull(&self, hull: &[glam::Vec3], tolerance: f32) -> Aabb {
+        let placed = Aabb::from_points(hull.iter().map(|&p| self.transform.transform_point3(p)));
+        if placed.is_empty() {
+            return Aabb::EMPTY;
+        }
+        let m = &self.transform.matrix3;
+        let reach = glam::Vec3::from(m.x_axis.abs() + m.y_axis.abs() + m.z_axis.abs()) * tolerance;
+        let w = Aabb::new(placed.min - reach, placed.max + reach);
+        let magnitude = w.min.abs().max(w.max.abs()) + (w.max - w.min);
+        let pad = magnitude * (16.0 * f32::EPSILON);
+        Aabb::new(w.min - pad, w.max + pad)
+    }
+
     /// The union of `world_bounds` of the boxes in the lanes of `rows` that `lanes` marks
     /// (bit k for lane k), `rows` being a wide node's (min x, y, z, max x, y, z; a box per
     /// lane): all lanes at once, a lane's box placed by Arvo's rule. Per world axis, the

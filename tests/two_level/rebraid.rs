@@ -102,7 +102,8 @@ fn without_rebraiding_the_top_level_is_built_over_whole_instances() {
     let mut boxes = Vec::new();
     let mut whole = Vec::new();
     for (i, instance) in scene.instances.iter().enumerate() {
-        let w = instance_world_box(instance, &tl.blases[instance.mesh]);
+        let hull = tl.hulls[instance.mesh].as_ref();
+        let w = instance_world_box(instance, &tl.blases[instance.mesh], hull);
         if !w.is_empty() {
             boxes.push(Triangle::new(w.min, w.max, w.max));
             whole.push(i as u32);
@@ -192,5 +193,43 @@ fn an_instance_is_entered_once_per_reference_walked() {
     assert!(
         twice > 0,
         "some ray enters one instance through two references"
+    );
+}
+
+/// A rotated or scaled instance's world box from its mesh's convex hull holds every placed
+/// triangle, and is no larger than the box of its BLAS's boxes placed (what an instance
+/// without a hull takes) and smaller for most instances.
+#[test]
+fn a_hull_places_to_a_box_that_holds_the_mesh_and_is_no_larger() {
+    use bvhlab::accel::two_level::instance_world_box;
+    let scene = instanced_scene(60, 47);
+    let params = rebraided(TraversalOrder::FrontToBack, 0.0);
+    let built = structure::build_scene(&scene, &params, &Default::default()).unwrap();
+    let Structure::TwoLevel(tl) = &built.structure else {
+        panic!("two levels")
+    };
+    let (mut turned, mut tighter) = (0, 0);
+    for instance in scene.instances.iter() {
+        let (mesh, blas) = (&scene.meshes[instance.mesh], &tl.blases[instance.mesh]);
+        if mesh.triangles.is_empty() || instance.is_identity() || instance.is_translation() {
+            continue;
+        }
+        turned += 1;
+        let hull = tl.hulls[instance.mesh]
+            .as_ref()
+            .expect("a solid mesh has a hull");
+        let tight = instance_world_box(instance, blas, Some(hull));
+        let coarse = instance_world_box(instance, blas, None);
+        for t in &mesh.triangles {
+            let placed = instance.place(t).bounds();
+            assert!(tight.min.cmple(placed.min).all() && tight.max.cmpge(placed.max).all());
+        }
+        // Both are padded for rounding; the hull's pad may reach past an exact corner.
+        assert!(tight.surface_area() <= coarse.surface_area() * (1.0 + 1e-5));
+        tighter += usize::from(tight.surface_area() < coarse.surface_area() * 0.999);
+    }
+    assert!(
+        turned > 20 && tighter * 10 >= turned * 8,
+        "{tighter} of {turned}"
     );
 }

@@ -32,9 +32,9 @@ use super::{BuildParams, Outline, OutlineNode, StructureReport, TraversalOrder};
 use crate::accel::progress::BuildProgress;
 use crate::accel::report::Detail;
 use crate::geometry::simd::SimdLevel;
-use crate::geometry::{Aabb, Triangle};
+use crate::geometry::{Aabb, Triangle, hull};
 use crate::scene::{Instance, Instancing, TransformError};
-use glam::Affine3A;
+use glam::{Affine3A, Vec3};
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
 
@@ -44,6 +44,8 @@ use std::time::{Duration, Instant};
 pub struct TwoLevel {
     /// One BVH8 per unique mesh, over its object-space triangles.
     pub blases: Vec<Bvh8>,
+    /// Each unique mesh's convex hull, for its rotated instances' world boxes.
+    pub hulls: Vec<Option<MeshHull>>,
     pub instances: Vec<Instance>,
     /// The flattened index of each instance's first triangle (64-bit: instancing places
     /// more triangles than 32 bits can number).
@@ -139,10 +141,20 @@ pub fn build(
             })
         })
         .collect::<Result<Vec<_>, _>>()?;
+    // A hull only serves rotated or scaled instances.
+    let mut turned = vec![false; scene.meshes.len()];
+    for i in scene.instances.iter() {
+        if let Some(t) = turned.get_mut(i.mesh) {
+            *t |= !i.is_identity() && !i.is_translation();
+        }
+    }
+    let hulls: Vec<Option<MeshHull>> = (scene.meshes.par_iter().zip(&turned))
+        .map(|(triangles, &turned)| turned.then(|| MeshHull::of(triangles)).flatten())
+        .collect();
     let blas_time = start.elapsed();
 
     let start = Instant::now();
-    let (tlas, references) = build_tlas(&blases, &scene.instances, params)?;
+    let (tlas, references) = build_tlas(&blases, &hulls, &scene.instances, params)?;
     let times = LevelTimes {
         blas: blas_time,
         tlas: start.elapsed(),
@@ -154,6 +166,7 @@ pub fn build(
         first_reference: first_reference(&references, scene.instances.len()),
         references,
         blases,
+        hulls,
         instances: scene.instances.to_vec(),
         first_triangle,
         tlas,
@@ -194,9 +207,29 @@ fn collapse_params(params: &BuildParams, max_leaf_size: u32) -> CollapseParams {
 /// at that depth is transformed and their union taken (`Reference::world_box`).
 const WORLD_BOX_DEPTH: u32 = 2;
 
-/// The world box of `instance` of `blas` as a whole: its BLAS root's placed box.
-pub fn instance_world_box(instance: &Instance, blas: &Bvh8) -> Aabb {
-    rebraid::placed_box(instance, blas, Subtree::ROOT)
+/// The world box of `instance` of `blas` as a whole (`hull`: its mesh's, if it has one).
+pub fn instance_world_box(instance: &Instance, blas: &Bvh8, hull: Option<&MeshHull>) -> Aabb {
+    rebraid::placed_box(instance, blas, hull, Subtree::ROOT)
+}
+
+/// A unique mesh's convex hull: its vertices, which place to a rotated instance's tightest
+/// world box, and how far beyond it a mesh point may lie (`geometry::hull`).
+#[derive(Clone, Debug)]
+pub struct MeshHull {
+    pub vertices: Vec<Vec3>,
+    pub tolerance: f32,
+}
+
+impl MeshHull {
+    /// The hull of `triangles`' corners; `None` for a flat mesh, or where rounding made the
+    /// hull doubtful (its instances then take the box of their BLAS's boxes placed).
+    pub fn of(triangles: &[Triangle]) -> Option<MeshHull> {
+        let points: Vec<Vec3> = triangles.iter().flat_map(|t| t.v).collect();
+        Some(MeshHull {
+            vertices: hull::hull_vertices(&points)?,
+            tolerance: hull::tolerance(&points),
+        })
+    }
 }
 
 /// For each instance, where its references start in `references` (sorted by instance),
@@ -229,10 +262,11 @@ fn leaf_references(
 /// `params.rebraid` allows) and the references.
 fn build_tlas(
     blases: &[Bvh8],
+    hulls: &[Option<MeshHull>],
     instances: &[Instance],
     params: &BuildParams,
 ) -> Result<(Bvh8, Vec<Reference>), BuildError> {
-    let placed = rebraid::references(blases, instances, params.rebraid);
+    let placed = rebraid::references(blases, hulls, instances, params.rebraid);
     let boxes: Vec<Aabb> = placed.iter().map(|p| p.bounds).collect();
     let references: Vec<Reference> = placed.iter().map(|p| p.reference).collect();
     let tlas = build_top(&boxes, &references, params)?;
@@ -311,7 +345,7 @@ impl TwoLevel {
             .into_par_iter()
             .with_min_len(1024)
             .map(|r| MovedReference {
-                bounds: self.references[r].world_box(&self.instances, &self.blases),
+                bounds: self.references[r].world_box(&self.instances, &self.blases, &self.hulls),
                 slot: self.top_index.slot_of(r),
                 reference: r as u32,
                 leaf_slot: self.top_index.leaf_slot_of(r).map(|k| k as u32),
@@ -346,7 +380,7 @@ impl TwoLevel {
             .into_par_iter()
             .map(|r| match self.top_index.slot_of(r) {
                 Some((node, lane)) => self.tlas.nodes[node as usize].child_bounds(lane as usize),
-                None => self.references[r].world_box(&self.instances, &self.blases),
+                None => self.references[r].world_box(&self.instances, &self.blases, &self.hulls),
             })
             .collect();
         let mut tlas = build_top(&boxes, &self.references, &self.params)?;

@@ -17,7 +17,7 @@
 //! that reference's subtree instead of from the root. With `rebraid` 0 each instance is one
 //! reference, its BLAS's root: the top level over whole instances.
 
-use super::WORLD_BOX_DEPTH;
+use super::{MeshHull, WORLD_BOX_DEPTH};
 use crate::accel::bvh::wide::WideNode;
 use crate::accel::bvh::{Bvh8, Subtree};
 use crate::geometry::Aabb;
@@ -51,10 +51,16 @@ impl Reference {
         })
     }
 
-    /// Its box in the world (`placed_box`).
-    pub fn world_box(&self, instances: &[Instance], blases: &[Bvh8]) -> Aabb {
+    /// Its box in the world (`placed_box`), `hulls` holding each mesh's hull vertices.
+    pub fn world_box(
+        &self,
+        instances: &[Instance],
+        blases: &[Bvh8],
+        hulls: &[Option<MeshHull>],
+    ) -> Aabb {
         let instance = &instances[self.instance as usize];
-        placed_box(instance, &blases[instance.mesh], self.subtree)
+        let hull = hulls.get(instance.mesh).and_then(Option::as_ref);
+        placed_box(instance, &blases[instance.mesh], hull, self.subtree)
     }
 }
 
@@ -64,7 +70,20 @@ impl Reference {
 /// by one, hug it closer, and the top-level boxes overlap less. The identity's boxes are
 /// the BLAS's own, exactly: its rays are not transformed, so there is no rounding to pad
 /// for (a padded box would take in rays that start just off a surface, as bounced rays do).
-pub fn placed_box(instance: &Instance, blas: &Bvh8, subtree: Subtree) -> Aabb {
+///
+/// A whole instance of a mesh with a hull (`MeshHull`) takes the placed hull's box instead:
+/// the tightest, and no dearer than the 64 boxes.
+pub fn placed_box(
+    instance: &Instance,
+    blas: &Bvh8,
+    hull: Option<&MeshHull>,
+    subtree: Subtree,
+) -> Aabb {
+    let whole_and_turned =
+        subtree == Subtree::ROOT && !instance.is_identity() && !instance.is_translation();
+    if let Some(hull) = hull.filter(|_| whole_and_turned) {
+        return instance.world_bounds_of_hull(&hull.vertices, hull.tolerance);
+    }
     let object = match subtree.is_leaf() {
         true => leaf_box(blas, subtree),
         false => blas.nodes[subtree.node_index()].bounds(),
@@ -134,7 +153,12 @@ pub struct Placed {
 /// The top level's references with their world boxes: each instance of a non-empty mesh
 /// whole, then, with a `rebraid` budget above 0, the largest opened greedily. Sorted by
 /// instance, then by subtree, so that each instance's references lie together.
-pub fn references(blases: &[Bvh8], instances: &[Instance], rebraid: f32) -> Vec<Placed> {
+pub fn references(
+    blases: &[Bvh8],
+    hulls: &[Option<MeshHull>],
+    instances: &[Instance],
+    rebraid: f32,
+) -> Vec<Placed> {
     let mut placed: Vec<Placed> = instances
         .iter()
         .enumerate()
@@ -144,7 +168,7 @@ pub fn references(blases: &[Bvh8], instances: &[Instance], rebraid: f32) -> Vec<
         .into_par_iter()
         .with_min_len(1024)
         .map(|reference| Placed {
-            bounds: reference.world_box(instances, blases),
+            bounds: reference.world_box(instances, blases, hulls),
             reference,
         })
         .collect();
@@ -157,7 +181,7 @@ pub fn references(blases: &[Bvh8], instances: &[Instance], rebraid: f32) -> Vec<
             .par_iter_mut()
             .with_min_len(1024)
             .filter(|p| p.reference.subtree != Subtree::ROOT)
-            .for_each(|p| p.bounds = p.reference.world_box(instances, blases));
+            .for_each(|p| p.bounds = p.reference.world_box(instances, blases, hulls));
     }
     placed.sort_unstable_by_key(|p| (p.reference.instance, p.reference.subtree));
     placed
