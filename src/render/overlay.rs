@@ -77,6 +77,7 @@ pub fn outline_corners(
     let (w, h) = (frame.width, frame.height);
     let basis = camera.basis();
     let forward = -basis.2;
+    let rays = camera.rays(w, h);
     for &(i, j) in &BOX_EDGES {
         let (mut a, mut c) = (corners[i], corners[j]);
         // Clip the edge to the part in front of the eye.
@@ -90,7 +91,7 @@ pub fn outline_corners(
         } else if zc < near {
             c = c + (a - c) * ((near - zc) / (za - zc));
         }
-        let (Some(pa), Some(pc)) = (camera.project(a, w, h), camera.project(c, w, h)) else {
+        let (Some(pa), Some(pc)) = (rays.project(a), rays.project(c)) else {
             continue;
         };
         let pixels = (pa.0 - pc.0).abs().max((pa.1 - pc.1).abs());
@@ -101,7 +102,7 @@ pub fn outline_corners(
         let steps = (2.0 * pixels).ceil().clamp(1.0, 16384.0) as u32;
         for s in 0..=steps {
             let p = a + (c - a) * (s as f32 / steps as f32);
-            let Some((x, y, depth)) = camera.project(p, w, h) else {
+            let Some((x, y, depth)) = rays.project(p) else {
                 continue;
             };
             if !(x >= 0.0 && y >= 0.0 && x < w as f32 && y < h as f32) {

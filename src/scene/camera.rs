@@ -64,19 +64,7 @@ impl Camera {
     /// and its distance from the eye (the t of a primary ray, whose direction is unit
     /// length). `None` behind the eye.
     pub fn project(&self, p: Vec3, width: u32, height: u32) -> Option<(f32, f32, f32)> {
-        let rays = self.rays(width, height);
-        let v = p - self.eye;
-        let z = v.dot(rays.forward);
-        if z <= 1e-6 * v.length().max(1e-30) {
-            return None;
-        }
-        let sx = v.dot(rays.right) / (z * rays.right.length_squared());
-        let sy = v.dot(rays.up) / (z * rays.up.length_squared());
-        Some((
-            (sx + 1.0) * 0.5 * rays.width,
-            (1.0 - sy) * 0.5 * rays.height,
-            v.length(),
-        ))
+        self.rays(width, height).project(p)
     }
 }
 
@@ -92,6 +80,23 @@ pub struct CameraRays {
 }
 
 impl CameraRays {
+    /// `Camera::project` with the image plane made once: what a loop over many points
+    /// calls, as the camera's basis and field of view cost a normalisation and a tangent.
+    pub fn project(&self, p: Vec3) -> Option<(f32, f32, f32)> {
+        let v = p - self.eye;
+        let z = v.dot(self.forward);
+        if z <= 1e-6 * v.length().max(1e-30) {
+            return None;
+        }
+        let sx = v.dot(self.right) / (z * self.right.length_squared());
+        let sy = v.dot(self.up) / (z * self.up.length_squared());
+        Some((
+            (sx + 1.0) * 0.5 * self.width,
+            (1.0 - sy) * 0.5 * self.height,
+            v.length(),
+        ))
+    }
+
     /// The ray through image position (x, y) in pixels, y down; (px + 0.5, py + 0.5) is the
     /// centre of pixel (px, py).
     pub fn ray(&self, x: f32, y: f32) -> Ray {
