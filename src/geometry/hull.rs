@@ -92,6 +92,8 @@ impl Builder {
         if points.iter().any(|p| !p.is_finite()) {
             return None;
         }
+        // Over the points as given: dropping repeats changes no extent.
+        let tolerance = f64::from(tolerance(points));
         let mut seen = HashSet::new();
         let points: Vec<DVec3> = points
             .iter()
@@ -99,9 +101,7 @@ impl Builder {
             .map(|p| p.as_dvec3())
             .collect();
         (points.len() >= 4).then(|| Builder {
-            tolerance: f64::from(tolerance(
-                &points.iter().map(|p| p.as_vec3()).collect::<Vec<_>>(),
-            )),
+            tolerance,
             points,
             faces: Vec::new(),
             live: Vec::new(),
