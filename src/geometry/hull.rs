@@ -11,8 +11,9 @@
 //! a surface that does not close, a point left outside it) is refused (`None`), and the
 //! caller keeps its coarser box.
 
-use glam::{DVec3, Vec3};
-use std::collections::HashSet;
+use crate::geometry::Aabb;
+use glam::{Affine3A, DVec3, Vec3};
+use std::collections::{HashMap, HashSet};
 
 /// A face: its corners counter-clockwise seen from outside, and its outward unit normal
 /// with the plane's offset.
@@ -29,8 +30,12 @@ struct Face {
 struct Builder {
     points: Vec<DVec3>,
     faces: Vec<Face>,
-    /// The faces still on the surface.
-    live: Vec<usize>,
+    /// Each directed edge of the surface, and the face that has it counter-clockwise: the
+    /// face across an edge (a, b) is the one with (b, a).
+    edges: HashMap<(u32, u32), usize>,
+    /// The point whose visible faces were last sought, for each face tested for it, and
+    /// whether the face sees it.
+    tested: Vec<(u32, bool)>,
     /// A point is outside a face when its distance beyond the plane exceeds this.
     tolerance: f64,
 }
@@ -55,7 +60,7 @@ pub fn hull_vertices(points: &[Vec3]) -> Option<Vec<Vec3>> {
             .outside
             .iter()
             .max_by(|x, y| far(x).total_cmp(&far(y)))?;
-        let new = b.insert(p)?;
+        let new = b.insert(p, f)?;
         pending.extend(new);
     }
     b.faces.retain(|f| f.alive);
@@ -104,7 +109,8 @@ impl Builder {
             tolerance,
             points,
             faces: Vec::new(),
-            live: Vec::new(),
+            edges: HashMap::new(),
+            tested: Vec::new(),
         })
     }
 
@@ -146,6 +152,7 @@ impl Builder {
     }
 
     fn add_face(&mut self, v: [u32; 3]) -> Option<()> {
+        let [a_, b_, c_] = v;
         let [a, b, c] = v.map(|i| self.points[i as usize]);
         let n = (b - a).cross(c - a);
         let length = n.length();
@@ -154,7 +161,14 @@ impl Builder {
             return None;
         }
         let normal = n / length;
-        self.live.push(self.faces.len());
+        let f = self.faces.len();
+        for e in [(a_, b_), (b_, c_), (c_, a_)] {
+            // An edge already on the surface: rounding made the horizon no simple loop.
+            if self.edges.insert(e, f).is_some() {
+                return None;
+            }
+        }
+        self.tested.push((u32::MAX, false));
         self.faces.push(Face {
             v,
             normal,
@@ -178,33 +192,43 @@ impl Builder {
         }
     }
 
-    /// Joins point `p`, which some face sees, to the surface: the faces it sees go, the
-    /// edges around them (each seen face's edge whose other face is not seen) are joined
+    /// Joins point `p`, which face `from` sees, to the surface: the faces it sees go (found
+    /// from `from` across edges, as the faces a point sees on a convex surface meet), the
+    /// edges around them (each seen face's edge whose face across is not seen) are joined
     /// to `p`, and the seen faces' points are shared out among the new faces. Returns the
     /// new faces.
-    fn insert(&mut self, p: u32) -> Option<std::ops::Range<usize>> {
-        let seen: Vec<usize> = (self.live.iter().copied())
-            .filter(|&f| self.beyond(&self.faces[f], p) > self.tolerance)
-            .collect();
-        let edges: HashSet<(u32, u32)> = seen
-            .iter()
-            .flat_map(|&f| {
-                let [a, b, c] = self.faces[f].v;
-                [(a, b), (b, c), (c, a)]
-            })
-            .collect();
+    fn insert(&mut self, p: u32, from: usize) -> Option<std::ops::Range<usize>> {
+        let mut seen = vec![from];
+        self.tested[from] = (p, true);
+        let mut horizon = Vec::new();
+        let mut next = 0;
+        while let Some(&f) = seen.get(next) {
+            next += 1;
+            let [a, b, c] = self.faces[f].v;
+            for (a, b) in [(a, b), (b, c), (c, a)] {
+                let g = *self.edges.get(&(b, a))?;
+                if self.tested[g].0 != p {
+                    let sees = self.beyond(&self.faces[g], p) > self.tolerance;
+                    self.tested[g] = (p, sees);
+                    if sees {
+                        seen.push(g);
+                    }
+                }
+                if !self.tested[g].1 {
+                    horizon.push((a, b));
+                }
+            }
+        }
         let mut orphans = Vec::new();
         for &f in &seen {
             self.faces[f].alive = false;
+            let [a, b, c] = self.faces[f].v;
+            for e in [(a, b), (b, c), (c, a)] {
+                self.edges.remove(&e);
+            }
             orphans.extend(std::mem::take(&mut self.faces[f].outside));
         }
         orphans.retain(|&q| q != p);
-        self.live.retain(|&f| self.faces[f].alive);
-        let mut horizon: Vec<(u32, u32)> = edges
-            .iter()
-            .copied()
-            .filter(|&(a, b)| !edges.contains(&(b, a)))
-            .collect();
         horizon.sort_unstable();
         let first = self.faces.len();
         for (a, b) in horizon {
@@ -216,36 +240,11 @@ impl Builder {
     }
 
     /// Whether every point lies within the tolerance inside every face: the check that
-    /// rounding did not leave one out. The planes as arrays, so that the loop over them is
-    /// vectorised.
+    /// rounding did not leave one out. Points nearer the hull's centre than its nearest face
+    /// are inside them all; the others are screened in f32 over whole vectors of planes
+    /// (`screen`), and only those the screen cannot place inside by a clear margin are
+    /// checked again in f64: the hull's own vertices and points on its faces.
     fn all_inside(&self) -> bool {
-        let column = |k: usize| -> Vec<f64> {
-            self.faces
-                .iter()
-                .map(|f| match k {
-                    0 => f.normal.x,
-                    1 => f.normal.y,
-                    2 => f.normal.z,
-                    _ => f.offset + self.tolerance,
-                })
-                .collect()
-        };
-        let (nx, ny, nz, off) = (column(0), column(1), column(2), column(3));
-        const LANES: usize = 8;
-        let n = off.len().div_ceil(LANES) * LANES;
-        // Padded with a plane no point is beyond.
-        let pad = |mut v: Vec<f64>, with: f64| {
-            v.resize(n, with);
-            v
-        };
-        let (nx, ny, nz, off) = (pad(nx, 0.0), pad(ny, 0.0), pad(nz, 0.0), pad(off, 1.0));
-        let planes: Vec<[[f64; LANES]; 4]> = (0..n / LANES)
-            .map(|c| {
-                let lanes = |v: &[f64]| std::array::from_fn(|k| v[c * LANES + k]);
-                [lanes(&nx), lanes(&ny), lanes(&nz), lanes(&off)]
-            })
-            .collect();
-        // A point nearer the hull's centre than its nearest face is inside them all.
         let used: HashSet<u32> = self.faces.iter().flat_map(|f| f.v).collect();
         let centre =
             used.iter().map(|&v| self.points[v as usize]).sum::<DVec3>() / used.len() as f64;
@@ -254,19 +253,30 @@ impl Builder {
             .fold(f64::INFINITY, f64::min)
             - self.tolerance;
         let inner = inner.max(0.0).powi(2);
-        self.points
-            .iter()
+        // The points came from f32, so `as_vec3` gives them back exactly.
+        let outer: Vec<Vec3> = (self.points.iter())
             .filter(|p| p.distance_squared(centre) >= inner)
-            .all(|p| {
-                let mut worst = [f64::NEG_INFINITY; LANES];
-                for [x, y, z, o] in &planes {
-                    for k in 0..LANES {
-                        let d = x[k] * p.x + y[k] * p.y + z[k] * p.z - o[k];
-                        worst[k] = if d > worst[k] { d } else { worst[k] };
-                    }
-                }
-                worst.iter().all(|&w| w <= 0.0)
+            .map(|p| p.as_vec3())
+            .collect();
+        let planes: Vec<[f64; 4]> = (self.faces.iter())
+            .map(|f| {
+                [
+                    f.normal.x,
+                    f.normal.y,
+                    f.normal.z,
+                    f.offset + self.tolerance,
+                ]
             })
+            .collect();
+        // Each plane's offset is at most a point's |x| + |y| + |z| (its normal is a unit
+        // vector through a corner), so the f32 test's error is below 12 units of f32
+        // rounding of `reach` (normal and offset rounded, four operations): 2^-18 is 5×
+        // that.
+        let reach = (self.points.iter())
+            .map(|p| p.abs().element_sum())
+            .fold(self.tolerance, f64::max);
+        let margin = (reach * f64::powi(2.0, -18)) as f32;
+        screen(&planes, &outer, margin)
     }
 
     /// Whether every edge of the surface has the face across it: each directed edge once,
@@ -282,6 +292,219 @@ impl Builder {
             }
         }
         edges.iter().all(|&(a, b)| edges.contains(&(b, a)))
+    }
+}
+
+/// Whether every point of `points` lies on the inner side of every plane (normal,
+/// offset), as the f64 test `d = n · p − offset ≤ 0` finds, with the widest vectors the CPU
+/// has: each point against all planes in f32, and in f64 only against the planes that the
+/// f32 test cannot place it inside of by more than `margin` (its rounding is below that).
+/// Most points are far inside every plane; those on a face, as the island's grass has
+/// half its points on the ground, are near one or two.
+fn screen(planes: &[[f64; 4]], points: &[Vec3], margin: f32) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU has AVX-512 F (checked just before).
+            return unsafe { screen_avx512(planes, points, margin) };
+        }
+        if is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2 (checked just before).
+            return unsafe { screen_avx2(planes, points, margin) };
+        }
+    }
+    screen_portable(planes, points, margin)
+}
+
+/// Planes in chunks of `L` as f32 columns (normal x, y, z, offset), padded with a plane
+/// every point is far inside.
+#[repr(C, align(64))]
+struct PlaneChunk<const L: usize>([[f32; L]; 4]);
+
+fn plane_chunks<const L: usize>(planes: &[[f64; 4]]) -> Vec<PlaneChunk<L>> {
+    let mut chunks = Vec::new();
+    for c in planes.chunks(L) {
+        let mut rows = [[0.0; L], [0.0; L], [0.0; L], [f32::MAX; L]];
+        for (k, plane) in c.iter().enumerate() {
+            for (row, &v) in rows.iter_mut().zip(plane) {
+                row[k] = v as f32;
+            }
+        }
+        chunks.push(PlaneChunk(rows));
+    }
+    chunks
+}
+
+/// The f64 test of `q` against the planes `first + k` for each bit k of `near`.
+#[inline(always)]
+fn inside_near(planes: &[[f64; 4]], first: usize, mut near: u32, q: DVec3) -> bool {
+    while near != 0 {
+        let [x, y, z, o] = planes[first + near.trailing_zeros() as usize];
+        if x * q.x + y * q.y + z * q.z - o > 0.0 {
+            return false;
+        }
+        near &= near - 1;
+    }
+    true
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn screen_avx512(planes: &[[f64; 4]], points: &[Vec3], margin: f32) -> bool {
+    use std::arch::x86_64::*;
+    let chunks = plane_chunks::<16>(planes);
+    let limit = _mm512_set1_ps(-margin);
+    for p in points {
+        let (x, y, z) = (
+            _mm512_set1_ps(p.x),
+            _mm512_set1_ps(p.y),
+            _mm512_set1_ps(p.z),
+        );
+        for (c, PlaneChunk([nx, ny, nz, o])) in chunks.iter().enumerate() {
+            // SAFETY: each row is 16 f32, 64-byte aligned (`PlaneChunk`).
+            let d = unsafe {
+                let d = _mm512_mul_ps(_mm512_load_ps(nx.as_ptr()), x);
+                let d = _mm512_add_ps(d, _mm512_mul_ps(_mm512_load_ps(ny.as_ptr()), y));
+                let d = _mm512_add_ps(d, _mm512_mul_ps(_mm512_load_ps(nz.as_ptr()), z));
+                _mm512_sub_ps(d, _mm512_load_ps(o.as_ptr()))
+            };
+            let near = u32::from(_mm512_cmp_ps_mask::<_CMP_GT_OQ>(d, limit));
+            if near != 0 && !inside_near(planes, c * 16, near, p.as_dvec3()) {
+                return false;
+            }
+        }
+    }
+    true
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn screen_avx2(planes: &[[f64; 4]], points: &[Vec3], margin: f32) -> bool {
+    use std::arch::x86_64::*;
+    let chunks = plane_chunks::<8>(planes);
+    let limit = _mm256_set1_ps(-margin);
+    for p in points {
+        let (x, y, z) = (
+            _mm256_set1_ps(p.x),
+            _mm256_set1_ps(p.y),
+            _mm256_set1_ps(p.z),
+        );
+        for (c, PlaneChunk([nx, ny, nz, o])) in chunks.iter().enumerate() {
+            // SAFETY: each row is 8 f32, 64-byte aligned (`PlaneChunk`).
+            let d = unsafe {
+                let d = _mm256_mul_ps(_mm256_load_ps(nx.as_ptr()), x);
+                let d = _mm256_add_ps(d, _mm256_mul_ps(_mm256_load_ps(ny.as_ptr()), y));
+                let d = _mm256_add_ps(d, _mm256_mul_ps(_mm256_load_ps(nz.as_ptr()), z));
+                _mm256_sub_ps(d, _mm256_load_ps(o.as_ptr()))
+            };
+            let near = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(d, limit)) as u32;
+            if near != 0 && !inside_near(planes, c * 8, near, p.as_dvec3()) {
+                return false;
+            }
+        }
+    }
+    true
+}
+
+/// `screen` plane by plane, in the same f32 arithmetic as the vector versions.
+fn screen_portable(planes: &[[f64; 4]], points: &[Vec3], margin: f32) -> bool {
+    let chunks = plane_chunks::<1>(planes);
+    points.iter().all(|p| {
+        (chunks.iter().enumerate()).all(|(c, PlaneChunk([[x], [y], [z], [o]]))| {
+            let d = x * p.x + y * p.y + z * p.z - o;
+            d <= -margin || inside_near(planes, c, 1, p.as_dvec3())
+        })
+    })
+}
+
+/// A hull's vertices as three columns, padded with copies of the first to whole vectors:
+/// placed once for each of an instanced mesh's rotated instances (the island's trees have
+/// 266–655 hull vertices and 50 000 instances each), so placed over whole vectors.
+#[derive(Clone, Debug)]
+pub struct HullColumns {
+    columns: [Vec<f32>; 3],
+}
+
+/// The widest vector `HullColumns::placed_box` uses, in f32 lanes.
+const PLACE_LANES: usize = 16;
+
+impl HullColumns {
+    pub fn new(vertices: &[Vec3]) -> HullColumns {
+        let n = vertices.len().div_ceil(PLACE_LANES) * PLACE_LANES;
+        let column = |k: usize| -> Vec<f32> {
+            (0..n)
+                .map(|i| vertices.get(i).or(vertices.first()).map_or(0.0, |v| v[k]))
+                .collect()
+        };
+        HullColumns {
+            columns: [column(0), column(1), column(2)],
+        }
+    }
+
+    /// The box of the vertices mapped by `m`, each mapped as `Affine3A::transform_point3`
+    /// maps it, bit for bit (empty without vertices).
+    pub fn placed_box(&self, m: &Affine3A) -> Aabb {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if is_x86_feature_detected!("avx512f") {
+                // SAFETY: the CPU has AVX-512 F (checked just before).
+                return unsafe { self.placed_avx512(m) };
+            }
+            if is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU has AVX2 (checked just before).
+                return unsafe { self.placed_avx2(m) };
+            }
+        }
+        self.placed_lanes::<4>(m)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn placed_avx512(&self, m: &Affine3A) -> Aabb {
+        self.placed_lanes::<16>(m)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn placed_avx2(&self, m: &Affine3A) -> Aabb {
+        self.placed_lanes::<8>(m)
+    }
+
+    /// `placed_box` over `L` vertices at a time. Each coordinate sums the three axes'
+    /// terms in `transform_point3`'s order; the shift is added to the lowest and highest
+    /// sums only, which is the same, as rounding keeps order.
+    #[inline(always)]
+    pub(crate) fn placed_lanes<const L: usize>(&self, m: &Affine3A) -> Aabb {
+        const { assert!(PLACE_LANES.is_multiple_of(L)) };
+        let [xs, ys, zs] = &self.columns;
+        let a = [m.matrix3.x_axis, m.matrix3.y_axis, m.matrix3.z_axis];
+        let mut lo = [[f32::INFINITY; L]; 3];
+        let mut hi = [[f32::NEG_INFINITY; L]; 3];
+        let points = xs
+            .chunks_exact(L)
+            .zip(ys.chunks_exact(L))
+            .zip(zs.chunks_exact(L));
+        for ((x, y), z) in points {
+            for j in 0..3 {
+                for k in 0..L {
+                    let v = a[0][j] * x[k] + a[1][j] * y[k] + a[2][j] * z[k];
+                    lo[j][k] = if v < lo[j][k] { v } else { lo[j][k] };
+                    hi[j][k] = if v > hi[j][k] { v } else { hi[j][k] };
+                }
+            }
+        }
+        if xs.is_empty() {
+            return Aabb::EMPTY;
+        }
+        let (mut low, mut high) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        for j in 0..3 {
+            for k in 0..L {
+                low[j] = low[j].min(lo[j][k]);
+                high[j] = high[j].max(hi[j][k]);
+            }
+        }
+        let t = Vec3::from(m.translation);
+        Aabb::new(low + t, high + t)
     }
 }
 
@@ -361,5 +584,88 @@ mod tests {
         let mut bad = cloud(&mut rng, 10);
         bad[4].x = f32::NAN;
         assert!(hull_vertices(&bad).is_none());
+    }
+
+    /// The screen finds inside what the f64 test over all planes finds inside, whatever the
+    /// lane width: points deep inside, on the faces, and a hair beyond them.
+    #[test]
+    fn the_f32_screen_leaves_every_doubtful_point_to_the_f64_test() {
+        let mut rng = Rng(5);
+        let points = cloud(&mut rng, 3000);
+        let mut b = Builder::new(&points).unwrap();
+        b.tetrahedron().unwrap();
+        let planes: Vec<[f64; 4]> = (b.faces.iter())
+            .map(|f| [f.normal.x, f.normal.y, f.normal.z, f.offset])
+            .collect();
+        let mut probes = cloud(&mut rng, 2000);
+        // Points on the faces' planes, and nudged by a unit of rounding either way.
+        for f in &b.faces {
+            let [p, q, r] = f.v.map(|v| b.points[v as usize]);
+            for _ in 0..50 {
+                let (u, v) = (rng.unit(), rng.unit());
+                let on = p + (q - p) * u * (1.0 - v) + (r - p) * v;
+                for nudge in [-1e-7, 0.0, 1e-7] {
+                    probes.push((on + f.normal * nudge).as_vec3());
+                }
+            }
+        }
+        let margin = (3.0 * f64::powi(2.0, -18)) as f32;
+        let inside = |p: Vec3| {
+            let q = p.as_dvec3();
+            (planes.iter()).all(|[x, y, z, o]| x * q.x + y * q.y + z * q.z - o <= 0.0)
+        };
+        let outside = probes.iter().filter(|&&p| !inside(p)).count();
+        assert!(outside > 100, "{outside} probes outside");
+        for &p in &probes {
+            assert_eq!(screen(&planes, &[p], margin), inside(p), "{p}");
+            assert_eq!(screen_portable(&planes, &[p], margin), inside(p), "{p}");
+            #[cfg(target_arch = "x86_64")]
+            if is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU has AVX2 (checked just before).
+                assert_eq!(
+                    unsafe { screen_avx2(&planes, &[p], margin) },
+                    inside(p),
+                    "{p}"
+                );
+            }
+        }
+        assert!(!screen(&planes, &probes, margin));
+    }
+
+    /// A hull's columns place to the box of its vertices placed one by one, bit for bit, at
+    /// every lane width.
+    #[test]
+    fn the_columns_place_as_the_vertices_do() {
+        let mut rng = Rng(13);
+        for n in [1, 5, 16, 17, 100] {
+            let vertices: Vec<Vec3> = cloud(&mut rng, n).iter().map(|p| *p * 40.0).collect();
+            let columns = HullColumns::new(&vertices);
+            for _ in 0..20 {
+                let axis = (random_vec(&mut rng) - 0.5).normalize();
+                let m = Affine3A::from_scale_rotation_translation(
+                    random_vec(&mut rng) * 3.0 + 0.1,
+                    Quat::from_axis_angle(axis, rng.unit() as f32 * 6.3),
+                    (random_vec(&mut rng) - 0.5) * 1000.0,
+                );
+                let each = Aabb::from_points(vertices.iter().map(|&p| m.transform_point3(p)));
+                for placed in [
+                    columns.placed_box(&m),
+                    columns.placed_lanes::<4>(&m),
+                    columns.placed_lanes::<8>(&m),
+                    columns.placed_lanes::<16>(&m),
+                ] {
+                    assert_eq!(
+                        (placed.min, placed.max),
+                        (each.min, each.max),
+                        "{n} vertices"
+                    );
+                }
+            }
+        }
+        assert!(
+            HullColumns::new(&[])
+                .placed_box(&Affine3A::IDENTITY)
+                .is_empty()
+        );
     }
 }

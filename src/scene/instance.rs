@@ -2,6 +2,7 @@
 //! lecture's way to Moana's billions of triangles from millions of unique ones. Each
 //! instance keeps its inverse, which carries rays into the mesh's own space.
 
+use crate::geometry::hull::HullColumns;
 use crate::geometry::{Aabb, Triangle};
 use glam::{Affine3A, DAffine3, DMat3, Mat3, Mat3A, Vec3A};
 
@@ -130,8 +131,8 @@ impl Instance {
     /// mesh point lying at most `tolerance` beyond the hull (`geometry::hull`): the box of
     /// the placed vertices, the tightest a placed mesh has, widened by what the tolerance
     /// can move a placed point and then padded as `world_bounds` pads.
-    pub fn world_bounds_of_hull(&self, hull: &[glam::Vec3], tolerance: f32) -> Aabb {
-        let placed = Aabb::from_points(hull.iter().map(|&p| self.transform.transform_point3(p)));
+    pub fn world_bounds_of_hull(&self, hull: &HullColumns, tolerance: f32) -> Aabb {
+        let placed = hull.placed_box(&self.transform);
         if placed.is_empty() {
             return Aabb::EMPTY;
         }

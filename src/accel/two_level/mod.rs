@@ -227,6 +227,8 @@ const TRIANGLES_PER_HULLED_INSTANCE: usize = 1000;
 #[derive(Clone, Debug)]
 pub struct MeshHull {
     pub vertices: Vec<Vec3>,
+    /// The vertices as columns, as they are placed.
+    pub columns: hull::HullColumns,
     pub tolerance: f32,
 }
 
@@ -235,8 +237,10 @@ impl MeshHull {
     /// hull doubtful (its instances then take the box of their BLAS's boxes placed).
     pub fn of(triangles: &[Triangle]) -> Option<MeshHull> {
         let points: Vec<Vec3> = triangles.iter().flat_map(|t| t.v).collect();
+        let vertices = hull::hull_vertices(&points)?;
         Some(MeshHull {
-            vertices: hull::hull_vertices(&points)?,
+            columns: hull::HullColumns::new(&vertices),
+            vertices,
             tolerance: hull::tolerance(&points),
         })
     }

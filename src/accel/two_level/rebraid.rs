@@ -82,7 +82,7 @@ pub fn placed_box(
     let whole_and_turned =
         subtree == Subtree::ROOT && !instance.is_identity() && !instance.is_translation();
     if let Some(hull) = hull.filter(|_| whole_and_turned) {
-        return instance.world_bounds_of_hull(&hull.vertices, hull.tolerance);
+        return instance.world_bounds_of_hull(&hull.columns, hull.tolerance);
     }
     let object = match subtree.is_leaf() {
         true => leaf_box(blas, subtree),
