@@ -14,6 +14,48 @@
 use crate::geometry::Aabb;
 use glam::{Affine3A, DVec3, Vec3};
 use std::collections::{HashMap, HashSet};
+use std::hash::{BuildHasherDefault, Hasher};
+
+/// The hull's sets and maps of integer keys (point bits, vertex numbers, edges) hash a word
+/// with a multiply, not SipHash: no one chooses these keys to collide, and a mesh's 360 000
+/// corners are hashed at every build.
+type Map<K, V> = HashMap<K, V, BuildHasherDefault<WordHasher>>;
+type Set<K> = HashSet<K, BuildHasherDefault<WordHasher>>;
+
+#[derive(Default)]
+struct WordHasher(u64);
+
+impl WordHasher {
+    fn add(&mut self, word: u64) {
+        self.0 = (self.0.rotate_left(5) ^ word).wrapping_mul(0x517c_c1b7_2722_0a95);
+    }
+}
+
+impl Hasher for WordHasher {
+    fn write(&mut self, bytes: &[u8]) {
+        for chunk in bytes.chunks(8) {
+            let mut word = [0u8; 8];
+            word[..chunk.len()].copy_from_slice(chunk);
+            self.add(u64::from_le_bytes(word));
+        }
+    }
+
+    fn write_u32(&mut self, n: u32) {
+        self.add(u64::from(n));
+    }
+
+    fn write_u64(&mut self, n: u64) {
+        self.add(n);
+    }
+
+    fn write_usize(&mut self, n: usize) {
+        self.add(n as u64);
+    }
+
+    fn finish(&self) -> u64 {
+        self.0
+    }
+}
 
 /// A face: its corners counter-clockwise seen from outside, and its outward unit normal
 /// with the plane's offset.
@@ -32,7 +74,7 @@ struct Builder {
     faces: Vec<Face>,
     /// Each directed edge of the surface, and the face that has it counter-clockwise: the
     /// face across an edge (a, b) is the one with (b, a).
-    edges: HashMap<(u32, u32), usize>,
+    edges: Map<(u32, u32), usize>,
     /// The point whose visible faces were last sought, for each face tested for it, and
     /// whether the face sees it.
     tested: Vec<(u32, bool)>,
@@ -66,7 +108,7 @@ pub fn hull_vertices(points: &[Vec3]) -> Option<Vec<Vec3>> {
     b.faces.retain(|f| f.alive);
     b.is_closed().then_some(())?;
     b.all_inside().then_some(())?;
-    let used: HashSet<u32> = b.faces.iter().flat_map(|f| f.v).collect();
+    let used: Set<u32> = b.faces.iter().flat_map(|f| f.v).collect();
     let mut vertices: Vec<u32> = used.into_iter().collect();
     vertices.sort_unstable();
     Some(
@@ -99,7 +141,7 @@ impl Builder {
         }
         // Over the points as given: dropping repeats changes no extent.
         let tolerance = f64::from(tolerance(points));
-        let mut seen = HashSet::new();
+        let mut seen = Set::default();
         let points: Vec<DVec3> = points
             .iter()
             .filter(|p| seen.insert(p.to_array().map(f32::to_bits)))
@@ -109,7 +151,7 @@ impl Builder {
             tolerance,
             points,
             faces: Vec::new(),
-            edges: HashMap::new(),
+            edges: Map::default(),
             tested: Vec::new(),
         })
     }
@@ -245,7 +287,7 @@ impl Builder {
     /// (`screen`), and only those the screen cannot place inside by a clear margin are
     /// checked again in f64: the hull's own vertices and points on its faces.
     fn all_inside(&self) -> bool {
-        let used: HashSet<u32> = self.faces.iter().flat_map(|f| f.v).collect();
+        let used: Set<u32> = self.faces.iter().flat_map(|f| f.v).collect();
         let centre =
             used.iter().map(|&v| self.points[v as usize]).sum::<DVec3>() / used.len() as f64;
         let inner = (self.faces.iter())
@@ -282,7 +324,7 @@ impl Builder {
     /// Whether every edge of the surface has the face across it: each directed edge once,
     /// and its reverse once.
     fn is_closed(&self) -> bool {
-        let mut edges = HashSet::new();
+        let mut edges = Set::default();
         for f in &self.faces {
             let [a, b, c] = f.v;
             for e in [(a, b), (b, c), (c, a)] {
@@ -461,7 +503,39 @@ impl HullColumns {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
     fn placed_avx512(&self, m: &Affine3A) -> Aabb {
-        self.placed_lanes::<16>(m)
+        use std::arch::x86_64::*;
+        let [xs, ys, zs] = &self.columns;
+        if xs.is_empty() {
+            return Aabb::EMPTY;
+        }
+        let a = [m.matrix3.x_axis, m.matrix3.y_axis, m.matrix3.z_axis];
+        let row = |j: usize| a.map(|axis| _mm512_set1_ps(axis[j]));
+        let rows = [row(0), row(1), row(2)];
+        // The accumulators in registers: written as arrays, they lived on the stack.
+        let mut lo = [_mm512_set1_ps(f32::INFINITY); 3];
+        let mut hi = [_mm512_set1_ps(f32::NEG_INFINITY); 3];
+        for i in (0..xs.len()).step_by(16) {
+            // SAFETY: the columns' lengths are equal multiples of 16 (`new`), so the 16
+            // floats from i are in bounds.
+            let (x, y, z) = unsafe {
+                (
+                    _mm512_loadu_ps(xs.as_ptr().add(i)),
+                    _mm512_loadu_ps(ys.as_ptr().add(i)),
+                    _mm512_loadu_ps(zs.as_ptr().add(i)),
+                )
+            };
+            for j in 0..3 {
+                let [r0, r1, r2] = rows[j];
+                let v = _mm512_add_ps(_mm512_mul_ps(r0, x), _mm512_mul_ps(r1, y));
+                let v = _mm512_add_ps(v, _mm512_mul_ps(r2, z));
+                lo[j] = _mm512_min_ps(lo[j], v);
+                hi[j] = _mm512_max_ps(hi[j], v);
+            }
+        }
+        let low = Vec3::from(lo.map(|l| _mm512_reduce_min_ps(l)));
+        let high = Vec3::from(hi.map(|h| _mm512_reduce_max_ps(h)));
+        let t = Vec3::from(m.translation);
+        Aabb::new(low + t, high + t)
     }
 
     #[cfg(target_arch = "x86_64")]

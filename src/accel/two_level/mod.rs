@@ -123,24 +123,6 @@ pub fn build(
     }
 
     let start = Instant::now();
-    let blases = scene
-        .meshes
-        .par_iter()
-        .enumerate()
-        .map(|(m, triangles)| {
-            build_blas(triangles, params, progress).map_err(|e| match e {
-                // Name the triangle as the flattened scene numbers it, where it is placed.
-                BuildError::NonFinite(t) => BuildError::NonFinite(
-                    scene
-                        .instances
-                        .iter()
-                        .position(|i| i.mesh == m)
-                        .map_or(t, |i| first_triangle[i] as usize + t),
-                ),
-                e => e,
-            })
-        })
-        .collect::<Result<Vec<_>, _>>()?;
     // A hull serves only rotated or scaled instances, and pays only for a mesh placed many
     // times: its cost grows with the mesh, its gain with the instances.
     let mut turned = vec![0usize; scene.meshes.len()];
@@ -149,12 +131,38 @@ pub fn build(
             *t += usize::from(!i.is_identity() && !i.is_translation());
         }
     }
-    let hulls: Vec<Option<MeshHull>> = (scene.meshes.par_iter().zip(&turned))
-        .map(|(triangles, &turned)| {
-            let pays = turned > 0 && turned * TRIANGLES_PER_HULLED_INSTANCE >= triangles.len();
-            pays.then(|| MeshHull::of(triangles)).flatten()
-        })
-        .collect();
+    // The hulls are made beside the BLASes: a thread left idle by a build's serial top
+    // takes a hull.
+    let (blases, hulls) = rayon::join(
+        || {
+            (scene.meshes.par_iter().enumerate())
+                .map(|(m, triangles)| {
+                    build_blas(triangles, params, progress).map_err(|e| match e {
+                        // Name the triangle as the flattened scene numbers it, where it is
+                        // placed.
+                        BuildError::NonFinite(t) => BuildError::NonFinite(
+                            scene
+                                .instances
+                                .iter()
+                                .position(|i| i.mesh == m)
+                                .map_or(t, |i| first_triangle[i] as usize + t),
+                        ),
+                        e => e,
+                    })
+                })
+                .collect::<Result<Vec<_>, _>>()
+        },
+        || {
+            (scene.meshes.par_iter().zip(&turned))
+                .map(|(triangles, &turned)| {
+                    let pays =
+                        turned > 0 && turned * TRIANGLES_PER_HULLED_INSTANCE >= triangles.len();
+                    pays.then(|| MeshHull::of(triangles)).flatten()
+                })
+                .collect::<Vec<Option<MeshHull>>>()
+        },
+    );
+    let blases = blases?;
     let blas_time = start.elapsed();
 
     let start = Instant::now();
