@@ -538,10 +538,53 @@ impl HullColumns {
         Aabb::new(low + t, high + t)
     }
 
+    /// `placed_avx512` eight vertices at a time.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn placed_avx2(&self, m: &Affine3A) -> Aabb {
-        self.placed_lanes::<8>(m)
+        use std::arch::x86_64::*;
+        let [xs, ys, zs] = &self.columns;
+        if xs.is_empty() {
+            return Aabb::EMPTY;
+        }
+        let a = [m.matrix3.x_axis, m.matrix3.y_axis, m.matrix3.z_axis];
+        let row = |j: usize| a.map(|axis| _mm256_set1_ps(axis[j]));
+        let rows = [row(0), row(1), row(2)];
+        let mut lo = [_mm256_set1_ps(f32::INFINITY); 3];
+        let mut hi = [_mm256_set1_ps(f32::NEG_INFINITY); 3];
+        for i in (0..xs.len()).step_by(8) {
+            // SAFETY: the columns' lengths are equal multiples of 16 (`new`), so the 8
+            // floats from i are in bounds.
+            let (x, y, z) = unsafe {
+                (
+                    _mm256_loadu_ps(xs.as_ptr().add(i)),
+                    _mm256_loadu_ps(ys.as_ptr().add(i)),
+                    _mm256_loadu_ps(zs.as_ptr().add(i)),
+                )
+            };
+            for j in 0..3 {
+                let [r0, r1, r2] = rows[j];
+                let v = _mm256_add_ps(_mm256_mul_ps(r0, x), _mm256_mul_ps(r1, y));
+                let v = _mm256_add_ps(v, _mm256_mul_ps(r2, z));
+                lo[j] = _mm256_min_ps(lo[j], v);
+                hi[j] = _mm256_max_ps(hi[j], v);
+            }
+        }
+        let (mut low, mut high) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        for j in 0..3 {
+            let (mut l, mut h) = ([0f32; 8], [0f32; 8]);
+            // SAFETY: each array takes the 8 floats stored.
+            unsafe {
+                _mm256_storeu_ps(l.as_mut_ptr(), lo[j]);
+                _mm256_storeu_ps(h.as_mut_ptr(), hi[j]);
+            }
+            for k in 0..8 {
+                low[j] = low[j].min(l[k]);
+                high[j] = high[j].max(h[k]);
+            }
+        }
+        let t = Vec3::from(m.translation);
+        Aabb::new(low + t, high + t)
     }
 
     /// `placed_box` over `L` vertices at a time. Each coordinate sums the three axes'
@@ -722,12 +765,18 @@ mod tests {
                     (random_vec(&mut rng) - 0.5) * 1000.0,
                 );
                 let each = Aabb::from_points(vertices.iter().map(|&p| m.transform_point3(p)));
-                for placed in [
+                let mut placed = vec![
                     columns.placed_box(&m),
                     columns.placed_lanes::<4>(&m),
                     columns.placed_lanes::<8>(&m),
                     columns.placed_lanes::<16>(&m),
-                ] {
+                ];
+                #[cfg(target_arch = "x86_64")]
+                if is_x86_feature_detected!("avx2") {
+                    // SAFETY: the CPU has AVX2 (checked just before).
+                    placed.push(unsafe { columns.placed_avx2(&m) });
+                }
+                for placed in placed {
                     assert_eq!(
                         (placed.min, placed.max),
                         (each.min, each.max),
