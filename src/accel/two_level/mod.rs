@@ -225,9 +225,9 @@ pub fn instance_world_box(instance: &Instance, blas: &Bvh8, hull: Option<&MeshHu
 }
 
 /// A mesh gets a hull when it has a rotated or scaled instance for every this many of its
-/// triangles: making a hull takes about a microsecond a triangle (27–122 ms for the
-/// island's trees of 60 000–120 000, placed 50 000 times each; 0.56 s for its terrain of
-/// 295 000), while a single rotated instance of a large mesh gains one box.
+/// triangles: making a hull takes half a microsecond to one a triangle, on one thread
+/// (14–59 ms for the island's trees of 60 000–120 000, placed 50 000 times each; 0.21 s for
+/// its terrain of 295 000), while a single rotated instance of a large mesh gains one box.
 const TRIANGLES_PER_HULLED_INSTANCE: usize = 1000;
 
 /// A unique mesh's convex hull: its vertices, which place to a rotated instance's tightest
