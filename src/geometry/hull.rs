@@ -706,7 +706,7 @@ mod tests {
     /// The screen finds inside what the f64 test over all planes finds inside, whatever the
     /// lane width: points deep inside, on the faces, and a hair beyond them.
     #[test]
-    fn the_f32_screen_leaves_every_doubtful_point_to_the_f64_test() {
+    fn the_f32_screen_finds_inside_what_the_f64_test_finds() {
         let mut rng = Rng(5);
         let points = cloud(&mut rng, 3000);
         let mut b = Builder::new(&points).unwrap();
