@@ -322,20 +322,7 @@ fn the_block_test_stops_early_only_when_no_lane_can_hit() {
 /// and where `objdump` is missing.
 #[test]
 fn no_function_of_bvhlab_calls_an_intrinsic_out_of_line() {
-    if cfg!(debug_assertions) {
-        eprintln!("skipped: a debug build inlines nothing");
-        return;
-    }
-    let exe = env!("CARGO_BIN_EXE_bvhlab");
-    let Ok(out) = std::process::Command::new("objdump")
-        .args(["-d", "--no-show-raw-insn", exe])
-        .output()
-    else {
-        eprintln!("skipped: objdump is not installed");
-        return;
-    };
-    assert!(out.status.success(), "objdump failed on {exe}");
-    let text = String::from_utf8_lossy(&out.stdout);
+    let Some(text) = disassembly() else { return };
     let mut function = "";
     let mut offenders = std::collections::BTreeSet::new();
     for line in text.lines() {
@@ -350,4 +337,49 @@ fn no_function_of_bvhlab_calls_an_intrinsic_out_of_line() {
         offenders.is_empty(),
         "functions calling intrinsics out of line: {offenders:#?}"
     );
+}
+
+/// The AVX2 and AVX-512 entry points count set bits with `popcnt` (a packet counts its
+/// active rays at every node): compiled without the feature, `count_ones` becomes a dozen
+/// instructions of shifts and masks with 0x5555… constants, which 48 of them held before
+/// the feature was named.
+#[test]
+fn the_simd_entry_points_count_bits_with_one_instruction() {
+    let Some(text) = disassembly() else { return };
+    let entry_point =
+        |f: &str| f.contains("bvhlab") && ["_avx217h", "_avx51217h"].iter().any(|s| f.contains(s));
+    let (mut function, mut entry_points) = ("", 0);
+    let mut offenders = std::collections::BTreeSet::new();
+    for line in text.lines() {
+        if line.ends_with(">:") {
+            function = line;
+            entry_points += usize::from(entry_point(function));
+        } else if line.contains("0x5555555555555555") && entry_point(function) {
+            offenders.insert(function.to_string());
+        }
+    }
+    assert!(entry_points > 50, "{entry_points} entry points found");
+    assert!(
+        offenders.is_empty(),
+        "entry points counting bits in software: {offenders:#?}"
+    );
+}
+
+/// The release binary's disassembly; `None` (the test skipped) in debug builds, where
+/// nothing is inlined, and where `objdump` is missing.
+fn disassembly() -> Option<String> {
+    if cfg!(debug_assertions) {
+        eprintln!("skipped: a debug build inlines nothing");
+        return None;
+    }
+    let exe = env!("CARGO_BIN_EXE_bvhlab");
+    let Ok(out) = std::process::Command::new("objdump")
+        .args(["-d", "--no-show-raw-insn", exe])
+        .output()
+    else {
+        eprintln!("skipped: objdump is not installed");
+        return None;
+    };
+    assert!(out.status.success(), "objdump failed on {exe}");
+    Some(String::from_utf8_lossy(&out.stdout).into_owned())
 }

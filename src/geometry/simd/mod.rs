@@ -112,12 +112,15 @@ impl SimdLevel {
             match self {
                 SimdLevel::Portable => true,
                 SimdLevel::Sse41 => is_x86_feature_detected!("sse4.1"),
-                SimdLevel::Avx2 => is_x86_feature_detected!("avx2"),
+                // The walks count and find set bits with single instructions, which every
+                // AVX2 CPU has.
+                SimdLevel::Avx2 => is_x86_feature_detected!("avx2") && bit_instructions(),
                 // The fused slab form needs FMA, which every AVX-512 CPU has.
                 SimdLevel::Avx512 => {
                     is_x86_feature_detected!("avx512f")
                         && is_x86_feature_detected!("avx512vl")
                         && is_x86_feature_detected!("fma")
+                        && bit_instructions()
                 }
             }
         }
@@ -140,4 +143,14 @@ impl SimdLevel {
     pub fn available() -> Vec<SimdLevel> {
         Self::ALL.into_iter().filter(|l| l.supported()).collect()
     }
+}
+
+/// Whether the CPU counts set bits (`popcnt`) and finds the lowest and highest (`tzcnt`,
+/// `lzcnt`) with single instructions: the AVX2 and AVX-512 walks are compiled with them
+/// (a packet's active rays are counted at every node).
+#[cfg(target_arch = "x86_64")]
+fn bit_instructions() -> bool {
+    is_x86_feature_detected!("popcnt")
+        && is_x86_feature_detected!("bmi1")
+        && is_x86_feature_detected!("lzcnt")
 }

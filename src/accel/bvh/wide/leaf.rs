@@ -381,7 +381,7 @@ leaf_entry_points!(
     leaf_closest_blocks_avx2,
     leaf_any_avx2,
     crate::geometry::simd::slab::Avx2,
-    "avx2"
+    "avx2,popcnt,bmi1,lzcnt"
 );
 #[cfg(target_arch = "x86_64")]
 leaf_entry_points!(
@@ -389,7 +389,7 @@ leaf_entry_points!(
     leaf_closest_blocks_avx512,
     leaf_any_avx512,
     crate::geometry::simd::slab::Avx512,
-    "avx512f,avx512vl"
+    "avx512f,avx512vl,popcnt,bmi1,lzcnt"
 );
 
 impl<const W: usize> WideBvh<W>

@@ -567,14 +567,20 @@ entry_points!(
     "sse4.1"
 );
 #[cfg(target_arch = "x86_64")]
-entry_points!(closest_avx2, occluded_avx2, packets_avx2, Avx2, "avx2");
+entry_points!(
+    closest_avx2,
+    occluded_avx2,
+    packets_avx2,
+    Avx2,
+    "avx2,popcnt,bmi1,lzcnt"
+);
 #[cfg(target_arch = "x86_64")]
 entry_points!(
     closest_avx512,
     occluded_avx512,
     packets_avx512,
     Avx512,
-    "avx512f,avx512vl,fma"
+    "avx512f,avx512vl,fma,popcnt,bmi1,lzcnt"
 );
 
 impl<const W: usize> WideBvh<W>
